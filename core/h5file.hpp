@@ -1,0 +1,58 @@
+#pragma once
+// Minimal RAII access to HDF5 files: 2-D double/int datasets and scalar attributes.
+// All errors (missing file, not HDF5, missing dataset) throw std::runtime_error with the
+// file and object named; HDF5's own error printing is silenced.
+#include <hdf5.h>
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace rbc {
+
+/// An open HDF5 file. Owns the handle; closes on destruction.
+class H5File {
+ public:
+  /// Creates (truncating) a file for writing.
+  static H5File create(const std::string& path);
+  /// Opens an existing file read-only; throws if missing or not HDF5.
+  static H5File open_read(const std::string& path);
+  H5File(H5File&& other) noexcept;
+  H5File& operator=(H5File&&) = delete;
+  H5File(const H5File&) = delete;
+  ~H5File();
+  void close();
+
+  /// Row-major 2-D dataset of shape rows x cols from `data` (rows*cols values). Parent
+  /// groups in `name` ("a/b/c") are created as needed.
+  void write(const std::string& name, const double* data, hsize_t rows, hsize_t cols);
+  void write(const std::string& name, const int* data, hsize_t rows, hsize_t cols);
+  void write(const std::string& name, const unsigned long long* data, hsize_t rows, hsize_t cols);
+  void write_attribute(const std::string& name, double value);
+  void write_attribute(const std::string& name, long long value);
+  void write_attribute(const std::string& name, const std::string& value);
+
+  bool has(const std::string& name) const;
+  /// Reads a 2-D (or 1-D, as n x 1) dataset into a row-major buffer; returns its shape.
+  std::pair<hsize_t, hsize_t> read(const std::string& name, std::vector<double>& out) const;
+  std::pair<hsize_t, hsize_t> read(const std::string& name, std::vector<int>& out) const;
+  std::pair<hsize_t, hsize_t> read(const std::string& name,
+                                   std::vector<unsigned long long>& out) const;
+  double read_attribute_double(const std::string& name) const;
+  long long read_attribute_int(const std::string& name) const;
+  std::string read_attribute_string(const std::string& name) const;
+
+  const std::string& path() const { return path_; }
+
+ private:
+  H5File(hid_t id, std::string path) : id_(id), path_(std::move(path)) {}
+  void ensure_parent_groups(const std::string& name);
+  void write_raw(const std::string& name, hid_t type, const void* data, hsize_t rows, hsize_t cols);
+  std::pair<hsize_t, hsize_t> read_raw(const std::string& name, hid_t type,
+                                       std::function<void*(size_t)> alloc) const;
+  hid_t id_ = -1;
+  std::string path_;
+};
+
+}  // namespace rbc

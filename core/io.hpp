@@ -1,0 +1,48 @@
+#pragma once
+// Files people open: CSV and JSON for numbers, HDF5 + XDMF for meshes and fields
+// (ParaView reads the .xdmf). Every writer is atomic: it writes a temporary file in the
+// target directory and renames it into place, so an interrupted run leaves no half file.
+#include <Eigen/Core>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/mesh.hpp"
+
+namespace rbc {
+
+/// Creates the directory (and parents) if needed and checks it is writable; throws
+/// std::invalid_argument naming the path otherwise.
+void ensure_output_directory(const std::string& dir);
+
+/// Temporary sibling path used by the atomic writers (same directory, hidden name).
+std::string temporary_path_for(const std::string& path);
+/// Renames tmp onto path (atomic on POSIX within one file system); throws on failure.
+void commit_file(const std::string& tmp, const std::string& path);
+
+void write_text_atomic(const std::string& path, const std::string& text);
+
+/// A numeric table with named columns; comment lines are written first as "# ...".
+struct CsvTable {
+  std::vector<std::string> comments;
+  std::vector<std::string> header;
+  std::vector<std::vector<double>> rows;
+};
+void write_csv(const std::string& path, const CsvTable& table);
+/// Reads a numeric CSV with '#' comment lines and one header line; throws
+/// std::runtime_error naming the file and line for missing files or malformed values.
+CsvTable read_csv(const std::string& path);
+
+/// Named per-vertex or per-face scalar fields for a mesh snapshot.
+using MeshField = std::pair<std::string, Eigen::VectorXd>;
+struct MeshSnapshot {
+  Positions x;  ///< 3 x N, um
+  Faces faces;  ///< 3 x F
+  std::vector<MeshField> vertex_fields;
+  std::vector<MeshField> face_fields;
+  std::vector<std::pair<std::string, double>> attributes;  ///< e.g. force_pN
+};
+/// Writes base + ".h5" and base + ".xdmf" (an XDMF 3 triangle grid ParaView opens).
+void write_mesh_snapshot(const std::string& base_path, const MeshSnapshot& snapshot);
+
+}  // namespace rbc

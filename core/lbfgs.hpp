@@ -1,0 +1,56 @@
+#pragma once
+// Limited-memory BFGS with a feasibility-aware backtracking line search.
+//
+// Why our own and not a library's (libLBFGS, GSL's bfgs2): the spectrin energy is
+// +infinity outside an open domain (a link at or past Lmax, a collapsed face), and the
+// line search must treat such a trial as an infeasible step to be shortened, never as a
+// number; it must also cap the largest vertex displacement per trial. Neither library
+// offers both, and GSL's bfgs2 keeps only one correction pair.
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+
+namespace rbc {
+
+/// Objective: returns the energy at x and writes its gradient into grad (same size as x).
+/// Returns +infinity (grad untouched) when x is outside the physical domain.
+using Objective = std::function<double(const Eigen::VectorXd& x, Eigen::VectorXd& grad)>;
+
+struct LbfgsOptions {
+  int memory = 12;                ///< correction pairs kept
+  int max_iterations = 20000;     ///< iterations before giving up
+  /// Converged when the largest block norm of the gradient (with block = 3: the largest
+  /// net vertex force, pN) is below this.
+  double force_tolerance = 1e-3;
+  int block = 3;                  ///< gradient entries per degree of freedom block
+  /// Largest block displacement a line-search trial may make (um for positions);
+  /// <= 0 means no cap.
+  double max_step = 0.0;
+  double armijo = 1e-4;           ///< sufficient-decrease constant
+  int max_line_search = 60;       ///< trials before the line search gives up
+};
+
+enum class MinimiserStatus { converged, max_iterations, line_search_failed, infeasible_start };
+
+std::string to_string(MinimiserStatus status);
+
+struct MinimiserResult {
+  MinimiserStatus status = MinimiserStatus::max_iterations;
+  int iterations = 0;
+  int evaluations = 0;
+  double energy = 0.0;    ///< objective at the returned x
+  double residual = 0.0;  ///< largest gradient block norm at the returned x
+  bool converged() const { return status == MinimiserStatus::converged; }
+};
+
+/// Called after each iteration with (iteration, energy, residual); return false to stop.
+using IterationMonitor = std::function<bool(int iteration, double energy, double residual)>;
+
+/// Largest Euclidean norm over consecutive blocks of `block` entries.
+double max_block_norm(const Eigen::VectorXd& v, int block);
+
+/// Minimises f from x (updated in place). Never returns a point where f is infinite.
+MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const LbfgsOptions& options,
+                               const IterationMonitor& monitor = {});
+
+}  // namespace rbc

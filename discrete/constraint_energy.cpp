@@ -1,0 +1,40 @@
+#include "discrete/constraint_energy.hpp"
+
+#include <stdexcept>
+#include <string>
+
+#include "core/geometry.hpp"
+#include "core/parallel.hpp"
+
+namespace rbc {
+
+void ConstraintParameters::validate() const {
+  if (!(area_stiffness_pN_per_um3 > 0) || !(volume_stiffness_pN_per_um5 > 0))
+    throw std::invalid_argument("area and volume stiffnesses must be positive");
+  if (!(tolerance > 0)) throw std::invalid_argument("constraint tolerance must be positive");
+}
+
+double constraint_energy(const Positions& x, const Topology& topo, double area0,
+                         double volume0, const ConstraintParameters& p,
+                         const ConstraintMultipliers& lambda, Positions* grad,
+                         ConstraintState* state) {
+  const double area = total_area(x, topo), volume = enclosed_volume(x, topo);
+  if (state) *state = {area, volume};
+  const double da = area - area0, dv = volume - volume0;
+  const double tension = lambda.area_pN_per_um + p.area_stiffness_pN_per_um3 * da;
+  const double pressure = lambda.volume_pN_per_um2 + p.volume_stiffness_pN_per_um5 * dv;
+  if (grad) {
+    assemble_parallel(topo.num_faces(), grad, [&](int f, Positions& g) {
+      const auto& t = topo.faces.col(f);
+      Eigen::Matrix3d ga, gv;
+      triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)), &ga);
+      tetra_volume(x.col(t(0)), x.col(t(1)), x.col(t(2)), &gv);
+      for (int k = 0; k < 3; ++k) g.col(t(k)) += tension * ga.col(k) + pressure * gv.col(k);
+      return 0.0;
+    });
+  }
+  return lambda.area_pN_per_um * da + 0.5 * p.area_stiffness_pN_per_um3 * da * da +
+         lambda.volume_pN_per_um2 * dv + 0.5 * p.volume_stiffness_pN_per_um5 * dv * dv;
+}
+
+}  // namespace rbc

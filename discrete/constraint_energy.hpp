@@ -1,0 +1,35 @@
+#pragma once
+// Total area and enclosed volume held by an augmented Lagrangian (MODEL.md section 2,
+// "Area and volume"): the lipid bilayer is near-inextensible and the cytosol incompressible.
+#include "core/mesh.hpp"
+
+namespace rbc {
+
+/// Penalty stiffnesses of the augmented Lagrangian. With multipliers updated to
+/// convergence the constraints hold exactly; with multipliers fixed at 0 this is Model 1's
+/// plain penalty k/2 (G - G0)^2 (note: k/2 here, the paper writes k).
+struct ConstraintParameters {
+  double area_stiffness_pN_per_um3 = 100.0;
+  double volume_stiffness_pN_per_um5 = 100.0;
+  double tolerance = 1e-7;  ///< relative drift |G - G0|/G0 at which the outer loop stops
+  void validate() const;
+};
+
+/// Multipliers: lambda_A is a tension (pN/um), lambda_V a pressure (pN/um^2).
+struct ConstraintMultipliers {
+  double area_pN_per_um = 0.0;
+  double volume_pN_per_um2 = 0.0;
+};
+
+struct ConstraintState {
+  double area_um2 = 0, volume_um3 = 0;
+};
+
+/// E = lA (A - A0) + kA/2 (A - A0)^2 + lV (V - V0) + kV/2 (V - V0)^2   [pN um]
+/// with A = sum_f A_f, V = sum_f x_a.(x_b x x_c)/6. Gradient accumulated into grad.
+double constraint_energy(const Positions& x, const Topology& topo, double area0_um2,
+                         double volume0_um3, const ConstraintParameters& params,
+                         const ConstraintMultipliers& lambda, Positions* grad = nullptr,
+                         ConstraintState* state = nullptr);
+
+}  // namespace rbc

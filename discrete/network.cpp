@@ -1,0 +1,104 @@
+#include "discrete/network.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "core/geometry.hpp"
+#include "core/parallel.hpp"
+#include "discrete/link_energy.hpp"
+
+namespace rbc {
+
+void NetworkParameters::validate() const {
+  wlc.validate();
+  steric.validate();
+  bending.validate();
+  constraints.validate();
+  tweezers.validate();
+}
+
+Network build_network(const TriMesh& mesh, const NetworkParameters& p) {
+  p.validate();
+  Network net;
+  net.topo = mesh.topo;
+  net.rest = mesh.x;
+  net.lbar_um = edge_lengths(mesh.x, mesh.topo);
+  net.abar_um2 = face_areas(mesh.x, mesh.topo);
+  if (net.abar_um2.minCoeff() <= 0)
+    throw std::invalid_argument("rest mesh has a face of zero area");
+  net.wlc = make_wlc_density(p.wlc, p.expansion);
+  net.steric = p.steric;
+  net.steric_C_pN_per_um = steric_constant(net.wlc, p.steric);
+  net.bending = p.bending;
+  net.bending_model = p.bending_model;
+  net.dihedral_kb_pNum = dihedral_stiffness_pNum(p.bending.kappa_pNum, p.dihedral_mapping);
+  net.constraints = p.constraints;
+  net.area0_um2 = total_area(mesh.x, mesh.topo);
+  net.volume0_um3 = enclosed_volume(mesh.x, mesh.topo);
+  net.patch = select_tweezer_patch(mesh.x, mesh.topo, p.tweezers);
+  return net;
+}
+
+namespace {
+
+double inplane_energy(const Network& net, const Positions& x, Positions* grad, double* links,
+                      double* steric) {
+  const Topology& t = net.topo;
+  const double inf = std::numeric_limits<double>::infinity();
+  *links = assemble_parallel(t.num_edges(), grad, [&](int e, Positions& g) {
+    const int a = t.edges(0, e), b = t.edges(1, e);
+    Eigen::Vector3d gb;
+    const double v = link_energy(net.wlc, net.lbar_um(e), x.col(a), x.col(b), grad ? &gb : nullptr);
+    if (grad && v < inf) {
+      g.col(b) += gb;
+      g.col(a) -= gb;
+    }
+    return v;
+  });
+  if (!(*links < inf)) return inf;
+  bool collapsed = false;
+  *steric = assemble_parallel(t.num_faces(), grad, [&](int f, Positions& g) {
+    const auto& c = t.faces.col(f);
+    Eigen::Matrix3d gf;
+    const double ratio = triangle_area(x.col(c(0)), x.col(c(1)), x.col(c(2))) / net.abar_um2(f);
+    if (ratio < kCollapsedFaceRatio) {
+      collapsed = true;  // benign race: every writer writes true
+      return 0.0;
+    }
+    const double v = steric_face_energy(net.steric_C_pN_per_um, net.steric, net.abar_um2(f),
+                                        x.col(c(0)), x.col(c(1)), x.col(c(2)),
+                                        grad ? &gf : nullptr);
+    if (grad)
+      for (int k = 0; k < 3; ++k) g.col(c(k)) += gf.col(k);
+    return v;
+  });
+  return collapsed ? inf : *links + *steric;
+}
+
+}  // namespace
+
+double network_energy(const Network& net, const Positions& x, const LoadState& load,
+                      Positions* grad, EnergyBreakdown* parts) {
+  EnergyBreakdown e;
+  if (grad) grad->setZero(3, x.cols());
+  if (!(inplane_energy(net, x, grad, &e.links, &e.steric) <
+        std::numeric_limits<double>::infinity()))
+    return std::numeric_limits<double>::infinity();
+  e.bending = net.bending_model == BendingModel::juelicher
+                  ? juelicher_bending_energy(x, net.topo, net.bending, grad)
+                  : dihedral_bending_energy(x, net.topo, net.dihedral_kb_pNum, 0.0, grad);
+  e.constraints = constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, net.constraints,
+                                    load.multipliers, grad);
+  e.tweezers = tweezers_energy(net.patch, load.force_pN, x, net.rest, grad);
+  if (parts) *parts = e;
+  return e.total();
+}
+
+double largest_rest_inplane_force_pN(const Network& net) {
+  Positions g = Positions::Zero(3, net.rest.cols());
+  double links = 0, steric = 0;
+  inplane_energy(net, net.rest, &g, &links, &steric);
+  return g.colwise().norm().maxCoeff();
+}
+
+}  // namespace rbc

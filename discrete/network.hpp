@@ -1,0 +1,75 @@
+#pragma once
+// The spectrin network of Model 1 on a closed triangulation, with its stress-free
+// per-element reference (MODEL.md section 2), and its total free energy.
+#include <string>
+
+#include "core/mesh.hpp"
+#include "discrete/bending_energy.hpp"
+#include "discrete/constraint_energy.hpp"
+#include "discrete/steric_energy.hpp"
+#include "discrete/tweezers.hpp"
+#include "discrete/wlc.hpp"
+
+namespace rbc {
+
+/// Every parameter of Model 1, internal units, documented defaults (paper Tables 1-2).
+struct NetworkParameters {
+  WlcParameters wlc;
+  WlcExpansion expansion = WlcExpansion::full;
+  StericParameters steric;
+  BendingParameters bending;
+  BendingModel bending_model = BendingModel::juelicher;
+  DihedralMapping dihedral_mapping = DihedralMapping::sphere_matched;
+  ConstraintParameters constraints;
+  TweezersParameters tweezers;
+  void validate() const;
+};
+
+/// A network ready to evaluate: topology, rest positions X, per-edge Lbar_e and per-face
+/// Abar_f taken from X (so every element is stress-free at its own reference), the
+/// material constants derived once, and the bead patches.
+struct Network {
+  Topology topo;
+  Positions rest;            ///< 3 x N, um
+  Eigen::VectorXd lbar_um;   ///< E, rest link lengths
+  Eigen::VectorXd abar_um2;  ///< F, rest face areas
+  WlcDensity wlc;
+  StericParameters steric;
+  double steric_C_pN_per_um = 0;
+  BendingParameters bending;
+  BendingModel bending_model = BendingModel::juelicher;
+  double dihedral_kb_pNum = 0;
+  ConstraintParameters constraints;
+  double area0_um2 = 0, volume0_um3 = 0;
+  TweezerPatch patch;
+};
+
+Network build_network(const TriMesh& rest_mesh, const NetworkParameters& params);
+
+/// The external state an energy evaluation needs besides positions.
+struct LoadState {
+  double force_pN = 0.0;  ///< total bead force F pulling each end along +-x
+  ConstraintMultipliers multipliers;
+};
+
+/// Energy of each term (pN um).
+struct EnergyBreakdown {
+  double links = 0, steric = 0, bending = 0, constraints = 0, tweezers = 0;
+  double total() const { return links + steric + bending + constraints + tweezers; }
+};
+
+/// Smallest face area ratio A/Abar below which a configuration counts as infeasible
+/// (a collapsed or inverted face).
+inline constexpr double kCollapsedFaceRatio = 1e-3;
+
+/// Total free energy F = links + steric + bending + constraints - tweezer work (pN um).
+/// Returns +infinity for infeasible x (a link at/after Lmax, a collapsed face); then grad
+/// is unspecified. grad (3 x N, pN) is overwritten when given.
+double network_energy(const Network& net, const Positions& x, const LoadState& load,
+                      Positions* grad = nullptr, EnergyBreakdown* parts = nullptr);
+
+/// In-plane (links + steric) force magnitudes at the rest shape: the largest over vertices
+/// (pN). MODEL.md: equals (f_WLC(Lbar)/Lbar) |grad Phi| and should be small and normal.
+double largest_rest_inplane_force_pN(const Network& net);
+
+}  // namespace rbc

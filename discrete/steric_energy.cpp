@@ -1,0 +1,34 @@
+#include "discrete/steric_energy.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace rbc {
+
+void StericParameters::validate() const {
+  if (!(q > 0 && q <= 10))
+    throw std::invalid_argument("steric exponent q must lie in (0, 10], got " + std::to_string(q));
+  if (!(eta > 0))
+    throw std::invalid_argument("steric regularisation eta must be positive, got " +
+                                std::to_string(eta));
+}
+
+double steric_constant(const WlcDensity& w, const StericParameters& s) {
+  s.validate();
+  return 3.0 * (1.0 + s.eta) * (1.0 + s.eta) * derivative_at_rest(w, 1) / (2.0 * s.q);
+}
+
+StericDensity steric_density(double C, const StericParameters& s, double J) {
+  const double jq = std::pow(J, s.q);
+  const double den = jq + s.eta;
+  StericDensity r;
+  r.v = 2.0 * C / den;
+  // d/dJ J^q = q J^(q-1); written with jq/J to stay finite-safe for J > 0.
+  const double djq = s.q * jq / J;
+  const double d2jq = s.q * (s.q - 1.0) * jq / (J * J);
+  r.dv = -2.0 * C * djq / (den * den);
+  r.d2v = -2.0 * C * (d2jq / (den * den) - 2.0 * djq * djq / (den * den * den));
+  return r;
+}
+
+}  // namespace rbc

@@ -1,0 +1,45 @@
+#pragma once
+// Steric face term of Model 1 (MODEL.md section 2, paper eq. (2) second sum; Boey,
+// Boal & Discher 1998): keeps the WLC network from collapsing.
+#include <Eigen/Core>
+#include <string>
+
+#include "core/geometry.hpp"
+#include "discrete/wlc.hpp"
+
+namespace rbc {
+
+/// Steric exponent q and regularisation eta (dimensionless). Defaults: q = 1, eta = 0.005.
+struct StericParameters {
+  double q = 1.0;
+  double eta = 0.005;
+  /// Throws std::invalid_argument unless q in (0, 10] and eta > 0.
+  void validate() const;
+};
+
+/// Stress-free steric constant C = 3 (1 + eta)^2 V'(1) / (2 q)  [pN/um] (paper Sec. 3.4):
+/// makes the hexagonal network's energy stationary at the rest state.
+double steric_constant(const WlcDensity& w, const StericParameters& s);
+
+/// Areal steric density and derivatives in J = A/Abar:
+///   s(J) = 2 C / (J^q + eta),  s'(J) = -2 C q J^(q-1) / (J^q + eta)^2,  s''(J)   [pN/um]
+struct StericDensity {
+  double v = 0, dv = 0, d2v = 0;
+};
+StericDensity steric_density(double C, const StericParameters& s, double J);
+
+/// One face f = (a, b, c) with rest area Abar_f (um^2):
+///   E_f = Abar_f s(A_f/Abar_f) = 2 Abar_f C / ((A_f/Abar_f)^q + eta)   [pN um]
+///   dE/dx = s'(J) dA/dx                                                  [pN]
+/// Columns of grad are dE/da, dE/db, dE/dc.
+inline double steric_face_energy(double C, const StericParameters& s, double abar_um2,
+                                 const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                 const Eigen::Vector3d& c, Eigen::Matrix3d* grad = nullptr) {
+  Eigen::Matrix3d ga;
+  const double area = triangle_area(a, b, c, grad ? &ga : nullptr);
+  const StericDensity d = steric_density(C, s, area / abar_um2);
+  if (grad) *grad = d.dv * ga;
+  return abar_um2 * d.v;
+}
+
+}  // namespace rbc

@@ -1,0 +1,90 @@
+#include "discrete/stretch.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "core/geometry.hpp"
+
+namespace rbc {
+
+StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
+                               ConstraintMultipliers& lambda, const StretchOptions& opt,
+                               const ProgressSink& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  StretchPoint pt;
+  pt.force_pN = force_pN;
+  pt.vertices = net.topo.num_vertices;
+  const int n = net.topo.num_vertices;
+  LoadState load;
+  load.force_pN = force_pN;
+  Eigen::VectorXd u = flat(x);
+  LbfgsOptions lo = opt.minimiser;
+  if (lo.max_step <= 0) lo.max_step = 0.25 * net.lbar_um.minCoeff();
+  MinimiserResult r;
+  for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
+    load.multipliers = lambda;
+    Objective f = [&](const Eigen::VectorXd& v, Eigen::VectorXd& g) {
+      Positions p = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
+      Positions gp;
+      const double e = network_energy(net, p, load, &gp);
+      if (std::isfinite(e)) g = flat(gp);
+      return e;
+    };
+    r = minimise_lbfgs(f, u, lo);
+    pt.iterations += r.iterations;
+    Eigen::Map<const Eigen::Matrix3Xd> p(u.data(), 3, n);
+    const double a = total_area(p, net.topo), v = enclosed_volume(p, net.topo);
+    pt.area_drift = (a - net.area0_um2) / net.area0_um2;
+    pt.volume_drift = (v - net.volume0_um3) / net.volume0_um3;
+    std::ostringstream msg;
+    msg << "  F = " << force_pN << " pN, update " << outer << ": " << r.iterations
+        << " iterations, residual " << r.residual << " pN, dA/A = " << pt.area_drift
+        << ", dV/V = " << pt.volume_drift;
+    report(progress, msg.str());
+    if (!r.converged() && r.status != MinimiserStatus::max_iterations) break;
+    const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&
+                      std::abs(pt.volume_drift) < net.constraints.tolerance;
+    if (held && r.converged()) break;
+    if (!r.converged()) break;
+    lambda.area_pN_per_um += net.constraints.area_stiffness_pN_per_um3 * (a - net.area0_um2);
+    lambda.volume_pN_per_um2 += net.constraints.volume_stiffness_pN_per_um5 * (v - net.volume0_um3);
+  }
+  x = Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n);
+  const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&
+                    std::abs(pt.volume_drift) < net.constraints.tolerance;
+  pt.converged = r.converged() && held;
+  pt.residual_pN = r.residual;
+  pt.status = !r.converged() ? to_string(r.status)
+              : held         ? "converged"
+                             : "constraints not held after multiplier updates";
+  LoadState plain;
+  plain.force_pN = force_pN;
+  EnergyBreakdown parts;
+  network_energy(net, x, plain, nullptr, &parts);
+  pt.energy_pNum = parts.total() - parts.constraints;
+  const Diameters d = measure_diameters(x);
+  pt.axial_um = d.axial_um;
+  pt.transverse_um = d.transverse_um;
+  pt.x = x;
+  pt.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return pt;
+}
+
+std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces,
+                                      const StretchOptions& opt, const ProgressSink& progress) {
+  std::vector<StretchPoint> out;
+  Positions x = net.rest;
+  ConstraintMultipliers lambda;
+  for (double f : forces) {
+    out.push_back(solve_equilibrium(net, f, x, lambda, opt, progress));
+    std::ostringstream msg;
+    const auto& p = out.back();
+    msg << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um
+        << " um, " << p.iterations << " iterations, " << p.wall_s << " s, " << p.status;
+    report(progress, msg.str());
+  }
+  return out;
+}
+
+}  // namespace rbc

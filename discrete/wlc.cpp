@@ -1,0 +1,144 @@
+#include "discrete/wlc.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "core/units.hpp"
+
+namespace rbc {
+namespace {
+
+/// Truncated power series a_0 + a_1 d + ... + a_4 d^4 (jet) for exact Taylor data.
+struct Jet {
+  std::array<double, 5> c{};
+};
+Jet operator*(const Jet& a, const Jet& b) {
+  Jet r;
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; i + j < 5; ++j) r.c[i + j] += a.c[i] * b.c[j];
+  return r;
+}
+Jet operator*(double s, Jet a) {
+  for (auto& v : a.c) v *= s;
+  return a;
+}
+Jet operator+(Jet a, const Jet& b) {
+  for (int i = 0; i < 5; ++i) a.c[i] += b.c[i];
+  return a;
+}
+Jet reciprocal(const Jet& a) {  // 1/a by the recursion r_n = -(sum_{k>=1} a_k r_{n-k})/a_0
+  Jet r;
+  r.c[0] = 1.0 / a.c[0];
+  for (int n = 1; n < 5; ++n) {
+    double s = 0;
+    for (int k = 1; k <= n; ++k) s += a.c[k] * r.c[n - k];
+    r.c[n] = -s / a.c[0];
+  }
+  return r;
+}
+
+/// Taylor coefficients of V(1 + d) = prefactor * phi(x0 sqrt(1 + d)).
+std::array<double, 5> taylor_at_rest(double prefactor, double x0) {
+  // sqrt(1 + d) = 1 + d/2 - d^2/8 + d^3/16 - 5 d^4/128
+  Jet x;
+  x.c = {x0, x0 / 2, -x0 / 8, x0 / 16, -5 * x0 / 128};
+  const Jet x2 = x * x, x3 = x2 * x;
+  Jet one_minus_x = -1.0 * x;
+  one_minus_x.c[0] += 1.0;
+  const Jet phi = (3.0 * x2 + (-2.0) * x3) * reciprocal(one_minus_x);
+  return (prefactor * phi).c;
+}
+
+}  // namespace
+
+void WlcParameters::validate() const {
+  auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (!(lbar_um > 0)) fail("Lbar must be positive, got " + std::to_string(lbar_um * 1e3) + " nm");
+  if (!(lmax_um > lbar_um))
+    fail("Lmax must exceed Lbar: got Lmax = " + std::to_string(lmax_um * 1e3) +
+         " nm <= Lbar = " + std::to_string(lbar_um * 1e3) + " nm");
+  if (!(persistence_um > 0))
+    fail("persistence length must be positive, got " + std::to_string(persistence_um * 1e3) +
+         " nm");
+  if (!(temperature_K > 0))
+    fail("temperature must be positive, got " + std::to_string(temperature_K) + " K");
+}
+
+std::string to_string(WlcExpansion e) {
+  switch (e) {
+    case WlcExpansion::full: return "full";
+    case WlcExpansion::order2: return "2";
+    case WlcExpansion::order3: return "3";
+    case WlcExpansion::order4: return "4";
+  }
+  return "?";
+}
+
+WlcExpansion wlc_expansion_from_string(const std::string& name) {
+  if (name == "full") return WlcExpansion::full;
+  if (name == "2") return WlcExpansion::order2;
+  if (name == "3") return WlcExpansion::order3;
+  if (name == "4") return WlcExpansion::order4;
+  throw std::invalid_argument("order '" + name + "' is not one of 2, 3, 4, full");
+}
+
+WlcDensity make_wlc_density(const WlcParameters& p, WlcExpansion expansion) {
+  p.validate();
+  WlcDensity w;
+  w.x0 = p.lbar_um / p.lmax_um;
+  w.prefactor_pN_per_um = units::thermal_energy_pNum(p.temperature_K) * p.lmax_um /
+                          (2.0 * units::sqrt3 * p.persistence_um * p.lbar_um * p.lbar_um);
+  w.expansion = expansion;
+  w.taylor = taylor_at_rest(w.prefactor_pN_per_um, w.x0);
+  return w;
+}
+
+double max_admissible_z(const WlcDensity& w) {
+  return w.expansion == WlcExpansion::full ? 1.0 / (w.x0 * w.x0)
+                                           : std::numeric_limits<double>::infinity();
+}
+
+DensityValue evaluate(const WlcDensity& w, double z) {
+  DensityValue r;
+  if (w.expansion != WlcExpansion::full) {
+    const int order = w.expansion == WlcExpansion::order2 ? 2
+                      : w.expansion == WlcExpansion::order3 ? 3
+                                                            : 4;
+    const double d = z - 1.0;
+    for (int j = order; j >= 0; --j) r.v = r.v * d + w.taylor[j];
+    for (int j = order; j >= 1; --j) r.dv = r.dv * d + j * w.taylor[j];
+    for (int j = order; j >= 2; --j) r.d2v = r.d2v * d + j * (j - 1) * w.taylor[j];
+    return r;
+  }
+  const double x = w.x0 * std::sqrt(z);
+  if (!(x < 1.0) || !(z > 0.0)) {
+    r.v = std::numeric_limits<double>::infinity();
+    return r;
+  }
+  const double om = 1.0 - x;
+  const double phi = (3 * x * x - 2 * x * x * x) / om;
+  const double dphi = (6 * x - 9 * x * x + 4 * x * x * x) / (om * om);
+  const double d2phi = (6 - 12 * x + 12 * x * x - 4 * x * x * x) / (om * om * om);
+  const double dx = w.x0 * w.x0 / (2 * x);                   // dx/dz
+  const double d2x = -w.x0 * w.x0 * w.x0 * w.x0 / (4 * x * x * x);  // d2x/dz2
+  r.v = w.prefactor_pN_per_um * phi;
+  r.dv = w.prefactor_pN_per_um * dphi * dx;
+  r.d2v = w.prefactor_pN_per_um * (d2phi * dx * dx + dphi * d2x);
+  return r;
+}
+
+double derivative_at_rest(const WlcDensity& w, int n) {
+  static constexpr double factorial[5] = {1, 1, 2, 6, 24};
+  if (n < 0 || n > 4) throw std::invalid_argument("derivative order must be 0..4");
+  return w.taylor[n] * factorial[n];
+}
+
+double wlc_tension_pN(const WlcParameters& p, double length_um) {
+  const double x = length_um / p.lmax_um;
+  const double om = 1.0 - x;
+  return units::thermal_energy_pNum(p.temperature_K) / p.persistence_um *
+         (0.25 / (om * om) - 0.25 + x);
+}
+
+}  // namespace rbc

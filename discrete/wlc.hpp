@@ -1,0 +1,60 @@
+#pragma once
+// Worm-like-chain spectrin links through the universal energy density V(z)
+// (MODEL.md section 2; Hartmann 2008 eq. (5); Marko & Siggia 1995; Li et al. 2005 Table 1).
+#include <array>
+#include <string>
+
+namespace rbc {
+
+/// Spectrin-level WLC parameters, internal units (um, K). Defaults: Li et al. 2005,
+/// Table 1 of the paper: Lbar = 75 nm, Lmax = 237.75 nm, p = 7.5 nm, T = 300 K.
+struct WlcParameters {
+  double lbar_um = 0.075;         ///< rest (equilibrium) link length at the spectrin level
+  double lmax_um = 0.23775;       ///< contour (maximum) length
+  double persistence_um = 0.0075; ///< persistence length p
+  double temperature_K = 300.0;
+  /// Throws std::invalid_argument naming the value if non-physical (Lmax <= Lbar, p <= 0, T <= 0).
+  void validate() const;
+};
+
+/// Which form of V: the full WLC, or its Taylor expansion about z = 1 of order 2, 3 or 4.
+enum class WlcExpansion { full, order2, order3, order4 };
+std::string to_string(WlcExpansion e);
+/// Parses "full", "2", "3", "4" (throws std::invalid_argument otherwise).
+WlcExpansion wlc_expansion_from_string(const std::string& name);
+
+/// The density V(z), z = L^2/Lbar^2 (pN/um), defined by
+///   (sqrt3/2) Lbar^2 V(L^2/Lbar^2) = U_WLC(L) = kB T Lmax/(4p) (3x^2 - 2x^3)/(1 - x),  x = L/Lmax,
+/// i.e. V(z) = prefactor * phi(x0 sqrt z), phi(x) = (3x^2 - 2x^3)/(1 - x), x0 = Lbar/Lmax,
+/// prefactor = kB T Lmax / (2 sqrt3 p Lbar^2). Because V is fixed, a coarse link of rest
+/// length Lbar_e stores (sqrt3/2) Lbar_e^2 V(L^2/Lbar_e^2): same x0, same p*Lbar.
+struct WlcDensity {
+  double prefactor_pN_per_um = 0.0;
+  double x0 = 0.0;  ///< Lbar/Lmax (0.31546 for the defaults)
+  WlcExpansion expansion = WlcExpansion::full;
+  /// Taylor coefficients V^(j)(1)/j!, j = 0..4 (pN/um), exact (computed by jet arithmetic).
+  std::array<double, 5> taylor{};
+};
+
+WlcDensity make_wlc_density(const WlcParameters& params,
+                            WlcExpansion expansion = WlcExpansion::full);
+
+/// V, dV/dz and d2V/dz2 at z (pN/um).
+struct DensityValue {
+  double v = 0, dv = 0, d2v = 0;
+};
+
+/// Evaluates V(z) and its first two derivatives. For the full law, z at or beyond
+/// 1/x0^2 (link at Lmax) returns v = +infinity: callers treat it as infeasible.
+DensityValue evaluate(const WlcDensity& w, double z);
+
+/// Largest admissible z: 1/x0^2 for the full law (link at Lmax), +infinity for expansions.
+double max_admissible_z(const WlcDensity& w);
+
+/// n-th derivative of V at z = 1, n = 0..4 (pN/um): the Taylor data the moduli use.
+double derivative_at_rest(const WlcDensity& w, int n);
+
+/// WLC tension f(L) = dU_WLC/dL = kB T/p (1/(4 (1-x)^2) - 1/4 + x) in pN at the spectrin level.
+double wlc_tension_pN(const WlcParameters& params, double length_um);
+
+}  // namespace rbc

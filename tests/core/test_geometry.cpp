@@ -1,0 +1,104 @@
+#include <gtest/gtest.h>
+
+#include "core/geometry.hpp"
+#include "core/units.hpp"
+#include "fixtures.hpp"
+
+namespace rbc {
+namespace {
+
+TEST(Geometry, SphereAreaAndVolumeConvergeAtSecondOrder) {
+  // Inscribed polyhedra of a sphere: errors in area and volume fall as h^2.
+  const double r = 2.7;
+  double prev_area_err = 0, prev_vol_err = 0;
+  for (int f : {4, 8, 16}) {
+    const TriMesh m = testing::sphere_mesh(f, r);
+    const double area_err = std::abs(total_area(m.x, m.topo) / (4 * units::pi * r * r) - 1);
+    const double vol_err =
+        std::abs(enclosed_volume(m.x, m.topo) / (4.0 / 3.0 * units::pi * r * r * r) - 1);
+    if (prev_area_err > 0) {
+      EXPECT_NEAR(prev_area_err / area_err, 4.0, 0.6) << "frequency " << f;
+      EXPECT_NEAR(prev_vol_err / vol_err, 4.0, 0.6) << "frequency " << f;
+    }
+    prev_area_err = area_err;
+    prev_vol_err = vol_err;
+  }
+  EXPECT_LT(prev_area_err, 5e-3);
+}
+
+TEST(Geometry, IcosphereIsClosedGenusZero) {
+  for (int f : {1, 2, 5, 7}) {
+    const TriMesh m = make_icosphere(f);
+    EXPECT_EQ(m.topo.num_vertices, 10 * f * f + 2);
+    EXPECT_EQ(m.topo.num_vertices - m.topo.num_edges() + m.topo.num_faces(), 2);
+    EXPECT_GT(enclosed_volume(m.x, m.topo), 0.0);  // outward orientation
+  }
+}
+
+// Gradient of a scalar kernel of k points, checked by central differences on random,
+// non-symmetric configurations with the step from machine precision (h ~ cbrt(eps)).
+template <int K, class Kernel>
+void check_kernel_gradient(Kernel kernel, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::Matrix<double, 3, K> p;
+  for (int i = 0; i < 3 * K; ++i) p.data()[i] = u(rng);
+  Eigen::Matrix<double, 3, K> g;
+  kernel(p, &g);
+  const double h = std::cbrt(std::numeric_limits<double>::epsilon());
+  for (int i = 0; i < 3 * K; ++i) {
+    auto q = p;
+    q.data()[i] += h;
+    const double fp = kernel(q, nullptr);
+    q.data()[i] -= 2 * h;
+    const double fm = kernel(q, nullptr);
+    EXPECT_NEAR((fp - fm) / (2 * h), g.data()[i], 1e-8 * (1 + std::abs(g.data()[i])))
+        << "entry " << i;
+  }
+}
+
+TEST(Geometry, KernelGradientsMatchFiniteDifferences) {
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    check_kernel_gradient<3>(
+        [](const Eigen::Matrix3d& p, Eigen::Matrix3d* g) {
+          return triangle_area(p.col(0), p.col(1), p.col(2), g);
+        },
+        seed);
+    check_kernel_gradient<3>(
+        [](const Eigen::Matrix3d& p, Eigen::Matrix3d* g) {
+          return tetra_volume(p.col(0), p.col(1), p.col(2), g);
+        },
+        seed);
+    check_kernel_gradient<4>(
+        [](const Eigen::Matrix<double, 3, 4>& p, Eigen::Matrix<double, 3, 4>* g) {
+          return dihedral_angle(p.col(0), p.col(1), p.col(2), p.col(3), g);
+        },
+        seed);
+  }
+}
+
+TEST(Geometry, DihedralAngleSignAndValue) {
+  // A roof ridge along x: faces slope down at 45 degrees on either side -> theta = pi/2.
+  const Vec3 a(0, 0, 0), b(1, 0, 0), c(0.5, 1, -1), d(0.5, -1, -1);
+  EXPECT_NEAR(dihedral_angle(a, b, c, d), units::pi / 2, 1e-12);
+  // Valley (concave): mirror in z.
+  EXPECT_NEAR(dihedral_angle(a, b, Vec3(0.5, 1, 1), Vec3(0.5, -1, 1)), -units::pi / 2, 1e-12);
+}
+
+TEST(Geometry, PhiVanishesOnlyForEquilateralAndHasCorrectGradient) {
+  TriMesh m = testing::sphere_mesh(3, 1.0);
+  EXPECT_GT(equilateral_defect(m.x, m.topo), 0.0);
+  testing::perturb(m.x, 0.02, 7);
+  Positions g;
+  equilateral_defect(m.x, m.topo, &g);
+  const Eigen::VectorXd x0 = flat(m.x);
+  auto f = [&](const Eigen::VectorXd& v) {
+    Positions p = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, m.x.cols());
+    return equilateral_defect(p, m.topo);
+  };
+  const double h = 1e-5;
+  EXPECT_LT(testing::fd_gradient_error(f, x0, flat(g), h, 60, 3), 1e-7);
+}
+
+}  // namespace
+}  // namespace rbc
