@@ -11,7 +11,7 @@ namespace rbc {
 struct ConstraintParameters {
   double area_stiffness_pN_per_um3 = 100.0;
   double volume_stiffness_pN_per_um5 = 100.0;
-  double tolerance = 1e-7;  ///< relative drift |G - G0|/G0 at which the outer loop stops
+  double tolerance = 1e-6;  ///< relative drift |G - G0|/G0 at which the outer loop stops
   void validate() const;
 };
 

@@ -87,7 +87,10 @@ double network_energy(const Network& net, const Positions& x, const LoadState& l
   e.bending = net.bending_model == BendingModel::juelicher
                   ? juelicher_bending_energy(x, net.topo, net.bending, grad)
                   : dihedral_bending_energy(x, net.topo, net.dihedral_kb_pNum, 0.0, grad);
-  e.constraints = constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, net.constraints,
+  ConstraintParameters penalty = net.constraints;
+  penalty.area_stiffness_pN_per_um3 *= load.stiffness_scale;
+  penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
+  e.constraints = constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, penalty,
                                     load.multipliers, grad);
   e.tweezers = tweezers_energy(net.patch, load.force_pN, x, net.rest, grad);
   if (parts) *parts = e;

@@ -50,6 +50,9 @@ Network build_network(const TriMesh& rest_mesh, const NetworkParameters& params)
 struct LoadState {
   double force_pN = 0.0;  ///< total bead force F pulling each end along +-x
   ConstraintMultipliers multipliers;
+  /// Multiplies the network's area and volume penalty stiffnesses (the augmented-Lagrangian
+  /// loop raises it when a multiplier update alone stops reducing the violation).
+  double stiffness_scale = 1.0;
 };
 
 /// Energy of each term (pN um).

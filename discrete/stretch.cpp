@@ -1,7 +1,9 @@
 #include "discrete/stretch.hpp"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "core/geometry.hpp"
@@ -22,6 +24,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   LbfgsOptions lo = opt.minimiser;
   if (lo.max_step <= 0) lo.max_step = 0.25 * net.lbar_um.minCoeff();
   MinimiserResult r;
+  double previous_violation = std::numeric_limits<double>::infinity();
   for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
     load.multipliers = lambda;
     Objective f = [&](const Eigen::VectorXd& v, Eigen::VectorXd& g) {
@@ -47,8 +50,16 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
                       std::abs(pt.volume_drift) < net.constraints.tolerance;
     if (held && r.converged()) break;
     if (!r.converged()) break;
-    lambda.area_pN_per_um += net.constraints.area_stiffness_pN_per_um3 * (a - net.area0_um2);
-    lambda.volume_pN_per_um2 += net.constraints.volume_stiffness_pN_per_um5 * (v - net.volume0_um3);
+    // Standard augmented-Lagrangian schedule: update the multipliers; if the violation did
+    // not fall by 4x since the last update, stiffen the penalty tenfold (the forces of a
+    // small violation had dropped below the minimiser's force tolerance).
+    lambda.area_pN_per_um +=
+        load.stiffness_scale * net.constraints.area_stiffness_pN_per_um3 * (a - net.area0_um2);
+    lambda.volume_pN_per_um2 +=
+        load.stiffness_scale * net.constraints.volume_stiffness_pN_per_um5 * (v - net.volume0_um3);
+    const double violation = std::max(std::abs(pt.area_drift), std::abs(pt.volume_drift));
+    if (violation > 0.25 * previous_violation) load.stiffness_scale *= 10.0;
+    previous_violation = violation;
   }
   x = Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n);
   const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&

@@ -1,0 +1,42 @@
+#include "app/cli_util.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+namespace rbc::app {
+
+std::vector<double> parse_force_list(const std::string& text) {
+  std::vector<double> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos)
+      throw std::invalid_argument("force '" + item + "' is not a number (expected pN, e.g. 0,16,88)");
+    if (!std::isfinite(v) || v < 0)
+      throw std::invalid_argument("force " + item + " pN is not allowed: forces must be finite and >= 0");
+    out.push_back(v);
+  }
+  if (out.empty()) throw std::invalid_argument("the force list is empty (expected e.g. 0,16,88)");
+  return out;
+}
+
+ProgressSink stderr_progress(bool quiet) {
+  if (quiet) return {};
+  const auto start = std::chrono::steady_clock::now();
+  return [start](const std::string& message) {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::cerr << "[" << std::fixed << std::setprecision(1) << std::setw(7) << t << " s] " << message
+              << std::endl;
+  };
+}
+
+}  // namespace rbc::app

@@ -1,0 +1,213 @@
+// `rbc stretch`: the optical-tweezers stretch (Mills et al. 2004) of one model over a list
+// of forces, by continuation: each force starts from the previous equilibrium.
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "app/cli_util.hpp"
+#include "app/commands.hpp"
+#include "core/geometry.hpp"
+#include "core/io.hpp"
+#include "core/rest_shape.hpp"
+#include "core/units.hpp"
+#include "discrete/stretch.hpp"
+
+namespace rbc::app {
+
+nlohmann::json mesh_report_json(const MeshQualityReport& r);  // cmd_mesh.cpp
+
+namespace {
+
+/// Options in natural units (nm, J, pN), converted once in to_network_parameters().
+struct StretchCli {
+  std::string model = "discrete";
+  std::string forces = "0,16,19.5,30.6,38,46.6,67.6,87.6,108.8,130,151,172.8,193";
+  int vertices = 2000;
+  std::string bending = "juelicher";
+  std::string dihedral_mapping = "sphere";
+  std::string mesh_quality = "phi-minimised";
+  std::string contact = "area";
+  double contact_fraction = 0.05;
+  double lbar_nm = 75.0, lmax_nm = 237.75, persistence_nm = 7.5, temperature_K = 300.0;
+  double kappa_J = 2e-19, h0_per_um = 0.0;
+  double q = 1.0, eta = 0.005;
+  double tolerance_pN = 1e-3;
+  int max_iterations = 50000;
+  std::string order = "2";
+  int elements = 4000;
+  std::string out;
+  bool json = false, quiet = false;
+};
+
+NetworkParameters to_network_parameters(const StretchCli& o) {
+  NetworkParameters p;
+  p.wlc.lbar_um = units::nm_to_um(o.lbar_nm);
+  p.wlc.lmax_um = units::nm_to_um(o.lmax_nm);
+  p.wlc.persistence_um = units::nm_to_um(o.persistence_nm);
+  p.wlc.temperature_K = o.temperature_K;
+  p.bending.kappa_pNum = units::joule_to_pNum(o.kappa_J);
+  p.bending.h0_per_um = o.h0_per_um;
+  p.bending_model = bending_model_from_string(o.bending);
+  if (o.dihedral_mapping == "sphere")
+    p.dihedral_mapping = DihedralMapping::sphere_matched;
+  else if (o.dihedral_mapping == "li")
+    p.dihedral_mapping = DihedralMapping::li_et_al;
+  else
+    throw std::invalid_argument("dihedral mapping '" + o.dihedral_mapping +
+                                "' is not one of sphere, li");
+  p.steric.q = o.q;
+  p.steric.eta = o.eta;
+  p.tweezers.rule = patch_rule_from_string(o.contact);
+  p.tweezers.contact_fraction = o.contact_fraction;
+  p.validate();
+  return p;
+}
+
+std::string force_tag(double f) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(1) << f;
+  return s.str();
+}
+
+int run_discrete(const StretchCli& o) {
+  const std::vector<double> forces = parse_force_list(o.forces);
+  const NetworkParameters params = to_network_parameters(o);
+  if (!(o.tolerance_pN > 0))
+    throw std::invalid_argument("--tolerance must be positive, got " + std::to_string(o.tolerance_pN));
+  if (!o.out.empty()) ensure_output_directory(o.out);
+  const ProgressSink progress = stderr_progress(o.quiet);
+  RestShapeOptions ro;
+  ro.target_vertices = o.vertices;
+  ro.quality = rest_mesh_quality_from_string(o.mesh_quality);
+  MeshQualityReport mesh_report;
+  report(progress, "building the rest network (N ~ " + std::to_string(o.vertices) + ")");
+  const TriMesh mesh = make_rest_shape(ro, &mesh_report);
+  const Network net = build_network(mesh, params);
+  const double rest_force = largest_rest_inplane_force_pN(net);
+  {
+    std::ostringstream m;
+    m << "network: " << mesh_report.vertices << " vertices, Phi/A0 = " << mesh_report.phi_over_area
+      << ", largest rest in-plane force = " << rest_force << " pN, contact patches "
+      << net.patch.area_plus_um2 << " / " << net.patch.area_minus_um2 << " um^2";
+    report(progress, m.str());
+  }
+  StretchOptions so;
+  so.minimiser.force_tolerance = o.tolerance_pN;
+  so.minimiser.max_iterations = o.max_iterations;
+  const std::vector<StretchPoint> pts = run_stretch(net, forces, so, progress);
+
+  nlohmann::json rows = nlohmann::json::array();
+  CsvTable csv;
+  csv.comments = {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
+                  "units: force pN, diameters um, energy pN*um, wall time s",
+                  "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
+                      std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
+                      std::to_string(rest_force) + " pN"};
+  csv.header = {"force_pN", "axial_um", "transverse_um", "energy_pNum", "iterations", "converged",
+                "wall_s", "vertices", "residual_pN", "area_drift", "volume_drift"};
+  for (const auto& p : pts) {
+    rows.push_back({{"force_pN", p.force_pN},
+                    {"axial_um", p.axial_um},
+                    {"transverse_um", p.transverse_um},
+                    {"energy_pNum", p.energy_pNum},
+                    {"iterations", p.iterations},
+                    {"converged", p.converged},
+                    {"wall_s", p.wall_s},
+                    {"vertices", p.vertices},
+                    {"residual_pN", p.residual_pN},
+                    {"area_drift", p.area_drift},
+                    {"volume_drift", p.volume_drift}});
+    csv.rows.push_back({p.force_pN, p.axial_um, p.transverse_um, p.energy_pNum,
+                        static_cast<double>(p.iterations), p.converged ? 1.0 : 0.0, p.wall_s,
+                        static_cast<double>(p.vertices), p.residual_pN, p.area_drift,
+                        p.volume_drift});
+  }
+  if (!o.out.empty()) {
+    for (const auto& p : pts) {
+      const Eigen::VectorXd u = (p.x - net.rest).colwise().norm().transpose();
+      MeshSnapshot s{p.x, net.topo.faces, {{"displacement_um", u}}, {}, {{"force_pN", p.force_pN}}};
+      write_mesh_snapshot(o.out + "/shape_" + force_tag(p.force_pN) + "pN", s);
+    }
+    write_csv(o.out + "/stretch.csv", csv);
+    nlohmann::json run = {{"model", "discrete"},
+                          {"mesh", mesh_report_json(mesh_report)},
+                          {"largest_rest_inplane_force_pN", rest_force},
+                          {"points", rows}};
+    write_text_atomic(o.out + "/run.json", run.dump(2) + "\n");
+  }
+  if (o.json) {
+    std::cout << rows.dump(2) << "\n";
+  } else {
+    std::cout << "# " << csv.comments[2] << "\n";
+    std::cout << std::setw(9) << "force_pN" << std::setw(11) << "axial_um" << std::setw(14)
+              << "transverse_um" << std::setw(14) << "energy_pNum" << std::setw(11) << "iterations"
+              << std::setw(10) << "converged" << std::setw(9) << "wall_s" << std::setw(9)
+              << "vertices" << "\n";
+    for (const auto& p : pts)
+      std::cout << std::fixed << std::setprecision(2) << std::setw(9) << p.force_pN
+                << std::setprecision(4) << std::setw(11) << p.axial_um << std::setw(14)
+                << p.transverse_um << std::setprecision(3) << std::setw(14) << p.energy_pNum
+                << std::setw(11) << p.iterations << std::setw(10) << (p.converged ? "yes" : "NO")
+                << std::setprecision(2) << std::setw(9) << p.wall_s << std::setw(9) << p.vertices
+                << "\n";
+  }
+  int status = 0;
+  for (const auto& p : pts)
+    if (!p.converged) {
+      std::cerr << "rbc: error: force " << p.force_pN << " pN did not converge (" << p.status
+                << "): largest vertex force residual " << p.residual_pN << " pN, area drift "
+                << p.area_drift << ", volume drift " << p.volume_drift << "\n";
+      status = 1;
+    }
+  return status;
+}
+
+}  // namespace
+
+void add_stretch_command(CLI::App& app, Action& action) {
+  auto o = std::make_shared<StretchCli>();
+  auto* cmd = app.add_subcommand("stretch", "Optical-tweezers stretch: diameters against force");
+  cmd->add_option("--model", o->model, "discrete (spectrin network) | continuum (surface FEM)")
+      ->capture_default_str();
+  cmd->add_option("--force", o->forces, "comma-separated total bead forces in pN")
+      ->capture_default_str();
+  cmd->add_option("--vertices,-n", o->vertices, "discrete: network vertices N (100 to 40,000)")
+      ->capture_default_str();
+  cmd->add_option("--bending", o->bending, "discrete: juelicher | dihedral")->capture_default_str();
+  cmd->add_option("--dihedral-mapping", o->dihedral_mapping,
+                  "dihedral k_b(kappa): sphere (2 sqrt3 kappa) | li (2 kappa/sqrt3)")
+      ->capture_default_str();
+  cmd->add_option("--mesh-quality", o->mesh_quality, "phi-minimised | projected | equal-area")
+      ->capture_default_str();
+  cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")->capture_default_str();
+  cmd->add_option("--contact-fraction", o->contact_fraction, "contact patch fraction per bead")
+      ->capture_default_str();
+  cmd->add_option("--lbar", o->lbar_nm, "spectrin rest link length (nm)")->capture_default_str();
+  cmd->add_option("--lmax", o->lmax_nm, "spectrin contour length Lmax (nm)")->capture_default_str();
+  cmd->add_option("--persistence", o->persistence_nm, "persistence length (nm)")->capture_default_str();
+  cmd->add_option("--temperature", o->temperature_K, "temperature (K)")->capture_default_str();
+  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J)")->capture_default_str();
+  cmd->add_option("--h0", o->h0_per_um, "spontaneous curvature H0 (1/um)")->capture_default_str();
+  cmd->add_option("--q", o->q, "steric exponent q")->capture_default_str();
+  cmd->add_option("--eta", o->eta, "steric regularisation eta")->capture_default_str();
+  cmd->add_option("--tolerance", o->tolerance_pN, "largest net vertex force at convergence (pN)")
+      ->capture_default_str();
+  cmd->add_option("--max-iterations", o->max_iterations, "minimiser iterations per force")
+      ->capture_default_str();
+  cmd->add_option("--order", o->order, "continuum: 2 | 3 | 4 | full")->capture_default_str();
+  cmd->add_option("--elements", o->elements, "continuum: triangles")->capture_default_str();
+  cmd->add_option("--out", o->out, "write per-force HDF5/XDMF shapes, stretch.csv and run.json");
+  cmd->add_flag("--json", o->json, "print a JSON array of points on stdout");
+  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->callback([o, &action] {
+    action = [o]() -> int {
+      if (o->model == "discrete") return run_discrete(*o);
+      // CONTINUUM BRANCH: wired by continuum/ (issue 4).
+      throw std::invalid_argument("model '" + o->model + "' is not available (expected discrete)");
+    };
+  });
+}
+
+}  // namespace rbc::app

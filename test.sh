@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Installs what is missing (apt-get), builds everything (Release) and runs the whole test
+# suite through ctest. Exit status is ctest's.
+set -euo pipefail
+cd "$(dirname "$0")"
+.ci/bootstrap.sh
+export OMP_NUM_THREADS="${OMP_NUM_THREADS:-2}"
+ctest --test-dir build --output-on-failure -j 2 --timeout 1200
