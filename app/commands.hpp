@@ -16,5 +16,6 @@ using Action = std::function<int()>;
 void add_mesh_command(CLI::App& app, Action& action);
 void add_stretch_command(CLI::App& app, Action& action);
 void add_bench_command(CLI::App& app, Action& action);
+void add_fig7_command(CLI::App& app, Action& action);
 
 }  // namespace rbc::app

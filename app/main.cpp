@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   rbc::app::add_mesh_command(app, action);
   rbc::app::add_stretch_command(app, action);
   rbc::app::add_bench_command(app, action);
+  rbc::app::add_fig7_command(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

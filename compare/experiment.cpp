@@ -1,0 +1,63 @@
+#include "compare/experiment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "core/io.hpp"
+
+namespace rbc {
+
+std::vector<ExperimentPoint> load_experiment(const std::string& path) {
+  const CsvTable t = read_csv(path);
+  const std::vector<std::string> expected = {"force_pN", "axial_um", "axial_err_um", "transverse_um",
+                                             "transverse_err_um"};
+  if (t.header != expected)
+    throw std::runtime_error("experiment file '" + path +
+                             "' must have columns force_pN,axial_um,axial_err_um,transverse_um,"
+                             "transverse_err_um");
+  std::vector<ExperimentPoint> out;
+  for (const auto& r : t.rows) out.push_back({r[0], r[1], r[2], r[3], r[4]});
+  if (out.empty()) throw std::runtime_error("experiment file '" + path + "' has no data rows");
+  return out;
+}
+
+std::string default_data_directory() {
+  if (const char* env = std::getenv("RBC_DATA_DIR")) return env;
+  return RBC_DEFAULT_DATA_DIR;
+}
+
+namespace {
+CurveSample interpolate(const std::vector<CurveSample>& m, double f) {
+  auto hi = std::lower_bound(m.begin(), m.end(), f,
+                             [](const CurveSample& s, double v) { return s.force_pN < v; });
+  if (hi == m.end() || (hi == m.begin() && hi->force_pN > f + 1e-12))
+    throw std::invalid_argument("model curve does not cover the experimental force " +
+                                std::to_string(f) + " pN");
+  if (std::abs(hi->force_pN - f) < 1e-12 || hi == m.begin()) return *hi;
+  const auto lo = hi - 1;
+  const double w = (f - lo->force_pN) / (hi->force_pN - lo->force_pN);
+  return {f, lo->axial_um + w * (hi->axial_um - lo->axial_um),
+          lo->transverse_um + w * (hi->transverse_um - lo->transverse_um)};
+}
+}  // namespace
+
+FitQuality fit_quality(const std::vector<ExperimentPoint>& e, const std::vector<CurveSample>& m) {
+  FitQuality q;
+  double sa = 0, st = 0;
+  for (const auto& p : e) {
+    const CurveSample s = interpolate(m, p.force_pN);
+    const double da = s.axial_um - p.axial_um, dt = s.transverse_um - p.transverse_um;
+    sa += da * da;
+    st += dt * dt;
+    q.axial_inside += std::abs(da) <= p.axial_err_um;
+    q.transverse_inside += std::abs(dt) <= p.transverse_err_um;
+    ++q.points;
+  }
+  q.axial_rms_um = std::sqrt(sa / q.points);
+  q.transverse_rms_um = std::sqrt(st / q.points);
+  return q;
+}
+
+}  // namespace rbc

@@ -1,0 +1,92 @@
+#include "compare/methods.hpp"
+
+#include <chrono>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/rest_shape.hpp"
+#include "discrete/stretch.hpp"
+
+namespace rbc {
+
+std::string Method::name() const {
+  if (kind == MethodKind::discrete) return "discrete_N" + std::to_string(resolution);
+  return "continuum_p" + to_string(order) + "_E" + std::to_string(resolution);
+}
+
+std::string Method::label() const {
+  if (kind == MethodKind::discrete)
+    return "microscopic model (N = " + std::to_string(resolution) + ")";
+  return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) + " elements)";
+}
+
+Method parse_method(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  for (std::string p; std::getline(ss, p, ':');) parts.push_back(p);
+  auto number = [&](const std::string& s) {
+    size_t used = 0;
+    int v = 0;
+    try {
+      v = std::stoi(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != s.size() || v <= 0)
+      throw std::invalid_argument("method '" + text + "': '" + s + "' is not a positive count");
+    return v;
+  };
+  Method m;
+  if (parts.size() == 2 && parts[0] == "discrete") {
+    m.kind = MethodKind::discrete;
+    m.resolution = number(parts[1]);
+    return m;
+  }
+  if (parts.size() == 3 && parts[0] == "continuum") {
+    m.kind = MethodKind::continuum;
+    m.order = wlc_expansion_from_string(parts[1]);
+    m.resolution = number(parts[2]);
+    return m;
+  }
+  throw std::invalid_argument("method '" + text +
+                              "' is not of the form discrete:N or continuum:ORDER:ELEMENTS");
+}
+
+bool MethodRun::all_converged() const {
+  for (const auto& p : points)
+    if (!p.converged) return false;
+  return true;
+}
+
+namespace {
+
+MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
+                       const ProgressSink& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  MethodRun run;
+  run.method = m;
+  RestShapeOptions ro;
+  ro.target_vertices = m.resolution;
+  const Network net = build_network(make_rest_shape(ro), NetworkParameters{});
+  run.vertices = net.topo.num_vertices;
+  run.elements = net.topo.num_faces();
+  run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto pts = run_stretch(net, forces, StretchOptions{}, [&](const std::string& msg) {
+    if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
+  });
+  for (const auto& p : pts)
+    run.points.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.residual_pN,
+                          p.iterations, p.converged});
+  run.total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return run;
+}
+
+}  // namespace
+
+MethodRun run_method(const Method& m, const std::vector<double>& forces,
+                     const ProgressSink& progress) {
+  if (m.kind == MethodKind::discrete) return run_discrete(m, forces, progress);
+  throw std::invalid_argument("the continuum model is not available in this build yet");
+}
+
+}  // namespace rbc

@@ -1,0 +1,58 @@
+#include "compare/plot.hpp"
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/io.hpp"
+
+namespace rbc {
+
+void render_plot(const PlotSpec& spec, const std::string& dir, const std::string& name) {
+  namespace fs = std::filesystem;
+  const std::string png = (fs::path(dir) / (name + ".png")).string();
+  const std::string tmp_png = temporary_path_for(png);
+  std::ostringstream g;
+  g << "set terminal pngcairo size " << spec.width_px << "," << spec.height_px
+    << " enhanced font 'DejaVu Sans,12'\n"
+    << "set output '" << fs::path(tmp_png).filename().string() << "'\n"
+    << "set datafile separator ','\nset datafile commentschars '#'\n"
+    << "set title '" << spec.title << "'\nset xlabel '" << spec.xlabel << "'\nset ylabel '"
+    << spec.ylabel << "'\nset key " << spec.key << "\nset grid\n";
+  if (spec.log_x) g << "set logscale x\n";
+  if (spec.log_y) g << "set logscale y\n";
+  if (!spec.x_range.empty()) g << "set xrange " << spec.x_range << "\n";
+  if (!spec.y_range.empty()) g << "set yrange " << spec.y_range << "\n";
+  for (const auto& c : spec.extra_commands) g << c << "\n";
+  g << "plot ";
+  for (size_t k = 0; k < spec.series.size(); ++k) {
+    const auto& s = spec.series[k];
+    g << (k ? ", \\\n     " : "") << "'" << s.data_file << "' skip 1 using " << s.columns
+      << " with " << s.style << " title '" << s.title << "'";
+    if (!s.color.empty()) g << " lc rgb '" << s.color << "'";
+    if (s.style.find("points") != std::string::npos || s.style == "yerrorbars")
+      g << " pt " << s.point_type;
+    if (s.style.find("lines") != std::string::npos) g << " lw 2 dt " << s.dash_type;
+  }
+  g << "\nset output\n";
+  const std::string script = (fs::path(dir) / (name + ".gp")).string();
+  write_text_atomic(script, g.str());
+  const std::string cmd = "cd '" + dir + "' && gnuplot '" + name + ".gp' 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) throw std::runtime_error("cannot run gnuplot (is it installed? apt-get install gnuplot-nox)");
+  std::string output;
+  std::array<char, 256> buf{};
+  while (fgets(buf.data(), buf.size(), pipe)) output += buf.data();
+  const int status = pclose(pipe);
+  if (status != 0 || !fs::exists(tmp_png)) {
+    std::error_code ec;
+    fs::remove(tmp_png, ec);
+    throw std::runtime_error("gnuplot failed on " + script + ": " + output);
+  }
+  // gnuplot was run in `dir`, so the temporary file sits there; move it into place.
+  commit_file((fs::path(dir) / fs::path(tmp_png).filename()).string(), png);
+}
+
+}  // namespace rbc

@@ -1,0 +1,34 @@
+#pragma once
+// Publication-style PNG plots through gnuplot (pngcairo): the data are written as CSV next
+// to the picture, so every plotted number is traceable to a file.
+#include <string>
+#include <vector>
+
+namespace rbc {
+
+/// One curve or point set. `columns` is gnuplot's `using` spec over the CSV data file.
+struct PlotSeries {
+  std::string title;
+  std::string data_file;  ///< CSV with a header line, relative to the plot's directory
+  std::string columns;    ///< e.g. "1:2" (lines) or "1:2:3" (yerrorbars)
+  std::string style = "linespoints";  ///< gnuplot style: lines, linespoints, yerrorbars, points
+  std::string color;      ///< e.g. "#1f77b4"; empty = gnuplot's default cycle
+  int point_type = 7;
+  int dash_type = 1;      ///< 1 solid, 2 dashed, ...
+};
+
+struct PlotSpec {
+  std::string title, xlabel, ylabel;
+  bool log_x = false, log_y = false;
+  std::string x_range, y_range;  ///< e.g. "[0:300]"; empty = automatic
+  std::string key = "outside right top";
+  int width_px = 1100, height_px = 700;
+  std::vector<PlotSeries> series;
+  std::vector<std::string> extra_commands;  ///< raw gnuplot lines (labels, arrows)
+};
+
+/// Writes DIR/NAME.gp and renders DIR/NAME.png (atomically). Throws std::runtime_error if
+/// gnuplot is missing or fails, with its message.
+void render_plot(const PlotSpec& spec, const std::string& dir, const std::string& name);
+
+}  // namespace rbc

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The main job with defaults: installs what is missing (apt-get), builds (Release), and
+# runs the paper's Fig. 7 comparison (microscopic and continuum models against Mills 2004).
+# Outputs: results/fig7/ (fig7.png, fig7_fit.csv, per-method CSVs, fig7.json).
+set -euo pipefail
+cd "$(dirname "$0")"
+.ci/bootstrap.sh rbc
+out="${RBC_OUT:-results/fig7}"
+./build/rbc fig7 --out "$out" --force-overwrite "$@"
+echo
+echo "Fig. 7 written to $out/: fig7.png (plot), fig7_fit.csv (goodness of fit),"
+echo "fig7_<method>.csv (curves), experiment_*.csv (Mills 2004) and fig7.json (summary)."
