@@ -17,5 +17,9 @@ void add_mesh_command(CLI::App& app, Action& action);
 void add_stretch_command(CLI::App& app, Action& action);
 void add_bench_command(CLI::App& app, Action& action);
 void add_fig7_command(CLI::App& app, Action& action);
+void add_tradeoff_command(CLI::App& app, Action& action);
+void add_mc_command(CLI::App& app, Action& action);
+void add_moduli_command(CLI::App& app, Action& action);
+void add_psi_command(CLI::App& app, Action& action);
 
 }  // namespace rbc::app

@@ -14,6 +14,10 @@ int main(int argc, char** argv) {
   rbc::app::add_stretch_command(app, action);
   rbc::app::add_bench_command(app, action);
   rbc::app::add_fig7_command(app, action);
+  rbc::app::add_tradeoff_command(app, action);
+  rbc::app::add_mc_command(app, action);
+  rbc::app::add_moduli_command(app, action);
+  rbc::app::add_psi_command(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -62,7 +62,9 @@ MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const Lbf
       alpha[k] = history[k].rho * history[k].s.dot(d);
       d -= alpha[k] * history[k].y;
     }
-    if (!history.empty()) {
+    if (opt.precondition) {
+      opt.precondition(d);
+    } else if (!history.empty()) {
       const auto& last = history.back();
       d *= last.s.dot(last.y) / last.y.squaredNorm();
     } else {

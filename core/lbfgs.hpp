@@ -28,6 +28,10 @@ struct LbfgsOptions {
   double max_step = 0.0;
   double armijo = 1e-4;           ///< sufficient-decrease constant
   int max_line_search = 60;       ///< trials before the line search gives up
+  /// Optional preconditioner: replaces v by P^{-1} v, with P symmetric positive definite
+  /// approximating the Hessian. It is the two-loop recursion's initial inverse Hessian
+  /// (in place of the scalar s.y/y.y), so a good P makes the steps nearly Newton steps.
+  std::function<void(Eigen::VectorXd& v)> precondition;
 };
 
 enum class MinimiserStatus { converged, max_iterations, line_search_failed, infeasible_start };

@@ -6,7 +6,10 @@
 #include <limits>
 #include <sstream>
 
+#include <Eigen/CholmodSupport>
+
 #include "core/geometry.hpp"
+#include "discrete/hessian_approximation.hpp"
 
 namespace rbc {
 
@@ -23,10 +26,52 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   Eigen::VectorXd u = flat(x);
   LbfgsOptions lo = opt.minimiser;
   if (lo.max_step <= 0) lo.max_step = 0.25 * net.lbar_um.minCoeff();
+  // Preconditioner: P = approximate_hessian + the penalties' rank-2 part U K U^T,
+  // U = [dA/dx, dV/dx], K = diag(kA, kV), applied by Sherman-Morrison-Woodbury:
+  // (P + U K U^T)^{-1} v = P^{-1} v - Z (K^{-1} + U^T Z)^{-1} Z^T v, Z = P^{-1} U.
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> factor;
+  Eigen::MatrixXd z;
+  Eigen::Matrix2d utz;
+  bool factored = false;
+  if (n >= opt.precondition_min_vertices) {
+    factor.compute(approximate_hessian(net, x));
+    factored = factor.info() == Eigen::Success;
+    if (factored) {
+      Positions ga = Positions::Zero(3, n), gv = Positions::Zero(3, n);
+      ConstraintParameters unit;
+      unit.area_stiffness_pN_per_um3 = unit.volume_stiffness_pN_per_um5 = 1.0;
+      constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, unit, {1.0, 0.0}, &ga);
+      constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, unit, {0.0, 1.0}, &gv);
+      // With unit multipliers and the state at x, the gradients are dA/dx + (A - A0) dA/dx;
+      // rescale to the pure constraint gradients.
+      const double da = total_area(x, net.topo) - net.area0_um2;
+      const double dv = enclosed_volume(x, net.topo) - net.volume0_um3;
+      Eigen::MatrixXd u(3 * n, 2);
+      u.col(0) = flat(ga) / (1.0 + da);
+      u.col(1) = flat(gv) / (1.0 + dv);
+      z = factor.solve(u);
+      utz = u.transpose() * z;
+    } else {
+      report(progress, "  preconditioner factorisation failed; using plain L-BFGS");
+    }
+  }
+  auto set_preconditioner = [&](double stiffness_scale) {
+    if (!factored) return;
+    Eigen::Matrix2d m = utz;
+    m(0, 0) += 1.0 / (stiffness_scale * net.constraints.area_stiffness_pN_per_um3);
+    m(1, 1) += 1.0 / (stiffness_scale * net.constraints.volume_stiffness_pN_per_um5);
+    const Eigen::Matrix2d m_inv = m.inverse();
+    lo.precondition = [&factor, &z, m_inv](Eigen::VectorXd& v) {
+      const Eigen::Vector2d ztv = z.transpose() * v;
+      v = factor.solve(v);
+      v -= z * (m_inv * ztv);
+    };
+  };
   MinimiserResult r;
   double previous_violation = std::numeric_limits<double>::infinity();
   for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
     load.multipliers = lambda;
+    set_preconditioner(load.stiffness_scale);
     Objective f = [&](const Eigen::VectorXd& v, Eigen::VectorXd& g) {
       Positions p = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
       Positions gp;
