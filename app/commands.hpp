@@ -15,9 +15,12 @@ using Action = std::function<int()>;
 
 void add_mesh_command(CLI::App& app, Action& action);
 void add_stretch_command(CLI::App& app, Action& action);
+void add_relax_command(CLI::App& app, Action& action);
 void add_bench_command(CLI::App& app, Action& action);
 void add_fig7_command(CLI::App& app, Action& action);
 void add_tradeoff_command(CLI::App& app, Action& action);
+void add_stability_command(CLI::App& app, Action& action);
+void add_report_command(CLI::App& app, Action& action);
 void add_mc_command(CLI::App& app, Action& action);
 void add_moduli_command(CLI::App& app, Action& action);
 void add_psi_command(CLI::App& app, Action& action);

@@ -12,9 +12,12 @@ int main(int argc, char** argv) {
   rbc::app::Action action;
   rbc::app::add_mesh_command(app, action);
   rbc::app::add_stretch_command(app, action);
+  rbc::app::add_relax_command(app, action);
   rbc::app::add_bench_command(app, action);
   rbc::app::add_fig7_command(app, action);
   rbc::app::add_tradeoff_command(app, action);
+  rbc::app::add_stability_command(app, action);
+  rbc::app::add_report_command(app, action);
   rbc::app::add_mc_command(app, action);
   rbc::app::add_moduli_command(app, action);
   rbc::app::add_psi_command(app, action);

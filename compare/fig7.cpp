@@ -12,6 +12,9 @@ namespace rbc {
 std::vector<Method> default_fig7_methods() {
   std::vector<Method> m;
   m.push_back({MethodKind::discrete, 2000, WlcExpansion::full});
+  for (auto order : {WlcExpansion::order2, WlcExpansion::order3, WlcExpansion::order4,
+                     WlcExpansion::full})
+    m.push_back({MethodKind::continuum, 4000, order});
   return m;
 }
 

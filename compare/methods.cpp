@@ -4,7 +4,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "continuum/continuum_stretch.hpp"
 #include "core/rest_shape.hpp"
+#include "homogenise/invariant_laws.hpp"
 #include "discrete/stretch.hpp"
 
 namespace rbc {
@@ -81,12 +83,34 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   return run;
 }
 
+MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
+                        const ProgressSink& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  MethodRun run;
+  run.method = m;
+  const TriMesh mesh = make_continuum_mesh(m.resolution);
+  const NetworkParameters defaults;  // the same spectrin parameters as the discrete model
+  const IsotropicMembraneLaw law = make_membrane_law(defaults.wlc, defaults.steric, m.order);
+  const ContinuumModel model = build_continuum_model(mesh, law, ContinuumParameters{});
+  run.vertices = model.topo.num_vertices;
+  run.elements = model.num_elements();
+  run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto pts = run_continuum_stretch(model, forces, ContinuumOptions{}, [&](const std::string& msg) {
+    if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
+  });
+  for (const auto& p : pts)
+    run.points.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.residual_pN,
+                          p.iterations, p.converged});
+  run.total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return run;
+}
+
 }  // namespace
 
 MethodRun run_method(const Method& m, const std::vector<double>& forces,
                      const ProgressSink& progress) {
-  if (m.kind == MethodKind::discrete) return run_discrete(m, forces, progress);
-  throw std::invalid_argument("the continuum model is not available in this build yet");
+  return m.kind == MethodKind::discrete ? run_discrete(m, forces, progress)
+                                        : run_continuum(m, forces, progress);
 }
 
 }  // namespace rbc

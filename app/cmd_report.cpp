@@ -1,0 +1,72 @@
+// `rbc stability` and `rbc report` (issue 5).
+#include <iostream>
+
+#include "app/cli_util.hpp"
+#include "app/commands.hpp"
+#include "compare/report.hpp"
+
+namespace rbc::app {
+
+void check_output_directory(const std::string& dir, bool overwrite);  // cmd_fig7.cpp
+
+void add_stability_command(CLI::App& app, Action& action) {
+  struct Opts {
+    StabilityOptions s;
+    std::string out = "results/stability";
+    bool no_continuum = false, overwrite = false, quiet = false;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("stability", "Where each method stops working (sweeps)");
+  cmd->add_option("--vertices", o->s.discrete_vertices, "discrete network for the sweeps")
+      ->capture_default_str();
+  cmd->add_option("--elements", o->s.continuum_elements, "continuum mesh for the sweeps")
+      ->capture_default_str();
+  cmd->add_flag("--no-continuum", o->no_continuum, "discrete sweeps only");
+  cmd->add_option("--out", o->out, "output directory")->capture_default_str();
+  cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
+  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->callback([o, &action] {
+    action = [o]() -> int {
+      check_output_directory(o->out, o->overwrite);
+      o->s.include_continuum = !o->no_continuum;
+      const StabilityResult r = run_stability(o->s, nullptr, stderr_progress(o->quiet));
+      write_stability(r, o->out);
+      for (const auto& row : r.rows)
+        std::cout << row.study << " | " << row.method << " | " << row.parameter << " "
+                  << row.parameter_value << " | " << row.metric << " = " << row.value << "\n";
+      std::cout << "outputs: " << o->out << "/stability.csv, stability.json, stability_orders.png\n";
+      return 0;
+    };
+  });
+}
+
+void add_report_command(CLI::App& app, Action& action) {
+  struct Opts {
+    std::string out = "results/report";
+    bool overwrite = false, quiet = false, quick = false;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("report", "Fig. 7 + trade-off + stability in DIR/report.md");
+  cmd->add_option("--out", o->out, "output directory")->capture_default_str();
+  cmd->add_flag("--quick", o->quick,
+                "small resolutions (minutes, not the full study; for a first look)");
+  cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
+  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->callback([o, &action] {
+    action = [o]() -> int {
+      check_output_directory(o->out, o->overwrite);
+      ReportOptions ro;
+      if (o->quick) {
+        ro.tradeoff.discrete_vertices = {250, 500, 1000, 2000, 4000};
+        ro.tradeoff.continuum_elements = {500, 1000, 2000, 4000};
+        ro.stability.discrete_vertices = 500;
+        ro.stability.continuum_elements = 1000;
+      }
+      run_report(ro, o->out, stderr_progress(o->quiet));
+      std::cout << "report: " << o->out << "/report.md (figures and CSVs beside it)\n";
+      return 0;
+    };
+  });
+}
+
+}  // namespace rbc::app

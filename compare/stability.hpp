@@ -1,0 +1,60 @@
+#pragma once
+// Where each method stops working, found by sweeps rather than asserted (issue 5):
+// Taylor orders against the full WLC, solver budgets at extreme forces, the discrete
+// answer against triangle quality, the steric regularisation, and the coarsest
+// resolutions that still give 1 % and 5 % (from a trade-off study).
+#include <string>
+#include <vector>
+
+#include "compare/tradeoff.hpp"
+#include "core/progress.hpp"
+
+namespace rbc {
+
+struct StabilityOptions {
+  int discrete_vertices = 1000;   ///< network for the discrete sweeps
+  int continuum_elements = 2000;  ///< mesh for the continuum sweeps
+  /// Force ladder (pN) for the order-departure sweep, continuation in this order.
+  std::vector<double> order_forces_pN = {0, 50, 100, 150, 200, 250, 300, 400, 500, 700, 1000};
+  /// Force ladder (pN) for the solver-budget sweep.
+  std::vector<double> budget_forces_pN = {200, 500, 1000, 2000, 5000};
+  int discrete_iteration_budget = 20000;  ///< L-BFGS iterations per force
+  std::vector<double> etas = {5e-2, 5e-3, 5e-4, 5e-5};
+  std::vector<double> qs = {1.0, 2.0};
+  double steric_force_pN = 88.0;
+  bool include_continuum = true;
+};
+
+/// One measured fact: study, method, a parameter and a metric, with a note.
+struct StabilityRow {
+  std::string study, method, parameter;
+  double parameter_value = 0;
+  std::string metric;
+  double value = 0;
+  std::string note;
+};
+
+/// D_A against force for each order and the full law (for the plot).
+struct OrderCurve {
+  std::string order;
+  std::vector<double> force_pN, axial_um, transverse_um, max_link_stretch;
+  std::vector<bool> converged;
+};
+
+struct StabilityResult {
+  std::vector<StabilityRow> rows;
+  std::vector<OrderCurve> orders;
+};
+
+StabilityResult run_stability(const StabilityOptions& options, const TradeoffResult* tradeoff,
+                              const ProgressSink& progress);
+
+/// Coarsest resolution of each method family within `tolerance` (relative, D_A) of the
+/// trade-off reference; appended as rows of study "resolution".
+void add_resolution_rows(const TradeoffResult& tradeoff, double tolerance,
+                         std::vector<StabilityRow>& rows);
+
+/// Writes DIR/stability.csv, stability.json and stability_orders.png.
+void write_stability(const StabilityResult& result, const std::string& dir);
+
+}  // namespace rbc
