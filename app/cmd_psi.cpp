@@ -1,0 +1,158 @@
+// `rbc psi`: tabulates the homogenised density Psi and its stress along a deformation path,
+// so the Taylor orders and the full WLC can be compared where they part (MODEL.md
+// section 3; Hartmann 2008 Sec. 3.4, Appendix A), or evaluates Psi at one deformation.
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "app/commands.hpp"
+#include "core/io.hpp"
+#include "homogenise/invariant_laws.hpp"
+#include "homogenise/lattice_density.hpp"
+#include "homogenise/membrane_inputs.hpp"
+
+namespace rbc::app {
+
+void add_membrane_options(CLI::App* cmd, MembraneInputs& m);  // cmd_moduli.cpp
+
+namespace {
+
+struct PsiCli {
+  MembraneInputs membrane;
+  std::string order = "full";
+  std::string curve = "uniaxial";
+  std::string out;
+  std::string deformation;
+  int points = 200;
+};
+
+/// F along a path at parameter s: uniaxial diag(s, 1), equibiaxial s I, simple shear
+/// [[1, s], [0, 1]]. Largest principal stretch l1(s) = s, s, s/2 + sqrt(1 + s^2/4).
+Eigen::Matrix2d path_deformation(const std::string& curve, double s) {
+  Eigen::Matrix2d F = Eigen::Matrix2d::Identity();
+  if (curve == "uniaxial")
+    F(0, 0) = s;
+  else if (curve == "equibiaxial")
+    F *= s;
+  else
+    F(0, 1) = s;
+  return F;
+}
+/// dF/ds along the path.
+Eigen::Matrix2d path_tangent(const std::string& curve) {
+  Eigen::Matrix2d D = Eigen::Matrix2d::Zero();
+  if (curve == "uniaxial")
+    D(0, 0) = 1;
+  else if (curve == "equibiaxial")
+    D = Eigen::Matrix2d::Identity();
+  else
+    D(0, 1) = 1;
+  return D;
+}
+
+Eigen::Matrix2d parse_deformation(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    std::size_t used = 0;
+    double x = 0;
+    try {
+      x = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(x))
+      throw std::invalid_argument("--deformation entry '" + item + "' is not a finite number");
+    v.push_back(x);
+  }
+  if (v.size() != 4)
+    throw std::invalid_argument("--deformation needs 4 numbers F11,F12,F21,F22, got " +
+                                std::to_string(v.size()));
+  Eigen::Matrix2d F;
+  F << v[0], v[1], v[2], v[3];
+  if (!(F.determinant() > 0))
+    throw std::invalid_argument("--deformation must have det F > 0, got det F = " +
+                                std::to_string(F.determinant()));
+  return F;
+}
+
+int run_psi(const PsiCli& o) {
+  const WlcParameters p = o.membrane.wlc();
+  const StericParameters s = o.membrane.steric();
+  const WlcExpansion e = wlc_expansion_from_string(o.order);
+  const IsotropicMembraneLaw law = make_membrane_law(p, s, e);
+  const WlcDensity w = make_wlc_density(p, e);
+  const double C = steric_constant(w, s);
+  if (!o.deformation.empty()) {
+    const Eigen::Matrix2d F = parse_deformation(o.deformation);
+    const Invariants I = invariants(F);
+    const InvariantDerivatives d = law.evaluate(I.i1, I.i2);
+    const Eigen::Matrix2d P = first_piola(F, d);
+    std::cout << std::setprecision(10) << "law: " << law.name << "\nI1 = " << I.i1
+              << ", I2 = " << I.i2 << "\nPsi = " << d.psi
+              << " pN/um (lattice at phi = 0: " << lattice_density(w, C, s, F) << ")\nP = [["
+              << P(0, 0) << ", " << P(0, 1) << "], [" << P(1, 0) << ", " << P(1, 1) << "]] pN/um\n";
+    if (o.out.empty()) return 0;
+  }
+  if (o.out.empty())
+    throw std::invalid_argument("--out FILE.csv is required (or give --deformation)");
+  if (o.points < 2 || o.points > 100000)
+    throw std::invalid_argument("--points must lie in [2, 100000], got " +
+                                std::to_string(o.points));
+  // Path end: where the full WLC diverges, largest principal stretch 1/x0.
+  const double lmax_stretch = 1.0 / w.x0;
+  const double s0 = o.curve == "shear" ? 0.0 : 1.0;
+  const double s1 = o.curve == "shear" ? lmax_stretch - 1.0 / lmax_stretch : lmax_stretch;
+  const Eigen::Matrix2d D = path_tangent(o.curve);
+  CsvTable t;
+  t.comments = {
+      "rbc psi: homogenised density along a " + o.curve + " path; law: " + law.name,
+      "Lbar " + std::to_string(o.membrane.lbar_nm) + " nm, Lmax " +
+          std::to_string(o.membrane.lmax_nm) + " nm, p " +
+          std::to_string(o.membrane.persistence_nm) + " nm, T " +
+          std::to_string(o.membrane.temperature_K) + " K, q " + std::to_string(s.q) + ", eta " +
+          std::to_string(s.eta),
+      "s: stretch (uniaxial F = diag(s,1), equibiaxial F = s I) or shear (F = [[1,s],[0,1]]);"
+      " the full WLC diverges at s = " +
+          std::to_string(s1),
+      "units: psi and stresses pN/um (= uN/m); P = dPsi/dF (first Piola); "
+      "dpsi_ds = P : dF/ds; psi_lattice: un-averaged lattice density at phi = 0"};
+  t.header = {"s",   "I1",  "I2",  "psi_pN_per_um", "dpsi_ds_pN_per_um",
+              "P11", "P12", "P21", "P22",           "psi_lattice_pN_per_um"};
+  for (int k = 0; k < o.points; ++k) {
+    const double sv = s0 + (s1 - s0) * k / o.points;  // stops one step short of the divergence
+    const Eigen::Matrix2d F = path_deformation(o.curve, sv);
+    const Invariants I = invariants(F);
+    const InvariantDerivatives d = law.evaluate(I.i1, I.i2);
+    const Eigen::Matrix2d P = first_piola(F, d);
+    t.rows.push_back({sv, I.i1, I.i2, d.psi, (P.array() * D.array()).sum(), P(0, 0), P(0, 1),
+                      P(1, 0), P(1, 1), lattice_density(w, C, s, F)});
+  }
+  write_csv(o.out, t);
+  std::cout << "wrote " << o.points << " rows (" << law.name << ", " << o.curve << ", s from " << s0
+            << " to " << t.rows.back()[0] << ") to " << o.out << "\n";
+  return 0;
+}
+
+}  // namespace
+
+void add_psi_command(CLI::App& app, Action& action) {
+  auto o = std::make_shared<PsiCli>();
+  auto* cmd = app.add_subcommand("psi", "Tabulate the homogenised density Psi and its stress");
+  add_membrane_options(cmd, o->membrane);
+  cmd->add_option("--order", o->order, "2 | 3 | 4 | full (Taylor order of V, or the full WLC)")
+      ->check(CLI::IsMember({"2", "3", "4", "full"}))
+      ->capture_default_str();
+  cmd->add_option("--curve", o->curve, "uniaxial | equibiaxial | shear")
+      ->check(CLI::IsMember({"uniaxial", "equibiaxial", "shear"}))
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "CSV file to write (atomically)");
+  cmd->add_option("--points", o->points, "rows along the path")->capture_default_str();
+  cmd->add_option("--deformation", o->deformation,
+                  "evaluate at one F given as F11,F12,F21,F22 (det F > 0) and print");
+  cmd->callback([o, &action] { action = [o] { return run_psi(*o); }; });
+}
+
+}  // namespace rbc::app

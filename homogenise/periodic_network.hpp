@@ -1,0 +1,130 @@
+#pragma once
+// The numerical cell problem (MODEL.md section 3; Hartmann 2008 Sec. 3.2-3.3, Theorems 2-3):
+// a periodic planar spectrin network carrying the SAME energy units as discrete/ (one
+// link = link_energy, one face = steric_face_energy, positions embedded at z = 0), with
+// the macroscopic deformation F imposed through the periodic box,
+//   x_i = F X_i + u_i,   edge (i -> image of j): d = F D_e + u_j - u_i,
+// internal displacements u relaxed by Newton's method (vertex 0 pinned: translations),
+//   Psi_hom(F) = min_u E(F, u) / |det box|                                  [pN/um],
+// and the relaxed tangent by the Schur complement over the internal degrees of freedom,
+//   d2Psi_hom/dF2 = (E_FF - E_Fu E_uu^{-1} E_uF) / |det box|   (envelope theorem).
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <array>
+#include <vector>
+
+#include "core/lbfgs.hpp"
+#include "discrete/steric_energy.hpp"
+#include "discrete/wlc.hpp"
+#include "homogenise/moduli.hpp"
+
+namespace rbc {
+
+/// One link from vertex i to a periodic image of vertex j: reference vector D (um) and
+/// rest length Lbar_e = |D|.
+struct PeriodicEdge {
+  int i = 0, j = 0;
+  Eigen::Vector2d ref = Eigen::Vector2d::Zero();
+  double lbar_um = 0.0;
+};
+
+/// One counter-clockwise face (v0, v1, v2) with reference edge vectors e1 = v1 - v0 and
+/// e2 = v2 - v0 between the periodic images used (um) and rest area Abar_f (um^2).
+struct PeriodicFace {
+  std::array<int, 3> v{};
+  Eigen::Vector2d e1 = Eigen::Vector2d::Zero(), e2 = Eigen::Vector2d::Zero();
+  double abar_um2 = 0.0;
+};
+
+/// A periodic planar network, every element stress-free at its own reference length/area.
+struct PeriodicNetwork {
+  Eigen::Matrix2d box = Eigen::Matrix2d::Identity();  ///< columns: the two periods (um)
+  Eigen::Matrix2Xd points;                            ///< reference positions, 2 x N (um)
+  std::vector<PeriodicEdge> edges;
+  std::vector<PeriodicFace> faces;
+  double reference_area_um2() const { return std::abs(box.determinant()); }
+  int vertex_count() const { return static_cast<int>(points.cols()); }
+};
+
+/// The n x n rhombus of the hexagonal lattice with spacing a (um): vertices i g1 + j g2,
+/// g1 = a (1, 0), g2 = a (1/2, sqrt3/2), 3 n^2 links, 2 n^2 faces, box (n g1, n g2).
+/// n >= 1 (n = 1 and 2 have links to their own periodic images; still a valid cell).
+PeriodicNetwork make_hexagonal_patch(int n, double spacing_um);
+
+/// Number of links at each vertex (size N).
+std::vector<int> vertex_degrees(const PeriodicNetwork& net);
+
+/// The in-plane material of the network: V (with expansion), steric parameters and C.
+struct NetworkMaterial {
+  WlcDensity w;
+  StericParameters steric;
+  double C_pN_per_um = 0.0;
+};
+/// Validates p and s; C from the stress-free condition (discrete/steric_energy.hpp).
+NetworkMaterial make_network_material(const WlcParameters& p, const StericParameters& s,
+                                      WlcExpansion expansion = WlcExpansion::full);
+
+/// F flattened row-major: (F00, F01, F10, F11).
+using FlatF = Eigen::Vector4d;
+
+/// E(F, U) in pN um (+infinity if a link reaches Lmax or a face has area <= 0).
+/// grad_u (2 x N, pN) and grad_F (dE/dF, pN um) are written when non-null and E is finite.
+double patch_energy(const PeriodicNetwork& net, const NetworkMaterial& m, const Eigen::Matrix2d& F,
+                    const Eigen::Matrix2Xd& U, Eigen::Matrix2Xd* grad_u = nullptr,
+                    Eigen::Matrix2d* grad_F = nullptr);
+
+/// Second derivatives of E at (F, U) over the reduced unknowns (u_1..u_{N-1}, vertex 0
+/// pinned; 2(N-1) of them, vertex k at 2(k-1)) and F (FlatF order):
+/// uu (sparse, pN/um), uf (pN), ff (pN um). Finite only where E is.
+struct PatchHessian {
+  Eigen::SparseMatrix<double> uu;
+  Eigen::MatrixXd uf;
+  Eigen::Matrix4d ff = Eigen::Matrix4d::Zero();
+};
+PatchHessian patch_hessian(const PeriodicNetwork& net, const NetworkMaterial& m,
+                           const Eigen::Matrix2d& F, const Eigen::Matrix2Xd& U);
+
+struct RelaxOptions {
+  double force_tolerance_pN = 1e-10;  ///< converged when every net vertex force is below this
+  int max_iterations = 200;           ///< Newton iterations before giving up
+};
+
+/// Result of relaxing the internal positions at fixed F.
+struct RelaxResult {
+  MinimiserStatus status = MinimiserStatus::max_iterations;
+  int iterations = 0;
+  double energy_pNum = 0.0;
+  double residual_pN = 0.0;          ///< largest net vertex force at the returned U
+  Eigen::Matrix2Xd U;                ///< relaxed displacements (vertex 0 at zero)
+  double max_displacement_um = 0.0;  ///< max_i |u_i - u_0|: distance from the affine map
+  bool converged() const { return status == MinimiserStatus::converged; }
+};
+
+/// Newton's method with a shifted sparse LDL^T where the Hessian is indefinite, a
+/// feasibility-aware backtracking line search (E = +infinity halves the step). U0 empty
+/// means start from the affine map (U = 0). Never returns an infeasible U.
+RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
+                        const Eigen::Matrix2d& F, Eigen::Matrix2Xd U0 = {},
+                        const RelaxOptions& options = {});
+
+/// Homogenised density, stress and tangents at F.
+struct HomogenisedState {
+  double psi_pN_per_um = 0.0;       ///< E/|box| at the relaxed U
+  Eigen::Matrix2d stress;           ///< dPsi_hom/dF (first Piola, pN/um)
+  Eigen::Matrix4d relaxed_tangent;  ///< Schur complement / |box| (pN/um), FlatF order
+  Eigen::Matrix4d affine_tangent;   ///< E_FF / |box| at the same U (no relaxation)
+  RelaxResult relax;
+};
+/// Relaxes at F (from U0), then forms the tangents. The relaxation status is returned,
+/// not thrown; callers report a non-converged state with its residual.
+HomogenisedState homogenise_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
+                                  const Eigen::Matrix2d& F, Eigen::Matrix2Xd U0 = {},
+                                  const RelaxOptions& options = {});
+
+/// Linear moduli from a tangent T (FlatF order) at the rest state:
+///   mu = (T[D1, D1] + T[D2, D2]) / 8, D1 = diag(1, -1), D2 = [[0, 1], [1, 0]] (the two pure
+///   shears; their mean is the isotropic part), K = T[I, I] / 4 (equibiaxial), i.e.
+///   4 mu and 4 K are d2Psi/ds2 along F = I + s D.
+LinearModuli moduli_from_tangent(const Eigen::Matrix4d& T);
+
+}  // namespace rbc
