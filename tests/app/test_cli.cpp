@@ -1,0 +1,95 @@
+// The command-line contract: bad input gives exit code 2 and one clear line, never a
+// crash or a partial file; good input gives the documented fields.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace {
+namespace fs = std::filesystem;
+
+struct CommandRun {
+  int exit_code;
+  std::string output;  // stdout and stderr
+};
+
+CommandRun rbc(const std::string& args) {
+  const std::string cmd = std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 512> buf{};
+  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::string fresh_dir(const std::string& name) {
+  const std::string dir = std::string(RBC_BINARY_DIR) + "/test_output/cli_" + name;
+  fs::remove_all(dir);
+  return dir;
+}
+
+TEST(Cli, BadInputExitsTwoWithAClearMessage) {
+  struct Case {
+    const char* args;
+    const char* expect;  // a fragment the message must contain
+  };
+  const Case cases[] = {
+      {"stretch --no-such-option", "no-such-option"},
+      {"stretch --force 0,abc -n 200", "abc"},
+      {"stretch --force -5 -n 200", "-5"},
+      {"stretch --force 10 -n 50", "50"},
+      {"stretch --force 10 -n 200 --lmax 60", "Lmax"},
+      {"stretch --force 10 -n 200 --eta -1", "eta"},
+      {"stretch --force 10 -n 200 --bending nope", "nope"},
+      {"stretch --force 10 --model nope", "nope"},
+      {"fig7 --force 10,5 --method discrete:150 --out /tmp/rbc_cli_never", "increase"},
+      {"fig7 --method bogus:1", "bogus"},
+      {"stretch --force 10 -n 200 --out /proc/rbc_cannot_write_here", "rbc_cannot_write_here"},
+  };
+  for (const auto& c : cases) {
+    const CommandRun r = rbc(c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find("error"), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.args << "\n" << r.output;
+  }
+}
+
+TEST(Cli, FailedRunLeavesNoPartialFiles) {
+  const std::string dir = fresh_dir("partial");
+  const CommandRun r = rbc("stretch --force 10,nan -n 200 --out " + dir);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  if (fs::exists(dir)) {
+    EXPECT_TRUE(fs::is_empty(dir));
+  }
+}
+
+TEST(Cli, NonEmptyOutputDirectoryIsRefusedWithoutOverwrite) {
+  const std::string dir = fresh_dir("nonempty");
+  fs::create_directories(dir);
+  std::FILE* f = std::fopen((dir + "/keep.txt").c_str(), "w");
+  std::fclose(f);
+  const CommandRun r = rbc("fig7 --method discrete:150 --force 0,50 --out " + dir);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("not empty"), std::string::npos);
+}
+
+TEST(Cli, StretchJsonHasTheDocumentedFieldsAndWritesFilesThatOpen) {
+  const std::string dir = fresh_dir("stretch");
+  const CommandRun r = rbc("stretch --model discrete --force 0,50 -n 200 --json --quiet --out " + dir);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  ASSERT_EQ(j.size(), 2u);
+  for (const char* key : {"force_pN", "axial_um", "transverse_um", "energy_pNum", "iterations",
+                          "converged", "wall_s", "vertices"})
+    EXPECT_TRUE(j[0].contains(key)) << key;
+  EXPECT_GT(j[1]["axial_um"].get<double>(), j[0]["axial_um"].get<double>());
+  for (const char* f : {"stretch.csv", "run.json", "shape_0.0pN.h5", "shape_0.0pN.xdmf",
+                        "shape_50.0pN.h5", "shape_50.0pN.xdmf"})
+    EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
+}
+
+}  // namespace
