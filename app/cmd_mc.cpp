@@ -1,0 +1,347 @@
+// `rbc mc`: Metropolis Monte Carlo of the spectrin network at finite temperature (issue 6), with
+// means and blocking errors of D_A, D_T and the energy, checkpoint/restart and time series.
+//
+// Start: the zero-temperature equilibrium at the requested force (discrete/stretch.hpp
+// solve_equilibrium, by continuation in steps of at most 40 pN); its area/volume multipliers are
+// then held fixed while sampling, so the chain at T -> 0 collapses onto that equilibrium and the
+// reported thermal shift is <D> - D(T = 0). --start rest starts from the rest shape instead
+// (same multipliers). The WLC links keep their own temperature (300 K, spectrin level);
+// --temperature sets the sampling temperature only.
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "app/cli_util.hpp"
+#include "app/commands.hpp"
+#include "core/geometry.hpp"
+#include "core/h5file.hpp"
+#include "core/io.hpp"
+#include "core/rest_shape.hpp"
+#include "core/units.hpp"
+#include "discrete/mc_checkpoint.hpp"
+#include "discrete/mc_run.hpp"
+#include "discrete/stretch.hpp"
+
+namespace rbc::app {
+
+namespace {
+
+struct McCli {
+  int vertices = 500;
+  double force_pN = 0.0;
+  double temperature_K = 300.0;
+  long long sweeps = 2000;
+  unsigned long seed = 1;
+  int streams = 0;  // 0: one per OpenMP thread
+  double adapt_fraction = 0.2;
+  int sample_every = 1;
+  std::string checkpoint, resume, out, start = "equilibrium";
+  long long checkpoint_every = 100;
+  long long snapshot_every = 0;
+  bool json = false, quiet = false;
+};
+
+/// Runs its scope on one OpenMP thread. The parallel reductions in make_rest_shape and
+/// network_energy (hence L-BFGS) sum in thread-arrival order, so their last bits vary from run
+/// to run; the rest shape (checked by the checkpoint fingerprint) and the zero-temperature start
+/// must not, or the same seed would not give the same chain.
+struct SerialScope {
+  int saved = omp_get_max_threads();
+  SerialScope() { omp_set_num_threads(1); }
+  ~SerialScope() { omp_set_num_threads(saved); }
+  SerialScope(const SerialScope&) = delete;
+  SerialScope& operator=(const SerialScope&) = delete;
+};
+
+void write_series(const std::string& dir, const McRun& run) {
+  CsvTable t;
+  t.comments = {"rbc mc time series: one row per recorded sweep",
+                "force_pN " + std::to_string(run.setup().force_pN) + ", temperature_K " +
+                    std::to_string(run.setup().sampler.temperature_K) + ", adaptive sweeps " +
+                    std::to_string(run.setup().sampler.adapt_sweeps) +
+                    " (rows with sweep <= that are equilibration)"};
+  t.header = mc_sample_columns();
+  std::vector<double> flat_rows;
+  for (const McSample& s : run.series()) {
+    t.rows.push_back(to_row(s));
+    flat_rows.insert(flat_rows.end(), t.rows.back().begin(), t.rows.back().end());
+  }
+  write_csv(dir + "/mc_series.csv", t);
+  const std::string path = dir + "/mc_series.h5";
+  const std::string tmp = temporary_path_for(path);
+  {
+    H5File h = H5File::create(tmp);
+    if (!flat_rows.empty())
+      h.write("/series", flat_rows.data(), hsize_t(run.series().size()), kMcSampleColumns);
+    std::string cols;
+    for (const auto& c : mc_sample_columns()) cols += (cols.empty() ? "" : ",") + c;
+    h.write_attribute("columns", cols);
+    h.write_attribute("force_pN", run.setup().force_pN);
+    h.write_attribute("temperature_K", run.setup().sampler.temperature_K);
+  }
+  commit_file(tmp, path);
+}
+
+void write_snapshot(const std::string& dir, const Network& net, const McRun& run) {
+  const Positions& x = run.sampler().positions();
+  std::ostringstream name;
+  name << dir << "/mc_snapshot_" << std::setw(8) << std::setfill('0')
+       << run.sampler().sweeps_done();
+  MeshSnapshot s{x,
+                 net.topo.faces,
+                 {{"displacement_x_um", (x - net.rest).row(0).transpose()}},
+                 {},
+                 {{"force_pN", run.setup().force_pN},
+                  {"temperature_K", run.setup().sampler.temperature_K},
+                  {"sweep", double(run.sampler().sweeps_done())}}};
+  write_mesh_snapshot(name.str(), s);
+}
+
+nlohmann::json stat_json(const BlockingResult& b) {
+  return {{"mean", b.mean},
+          {"error", b.error},
+          {"std", std::sqrt(b.variance)},
+          {"inefficiency", b.inefficiency},
+          {"blocking_converged", b.converged}};
+}
+
+int run_mc(const McCli& o, bool force_given, bool temperature_given, bool seed_given) {
+  if (!(o.temperature_K >= 0) || !std::isfinite(o.temperature_K))
+    throw std::invalid_argument("--temperature must be >= 0 K, got " +
+                                std::to_string(o.temperature_K));
+  if (o.sweeps < 0)
+    throw std::invalid_argument("--sweeps must be >= 0, got " + std::to_string(o.sweeps));
+  if (!(o.force_pN >= 0) || !std::isfinite(o.force_pN))
+    throw std::invalid_argument("--force must be finite and >= 0 pN, got " +
+                                std::to_string(o.force_pN));
+  if (!(o.adapt_fraction >= 0 && o.adapt_fraction < 1))
+    throw std::invalid_argument("--adapt-fraction must lie in [0, 1), got " +
+                                std::to_string(o.adapt_fraction));
+  if (o.checkpoint_every < 1) throw std::invalid_argument("--checkpoint-every must be >= 1 sweep");
+  if (o.snapshot_every < 0) throw std::invalid_argument("--snapshot-every must be >= 0");
+  if (o.start != "equilibrium" && o.start != "rest")
+    throw std::invalid_argument("--start '" + o.start + "' is not one of equilibrium, rest");
+  if (!o.out.empty()) ensure_output_directory(o.out);
+  const ProgressSink progress = stderr_progress(o.quiet);
+
+  RestShapeOptions ro;
+  ro.target_vertices = o.vertices;
+  const Network net = [&] {
+    SerialScope serial;  // the rest shape must be identical on resume (network fingerprint)
+    return build_network(make_rest_shape(ro), NetworkParameters{});
+  }();
+  report(progress, "network: " + std::to_string(net.topo.num_vertices) + " vertices");
+
+  std::unique_ptr<McRun> run;
+  if (!o.resume.empty()) {
+    McCheckpoint cp = read_mc_checkpoint(o.resume, net);
+    auto differs = [](double a, double b) { return std::abs(a - b) > 1e-12 * (1 + std::abs(b)); };
+    if (force_given && differs(o.force_pN, cp.setup.force_pN))
+      throw std::invalid_argument("checkpoint '" + o.resume + "' was run at " +
+                                  std::to_string(cp.setup.force_pN) + " pN, not " +
+                                  std::to_string(o.force_pN) + " pN");
+    if (temperature_given && differs(o.temperature_K, cp.setup.sampler.temperature_K))
+      throw std::invalid_argument("checkpoint '" + o.resume + "' was run at " +
+                                  std::to_string(cp.setup.sampler.temperature_K) + " K, not " +
+                                  std::to_string(o.temperature_K) + " K");
+    if (seed_given && o.seed != cp.setup.sampler.seed)
+      throw std::invalid_argument("checkpoint '" + o.resume + "' was seeded with " +
+                                  std::to_string(cp.setup.sampler.seed));
+    report(progress, "resuming at sweep " + std::to_string(cp.chain.sweep) + " from " + o.resume);
+    run = std::make_unique<McRun>(net, cp.setup, cp.chain, cp.series);
+  } else {
+    McRunSetup setup;
+    setup.force_pN = o.force_pN;
+    setup.sampler.temperature_K = o.temperature_K;
+    setup.sampler.seed = o.seed;
+    setup.sampler.streams = o.streams > 0 ? o.streams : omp_get_max_threads();
+    setup.sampler.adapt_sweeps =
+        static_cast<int>(std::llround(o.adapt_fraction * double(o.sweeps)));
+    setup.sample_every = o.sample_every;
+    setup.validate();
+    // Zero-temperature equilibrium by continuation: start state, multipliers and reference.
+    Positions x = net.rest;
+    ConstraintMultipliers lambda;
+    StretchPoint eq;
+    // One thread (see SerialScope) for a bit-reproducible start state.
+    SerialScope serial;
+    const int steps = std::max(1, static_cast<int>(std::ceil(o.force_pN / 40.0)));
+    for (int k = 1; k <= steps; ++k) {
+      eq = solve_equilibrium(net, o.force_pN * k / steps, x, lambda, StretchOptions{});
+      if (!eq.converged) {
+        std::cerr << "rbc: zero-temperature equilibrium at " << eq.force_pN
+                  << " pN did not converge: " << eq.status << ", residual " << eq.residual_pN
+                  << " pN\n";
+        return 1;
+      }
+    }
+    report(progress, "zero-temperature equilibrium: D_A = " + std::to_string(eq.axial_um) +
+                         " um, D_T = " + std::to_string(eq.transverse_um) + " um");
+    setup.multipliers = lambda;
+    setup.reference_axial_um = eq.axial_um;
+    setup.reference_transverse_um = eq.transverse_um;
+    run = std::make_unique<McRun>(net, setup, o.start == "rest" ? net.rest : x);
+  }
+
+  const long long first_sweep = run->sampler().sweeps_done();
+  auto write_checkpoint = [&](const McRun& r) {
+    if (!o.checkpoint.empty())
+      write_mc_checkpoint(o.checkpoint, net, McCheckpoint{r.setup(), r.state(), r.series()});
+  };
+  if (!o.out.empty()) write_snapshot(o.out, net, *run);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto last_report = t0;
+  run->advance(o.sweeps, [&](const McRun& r) {
+    const long long s = r.sampler().sweeps_done();
+    if (s % o.checkpoint_every == 0) write_checkpoint(r);
+    if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
+      write_snapshot(o.out, net, r);
+    const auto now = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
+      last_report = now;
+      std::ostringstream m;
+      m << "sweep " << s << "/" << o.sweeps << ", step " << r.sampler().step_um() << " um";
+      if (!r.series().empty())
+        m << ", acceptance " << r.series().back().acceptance << ", D_A "
+          << r.series().back().axial_um << " um";
+      report(progress, m.str());
+    }
+    return true;
+  });
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  write_checkpoint(*run);
+  if (!o.out.empty()) {
+    write_series(o.out, *run);
+    if (o.snapshot_every == 0 || run->sampler().sweeps_done() % o.snapshot_every != 0)
+      write_snapshot(o.out, net, *run);
+  }
+
+  const long long done = run->sampler().sweeps_done() - first_sweep;
+  long long mobile = 0;
+  for (const auto& c : run->sampler().colours()) mobile += static_cast<long long>(c.size());
+  const double sweeps_per_s = wall > 0 ? double(done) / wall : 0.0;
+  const McRunSetup& su = run->setup();
+  nlohmann::json j = {{"vertices", net.topo.num_vertices},
+                      {"force_pN", su.force_pN},
+                      {"temperature_K", su.sampler.temperature_K},
+                      {"kT_pNum", units::thermal_energy_pNum(su.sampler.temperature_K)},
+                      {"seed", su.sampler.seed},
+                      {"streams", su.sampler.streams},
+                      {"threads", omp_get_max_threads()},
+                      {"colours", run->sampler().colours().size()},
+                      {"sweeps", run->sampler().sweeps_done()},
+                      {"sweeps_this_run", done},
+                      {"adaptive_sweeps", su.sampler.adapt_sweeps},
+                      {"step_um", run->sampler().step_um()},
+                      {"wall_s", wall},
+                      {"sweeps_per_s", sweeps_per_s},
+                      {"moves_per_s", sweeps_per_s * double(mobile)},
+                      {"reference_axial_um", su.reference_axial_um},
+                      {"reference_transverse_um", su.reference_transverse_um},
+                      {"running_total_drift_area_um2", run->sampler().max_area_drift_um2()},
+                      {"running_total_drift_volume_um3", run->sampler().max_volume_drift_um3()}};
+  bool have_stats = true;
+  McSummary s;
+  try {
+    s = run->summarise();
+  } catch (const std::invalid_argument& e) {
+    have_stats = false;
+    j["statistics"] = e.what();
+  }
+  if (have_stats) {
+    j["samples"] = s.samples;
+    j["discarded_transient"] = s.discarded;
+    j["acceptance"] = s.acceptance;
+    j["energy_pNum"] = stat_json(s.energy);
+    j["axial_um"] = stat_json(s.axial);
+    j["transverse_um"] = stat_json(s.transverse);
+    j["area_um2"] = stat_json(s.area);
+    j["volume_um3"] = stat_json(s.volume);
+    j["thermal_shift_axial_um"] = s.axial.mean - su.reference_axial_um;
+    j["thermal_shift_transverse_um"] = s.transverse.mean - su.reference_transverse_um;
+    j["max_area_drift"] = s.max_area_drift;
+    j["max_volume_drift"] = s.max_volume_drift;
+  }
+  if (!o.out.empty()) write_text_atomic(o.out + "/mc_summary.json", j.dump(2) + "\n");
+  if (o.json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << std::setprecision(6) << "Monte Carlo: N = " << net.topo.num_vertices
+            << ", F = " << su.force_pN << " pN, T = " << su.sampler.temperature_K << " K, "
+            << run->sampler().sweeps_done() << " sweeps (" << su.sampler.adapt_sweeps
+            << " adaptive), " << su.sampler.streams << " streams, "
+            << run->sampler().colours().size() << " colours\n"
+            << "speed: " << sweeps_per_s << " sweeps/s, " << sweeps_per_s * double(mobile)
+            << " moves/s on " << omp_get_max_threads() << " threads\n";
+  if (!have_stats) {
+    std::cout << "statistics: " << j["statistics"].get<std::string>() << "\n";
+    return 0;
+  }
+  auto line = [](const char* name, const BlockingResult& b, const char* unit) {
+    std::cout << "  " << std::left << std::setw(8) << name << std::right << b.mean << " +- "
+              << b.error << " " << unit << "  (std " << std::sqrt(b.variance) << ", g "
+              << b.inefficiency << (b.converged ? "" : ", blocking not converged") << ")\n";
+  };
+  std::cout << "production samples " << s.samples << ", transient discarded " << s.discarded
+            << ", acceptance " << s.acceptance << ", step " << run->sampler().step_um() << " um\n";
+  line("D_A", s.axial, "um");
+  line("D_T", s.transverse, "um");
+  line("energy", s.energy, "pN um");
+  line("area", s.area, "um^2");
+  line("volume", s.volume, "um^3");
+  std::cout << "thermal shift vs T = 0: D_A " << s.axial.mean - su.reference_axial_um << " um, D_T "
+            << s.transverse.mean - su.reference_transverse_um << " um\n"
+            << "largest drift |A - A0|/A0 = " << s.max_area_drift
+            << ", |V - V0|/V0 = " << s.max_volume_drift << "\n";
+  return 0;
+}
+
+}  // namespace
+
+void add_mc_command(CLI::App& app, Action& action) {
+  auto o = std::make_shared<McCli>();
+  auto* cmd =
+      app.add_subcommand("mc", "Metropolis Monte Carlo of the spectrin network at temperature T");
+  cmd->add_option("--vertices,-n", o->vertices, "vertex count N (100 to 40,000)")
+      ->capture_default_str();
+  auto* force =
+      cmd->add_option("--force,-f", o->force_pN, "total bead force F (pN)")->capture_default_str();
+  auto* temp = cmd->add_option("--temperature,-T", o->temperature_K, "sampling temperature (K)")
+                   ->capture_default_str();
+  cmd->add_option("--sweeps,-s", o->sweeps, "total sweeps (one move per vertex each)")
+      ->capture_default_str();
+  auto* seed =
+      cmd->add_option("--seed", o->seed, "seed of the mt19937 streams")->capture_default_str();
+  cmd->add_option("--streams", o->streams,
+                  "RNG streams = parallel chunks (0: one per thread); the chain depends on it")
+      ->capture_default_str();
+  cmd->add_option("--adapt-fraction", o->adapt_fraction,
+                  "fraction of the sweeps with adaptive step (equilibration)")
+      ->capture_default_str();
+  cmd->add_option("--sample-every", o->sample_every, "sweeps between recorded samples")
+      ->capture_default_str();
+  cmd->add_option("--start", o->start, "equilibrium | rest")->capture_default_str();
+  cmd->add_option("--checkpoint", o->checkpoint, "write the chain state to FILE (HDF5, atomic)");
+  cmd->add_option("--checkpoint-every", o->checkpoint_every, "sweeps between checkpoints")
+      ->capture_default_str();
+  cmd->add_option("--resume", o->resume, "continue the chain stored in FILE");
+  cmd->add_option("--out", o->out,
+                  "write DIR/mc_series.csv/.h5, mc_summary.json, snapshots (.h5/.xdmf)");
+  cmd->add_option("--snapshot-every", o->snapshot_every,
+                  "sweeps between snapshots (0: start and end)")
+      ->capture_default_str();
+  cmd->add_flag("--json", o->json, "print the summary as JSON");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  cmd->callback([o, force, temp, seed, &action] {
+    const bool fg = force->count() > 0, tg = temp->count() > 0, sg = seed->count() > 0;
+    action = [o, fg, tg, sg] { return run_mc(*o, fg, tg, sg); };
+  });
+}
+
+}  // namespace rbc::app

@@ -1,0 +1,189 @@
+#include "discrete/mc_checkpoint.hpp"
+
+#include <gsl/gsl_rng.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/h5file.hpp"
+#include "core/io.hpp"
+
+namespace rbc {
+
+namespace {
+
+constexpr long long kFormat = 1;
+
+struct Fnv1a {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  void add(const void* data, std::size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) {
+      h ^= p[i];
+      h *= 0x100000001b3ull;
+    }
+  }
+};
+
+std::string hex(std::uint64_t v) {
+  std::ostringstream s;
+  s << std::hex << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::uint64_t network_fingerprint(const Network& net) {
+  Fnv1a f;
+  const long long n = net.topo.num_vertices, nf = net.topo.num_faces();
+  f.add(&n, sizeof n);
+  f.add(&nf, sizeof nf);
+  f.add(net.topo.faces.data(), sizeof(int) * std::size_t(net.topo.faces.size()));
+  f.add(net.rest.data(), sizeof(double) * std::size_t(net.rest.size()));
+  return f.h;
+}
+
+void write_mc_checkpoint(const std::string& path, const Network& net, const McCheckpoint& cp) {
+  const std::string tmp = temporary_path_for(path);
+  try {
+    H5File h = H5File::create(tmp);
+    const McChainState& c = cp.chain;
+    h.write("/positions_um", c.x.data(), hsize_t(c.x.cols()), 3);
+    const std::size_t bytes = c.rng_state.empty() ? 0 : c.rng_state[0].size();
+    const std::size_t words = (bytes + 7) / 8;
+    std::vector<unsigned long long> packed(c.rng_state.size() * words, 0ull);
+    for (std::size_t s = 0; s < c.rng_state.size(); ++s) {
+      if (c.rng_state[s].size() != bytes)
+        throw std::invalid_argument("RNG streams of unequal state size");
+      std::memcpy(packed.data() + s * words, c.rng_state[s].data(), bytes);
+    }
+    h.write("/rng_state", packed.data(), hsize_t(c.rng_state.size()), hsize_t(words));
+    std::vector<double> rows;
+    for (const McSample& s : cp.series) {
+      const std::vector<double> r = to_row(s);
+      rows.insert(rows.end(), r.begin(), r.end());
+    }
+    if (cp.series.empty()) rows.assign(kMcSampleColumns, 0.0);  // HDF5 has no empty dataset here
+    h.write("/series", rows.data(), hsize_t(cp.series.empty() ? 1 : cp.series.size()),
+            kMcSampleColumns);
+    h.write_attribute("series_rows", static_cast<long long>(cp.series.size()));
+    h.write_attribute("format", kFormat);
+    h.write_attribute("fingerprint", hex(network_fingerprint(net)));
+    h.write_attribute("vertices", static_cast<long long>(net.topo.num_vertices));
+    h.write_attribute("faces", static_cast<long long>(net.topo.num_faces()));
+    h.write_attribute("sweep", c.sweep);
+    h.write_attribute("step_um", c.step_um);
+    h.write_attribute("rng_type", std::string(gsl_rng_mt19937->name));
+    h.write_attribute("rng_bytes", static_cast<long long>(bytes));
+    const McRunSetup& u = cp.setup;
+    h.write_attribute("temperature_K", u.sampler.temperature_K);
+    h.write_attribute("force_pN", u.force_pN);
+    h.write_attribute("lambda_area_pN_per_um", u.multipliers.area_pN_per_um);
+    h.write_attribute("lambda_volume_pN_per_um2", u.multipliers.volume_pN_per_um2);
+    h.write_attribute("seed", std::to_string(u.sampler.seed));
+    h.write_attribute("streams", static_cast<long long>(u.sampler.streams));
+    h.write_attribute("initial_step_um", u.sampler.initial_step_um);
+    h.write_attribute("adapt_sweeps", static_cast<long long>(u.sampler.adapt_sweeps));
+    h.write_attribute("target_acceptance", u.sampler.target_acceptance);
+    h.write_attribute("adapt_gain", u.sampler.adapt_gain);
+    h.write_attribute("sample_every", static_cast<long long>(u.sample_every));
+    h.write_attribute("reference_axial_um", u.reference_axial_um);
+    h.write_attribute("reference_transverse_um", u.reference_transverse_um);
+    std::vector<int> mobile = u.sampler.mobile;
+    if (mobile.empty()) mobile.push_back(-1);  // -1: every vertex moves
+    h.write("/mobile", mobile.data(), hsize_t(mobile.size()), 1);
+    h.close();
+    commit_file(tmp, path);
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw;
+  }
+}
+
+McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
+  const H5File h = H5File::open_read(path);
+  auto corrupt = [&](const std::string& what) {
+    return std::runtime_error("checkpoint '" + path + "' is corrupt: " + what);
+  };
+  if (h.read_attribute_int("format") != kFormat)
+    throw corrupt("unknown format version " + std::to_string(h.read_attribute_int("format")));
+  const long long nv = h.read_attribute_int("vertices"), nf = h.read_attribute_int("faces");
+  const std::string fp = h.read_attribute_string("fingerprint");
+  if (nv != net.topo.num_vertices || nf != net.topo.num_faces() ||
+      fp != hex(network_fingerprint(net)))
+    throw std::invalid_argument("checkpoint '" + path + "' belongs to another network (" +
+                                std::to_string(nv) + " vertices, " + std::to_string(nf) +
+                                " faces, fingerprint " + fp + "; this network has " +
+                                std::to_string(net.topo.num_vertices) + " vertices, " +
+                                std::to_string(net.topo.num_faces()) + " faces, fingerprint " +
+                                hex(network_fingerprint(net)) + ")");
+  McCheckpoint cp;
+  std::vector<double> pos;
+  auto shape = h.read("/positions_um", pos);
+  if (shape.first != hsize_t(nv) || shape.second != 3)
+    throw corrupt("positions have the wrong shape");
+  cp.chain.x = Eigen::Map<const Eigen::Matrix3Xd>(pos.data(), 3, nv);
+  if (!cp.chain.x.allFinite()) throw corrupt("positions are not finite");
+  if (h.read_attribute_string("rng_type") != gsl_rng_mt19937->name)
+    throw corrupt("RNG type is not " + std::string(gsl_rng_mt19937->name));
+  const long long bytes = h.read_attribute_int("rng_bytes");
+  if (bytes != static_cast<long long>(gsl_rng_mt19937->size))
+    throw corrupt("RNG state has " + std::to_string(bytes) + " bytes, mt19937 needs " +
+                  std::to_string(gsl_rng_mt19937->size));
+  std::vector<unsigned long long> packed;
+  shape = h.read("/rng_state", packed);
+  const std::size_t words = (std::size_t(bytes) + 7) / 8;
+  if (shape.second != words || shape.first < 1) throw corrupt("RNG state has the wrong shape");
+  for (hsize_t s = 0; s < shape.first; ++s) {
+    std::vector<unsigned char> b(std::size_t(bytes), 0);
+    std::memcpy(b.data(), packed.data() + s * words, std::size_t(bytes));
+    cp.chain.rng_state.push_back(std::move(b));
+  }
+  cp.chain.sweep = h.read_attribute_int("sweep");
+  cp.chain.step_um = h.read_attribute_double("step_um");
+  McRunSetup& u = cp.setup;
+  u.sampler.temperature_K = h.read_attribute_double("temperature_K");
+  u.force_pN = h.read_attribute_double("force_pN");
+  u.multipliers.area_pN_per_um = h.read_attribute_double("lambda_area_pN_per_um");
+  u.multipliers.volume_pN_per_um2 = h.read_attribute_double("lambda_volume_pN_per_um2");
+  try {
+    u.sampler.seed = std::stoul(h.read_attribute_string("seed"));
+  } catch (const std::logic_error&) {
+    throw corrupt("seed is not a number");
+  }
+  u.sampler.streams = static_cast<int>(h.read_attribute_int("streams"));
+  u.sampler.initial_step_um = h.read_attribute_double("initial_step_um");
+  u.sampler.adapt_sweeps = static_cast<int>(h.read_attribute_int("adapt_sweeps"));
+  u.sampler.target_acceptance = h.read_attribute_double("target_acceptance");
+  u.sampler.adapt_gain = h.read_attribute_double("adapt_gain");
+  u.sample_every = static_cast<int>(h.read_attribute_int("sample_every"));
+  u.reference_axial_um = h.read_attribute_double("reference_axial_um");
+  u.reference_transverse_um = h.read_attribute_double("reference_transverse_um");
+  std::vector<int> mobile;
+  h.read("/mobile", mobile);
+  if (!(mobile.size() == 1 && mobile[0] == -1)) u.sampler.mobile = mobile;
+  if (shape.first != hsize_t(u.sampler.streams))
+    throw corrupt("RNG stream count differs from streams");
+  try {
+    u.validate();
+  } catch (const std::invalid_argument& e) {
+    throw corrupt(e.what());
+  }
+  if (!(cp.chain.step_um > 0) || !std::isfinite(cp.chain.step_um) || cp.chain.sweep < 0)
+    throw corrupt("step or sweep count out of range");
+  std::vector<double> rows;
+  shape = h.read("/series", rows);
+  const long long nrows = h.read_attribute_int("series_rows");
+  if (shape.second != hsize_t(kMcSampleColumns) || nrows < 0 ||
+      (nrows > 0 && shape.first != hsize_t(nrows)))
+    throw corrupt("time series has the wrong shape");
+  for (long long i = 0; i < nrows; ++i)
+    cp.series.push_back(sample_from_row(rows.data() + i * kMcSampleColumns));
+  return cp;
+}
+
+}  // namespace rbc

@@ -1,0 +1,40 @@
+#pragma once
+// Checkpoint and restart of a Monte Carlo run (issue 6) in HDF5 (core/h5file.hpp). The file holds
+// everything that defines the chain at a sweep boundary, so a resumed run continues the SAME
+// chain bit for bit: positions, the raw GSL mt19937 state of every stream (gsl_rng_state bytes),
+// the step size, the sweep count, the run setup (temperature, force, fixed multipliers, seed,
+// streams, adaptive sweeps, sample interval) and the time series so far. A fingerprint of the
+// network (vertex and face counts, a hash of the faces and rest positions) refuses a checkpoint
+// written for another network. Written atomically (temporary file + rename).
+//
+// Layout: /positions_um (N x 3), /rng_state (streams x words, uint64, little-endian packing of
+// the state bytes), /series (samples x 8, see mc_sample_columns()); root attributes
+// format, fingerprint, vertices, faces, sweep, step_um, rng_type, rng_bytes, temperature_K,
+// force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams, adapt_sweeps,
+// sample_every, target_acceptance, adapt_gain, reference_axial_um, reference_transverse_um.
+#include <cstdint>
+#include <string>
+
+#include "discrete/mc_run.hpp"
+
+namespace rbc {
+
+/// FNV-1a 64-bit hash of (N, F, faces, rest positions): identifies the network a chain runs on.
+std::uint64_t network_fingerprint(const Network& net);
+
+struct McCheckpoint {
+  McRunSetup setup;
+  McChainState chain;
+  std::vector<McSample> series;
+};
+
+/// Writes the checkpoint atomically; throws std::runtime_error naming the path on failure
+/// (no partial file is left at `path`).
+void write_mc_checkpoint(const std::string& path, const Network& net, const McCheckpoint& cp);
+
+/// Reads and checks a checkpoint against `net`. Throws std::runtime_error for a missing or
+/// corrupt file (naming it and what is wrong) and std::invalid_argument for a checkpoint of
+/// another network (fingerprint mismatch).
+McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net);
+
+}  // namespace rbc

@@ -1,0 +1,395 @@
+#include "discrete/mc_sampler.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "core/geometry.hpp"
+#include "core/units.hpp"
+#include "discrete/bending_energy.hpp"
+#include "discrete/link_energy.hpp"
+#include "discrete/steric_energy.hpp"
+#include "discrete/tweezers.hpp"
+
+namespace rbc {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// SplitMix64 (Steele, Lea & Flood 2014): decorrelates the per-stream seeds derived from one seed.
+std::uint64_t splitmix64(std::uint64_t z) {
+  z += 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+}  // namespace
+
+void McOptions::validate() const {
+  if (!(temperature_K >= 0) || !std::isfinite(temperature_K))
+    throw std::invalid_argument("temperature must be >= 0 K and finite, got " +
+                                std::to_string(temperature_K) + " K");
+  if (streams < 1 || streams > 1024)
+    throw std::invalid_argument("RNG streams must lie in [1, 1024], got " +
+                                std::to_string(streams));
+  if (!(initial_step_um >= 0) || !std::isfinite(initial_step_um))
+    throw std::invalid_argument("initial MC step must be >= 0 um, got " +
+                                std::to_string(initial_step_um));
+  if (adapt_sweeps < 0)
+    throw std::invalid_argument("adaptive sweeps must be >= 0, got " +
+                                std::to_string(adapt_sweeps));
+  if (!(target_acceptance > 0 && target_acceptance < 1))
+    throw std::invalid_argument("target acceptance must lie in (0, 1), got " +
+                                std::to_string(target_acceptance));
+  if (!(adapt_gain >= 0) || !std::isfinite(adapt_gain))
+    throw std::invalid_argument("adaptation gain must be >= 0, got " + std::to_string(adapt_gain));
+}
+
+double constraint_energy_of_totals(const Network& net, const ConstraintMultipliers& lambda,
+                                   double area, double volume) {
+  const double da = area - net.area0_um2, dv = volume - net.volume0_um3;
+  return lambda.area_pN_per_um * da + 0.5 * net.constraints.area_stiffness_pN_per_um3 * da * da +
+         lambda.volume_pN_per_um2 * dv +
+         0.5 * net.constraints.volume_stiffness_pN_per_um5 * dv * dv;
+}
+
+std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,
+                                              const std::vector<int>& vertices) {
+  if (min_distance < 1)
+    throw std::invalid_argument("colouring distance must be >= 1, got " +
+                                std::to_string(min_distance));
+  const int n = topo.num_vertices;
+  std::vector<int> order = vertices;
+  if (order.empty())
+    for (int v = 0; v < n; ++v) order.push_back(v);
+  std::sort(order.begin(), order.end());
+  std::vector<int> colour(n, -1), seen(n, -1), mark;
+  std::vector<int> frontier, next;
+  std::vector<std::vector<int>> classes;
+  for (int v : order) {
+    if (v < 0 || v >= n)
+      throw std::invalid_argument("mobile vertex " + std::to_string(v) + " is not in [0, " +
+                                  std::to_string(n) + ")");
+    // Colours used within graph distance < min_distance of v (breadth-first search).
+    mark.assign(classes.size() + 1, 0);
+    frontier.assign(1, v);
+    seen[v] = v;
+    for (int d = 1; d < min_distance; ++d) {
+      next.clear();
+      for (int w : frontier)
+        for (const int* u = topo.vertex_neighbours.begin(w); u != topo.vertex_neighbours.end(w);
+             ++u)
+          if (seen[*u] != v) {
+            seen[*u] = v;
+            next.push_back(*u);
+            if (colour[*u] >= 0) mark[colour[*u]] = 1;
+          }
+      frontier.swap(next);
+    }
+    int c = 0;
+    while (mark[c]) ++c;
+    if (c == static_cast<int>(classes.size())) classes.emplace_back();
+    colour[v] = c;
+    classes[c].push_back(v);
+  }
+  return classes;
+}
+
+McSampler::McSampler(const Network& net, const LoadState& load, const Positions& start,
+                     const McOptions& options)
+    : net_(net), load_(load), opt_(options) {
+  opt_.validate();
+  if (net.bending_model != BendingModel::juelicher)
+    throw std::invalid_argument(
+        "Monte Carlo supports the juelicher bending model only (local updates need a per-hinge "
+        "dihedral kernel)");
+  if (start.cols() != net.topo.num_vertices)
+    throw std::invalid_argument("start positions have " + std::to_string(start.cols()) +
+                                " vertices, the network " + std::to_string(net.topo.num_vertices));
+  const double kT = units::thermal_energy_pNum(opt_.temperature_K);
+  beta_ = kT > 0 ? 1.0 / kT : kInf;
+  const double lmin = net.lbar_um.minCoeff();
+  step_ = opt_.initial_step_um > 0 ? opt_.initial_step_um : 0.01 * lmin;
+  min_step_ = 1e-9 * lmin;
+  max_step_ = 0.5 * lmin;
+  step_ = std::clamp(step_, min_step_, max_step_);
+  // Distance >= 3: see the header (Juelicher terms of a move at v read positions up to distance 2).
+  colours_ = colour_vertices(net.topo, 3, opt_.mobile);
+  const int n = net.topo.num_vertices;
+  bend_offset_.resize(n + 1);
+  for (int v = 0; v <= n; ++v) bend_offset_[v] = net.topo.vertex_neighbours.offsets[v] + v;
+  bend_new_.assign(bend_offset_[n], 0.0);
+  proposal_.resize(n);
+  tweezer_slot_.assign(n, -1);
+  for (size_t k = 0; k < net.patch.vertex.size(); ++k) {
+    TweezerPatch one;
+    one.vertex = {net.patch.vertex[k]};
+    one.share = {net.patch.share[k]};
+    tweezer_slot_[net.patch.vertex[k]] = static_cast<int>(tweezer_single_.size());
+    tweezer_single_.push_back(one);
+  }
+  for (int s = 0; s < opt_.streams; ++s) {
+    gsl_rng* r = gsl_rng_alloc(gsl_rng_mt19937);
+    if (!r) throw std::runtime_error("cannot allocate a GSL random number generator");
+    rng_.push_back(r);
+    gsl_rng_set(r, static_cast<unsigned long>(
+                       splitmix64(std::uint64_t(opt_.seed) * 1024u + std::uint64_t(s)) >> 32) |
+                       1ul);
+  }
+  McChainState s;
+  s.x = start;
+  s.step_um = step_;
+  s.sweep = 0;
+  for (gsl_rng* r : rng_) {
+    const auto* p = static_cast<const unsigned char*>(gsl_rng_state(r));
+    s.rng_state.emplace_back(p, p + gsl_rng_size(r));
+  }
+  restore(s);
+}
+
+double McSampler::energy() const {
+  const Topology& t = net_.topo;
+  const int ne = t.num_edges(), nf = t.num_faces();
+  std::vector<double> le(ne), fe(nf);
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < ne; ++e)
+    le[e] = link_energy(net_.wlc, net_.lbar_um(e), x_.col(t.edges(0, e)), x_.col(t.edges(1, e)));
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f) {
+    const auto& c = t.faces.col(f);
+    fe[f] = steric_face_energy(net_.steric_C_pN_per_um, net_.steric, net_.abar_um2(f), x_.col(c(0)),
+                               x_.col(c(1)), x_.col(c(2)));
+  }
+  double e = 0;
+  for (double v : le) e += v;
+  for (double v : fe) e += v;
+  for (double v : bend_) e += v;
+  e += tweezers_energy(net_.patch, load_.force_pN, x_, net_.rest);
+  return e + constraint_energy_of_totals(net_, load_.multipliers, area_, volume_);
+}
+
+McSampler::~McSampler() {
+  for (gsl_rng* r : rng_) gsl_rng_free(r);
+}
+
+McChainState McSampler::state() const {
+  McChainState s;
+  s.x = x_;
+  s.step_um = step_;
+  s.sweep = sweep_;
+  for (gsl_rng* r : rng_) {
+    const auto* p = static_cast<const unsigned char*>(gsl_rng_state(r));
+    s.rng_state.emplace_back(p, p + gsl_rng_size(r));
+  }
+  return s;
+}
+
+void McSampler::restore(const McChainState& s) {
+  if (s.x.cols() != net_.topo.num_vertices)
+    throw std::invalid_argument("chain state has " + std::to_string(s.x.cols()) +
+                                " vertices, the network " + std::to_string(net_.topo.num_vertices));
+  if (s.rng_state.size() != rng_.size())
+    throw std::invalid_argument("chain state has " + std::to_string(s.rng_state.size()) +
+                                " RNG streams, the sampler " + std::to_string(rng_.size()));
+  for (size_t k = 0; k < rng_.size(); ++k)
+    if (s.rng_state[k].size() != gsl_rng_size(rng_[k]))
+      throw std::invalid_argument("RNG state " + std::to_string(k) + " has " +
+                                  std::to_string(s.rng_state[k].size()) + " bytes, mt19937 needs " +
+                                  std::to_string(gsl_rng_size(rng_[k])));
+  if (!(s.step_um > 0) || !std::isfinite(s.step_um) || s.sweep < 0)
+    throw std::invalid_argument("chain state has an invalid step or sweep count");
+  LoadState load = load_;
+  if (!std::isfinite(network_energy(net_, s.x, load)))
+    throw std::invalid_argument(
+        "Monte Carlo start is infeasible (a link at Lmax or a collapsed face)");
+  x_ = s.x;
+  step_ = s.step_um;
+  sweep_ = s.sweep;
+  for (size_t k = 0; k < rng_.size(); ++k)
+    std::memcpy(gsl_rng_state(rng_[k]), s.rng_state[k].data(), s.rng_state[k].size());
+  const int n = net_.topo.num_vertices;
+  bend_.resize(n);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < n; ++v) bend_[v] = juelicher_vertex_energy(x_, net_.topo, net_.bending, v);
+  recompute_totals();
+}
+
+void McSampler::recompute_totals() {
+  // Per-face values in parallel, summed in a fixed order: bit-reproducible for any thread count.
+  const Topology& t = net_.topo;
+  const int nf = t.num_faces();
+  std::vector<double> fa(nf), fv(nf);
+#pragma omp parallel for schedule(static) if (nf > 4096)
+  for (int f = 0; f < nf; ++f) {
+    const auto& c = t.faces.col(f);
+    fa[f] = triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+    fv[f] = tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+  }
+  double a = 0, vol = 0;
+  for (int f = 0; f < nf; ++f) {
+    a += fa[f];
+    vol += fv[f];
+  }
+  if (sweep_ > 0 || area_ != 0) {
+    max_area_drift_ = std::max(max_area_drift_, std::abs(area_ - a));
+    max_volume_drift_ = std::max(max_volume_drift_, std::abs(volume_ - vol));
+  }
+  area_ = a;
+  volume_ = vol;
+}
+
+double McSampler::local_inplane_tweezers(int v) const {
+  const Topology& t = net_.topo;
+  double e = 0;
+  for (const int* k = t.vertex_edges.begin(v); k != t.vertex_edges.end(v); ++k) {
+    e += link_energy(net_.wlc, net_.lbar_um(*k), x_.col(t.edges(0, *k)), x_.col(t.edges(1, *k)));
+    if (!(e < kInf)) return kInf;
+  }
+  for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
+    const auto& c = t.faces.col(*f);
+    const double ratio =
+        triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2))) / net_.abar_um2(*f);
+    if (ratio < kCollapsedFaceRatio) return kInf;  // network_energy's rule
+    e += steric_face_energy(net_.steric_C_pN_per_um, net_.steric, net_.abar_um2(*f), x_.col(c(0)),
+                            x_.col(c(1)), x_.col(c(2)));
+  }
+  if (tweezer_slot_[v] >= 0)
+    e += tweezers_energy(tweezer_single_[tweezer_slot_[v]], load_.force_pN, x_, net_.rest);
+  return e;
+}
+
+void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double* bend_new) {
+  // Only x_v changes; reads stay within graph distance 2 of v (see the header), so concurrent
+  // proposals at same-colour vertices (distance >= 3) neither race nor interact.
+  const Topology& t = net_.topo;
+  const double old_e = local_inplane_tweezers(v);
+  double old_a = 0, old_v = 0;
+  for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
+    const auto& c = t.faces.col(*f);
+    old_a += triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+    old_v += tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+  }
+  const Eigen::Vector3d from = x_.col(v);
+  x_.col(v) = to;
+  d = McMoveDelta{};
+  const double new_e = local_inplane_tweezers(v);
+  if (!(new_e < kInf)) {
+    d.feasible = false;
+    x_.col(v) = from;
+    return;
+  }
+  double new_a = 0, new_v = 0;
+  for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
+    const auto& c = t.faces.col(*f);
+    new_a += triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+    new_v += tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+  }
+  double bend_change = 0;
+  bend_new[0] = juelicher_vertex_energy(x_, t, net_.bending, v);
+  bend_change += bend_new[0] - bend_[v];
+  int k = 1;
+  for (const int* w = t.vertex_neighbours.begin(v); w != t.vertex_neighbours.end(v); ++w, ++k) {
+    bend_new[k] = juelicher_vertex_energy(x_, t, net_.bending, *w);
+    bend_change += bend_new[k] - bend_[*w];
+  }
+  x_.col(v) = from;
+  if (!std::isfinite(bend_change)) {
+    d.feasible = false;
+    return;
+  }
+  d.local_pNum = (new_e - old_e) + bend_change;
+  d.area_um2 = new_a - old_a;
+  d.volume_um3 = new_v - old_v;
+}
+
+McMoveDelta McSampler::move_delta(int v, const Eigen::Vector3d& to) {
+  if (v < 0 || v >= net_.topo.num_vertices)
+    throw std::invalid_argument("vertex " + std::to_string(v) + " out of range");
+  McMoveDelta d;
+  propose(v, to, d, &bend_new_[bend_offset_[v]]);
+  return d;
+}
+
+double McSampler::move_energy_change(int v, const Eigen::Vector3d& to) {
+  const McMoveDelta d = move_delta(v, to);
+  if (!d.feasible) return kInf;
+  const ConstraintMultipliers& l = load_.multipliers;
+  return d.local_pNum +
+         constraint_energy_of_totals(net_, l, area_ + d.area_um2, volume_ + d.volume_um3) -
+         constraint_energy_of_totals(net_, l, area_, volume_);
+}
+
+McSweepStats McSampler::sweep() {
+  recompute_totals();
+  const Topology& t = net_.topo;
+  const int streams = opt_.streams;
+  McSweepStats st;
+  const double step = step_;
+  const int threads = std::min(streams, omp_get_max_threads());
+#pragma omp parallel num_threads(threads)
+  for (const std::vector<int>& cls : colours_) {
+    const int m = static_cast<int>(cls.size());
+    // Phase 1: proposals in parallel, stream s owns the contiguous chunk s of the colour.
+#pragma omp for schedule(static)
+    for (int s = 0; s < streams; ++s) {
+      gsl_rng* r = rng_[s];
+      const int lo = static_cast<int>(static_cast<long long>(m) * s / streams);
+      const int hi = static_cast<int>(static_cast<long long>(m) * (s + 1) / streams);
+      for (int i = lo; i < hi; ++i) {
+        const int v = cls[i];
+        Proposal& p = proposal_[v];
+        for (int c = 0; c < 3; ++c) p.to(c) = x_(c, v) + step * (2.0 * gsl_rng_uniform(r) - 1.0);
+        p.u = gsl_rng_uniform(r);
+        propose(v, p.to, p.delta, &bend_new_[bend_offset_[v]]);
+      }
+    }
+    // Phase 2: sequential acceptance with the exact global area/volume term.
+#pragma omp single
+    {
+      const ConstraintMultipliers& l = load_.multipliers;
+      double g_now = constraint_energy_of_totals(net_, l, area_, volume_);
+      for (const int v : cls) {
+        const Proposal& p = proposal_[v];
+        ++st.attempted;
+        if (!p.delta.feasible) {
+          ++st.infeasible;
+          continue;
+        }
+        const double a = area_ + p.delta.area_um2, vol = volume_ + p.delta.volume_um3;
+        const double g_new = constraint_energy_of_totals(net_, l, a, vol);
+        const double de = p.delta.local_pNum + (g_new - g_now);
+        const bool accept = de <= 0 || (beta_ < kInf && p.u < std::exp(-beta_ * de));
+        if (!accept) continue;
+        ++st.accepted;
+        x_.col(v) = p.to;
+        area_ = a;
+        volume_ = vol;
+        g_now = g_new;
+        const double* bn = &bend_new_[bend_offset_[v]];
+        bend_[v] = bn[0];
+        int k = 1;
+        for (const int* w = t.vertex_neighbours.begin(v); w != t.vertex_neighbours.end(v); ++w, ++k)
+          bend_[*w] = bn[k];
+      }
+    }
+  }
+  ++sweep_;
+  if (sweep_ <= opt_.adapt_sweeps && st.attempted > 0) {
+    // Weight w = n/(n + 200): a sweep of n moves counts like a window of ~min(n, 200) moves,
+    // so a handful of mobile vertices does not make the step jump (Robbins-Monro averaging).
+    const double w = double(st.attempted) / (double(st.attempted) + 200.0);
+    step_ *= std::exp(opt_.adapt_gain * w * (st.acceptance() - opt_.target_acceptance));
+    step_ = std::clamp(step_, min_step_, max_step_);
+  }
+  return st;
+}
+
+}  // namespace rbc

@@ -1,0 +1,174 @@
+#pragma once
+// Metropolis Monte Carlo of the spectrin network at finite temperature (issue 6): single-vertex
+// moves with O(1) local energy differences, on exactly the free energy network_energy() gives
+// the minimiser (MODEL.md section 2), sampled at beta = 1/(kB T), kB T from core/units.hpp.
+//
+// What the chain samples. pi(x) ~ exp(-beta F(x)) with
+//   F = links + steric + Juelicher bending - tweezer work
+//     + lambda_A (A - A0) + kA/2 (A - A0)^2 + lambda_V (V - V0) + kV/2 (V - V0)^2,
+// the multipliers lambda held FIXED (typically those of the zero-temperature equilibrium, so
+// that as T -> 0 the chain collapses onto the minimiser's equilibrium) and kA, kV the network's
+// penalty stiffnesses. A and V are therefore held by a stiff quadratic well, not exactly: their
+// thermal spread is sqrt(kB T / k) (about 5e-5 relative at 300 K with the defaults).
+//
+// Parallel sweeps and detailed balance. The mobile vertices are coloured so that two
+// vertices of one colour are at graph distance >= 3: a move at v changes the links and faces
+// at v and the Juelicher vertex energies of v and its 1-ring (which read positions up to
+// distance 2), so same-colour moves share no local term. The only coupling left is through
+// the global quadratic A and V terms. Each colour pass therefore runs in two phases:
+//   1. in parallel (one RNG stream per chunk of the colour): propose x_v' = x_v + step * U[-1,1]^3,
+//      compute the LOCAL energy change and the area and volume changes dA_v, dV_v, draw u_v;
+//   2. sequentially, in vertex order: accept with min(1, exp(-beta (dE_local + dE_global))) where
+//      dE_global = G(A + dA_v, V + dV_v) - G(A, V) uses the EXACT running totals, which include
+//      every move already accepted in this pass.
+// The local change of v is unaffected by the other moves of its colour, so phase 2 is exactly a
+// sequential Metropolis sweep through the colour in fixed order: every single-vertex update
+// satisfies detailed balance with respect to pi, with no linearisation of the global terms.
+// The chain depends on (seed, streams) only, never on the number of OpenMP threads.
+//
+// Running totals A and V are updated incrementally per accepted move and recomputed from
+// scratch (a fixed-order sum, so bit-reproducible) at the start of every sweep; the largest
+// incremental drift seen is reported. Juelicher vertex energies are cached per vertex and
+// recomputed from scratch for v and its 1-ring on each accepted move (no drift).
+//
+// Step size: during the first adapt_sweeps sweeps the step follows
+// log(step) += adapt_gain n/(n + 200) (acceptance - target) (n moves in the sweep), then it is
+// frozen (production); adaptation breaks detailed balance, so samples from that phase are flagged
+// and not used for means.
+#include <gsl/gsl_rng.h>
+
+#include <memory>
+#include <vector>
+
+#include "discrete/network.hpp"
+
+namespace rbc {
+
+struct McOptions {
+  double temperature_K = 300.0;  ///< sampling temperature, K; 0 = quench (downhill moves only)
+  unsigned long seed = 1;        ///< seed of the GSL mt19937 streams
+  /// Independent RNG streams = parallel chunks per colour (the chain depends on it, not on the
+  /// number of threads). Default 1.
+  int streams = 1;
+  /// Initial half-width of the uniform trial displacement per coordinate (um);
+  /// 0 selects 0.01 x the shortest rest link.
+  double initial_step_um = 0.0;
+  int adapt_sweeps = 0;            ///< sweeps with adaptive step (equilibration), then frozen
+  double target_acceptance = 0.4;  ///< adaptation target (the 30-50 % band)
+  double adapt_gain =
+      0.5;  ///< log-step change per unit acceptance error, per sweep of >> 200 moves
+  /// Vertices that move (empty = all). Others stay fixed (used by the detailed-balance test).
+  std::vector<int> mobile;
+  /// Throws std::invalid_argument naming the value: T >= 0 finite, streams in [1, 1024],
+  /// step >= 0, adapt_sweeps >= 0, target in (0, 1), gain >= 0.
+  void validate() const;
+};
+
+/// Everything that defines the chain at a sweep boundary (what a checkpoint holds).
+struct McChainState {
+  Positions x;                                        ///< 3 x N, um
+  std::vector<std::vector<unsigned char>> rng_state;  ///< gsl_rng_state bytes, per stream
+  double step_um = 0;
+  long long sweep = 0;  ///< completed sweeps
+};
+
+/// Counts of one sweep.
+struct McSweepStats {
+  long long attempted = 0, accepted = 0, infeasible = 0;
+  double acceptance() const { return attempted ? double(accepted) / double(attempted) : 0.0; }
+};
+
+/// Energy change of a single-vertex move, split as the sampler uses it.
+struct McMoveDelta {
+  bool feasible = true;   ///< false: a link at/past Lmax or a collapsed face (rejected)
+  double local_pNum = 0;  ///< change of links + steric + bending + tweezer work
+  double area_um2 = 0;    ///< change of the total area
+  double volume_um3 = 0;  ///< change of the enclosed volume
+};
+
+/// Area/volume part of F as a function of the totals:
+///   G(A, V) = lA (A - A0) + kA/2 (A - A0)^2 + lV (V - V0) + kV/2 (V - V0)^2   [pN um]
+/// (the formula of constraint_energy(), evaluated from running totals instead of positions).
+double constraint_energy_of_totals(const Network& net, const ConstraintMultipliers& lambda,
+                                   double area_um2, double volume_um3);
+
+/// Greedy distance-d colouring of `vertices` (all if empty): two vertices of one colour are at
+/// graph distance >= min_distance. Colours are vertex lists in increasing order.
+std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,
+                                              const std::vector<int>& vertices = {});
+
+/// The Metropolis sampler. Owns the prepared state (colouring, RNG streams, caches); the
+/// network must outlive it.
+class McSampler {
+ public:
+  /// Starts the chain at `start` (must be feasible) with fresh streams seeded from options.seed.
+  /// Throws std::invalid_argument for invalid options, an infeasible start, or a non-Juelicher
+  /// bending model (no per-hinge dihedral kernel exists for local updates yet).
+  McSampler(const Network& net, const LoadState& load, const Positions& start,
+            const McOptions& options);
+  ~McSampler();
+  McSampler(const McSampler&) = delete;
+  McSampler& operator=(const McSampler&) = delete;
+
+  /// One sweep: every mobile vertex is offered one move, colour by colour.
+  McSweepStats sweep();
+
+  /// Local-update energy change of moving v to `to` at the current state, including the
+  /// global area/volume term from the running totals (pN um); +inf when infeasible.
+  double move_energy_change(int v, const Eigen::Vector3d& to);
+  /// The split change (without the global term).
+  McMoveDelta move_delta(int v, const Eigen::Vector3d& to);
+
+  /// The sampled free energy F at the current state (pN um), summed in a fixed order from the
+  /// same kernels network_energy() uses (so it is bit-reproducible for any thread count; it
+  /// agrees with network_energy() to round-off).
+  double energy() const;
+
+  const Positions& positions() const { return x_; }
+  double step_um() const { return step_; }
+  long long sweeps_done() const { return sweep_; }
+  double area_um2() const { return area_; }
+  double volume_um3() const { return volume_; }
+  double beta_per_pNum() const { return beta_; }
+  const LoadState& load() const { return load_; }
+  const McOptions& options() const { return opt_; }
+  const std::vector<std::vector<int>>& colours() const { return colours_; }
+  /// Largest |running - recomputed| of A (um^2) and V (um^3) seen at the per-sweep resets.
+  double max_area_drift_um2() const { return max_area_drift_; }
+  double max_volume_drift_um3() const { return max_volume_drift_; }
+
+  McChainState state() const;
+  /// Restores a state written by state() (same network, same streams); throws
+  /// std::invalid_argument if shapes or RNG sizes differ, or if x is infeasible.
+  void restore(const McChainState& s);
+
+ private:
+  struct Proposal {
+    Eigen::Vector3d to;
+    McMoveDelta delta;
+    double u = 0;
+  };
+  void propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double* bend_new);
+  void recompute_totals();
+  double local_inplane_tweezers(int v) const;
+
+  const Network& net_;
+  LoadState load_;
+  McOptions opt_;
+  double beta_ = 0;  ///< 1/(kB T) in 1/(pN um); +inf at T = 0
+  Positions x_;
+  double step_ = 0, min_step_ = 0, max_step_ = 0;
+  long long sweep_ = 0;
+  double area_ = 0, volume_ = 0;
+  double max_area_drift_ = 0, max_volume_drift_ = 0;
+  std::vector<std::vector<int>> colours_;
+  std::vector<gsl_rng*> rng_;
+  std::vector<double> bend_;        ///< Juelicher energy of each vertex cell
+  std::vector<int> bend_offset_;    ///< start of v's (1 + degree) slots in bend_new_
+  std::vector<double> bend_new_;    ///< proposed energies of v and its 1-ring
+  std::vector<Proposal> proposal_;  ///< per vertex
+  std::vector<int> tweezer_slot_;   ///< index into tweezer_single_ or -1
+  std::vector<TweezerPatch> tweezer_single_;
+};
+
+}  // namespace rbc
