@@ -12,7 +12,9 @@
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
 #include "core/units.hpp"
+#include "continuum/continuum_stretch.hpp"
 #include "discrete/stretch.hpp"
+#include "homogenise/invariant_laws.hpp"
 
 namespace rbc::app {
 
@@ -164,6 +166,110 @@ int run_discrete(const StretchCli& o) {
   return status;
 }
 
+// Continuum branch (issue 4): surface FEM with the homogenised law of the given order.
+int run_continuum(const StretchCli& o) {
+  const std::vector<double> forces = parse_force_list(o.forces);
+  const NetworkParameters params = to_network_parameters(o);  // WLC, steric, bending, tweezers
+  const WlcExpansion order = wlc_expansion_from_string(o.order);
+  if (o.elements < kMinContinuumElements || o.elements > kMaxContinuumElements)
+    throw std::invalid_argument(
+        "--elements " + std::to_string(o.elements) + " is out of range; expected " +
+        std::to_string(kMinContinuumElements) + " to " + std::to_string(kMaxContinuumElements));
+  if (!(o.tolerance_pN > 0))
+    throw std::invalid_argument("--tolerance must be positive, got " +
+                                std::to_string(o.tolerance_pN));
+  ContinuumOptions co;
+  co.newton.max_iterations = std::min(o.max_iterations, 1000);
+  co.validate();
+  if (!o.out.empty()) ensure_output_directory(o.out);
+  const ProgressSink progress = stderr_progress(o.quiet);
+  MeshQualityReport mesh_report;
+  const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mesh_report);
+  ContinuumParameters cp;
+  cp.bending = params.bending;
+  cp.tweezers = params.tweezers;
+  const ContinuumModel model =
+      build_continuum_model(mesh, make_membrane_law(params.wlc, params.steric, order), cp);
+  report(progress, "continuum mesh: " + std::to_string(mesh_report.vertices) + " vertices, " +
+                       std::to_string(model.num_elements()) + " elements, law " + model.law.name);
+  const std::vector<ContinuumStretchPoint> pts = run_continuum_stretch(model, forces, co, progress);
+
+  nlohmann::json rows = nlohmann::json::array();
+  CsvTable csv;
+  csv.comments = {"rbc stretch --model continuum: optical-tweezers stretch, surface FEM, Newton",
+                  "units: force pN, diameters um, energy pN*um, wall time s",
+                  "order " + to_string(order) + ", elements " +
+                      std::to_string(model.num_elements()) + ", vertices " +
+                      std::to_string(mesh_report.vertices)};
+  csv.header = {"force_pN",   "axial_um",    "transverse_um", "energy_pNum",
+                "iterations", "converged",   "wall_s",        "vertices",
+                "elements",   "residual_pN", "area_drift",    "volume_drift"};
+  for (const auto& p : pts) {
+    rows.push_back({{"force_pN", p.force_pN},
+                    {"axial_um", p.axial_um},
+                    {"transverse_um", p.transverse_um},
+                    {"energy_pNum", p.energy_pNum},
+                    {"iterations", p.iterations},
+                    {"converged", p.converged},
+                    {"wall_s", p.wall_s},
+                    {"vertices", p.vertices},
+                    {"elements", p.elements},
+                    {"residual_pN", p.residual_pN},
+                    {"area_drift", p.area_drift},
+                    {"volume_drift", p.volume_drift}});
+    csv.rows.push_back({p.force_pN, p.axial_um, p.transverse_um, p.energy_pNum,
+                        static_cast<double>(p.iterations), p.converged ? 1.0 : 0.0, p.wall_s,
+                        static_cast<double>(p.vertices), static_cast<double>(p.elements),
+                        p.residual_pN, p.area_drift, p.volume_drift});
+  }
+  if (!o.out.empty()) {
+    for (const auto& p : pts) {
+      const Eigen::VectorXd u = (p.x - model.rest).colwise().norm().transpose();
+      MeshSnapshot s{p.x,
+                     model.topo.faces,
+                     {{"displacement_um", u}},
+                     {{"I1", p.fields.i1},
+                      {"I2", p.fields.i2},
+                      {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
+                      {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}},
+                     {{"force_pN", p.force_pN}}};
+      write_mesh_snapshot(o.out + "/shape_" + force_tag(p.force_pN) + "pN", s);
+    }
+    write_csv(o.out + "/stretch.csv", csv);
+    nlohmann::json run = {{"model", "continuum"},
+                          {"order", to_string(order)},
+                          {"mesh", mesh_report_json(mesh_report)},
+                          {"points", rows}};
+    write_text_atomic(o.out + "/run.json", run.dump(2) + "\n");
+  }
+  if (o.json) {
+    std::cout << rows.dump(2) << "\n";
+  } else {
+    std::cout << "# " << csv.comments[2] << "\n";
+    std::cout << std::setw(9) << "force_pN" << std::setw(11) << "axial_um" << std::setw(14)
+              << "transverse_um" << std::setw(14) << "energy_pNum" << std::setw(11) << "iterations"
+              << std::setw(10) << "converged" << std::setw(9) << "wall_s" << std::setw(10)
+              << "elements"
+              << "\n";
+    for (const auto& p : pts)
+      std::cout << std::fixed << std::setprecision(2) << std::setw(9) << p.force_pN
+                << std::setprecision(4) << std::setw(11) << p.axial_um << std::setw(14)
+                << p.transverse_um << std::setprecision(3) << std::setw(14) << p.energy_pNum
+                << std::setw(11) << p.iterations << std::setw(10) << (p.converged ? "yes" : "NO")
+                << std::setprecision(2) << std::setw(9) << p.wall_s << std::setw(10) << p.elements
+                << "\n";
+  }
+  int status = 0;
+  for (const auto& p : pts)
+    if (!p.converged) {
+      std::cerr << "rbc: error: force " << p.force_pN << " pN did not converge (" << p.status
+                << "): largest vertex force residual " << p.residual_pN << " pN, area drift "
+                << p.area_drift << ", volume drift " << p.volume_drift << "\n";
+      status = 1;
+    }
+  return status;
+}
+
 }  // namespace
 
 void add_stretch_command(CLI::App& app, Action& action) {
@@ -205,7 +311,8 @@ void add_stretch_command(CLI::App& app, Action& action) {
     action = [o]() -> int {
       if (o->model == "discrete") return run_discrete(*o);
       // CONTINUUM BRANCH: wired by continuum/ (issue 4).
-      throw std::invalid_argument("model '" + o->model + "' is not available (expected discrete)");
+      if (o->model == "continuum") return run_continuum(*o);
+      throw std::invalid_argument("model '" + o->model + "' is not one of discrete, continuum");
     };
   });
 }

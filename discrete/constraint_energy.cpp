@@ -14,6 +14,14 @@ void ConstraintParameters::validate() const {
   if (!(tolerance > 0)) throw std::invalid_argument("constraint tolerance must be positive");
 }
 
+double constraint_energy_of_totals(double area, double volume, double area0, double volume0,
+                                   const ConstraintParameters& p,
+                                   const ConstraintMultipliers& lambda) {
+  const double da = area - area0, dv = volume - volume0;
+  return lambda.area_pN_per_um * da + 0.5 * p.area_stiffness_pN_per_um3 * da * da +
+         lambda.volume_pN_per_um2 * dv + 0.5 * p.volume_stiffness_pN_per_um5 * dv * dv;
+}
+
 double constraint_energy(const Positions& x, const Topology& topo, double area0,
                          double volume0, const ConstraintParameters& p,
                          const ConstraintMultipliers& lambda, Positions* grad,
@@ -33,8 +41,7 @@ double constraint_energy(const Positions& x, const Topology& topo, double area0,
       return 0.0;
     });
   }
-  return lambda.area_pN_per_um * da + 0.5 * p.area_stiffness_pN_per_um3 * da * da +
-         lambda.volume_pN_per_um2 * dv + 0.5 * p.volume_stiffness_pN_per_um5 * dv * dv;
+  return constraint_energy_of_totals(area, volume, area0, volume0, p, lambda);
 }
 
 }  // namespace rbc

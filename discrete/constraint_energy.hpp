@@ -25,6 +25,12 @@ struct ConstraintState {
   double area_um2 = 0, volume_um3 = 0;
 };
 
+/// The constraint energy from the totals alone (A in um^2, V in um^3):
+/// E = lA (A - A0) + kA/2 (A - A0)^2 + lV (V - V0) + kV/2 (V - V0)^2   [pN um].
+double constraint_energy_of_totals(double area_um2, double volume_um3, double area0_um2,
+                                   double volume0_um3, const ConstraintParameters& params,
+                                   const ConstraintMultipliers& lambda);
+
 /// E = lA (A - A0) + kA/2 (A - A0)^2 + lV (V - V0) + kV/2 (V - V0)^2   [pN um]
 /// with A = sum_f A_f, V = sum_f x_a.(x_b x x_c)/6. Gradient accumulated into grad.
 double constraint_energy(const Positions& x, const Topology& topo, double area0_um2,

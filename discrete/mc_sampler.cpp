@@ -55,10 +55,8 @@ void McOptions::validate() const {
 
 double constraint_energy_of_totals(const Network& net, const ConstraintMultipliers& lambda,
                                    double area, double volume) {
-  const double da = area - net.area0_um2, dv = volume - net.volume0_um3;
-  return lambda.area_pN_per_um * da + 0.5 * net.constraints.area_stiffness_pN_per_um3 * da * da +
-         lambda.volume_pN_per_um2 * dv +
-         0.5 * net.constraints.volume_stiffness_pN_per_um5 * dv * dv;
+  return constraint_energy_of_totals(area, volume, net.area0_um2, net.volume0_um3,
+                                     net.constraints, lambda);
 }
 
 std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,

@@ -1,0 +1,189 @@
+// `rbc relax`: Canham-Helfrich relaxation of the Evans-Fung rest shape at fixed area and
+// volume, in-plane elasticity off (paper Sec. 5.3.1, Fig. 5; Li et al. 2005): how far is
+// the measured shape from a bending minimiser, for each spontaneous curvature H0?
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "app/cli_util.hpp"
+#include "app/commands.hpp"
+#include "continuum/relax.hpp"
+#include "core/io.hpp"
+#include "core/units.hpp"
+#include "homogenise/invariant_laws.hpp"
+
+namespace rbc::app {
+
+namespace {
+
+struct RelaxCli {
+  int elements = 2000;
+  std::string h0_list = "0,0.1";
+  double kappa_J = 2e-19;
+  double regulariser = 1e-2;
+  double tolerance_pN = 1e-6;
+  int max_iterations = 200;
+  std::string out;
+  bool json = false, quiet = false;
+};
+
+/// Parses "0,0.1" (1/um); negative values are allowed (H0 has a sign).
+std::vector<double> parse_h0_list(const std::string& text) {
+  std::vector<double> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(v))
+      throw std::invalid_argument("H0 '" + item +
+                                  "' is not a finite number (expected 1/um, e.g. 0,0.1)");
+    out.push_back(v);
+  }
+  if (out.empty()) throw std::invalid_argument("the H0 list is empty (expected e.g. 0,0.1)");
+  return out;
+}
+
+int run_relax(const RelaxCli& o) {
+  const std::vector<double> h0s = parse_h0_list(o.h0_list);
+  if (!(o.kappa_J > 0)) throw std::invalid_argument("--kappa must be > 0 J");
+  if (!(o.regulariser > 0 && o.regulariser <= 1))
+    throw std::invalid_argument("--regulariser must lie in (0, 1], got " +
+                                std::to_string(o.regulariser));
+  NewtonOptions no;
+  no.force_tolerance_pN = o.tolerance_pN;
+  no.max_iterations = o.max_iterations;
+  no.validate();
+  if (!o.out.empty()) ensure_output_directory(o.out);
+  const ProgressSink progress = stderr_progress(o.quiet);
+  MeshQualityReport mr;
+  const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mr);
+  report(progress, "Evans-Fung mesh: " + std::to_string(mr.vertices) + " vertices, " +
+                       std::to_string(mr.faces) + " elements");
+  const IsotropicMembraneLaw reg = scaled_law(
+      make_membrane_law(WlcParameters{}, StericParameters{}, WlcExpansion::order2), o.regulariser);
+  nlohmann::json rows = nlohmann::json::array();
+  CsvTable csv;
+  csv.comments = {
+      "rbc relax: Canham-Helfrich relaxation of the Evans-Fung shape at fixed A, V",
+      "units: H0 1/um, lengths um, energy pN*um; regulariser = fraction of the p=2 law",
+      "elements " + std::to_string(mr.faces) + ", regulariser " + std::to_string(o.regulariser)};
+  csv.header = {"h0_per_um",
+                "largest_displacement_um",
+                "diameter_before_um",
+                "diameter_after_um",
+                "thickness_centre_before_um",
+                "thickness_centre_after_um",
+                "thickness_rim_before_um",
+                "thickness_rim_after_um",
+                "helfrich_before_pNum",
+                "helfrich_after_pNum",
+                "regulariser_pNum",
+                "iterations",
+                "converged",
+                "residual_pN",
+                "wall_s"};
+  int status = 0;
+  for (double h0 : h0s) {
+    report(progress, "relaxing with H0 = " + std::to_string(h0) + " per um");
+    const RelaxResult r =
+        relax_helfrich(mesh, {units::joule_to_pNum(o.kappa_J), h0}, reg, no, progress);
+    rows.push_back({{"h0_per_um", h0},
+                    {"largest_displacement_um", r.largest_displacement_um},
+                    {"diameter_before_um", r.before.diameter_um},
+                    {"diameter_after_um", r.after.diameter_um},
+                    {"thickness_centre_before_um", r.before.thickness_centre_um},
+                    {"thickness_centre_after_um", r.after.thickness_centre_um},
+                    {"thickness_rim_before_um", r.before.thickness_rim_um},
+                    {"thickness_rim_after_um", r.after.thickness_rim_um},
+                    {"helfrich_before_pNum", r.energy_before_pNum},
+                    {"helfrich_after_pNum", r.energy_after_pNum},
+                    {"regulariser_pNum", r.regulariser_energy_pNum},
+                    {"iterations", r.solve.iterations},
+                    {"converged", r.solve.converged()},
+                    {"residual_pN", r.solve.residual_pN},
+                    {"area_drift", r.solve.area_drift},
+                    {"volume_drift", r.solve.volume_drift},
+                    {"elements", mr.faces},
+                    {"wall_s", r.wall_s}});
+    csv.rows.push_back({h0, r.largest_displacement_um, r.before.diameter_um, r.after.diameter_um,
+                        r.before.thickness_centre_um, r.after.thickness_centre_um,
+                        r.before.thickness_rim_um, r.after.thickness_rim_um, r.energy_before_pNum,
+                        r.energy_after_pNum, r.regulariser_energy_pNum,
+                        static_cast<double>(r.solve.iterations), r.solve.converged() ? 1.0 : 0.0,
+                        r.solve.residual_pN, r.wall_s});
+    if (!o.out.empty()) {
+      std::ostringstream tag;
+      tag << std::fixed << std::setprecision(3) << h0;
+      const Eigen::VectorXd u = (r.x - mesh.x).colwise().norm().transpose();
+      MeshSnapshot s{r.x, mesh.topo.faces, {{"displacement_um", u}}, {}, {{"h0_per_um", h0}}};
+      write_mesh_snapshot(o.out + "/relaxed_h0_" + tag.str(), s);
+    }
+    if (!r.solve.converged()) {
+      std::cerr << "rbc: error: relaxation with H0 = " << h0 << " per um did not converge ("
+                << to_string(r.solve.status) << "): largest vertex force residual "
+                << r.solve.residual_pN << " pN\n";
+      status = 1;
+    }
+  }
+  if (!o.out.empty()) {
+    write_csv(o.out + "/relax.csv", csv);
+    write_text_atomic(o.out + "/relax.json", rows.dump(2) + "\n");
+  }
+  if (o.json) {
+    std::cout << rows.dump(2) << "\n";
+  } else {
+    std::cout << "# " << csv.comments[2] << "\n"
+              << std::setw(8) << "H0" << std::setw(11) << "max_disp" << std::setw(16) << "diameter"
+              << std::setw(16) << "centre_thick" << std::setw(16) << "rim_thick" << std::setw(16)
+              << "helfrich_pNum" << std::setw(7) << "iter"
+              << "\n";
+    for (const auto& r : rows) {
+      auto pair = [&](const char* a, const char* b) {
+        std::ostringstream s;
+        s << std::fixed << std::setprecision(3) << r[a].get<double>() << "->" << r[b].get<double>();
+        return s.str();
+      };
+      std::cout << std::fixed << std::setprecision(3) << std::setw(8)
+                << r["h0_per_um"].get<double>() << std::setw(11)
+                << r["largest_displacement_um"].get<double>() << std::setw(16)
+                << pair("diameter_before_um", "diameter_after_um") << std::setw(16)
+                << pair("thickness_centre_before_um", "thickness_centre_after_um") << std::setw(16)
+                << pair("thickness_rim_before_um", "thickness_rim_after_um") << std::setw(16)
+                << pair("helfrich_before_pNum", "helfrich_after_pNum") << std::setw(7)
+                << r["iterations"].get<int>() << "\n";
+    }
+  }
+  return status;
+}
+
+}  // namespace
+
+void add_relax_command(CLI::App& app, Action& action) {
+  auto o = std::make_shared<RelaxCli>();
+  auto* cmd = app.add_subcommand(
+      "relax", "Helfrich relaxation of the Evans-Fung shape at fixed area and volume (Fig. 5)");
+  cmd->add_option("--elements", o->elements, "continuum triangles (200 to 79,996)")
+      ->capture_default_str();
+  cmd->add_option("--h0", o->h0_list, "comma-separated spontaneous curvatures H0 (1/um)")
+      ->capture_default_str();
+  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J)")->capture_default_str();
+  cmd->add_option("--regulariser", o->regulariser,
+                  "in-plane mesh regulariser: fraction of the p=2 membrane law (0, 1]")
+      ->capture_default_str();
+  cmd->add_option("--tolerance", o->tolerance_pN, "largest net vertex force at convergence (pN)")
+      ->capture_default_str();
+  cmd->add_option("--max-iterations", o->max_iterations, "Newton iterations")
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "write relaxed shapes (HDF5/XDMF), relax.csv and relax.json");
+  cmd->add_flag("--json", o->json, "print a JSON array on stdout");
+  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->callback([o, &action] { action = [o]() -> int { return run_relax(*o); }; });
+}
+
+}  // namespace rbc::app

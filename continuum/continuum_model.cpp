@@ -1,0 +1,195 @@
+#include "continuum/continuum_model.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "continuum/geometry_hessian.hpp"
+#include "continuum/helfrich_hessian.hpp"
+#include "core/geometry.hpp"
+#include "core/parallel.hpp"
+
+namespace rbc {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+}  // namespace
+
+TriMesh make_continuum_mesh(int elements, const EvansFungShape& shape, MeshQualityReport* report) {
+  if (elements < kMinContinuumElements || elements > kMaxContinuumElements)
+    throw std::invalid_argument("element count " + std::to_string(elements) +
+                                " is out of range; expected " +
+                                std::to_string(kMinContinuumElements) + " to " +
+                                std::to_string(kMaxContinuumElements) + " triangles");
+  RestShapeOptions o;
+  o.shape = shape;
+  o.target_vertices = elements / 2 + 2;
+  o.quality = RestMeshQuality::phi_minimised;
+  return make_rest_shape(o, report);
+}
+
+IsotropicMembraneLaw scaled_law(const IsotropicMembraneLaw& law, double factor) {
+  if (!(factor > 0) || !std::isfinite(factor))
+    throw std::invalid_argument("law scale factor must be positive, got " + std::to_string(factor));
+  IsotropicMembraneLaw out;
+  out.name = law.name + " x " + std::to_string(factor);
+  out.evaluate = [inner = law.evaluate, factor](double i1, double i2) {
+    InvariantDerivatives d = inner(i1, i2);
+    d.psi *= factor;
+    d.d1 *= factor;
+    d.d2 *= factor;
+    d.d11 *= factor;
+    d.d12 *= factor;
+    d.d22 *= factor;
+    return d;
+  };
+  return out;
+}
+
+void ContinuumParameters::validate() const {
+  bending.validate();
+  tweezers.validate();
+}
+
+ContinuumModel build_continuum_model(const TriMesh& rest, const IsotropicMembraneLaw& law,
+                                     const ContinuumParameters& params) {
+  params.validate();
+  ContinuumModel m;
+  m.topo = rest.topo;
+  m.rest = rest.x;
+  m.law = law;
+  m.bending = params.bending;
+  m.reference.reserve(rest.topo.num_faces());
+  for (int f = 0; f < rest.topo.num_faces(); ++f) {
+    const auto t = rest.topo.faces.col(f);
+    m.reference.push_back(
+        make_membrane_reference(rest.x.col(t(0)), rest.x.col(t(1)), rest.x.col(t(2))));
+  }
+  m.patch = select_tweezer_patch(rest.x, rest.topo, params.tweezers);
+  m.area0_um2 = total_area(rest.x, rest.topo);
+  m.volume0_um3 = enclosed_volume(rest.x, rest.topo);
+  return m;
+}
+
+double membrane_energy(const ContinuumModel& model, const Positions& x, Positions* grad) {
+  return assemble_parallel(model.num_elements(), grad, [&](int f, Positions& g) {
+    const auto t = model.topo.faces.col(f);
+    ElementGradient ge;
+    const double e = membrane_element_energy(model.law, model.reference[f], x.col(t(0)),
+                                             x.col(t(1)), x.col(t(2)), grad ? &ge : nullptr);
+    if (grad && std::isfinite(e))
+      for (int k = 0; k < 3; ++k) g.col(t(k)) += ge.segment<3>(3 * k);
+    return e;
+  });
+}
+
+void add_membrane_hessian(const ContinuumModel& model, const Positions& x, BlockHessian& h) {
+  const int nf = model.num_elements();
+  std::vector<Matrix9d> he(nf);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f) {
+    const auto t = model.topo.faces.col(f);
+    const double e = membrane_element_energy(model.law, model.reference[f], x.col(t(0)),
+                                             x.col(t(1)), x.col(t(2)), nullptr, &he[f]);
+    if (!std::isfinite(e)) he[f].setZero();  // callers only assemble at feasible states
+  }
+  for (int f = 0; f < nf; ++f) {
+    const int verts[3] = {model.topo.faces(0, f), model.topo.faces(1, f), model.topo.faces(2, f)};
+    h.add_local<3>(verts, he[f]);
+  }
+}
+
+double continuum_energy(const ContinuumModel& model, const Positions& x, double force_pN,
+                        Positions* grad, ContinuumEnergyParts* parts) {
+  if (grad) grad->setZero(3, x.cols());
+  // Feasibility first: a collapsed element makes every term meaningless.
+  const int nf = model.num_elements();
+  bool collapsed = false;
+#pragma omp parallel for reduction(|| : collapsed) schedule(static)
+  for (int f = 0; f < nf; ++f) {
+    const auto t = model.topo.faces.col(f);
+    const double a = triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
+    collapsed = collapsed || !(a >= kCollapsedElementRatio * model.reference[f].area_um2);
+  }
+  if (collapsed) return kInf;
+  ContinuumEnergyParts p;
+  if (model.inplane()) {
+    p.inplane = membrane_energy(model, x, grad);
+    if (!std::isfinite(p.inplane)) return kInf;
+  }
+  p.bending = juelicher_bending_energy(x, model.topo, model.bending, grad);
+  p.tweezers = tweezers_energy(model.patch, force_pN, x, model.rest, grad);
+  if (parts) *parts = p;
+  return p.total();
+}
+
+void add_continuum_hessian(const ContinuumModel& model, const Positions& x, BlockHessian& h) {
+  if (model.inplane()) add_membrane_hessian(model, x, h);
+  add_juelicher_hessian(x, model.topo, model.bending, h);
+}
+
+ConstraintValues evaluate_constraints(const Positions& x, const Topology& topo) {
+  ConstraintValues c;
+  c.grad_area.setZero(3, x.cols());
+  c.grad_volume.setZero(3, x.cols());
+  c.area_um2 = assemble_parallel(topo.num_faces(), &c.grad_area, [&](int f, Positions& g) {
+    const auto t = topo.faces.col(f);
+    Eigen::Matrix3d ga;
+    const double a = triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)), &ga);
+    for (int k = 0; k < 3; ++k) g.col(t(k)) += ga.col(k);
+    return a;
+  });
+  c.volume_um3 = assemble_parallel(topo.num_faces(), &c.grad_volume, [&](int f, Positions& g) {
+    const auto t = topo.faces.col(f);
+    Eigen::Matrix3d gv;
+    const double v = tetra_volume(x.col(t(0)), x.col(t(1)), x.col(t(2)), &gv);
+    for (int k = 0; k < 3; ++k) g.col(t(k)) += gv.col(k);
+    return v;
+  });
+  return c;
+}
+
+void add_constraint_hessian(const Positions& x, const Topology& topo, double area_coef,
+                            double volume_coef, BlockHessian& h) {
+  const int nf = topo.num_faces();
+  std::vector<Matrix9d> hf(nf);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f) {
+    const auto t = topo.faces.col(f);
+    Matrix9d ha;
+    triangle_area_hessian(x.col(t(0)), x.col(t(1)), x.col(t(2)), nullptr, &ha);
+    hf[f] =
+        area_coef * ha + volume_coef * tetra_volume_hessian(x.col(t(0)), x.col(t(1)), x.col(t(2)));
+  }
+  for (int f = 0; f < nf; ++f) {
+    const int verts[3] = {topo.faces(0, f), topo.faces(1, f), topo.faces(2, f)};
+    h.add_local<3>(verts, hf[f]);
+  }
+}
+
+ElementFields element_fields(const ContinuumModel& model, const Positions& x) {
+  const int nf = model.num_elements();
+  ElementFields out;
+  out.i1.resize(nf);
+  out.i2.resize(nf);
+  out.tension_max_pN_per_um.setZero(nf);
+  out.tension_min_pN_per_um.setZero(nf);
+  for (int f = 0; f < nf; ++f) {
+    const auto t = model.topo.faces.col(f);
+    const SurfaceInvariants inv =
+        surface_invariants(model.reference[f], x.col(t(0)), x.col(t(1)), x.col(t(2)));
+    out.i1(f) = inv.i1;
+    out.i2(f) = inv.i2;
+    if (model.inplane()) {
+      const PrincipalTensions pt =
+          principal_tensions(model.law, model.reference[f], x.col(t(0)), x.col(t(1)), x.col(t(2)));
+      out.tension_max_pN_per_um(f) = pt.t1;
+      out.tension_min_pN_per_um(f) = pt.t2;
+    }
+  }
+  return out;
+}
+
+}  // namespace rbc

@@ -1,0 +1,178 @@
+#include "continuum/continuum_stretch.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/geometry.hpp"
+#include "discrete/constraint_energy.hpp"
+
+namespace rbc {
+
+std::string to_string(ContinuumSolver s) {
+  return s == ContinuumSolver::newton ? "newton" : "lbfgs";
+}
+
+void ContinuumOptions::validate() const {
+  newton.validate();
+  if (max_bisections < 0)
+    throw std::invalid_argument("max_bisections must be >= 0, got " +
+                                std::to_string(max_bisections));
+  if (!(lbfgs.force_tolerance > 0) || lbfgs.max_iterations < 1 || lbfgs_outer_iterations < 1)
+    throw std::invalid_argument("L-BFGS tolerance and iteration counts must be positive");
+  if (!(lbfgs_area_stiffness > 0) || !(lbfgs_volume_stiffness > 0))
+    throw std::invalid_argument("L-BFGS penalty stiffnesses must be > 0");
+}
+
+NewtonResult solve_equilibrium_lbfgs(const ContinuumModel& model, double force_pN, Positions& x,
+                                     ConstraintMultipliers& lambda,
+                                     const ContinuumOptions& options) {
+  ConstraintParameters cp;
+  cp.area_stiffness_pN_per_um3 = options.lbfgs_area_stiffness;
+  cp.volume_stiffness_pN_per_um5 = options.lbfgs_volume_stiffness;
+  cp.tolerance = options.newton.constraint_tolerance;
+  const int n = static_cast<int>(x.cols());
+  NewtonResult res;
+  Eigen::VectorXd v = flat(x);
+  for (int outer = 0; outer < options.lbfgs_outer_iterations; ++outer) {
+    const Objective f = [&](const Eigen::VectorXd& y, Eigen::VectorXd& g) {
+      const Positions p = Eigen::Map<const Eigen::Matrix3Xd>(y.data(), 3, n);
+      Positions gp;
+      const double e = continuum_energy(model, p, force_pN, &gp);
+      if (!std::isfinite(e)) return e;
+      const double ec =
+          constraint_energy(p, model.topo, model.area0_um2, model.volume0_um3, cp, lambda, &gp);
+      g = flat(gp);
+      return e + ec;
+    };
+    const MinimiserResult mr = minimise_lbfgs(f, v, options.lbfgs);
+    res.iterations += mr.iterations;
+    res.residual_pN = mr.residual;
+    if (mr.status == MinimiserStatus::infeasible_start) {
+      res.status = NewtonStatus::infeasible_start;
+      return res;
+    }
+    x = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
+    const double a = total_area(x, model.topo), vol = enclosed_volume(x, model.topo);
+    res.area_drift = (a - model.area0_um2) / model.area0_um2;
+    res.volume_drift = (vol - model.volume0_um3) / model.volume0_um3;
+    res.energy_pNum = continuum_energy(model, x, force_pN);
+    const bool held =
+        std::abs(res.area_drift) < cp.tolerance && std::abs(res.volume_drift) < cp.tolerance;
+    if (mr.converged() && held) {
+      res.status = NewtonStatus::converged;
+      return res;
+    }
+    if (!mr.converged() && mr.status != MinimiserStatus::max_iterations) {
+      res.status = NewtonStatus::line_search_failed;
+      return res;
+    }
+    lambda.area_pN_per_um += cp.area_stiffness_pN_per_um3 * (a - model.area0_um2);
+    lambda.volume_pN_per_um2 += cp.volume_stiffness_pN_per_um5 * (vol - model.volume0_um3);
+  }
+  res.status = NewtonStatus::max_iterations;
+  return res;
+}
+
+namespace {
+
+/// Solves at `to` from the equilibrium at `from`; on failure, restores the start and goes
+/// through the midpoint (depth-limited). Accumulates iterations and sub-steps.
+NewtonResult solve_with_bisection(const ContinuumModel& model, NewtonSolver& newton, double from,
+                                  double to, Positions& x, ConstraintMultipliers& lambda,
+                                  const ContinuumOptions& options, int depth, int& substeps,
+                                  int& iterations, const ProgressSink& progress) {
+  const Positions x0 = x;
+  const ConstraintMultipliers l0 = lambda;
+  NewtonResult r = options.solver == ContinuumSolver::newton
+                       ? newton.solve(to, x, lambda, progress)
+                       : solve_equilibrium_lbfgs(model, to, x, lambda, options);
+  iterations += r.iterations;
+  ++substeps;
+  if (r.converged() || depth >= options.max_bisections) return r;
+  x = x0;
+  lambda = l0;
+  const double mid = 0.5 * (from + to);
+  {
+    std::ostringstream m;
+    m << "force " << to << " pN: " << to_string(r.status) << " (residual " << r.residual_pN
+      << " pN); continuing through " << mid << " pN";
+    report(progress, m.str());
+  }
+  const NewtonResult rm = solve_with_bisection(model, newton, from, mid, x, lambda, options,
+                                               depth + 1, substeps, iterations, progress);
+  if (!rm.converged()) return rm;
+  return solve_with_bisection(model, newton, mid, to, x, lambda, options, depth + 1, substeps,
+                              iterations, progress);
+}
+
+}  // namespace
+
+std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
+                                                         const std::vector<double>& forces_pN,
+                                                         const ContinuumOptions& options,
+                                                         const ProgressSink& progress) {
+  options.validate();
+  for (double f : forces_pN)
+    if (!std::isfinite(f) || f < 0)
+      throw std::invalid_argument("stretch force must be finite and >= 0 pN, got " +
+                                  std::to_string(f));
+  NewtonSolver newton(model, options.newton);
+  Positions x = model.rest;
+  ConstraintMultipliers lambda;
+  double previous = 0.0;
+  // Secant predictor from the last two converged equilibria (used when feasible).
+  Positions x_before;
+  double f_before = 0.0;
+  bool have_secant = false;
+  std::vector<ContinuumStretchPoint> out;
+  for (double f : forces_pN) {
+    const auto t0 = std::chrono::steady_clock::now();
+    ContinuumStretchPoint p;
+    p.force_pN = f;
+    const Positions x_start = x;
+    if (have_secant && previous != f_before) {
+      const Positions guess = x + ((f - previous) / (previous - f_before)) * (x - x_before);
+      if (std::isfinite(continuum_energy(model, guess, f))) x = guess;
+    }
+    int substeps = 0;
+    const NewtonResult r = solve_with_bisection(model, newton, previous, f, x, lambda, options, 0,
+                                                substeps, p.iterations, progress);
+    p.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    p.substeps = substeps;
+    p.converged = r.converged();
+    p.status = to_string(r.status);
+    p.residual_pN = r.residual_pN;
+    p.area_drift = r.area_drift;
+    p.volume_drift = r.volume_drift;
+    p.energy_pNum = r.energy_pNum;
+    p.vertices = static_cast<int>(x.cols());
+    p.elements = model.num_elements();
+    p.multipliers = lambda;
+    p.x = x;
+    const Diameters d = measure_diameters(x);
+    p.axial_um = d.axial_um;
+    p.transverse_um = d.transverse_um;
+    p.fields = element_fields(model, x);
+    {
+      std::ostringstream m;
+      m << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um << " um, "
+        << p.iterations << " iterations, " << p.status << ", residual " << p.residual_pN << " pN, "
+        << p.wall_s << " s";
+      report(progress, m.str());
+    }
+    if (r.converged()) {
+      x_before = x_start;
+      f_before = previous;
+      have_secant = true;
+    } else {
+      have_secant = false;
+    }
+    out.push_back(std::move(p));
+    previous = f;  // after a failure, continue from the last feasible state; the point says so
+  }
+  return out;
+}
+
+}  // namespace rbc

@@ -1,0 +1,69 @@
+#pragma once
+// Optical-tweezers stretch of the continuum model (MODEL.md sections 2 and 4; paper
+// Sec. 5.3.2, Fig. 7): for each force, the constrained equilibrium by sparse Newton
+// (continuum/newton_solver.hpp) from the previous one (continuation in force). A force
+// whose Newton solve fails is reached through intermediate forces (the increment halved,
+// up to max_bisections times) before it is reported as not converged.
+#include <string>
+#include <vector>
+
+#include "continuum/continuum_model.hpp"
+#include "continuum/newton_solver.hpp"
+#include "core/lbfgs.hpp"
+#include "core/progress.hpp"
+
+namespace rbc {
+
+/// Which minimiser: the sparse Newton method (default) or L-BFGS on the augmented
+/// Lagrangian (core/lbfgs.hpp; for the benchmark comparison).
+enum class ContinuumSolver { newton, lbfgs };
+std::string to_string(ContinuumSolver s);
+
+struct ContinuumOptions {
+  ContinuumSolver solver = ContinuumSolver::newton;
+  NewtonOptions newton;
+  int max_bisections = 6;  ///< halvings of a failing force increment
+  /// L-BFGS only: per-vertex force tolerance (pN), iterations per multiplier update, and
+  /// augmented-Lagrangian penalty stiffnesses (pN/um^3, pN/um^5), multiplier updates.
+  LbfgsOptions lbfgs;
+  double lbfgs_area_stiffness = 100.0, lbfgs_volume_stiffness = 100.0;
+  int lbfgs_outer_iterations = 40;
+  ContinuumOptions() {
+    lbfgs.force_tolerance = 1e-3;
+    lbfgs.max_iterations = 20000;
+    lbfgs.max_step = 0.1;
+  }
+  void validate() const;
+};
+
+/// One equilibrium of the stretch.
+struct ContinuumStretchPoint {
+  double force_pN = 0;
+  double axial_um = 0, transverse_um = 0;  ///< D_A = max x - min x, D_T = max y - min y
+  double energy_pNum = 0;                  ///< E = in-plane + bending - tweezers work
+  int iterations = 0;                      ///< Newton (or L-BFGS) iterations, all sub-steps
+  int substeps = 1;                        ///< forces solved to reach this one
+  bool converged = false;
+  std::string status;
+  double residual_pN = 0;                   ///< largest net vertex force at the end
+  double area_drift = 0, volume_drift = 0;  ///< relative
+  double wall_s = 0;
+  int vertices = 0, elements = 0;
+  ConstraintMultipliers multipliers;  ///< tension-like lambda_A, pressure-like lambda_V
+  Positions x;                        ///< equilibrium positions (um)
+  ElementFields fields;               ///< per-element I1, I2, principal tensions
+};
+
+/// Continuation over the forces (pN, in the given order) from the rest shape.
+std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
+                                                         const std::vector<double>& forces_pN,
+                                                         const ContinuumOptions& options,
+                                                         const ProgressSink& progress = {});
+
+/// One equilibrium at force F from x (updated) and lambda (updated) with the L-BFGS
+/// augmented-Lagrangian method; returns the same summary as Newton's.
+NewtonResult solve_equilibrium_lbfgs(const ContinuumModel& model, double force_pN, Positions& x,
+                                     ConstraintMultipliers& lambda,
+                                     const ContinuumOptions& options);
+
+}  // namespace rbc

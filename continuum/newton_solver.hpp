@@ -1,0 +1,78 @@
+#pragma once
+// Sparse Newton method for the constrained continuum equilibrium (MODEL.md section 4):
+//   stationary points of L(x, lambda) = E(x) + lambda_A (A(x) - A0) + lambda_V (V(x) - V0),
+// E = in-plane + Helfrich - tweezers work (continuum/continuum_model.hpp). Each iteration
+// solves the bordered KKT system
+//   [K  C] [dx     ]     [r]     r = dE + C lambda (net vertex forces, pN),
+//   [C' 0] [dlambda] = - [c],    c = (A - A0, V - V0),  C = [dA dV],
+// with K = d2L + sigma I factorised once by supernodal sparse Cholesky (CHOLMOD through
+// Eigen's CholmodSupport; ordering analysed once per mesh) and the 2 x 2 Schur complement S = C'
+// K^-1 C. Safeguards: sigma >= sigma_min ~ 1e-8 x mean diagonal fixes the translation and rotation
+// null modes; when the factorisation is not positive definite (indefinite d2L away from a minimum)
+// sigma grows by 10x until it is (Levenberg-Marquardt). The step is capped so no vertex moves more
+// than max_step_um, then backtracked on the merit
+//   phi = E + lambda_new'c + (rho/2) sum_k (c_k/G_k)^2   (rho = penalty_pNum, G = A0, V0),
+// along which the KKT direction is always a descent direction (phi' = -dx'K dx - rho |c/G|^2).
+// A trial step that collapses or flips an element (J < kCollapsedElementRatio, or a face
+// normal turning by more than 90 degrees within one step) is infeasible and halved,
+// so no NaN ever enters the iterate.
+#include <Eigen/CholmodSupport>
+#include <string>
+
+#include "continuum/block_hessian.hpp"
+#include "continuum/continuum_model.hpp"
+#include "core/progress.hpp"
+#include "discrete/constraint_energy.hpp"
+
+namespace rbc {
+
+struct NewtonOptions {
+  double force_tolerance_pN = 1e-6;     ///< converged when the largest net vertex force is below
+  double constraint_tolerance = 1e-10;  ///< ... and |A - A0|/A0, |V - V0|/V0 are below
+  int max_iterations = 100;             ///< Newton iterations per solve
+  double max_step_um = 1.0;             ///< largest vertex displacement of one Newton step
+  int max_line_search = 40;             ///< step halvings before the line search fails
+  double penalty_pNum = 1e4;            ///< rho of the merit function (pN um)
+  /// Chord steps: consecutive iterations that may reuse the last factorisation of K while
+  /// each full step still cuts the net force fourfold (0 = plain Newton).
+  int max_factor_reuse = 4;
+  /// A factorisation is reused only while each step cuts the net force by this factor.
+  double reuse_contraction = 0.25;
+  void validate() const;  ///< positive tolerances and counts
+};
+
+enum class NewtonStatus { converged, max_iterations, line_search_failed, infeasible_start };
+std::string to_string(NewtonStatus s);
+
+struct NewtonResult {
+  NewtonStatus status = NewtonStatus::max_iterations;
+  int iterations = 0;
+  int factorisations = 0;                   ///< including retries with a larger shift
+  double residual_pN = 0;                   ///< largest net vertex force |dE + C lambda| at the end
+  double area_drift = 0, volume_drift = 0;  ///< (A - A0)/A0, (V - V0)/V0 at the end
+  double energy_pNum = 0;                   ///< E (without constraint terms) at the end
+  double largest_shift = 0;                 ///< largest sigma used relative to the mean diagonal
+  bool converged() const { return status == NewtonStatus::converged; }
+};
+
+/// Owns the prepared state of the Newton method for one model: the Hessian pattern and
+/// the symbolic factorisation (analysed once, reused for every force).
+class NewtonSolver {
+ public:
+  NewtonSolver(const ContinuumModel& model, const NewtonOptions& options);
+  /// Solves for the equilibrium at bead force F (pN) from x (3 x N, updated in place) and
+  /// the multipliers (updated). Never leaves x at an infeasible or NaN state.
+  NewtonResult solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
+                     const ProgressSink& progress = {});
+
+ private:
+  const ContinuumModel& model_;
+  NewtonOptions options_;
+  BlockHessian hessian_;
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>> ldlt_;
+};
+
+/// Largest Euclidean norm over the columns of a 3 x N field (pN for forces).
+double largest_vertex_norm(const Positions& v);
+
+}  // namespace rbc

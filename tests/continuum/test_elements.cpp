@@ -1,0 +1,275 @@
+// The continuum element kernels: membrane triangle (patch test, derivatives, invariance),
+// geometry Hessians, hinge and Juelicher-Helfrich Hessians (STYLE.md 2-3).
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "continuum/geometry_hessian.hpp"
+#include "continuum/helfrich_hessian.hpp"
+#include "continuum/hinge_hessian.hpp"
+#include "continuum/membrane_element.hpp"
+#include "fixtures.hpp"
+#include "hessian_check.hpp"
+#include "p2_law.hpp"
+
+namespace rbc {
+namespace {
+
+Eigen::Matrix3d random_rotation(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  return Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
+}
+
+// A generic reference triangle and a stretched, sheared, rotated current triangle.
+struct TrianglePair {
+  Vec3 X[3], x[3];
+  TrianglePair() {
+    X[0] = {0.1, -0.05, 0.02};
+    X[1] = {0.62, 0.03, -0.04};
+    X[2] = {0.21, 0.48, 0.07};
+    Eigen::Matrix3d F;
+    F << 1.25, 0.18, 0.02, -0.07, 0.88, 0.05, 0.11, -0.04, 1.1;
+    const Eigen::Matrix3d r = random_rotation(3);
+    for (int k = 0; k < 3; ++k) x[k] = r * F * X[k] + Vec3(0.3, -0.2, 0.5);
+  }
+  Eigen::VectorXd flat_x() const {
+    Eigen::VectorXd v(9);
+    for (int k = 0; k < 3; ++k) v.segment<3>(3 * k) = x[k];
+    return v;
+  }
+};
+
+TEST(MembraneElement, GradientAndHessianMatchFiniteDifferences) {
+  const IsotropicMembraneLaw law = testing::closed_form_p2_law();
+  const TrianglePair t;
+  const MembraneReference ref = make_membrane_reference(t.X[0], t.X[1], t.X[2]);
+  auto grad_of = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    ElementGradient g;
+    membrane_element_energy(law, ref, v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), &g);
+    return g;
+  };
+  auto energy_of = [&](const Eigen::VectorXd& v) {
+    return membrane_element_energy(law, ref, v.segment<3>(0), v.segment<3>(3), v.segment<3>(6));
+  };
+  const Eigen::VectorXd x0 = t.flat_x();
+  ElementGradient g;
+  ElementHessian h;
+  membrane_element_energy(law, ref, t.x[0], t.x[1], t.x[2], &g, &h);
+  const auto [e1, e2] = testing::fd_directional_errors(energy_of, x0, g, 1e-2 * 0.5, 4);
+  EXPECT_GT(e1 / e2, 3.0);
+  EXPECT_LT(testing::fd_gradient_error(energy_of, x0, g, 3e-6, 9, 1), 1e-7 * g.norm());
+  EXPECT_LT((h - h.transpose()).norm(), 1e-12 * h.norm());
+  for (unsigned s = 0; s < 4; ++s) {
+    const auto c = testing::check_hessian_direction(
+        grad_of, x0, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd { return h * d; }, 0.5, s);
+    testing::expect_hessian_ok(c, "membrane element Hessian");
+  }
+}
+
+TEST(MembraneElement, RigidMotionsCostNothingAndReferenceIsStressFree) {
+  const IsotropicMembraneLaw law = testing::closed_form_p2_law();
+  const TrianglePair t;
+  const MembraneReference ref = make_membrane_reference(t.X[0], t.X[1], t.X[2]);
+  // Rigid image of the reference: energy Abar Psi(0, 0), no force.
+  const Eigen::Matrix3d r = random_rotation(17);
+  const Vec3 shift(-1.0, 2.0, 0.3);
+  ElementGradient g;
+  const double e0 = membrane_element_energy(law, ref, r * t.X[0] + shift, r * t.X[1] + shift,
+                                            r * t.X[2] + shift, &g);
+  EXPECT_NEAR(e0, ref.area_um2 * law.evaluate(0, 0).psi, 1e-12 * std::abs(e0));
+  EXPECT_LT(g.norm(), 1e-10 * law.evaluate(0, 0).psi);
+  // Rigidly moving a deformed triangle leaves the energy unchanged and rotates the force.
+  ElementGradient g1, g2;
+  const double a = membrane_element_energy(law, ref, t.x[0], t.x[1], t.x[2], &g1);
+  const double b = membrane_element_energy(law, ref, r * t.x[0] + shift, r * t.x[1] + shift,
+                                           r * t.x[2] + shift, &g2);
+  EXPECT_NEAR(a, b, 1e-12 * std::abs(a));
+  for (int k = 0; k < 3; ++k)
+    EXPECT_LT((g2.segment<3>(3 * k) - r * g1.segment<3>(3 * k)).norm(), 1e-10 * g1.norm());
+  // Translations and infinitesimal rotations are in the Hessian's null space only at a
+  // stress-free state: check at the rigid image of the reference.
+  ElementHessian h;
+  membrane_element_energy(law, ref, t.X[0], t.X[1], t.X[2], nullptr, &h);
+  Eigen::VectorXd tr(9), rot(9);
+  const Vec3 w(0.3, -0.5, 0.8);
+  for (int k = 0; k < 3; ++k) {
+    tr.segment<3>(3 * k) = Vec3(0.2, -0.7, 0.4);
+    rot.segment<3>(3 * k) = w.cross(t.X[k]);
+  }
+  EXPECT_LT((h * tr).norm(), 1e-10 * h.norm());
+  EXPECT_LT((h * rot).norm(), 1e-10 * h.norm());
+}
+
+// Flat periodic-free patch: a perturbed triangulated square, deformed by a uniform
+// (3 x 2) surface deformation gradient F, stores exactly Psi(F) x area, and all interior
+// vertices are in equilibrium (uniform stress).
+TEST(MembraneElement, PatchTestUniformDeformation) {
+  const IsotropicMembraneLaw law = testing::closed_form_p2_law();
+  const int n = 6;  // (n+1)^2 vertices, 2 n^2 triangles on the unit square
+  std::vector<Eigen::Vector2d> ref;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.25, 0.25);
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      Eigen::Vector2d p(double(i) / n, double(j) / n);
+      if (i > 0 && i < n && j > 0 && j < n) p += Eigen::Vector2d(u(rng), u(rng)) / n;
+      ref.push_back(p);
+    }
+  std::vector<std::array<int, 3>> tris;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      tris.push_back({a, b, d});
+      tris.push_back({a, d, c});
+    }
+  Eigen::Matrix<double, 3, 2> F;
+  F << 1.3, 0.2, -0.1, 0.85, 0.15, 0.05;  // stretch + shear, embedded out of plane
+  const Eigen::Matrix3d r = random_rotation(8);
+  F = r * F;
+  const Eigen::Matrix2d C = F.transpose() * F;
+  const double i1 = std::sqrt(C.determinant()) - 1, i2 = C.trace() - 2;
+  const double psi = law.evaluate(i1, i2).psi;
+  double energy = 0, area = 0;
+  const int nv = static_cast<int>(ref.size());
+  Eigen::Matrix3Xd grad = Eigen::Matrix3Xd::Zero(3, nv);
+  for (const auto& t : tris) {
+    Vec3 X[3], x[3];
+    for (int k = 0; k < 3; ++k) {
+      X[k] = Vec3(ref[t[k]].x(), ref[t[k]].y(), 0.0);
+      x[k] = F * ref[t[k]] + Vec3(0.4, 0.1, -0.2);
+    }
+    const MembraneReference mr = make_membrane_reference(X[0], X[1], X[2]);
+    ElementGradient g;
+    energy += membrane_element_energy(law, mr, x[0], x[1], x[2], &g);
+    for (int k = 0; k < 3; ++k) grad.col(t[k]) += g.segment<3>(3 * k);
+    area += mr.area_um2;
+  }
+  EXPECT_NEAR(area, 1.0, 1e-14);
+  EXPECT_NEAR(energy, psi * area, 1e-13 * std::abs(psi));
+  double boundary_force = 0;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const int v = j * (n + 1) + i;
+      if (i > 0 && i < n && j > 0 && j < n)
+        EXPECT_LT(grad.col(v).norm(), 1e-12 * std::abs(psi)) << "interior vertex " << v;
+      else
+        boundary_force = std::max(boundary_force, grad.col(v).norm());
+    }
+  EXPECT_GT(boundary_force, 1e-3 * std::abs(psi));  // the patch is loaded, not trivially
+}
+
+TEST(MembraneElement, CollapsedElementIsInfeasibleNotNaN) {
+  const IsotropicMembraneLaw law = testing::closed_form_p2_law();
+  const TrianglePair t;
+  const MembraneReference ref = make_membrane_reference(t.X[0], t.X[1], t.X[2]);
+  const Vec3 mid = 0.5 * (t.X[0] + t.X[1]);
+  EXPECT_TRUE(std::isinf(membrane_element_energy(law, ref, t.X[0], t.X[1], mid)));
+  EXPECT_THROW(make_membrane_reference(t.X[0], t.X[1], mid), std::invalid_argument);
+}
+
+TEST(MembraneElement, PrincipalTensionsMatchLinearElasticity) {
+  // Small equibiaxial stretch (1 + s): both tensions = 2 K s to first order, K the area
+  // modulus from the law's derivatives; tension vanishes at rest.
+  const IsotropicMembraneLaw law = testing::closed_form_p2_law();
+  const InvariantDerivatives d = law.evaluate(0, 0);
+  const double k = 0.5 * d.d1 + d.d2 + d.d11 + 4 * d.d12 + 4 * d.d22;
+  const TrianglePair t;
+  const MembraneReference ref = make_membrane_reference(t.X[0], t.X[1], t.X[2]);
+  const double s = 1e-5;
+  const PrincipalTensions p0 = principal_tensions(law, ref, t.X[0], t.X[1], t.X[2]);
+  EXPECT_NEAR(p0.t1, 0.0, 1e-9);
+  const PrincipalTensions p =
+      principal_tensions(law, ref, (1 + s) * t.X[0], (1 + s) * t.X[1], (1 + s) * t.X[2]);
+  EXPECT_NEAR(p.t1 / s, 2 * k, 1e-3 * k);
+  EXPECT_NEAR(p.t2 / s, 2 * k, 1e-3 * k);
+}
+
+TEST(GeometryHessian, AreaAndVolumeMatchFiniteDifferences) {
+  const TrianglePair t;
+  const Eigen::VectorXd x0 = t.flat_x();
+  auto area_grad = [](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    Vector9d g;
+    triangle_area_hessian(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), &g, nullptr);
+    return g;
+  };
+  Vector9d g;
+  Matrix9d h;
+  const double a = triangle_area_hessian(t.x[0], t.x[1], t.x[2], &g, &h);
+  EXPECT_NEAR(a, triangle_area(t.x[0], t.x[1], t.x[2]), 1e-14);
+  Eigen::Matrix3d gc;
+  triangle_area(t.x[0], t.x[1], t.x[2], &gc);
+  for (int k = 0; k < 3; ++k) EXPECT_LT((g.segment<3>(3 * k) - gc.col(k)).norm(), 1e-14);
+  auto vol_grad = [](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    Eigen::Matrix3d gv;
+    tetra_volume(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), &gv);
+    return Eigen::Map<Eigen::VectorXd>(gv.data(), 9);
+  };
+  const Matrix9d hv = tetra_volume_hessian(t.x[0], t.x[1], t.x[2]);
+  for (unsigned s = 0; s < 3; ++s) {
+    testing::expect_hessian_ok(
+        testing::check_hessian_direction(
+            area_grad, x0, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd { return h * d; }, 0.5,
+            s),
+        "triangle area");
+    // V is cubic: its gradient is quadratic, so the central difference is exact up to
+    // round-off (no truncation error to decay).
+    const auto c = testing::check_hessian_direction(
+        vol_grad, x0, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd { return hv * d; }, 0.5, s);
+    EXPECT_LT(c.error_h, 1e-12);
+  }
+}
+
+TEST(HingeHessian, MatchesFiniteDifferencesOfTheAnalyticGradient) {
+  const Vec3 a(0.0, 0.0, 0.0), b(0.9, 0.1, 0.05), c(0.4, 0.7, 0.2), d(0.5, -0.6, 0.35);
+  Eigen::VectorXd x0(12);
+  x0 << a, b, c, d;
+  auto grad_of = [](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    Eigen::Matrix<double, 3, 4> g;
+    hinge_length_angle_hessian(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), v.segment<3>(9),
+                               &g, nullptr);
+    return Eigen::Map<Eigen::VectorXd>(g.data(), 12);
+  };
+  Eigen::Matrix<double, 3, 4> g;
+  Matrix12d h;
+  const double q = hinge_length_angle_hessian(a, b, c, d, &g, &h);
+  EXPECT_NEAR(q, (b - a).norm() * dihedral_angle(a, b, c, d), 1e-14);
+  for (unsigned s = 0; s < 4; ++s)
+    testing::expect_hessian_ok(
+        testing::check_hessian_direction(
+            grad_of, x0, [&](const Eigen::VectorXd& dd) -> Eigen::VectorXd { return h * dd; }, 0.8,
+            s),
+        "hinge L theta");
+  // q is invariant under rigid motions: translations are in the null space of the Hessian.
+  Eigen::VectorXd tr(12);
+  for (int k = 0; k < 4; ++k) tr.segment<3>(3 * k) = Vec3(0.3, 0.1, -0.4);
+  EXPECT_LT((h * tr).norm(), 1e-12 * h.norm());
+}
+
+TEST(HelfrichHessian, JuelicherHessianMatchesFiniteDifferencesWithSpontaneousCurvature) {
+  TriMesh m = testing::sphere_mesh(3, 2.0);
+  testing::perturb(m.x, 0.05, 21);
+  const BendingParameters p{0.2, 0.4};
+  auto grad_of = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    const Positions x = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, m.x.cols());
+    Positions g = Positions::Zero(3, x.cols());
+    juelicher_bending_energy(x, m.topo, p, &g);
+    return flat(g);
+  };
+  BlockHessian h(m.topo);
+  h.set_zero();
+  add_juelicher_hessian(m.x, m.topo, p, h);
+  const Eigen::SparseMatrix<double>& hm = h.matrix();
+  const Eigen::SparseMatrix<double> asym = hm - Eigen::SparseMatrix<double>(hm.transpose());
+  EXPECT_LT(asym.norm(), 1e-12 * hm.norm());
+  for (unsigned s = 0; s < 3; ++s)
+    testing::expect_hessian_ok(
+        testing::check_hessian_direction(
+            grad_of, flat(m.x), [&](const Eigen::VectorXd& d) -> Eigen::VectorXd { return hm * d; },
+            0.7, s),
+        "Juelicher Helfrich energy");
+}
+
+}  // namespace
+}  // namespace rbc

@@ -1,0 +1,177 @@
+// The assembled continuum model and its constrained Newton solver: full-model derivatives,
+// rigid-motion invariance, constraints held at every force, mesh convergence of the
+// diameters, agreement with L-BFGS, infeasible steps and non-convergence reported.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <iostream>
+
+#include "continuum/continuum_stretch.hpp"
+#include "fixtures.hpp"
+#include "hessian_check.hpp"
+#include "homogenise/invariant_laws.hpp"
+#include "p2_law.hpp"
+
+namespace rbc {
+namespace {
+
+ContinuumModel small_model(int elements, const BendingParameters& b = {}) {
+  ContinuumParameters p;
+  p.bending = b;
+  return build_continuum_model(make_continuum_mesh(elements), testing::closed_form_p2_law(), p);
+}
+
+Positions unflat(const Eigen::VectorXd& v) {
+  return Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, v.size() / 3);
+}
+
+TEST(ContinuumModel, LagrangianHessianMatchesFiniteDifferences) {
+  const ContinuumModel m = small_model(320, {0.2, 0.3});
+  Positions x = m.rest;
+  testing::perturb(x, 0.03, 4);
+  const ConstraintMultipliers l{2.0, -1.5};
+  auto grad_l = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    const Positions p = unflat(v);
+    Positions g;
+    continuum_energy(m, p, 40.0, &g);
+    const ConstraintValues c = evaluate_constraints(p, m.topo);
+    return flat(
+        Positions(g + l.area_pN_per_um * c.grad_area + l.volume_pN_per_um2 * c.grad_volume));
+  };
+  BlockHessian h(m.topo);
+  h.set_zero();
+  add_continuum_hessian(m, x, h);
+  add_constraint_hessian(x, m.topo, l.area_pN_per_um, l.volume_pN_per_um2, h);
+  const Eigen::SparseMatrix<double>& hm = h.matrix();
+  for (unsigned s = 0; s < 3; ++s)
+    testing::expect_hessian_ok(
+        testing::check_hessian_direction(
+            grad_l, flat(x), [&](const Eigen::VectorXd& d) -> Eigen::VectorXd { return hm * d; },
+            0.5, s),
+        "continuum Lagrangian");
+  // And the gradient of the energy itself.
+  Positions g;
+  continuum_energy(m, x, 40.0, &g);
+  const auto f = [&](const Eigen::VectorXd& v) { return continuum_energy(m, unflat(v), 40.0); };
+  const auto [e1, e2] = testing::fd_directional_errors(f, flat(x), flat(g), 5e-3, 3);
+  EXPECT_GT(e1 / e2, 3.0);
+  EXPECT_LT(testing::fd_gradient_error(f, flat(x), flat(g), 2e-6, 30, 2),
+            1e-6 * (1 + g.cwiseAbs().maxCoeff()));
+}
+
+TEST(ContinuumModel, RigidMotionsCostNothing) {
+  const ContinuumModel m = small_model(320);
+  Positions x = m.rest;
+  testing::perturb(x, 0.05, 6);
+  const Eigen::Matrix3d r =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, -0.5).normalized()).toRotationMatrix();
+  const Positions y = (r * x).colwise() + Eigen::Vector3d(3.0, -1.0, 0.5);
+  ContinuumEnergyParts a, b;
+  continuum_energy(m, x, 0.0, nullptr, &a);
+  continuum_energy(m, y, 0.0, nullptr, &b);
+  EXPECT_NEAR(a.inplane, b.inplane, 1e-12 * a.inplane);
+  EXPECT_NEAR(a.bending, b.bending, 1e-12 * a.bending);
+  // The rest mesh is stress free: no in-plane force at X on any mesh.
+  Positions g = Positions::Zero(3, m.rest.cols());
+  membrane_energy(m, m.rest, &g);
+  EXPECT_LT(largest_vertex_norm(g), 1e-10);
+}
+
+TEST(ContinuumModel, CollapsedElementMakesTheStateInfeasible) {
+  const ContinuumModel m = small_model(320);
+  Positions x = m.rest;
+  const auto t = m.topo.faces.col(0);
+  x.col(t(2)) = 0.5 * (x.col(t(0)) + x.col(t(1)));
+  EXPECT_TRUE(std::isinf(continuum_energy(m, x, 0.0)));
+  EXPECT_THROW(make_continuum_mesh(100), std::invalid_argument);
+  EXPECT_THROW(make_continuum_mesh(200000), std::invalid_argument);
+}
+
+TEST(ContinuumStretch, ConstraintsHeldAndDiametersMonotoneAtEveryForce) {
+  const ContinuumModel m = small_model(500);
+  const std::vector<double> forces = {0, 50, 100, 150, 193};
+  const auto pts = run_continuum_stretch(m, forces, {});
+  ASSERT_EQ(pts.size(), forces.size());
+  for (size_t i = 0; i < pts.size(); ++i) {
+    EXPECT_TRUE(pts[i].converged) << pts[i].force_pN << " pN: " << pts[i].status;
+    EXPECT_LT(pts[i].residual_pN, 1e-6);
+    EXPECT_LT(std::abs(pts[i].area_drift), 1e-8);
+    EXPECT_LT(std::abs(pts[i].volume_drift), 1e-8);
+    EXPECT_NEAR(total_area(pts[i].x, m.topo) / m.area0_um2, 1.0, 1e-8);
+    EXPECT_NEAR(enclosed_volume(pts[i].x, m.topo) / m.volume0_um3, 1.0, 1e-8);
+    if (i > 0) {
+      EXPECT_GT(pts[i].axial_um, pts[i - 1].axial_um);
+      EXPECT_LT(pts[i].transverse_um, pts[i - 1].transverse_um);
+    }
+  }
+  // Stretching raises I2 where the beads pull; the stress field is tensile along x there.
+  EXPECT_GT(pts.back().fields.i2.maxCoeff(), 0.1);
+  EXPECT_GT(pts.back().fields.tension_max_pN_per_um.maxCoeff(), 1.0);
+}
+
+TEST(ContinuumStretch, DiametersAt88pNConvergeUnderRefinement) {
+  std::vector<double> da, dt;
+  for (int el : {320, 720, 1620}) {  // h ratio 1.5 between meshes
+    const auto p = run_continuum_stretch(small_model(el), {44.0, 88.0}, {});
+    ASSERT_TRUE(p.back().converged);
+    da.push_back(p.back().axial_um);
+    dt.push_back(p.back().transverse_um);
+  }
+  const double ca = std::abs(da[1] - da[0]) / std::abs(da[2] - da[1]);
+  const double ct = std::abs(dt[1] - dt[0]) / std::abs(dt[2] - dt[1]);
+  std::cout << "[ 88 pN ] D_A " << da[0] << " " << da[1] << " " << da[2] << " D_T " << dt[0] << " "
+            << dt[1] << " " << dt[2] << "; observed orders " << std::log(ca) / std::log(1.5) << " "
+            << std::log(ct) / std::log(1.5) << "\n";
+  EXPECT_GT(ca, 1.5);  // successive differences shrink (order > 1 gives 1.5)
+  EXPECT_GT(ct, 1.5);
+  EXPECT_LT(std::abs(da[2] - da[1]) / da[2], 0.01);
+}
+
+TEST(ContinuumStretch, NewtonAgreesWithLbfgs) {
+  const ContinuumModel m = small_model(320);
+  ContinuumOptions o;
+  const auto a = run_continuum_stretch(m, {60.0}, o);
+  o.solver = ContinuumSolver::lbfgs;
+  o.lbfgs.force_tolerance = 1e-5;
+  o.newton.constraint_tolerance = 1e-8;
+  o.lbfgs_area_stiffness = o.lbfgs_volume_stiffness = 1e3;
+  const auto b = run_continuum_stretch(m, {60.0}, o);
+  ASSERT_TRUE(a[0].converged);
+  ASSERT_TRUE(b[0].converged) << b[0].status;
+  EXPECT_NEAR(a[0].axial_um, b[0].axial_um, 1e-3);
+  EXPECT_NEAR(a[0].transverse_um, b[0].transverse_um, 1e-3);
+  EXPECT_NEAR(a[0].energy_pNum, b[0].energy_pNum, 1e-6 * std::abs(a[0].energy_pNum));
+}
+
+TEST(ContinuumStretch, HomogeniseOrderTwoLawGivesTheSameShape) {
+  const TriMesh mesh = make_continuum_mesh(320);
+  const ContinuumModel a = build_continuum_model(mesh, testing::closed_form_p2_law(), {});
+  const ContinuumModel b = build_continuum_model(
+      mesh, make_membrane_law(WlcParameters{}, StericParameters{}, WlcExpansion::order2), {});
+  const auto pa = run_continuum_stretch(a, {88.0}, {});
+  const auto pb = run_continuum_stretch(b, {88.0}, {});
+  EXPECT_NEAR(pa[0].axial_um, pb[0].axial_um, 1e-8);
+  EXPECT_NEAR(pa[0].transverse_um, pb[0].transverse_um, 1e-8);
+}
+
+TEST(ContinuumStretch, LargeJumpStaysFeasibleAndNonConvergenceIsReported) {
+  const ContinuumModel m = small_model(320);
+  // One huge jump: steps that would collapse or flip elements are shortened, never NaN.
+  const auto big = run_continuum_stretch(m, {300.0}, {});
+  EXPECT_TRUE(big[0].converged) << big[0].status;
+  EXPECT_TRUE(big[0].x.allFinite());
+  EXPECT_TRUE(std::isfinite(big[0].energy_pNum));
+  // An iteration budget too small to converge: reported with its residual.
+  ContinuumOptions o;
+  o.newton.max_iterations = 1;
+  o.max_bisections = 0;
+  const auto p = run_continuum_stretch(m, {150.0}, o);
+  EXPECT_FALSE(p[0].converged);
+  EXPECT_GT(p[0].residual_pN, o.newton.force_tolerance_pN);
+  EXPECT_TRUE(std::isfinite(p[0].residual_pN));
+  EXPECT_EQ(p[0].status, "iteration limit reached");
+  EXPECT_THROW(run_continuum_stretch(m, {-1.0}, {}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rbc
