@@ -20,9 +20,11 @@ std::vector<double> parse_force_list(const std::string& text) {
       used = 0;
     }
     if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos)
-      throw std::invalid_argument("force '" + item + "' is not a number (expected pN, e.g. 0,16,88)");
+      throw std::invalid_argument("force '" + item +
+                                  "' is not a number (expected pN, e.g. 0,16,88)");
     if (!std::isfinite(v) || v < 0)
-      throw std::invalid_argument("force " + item + " pN is not allowed: forces must be finite and >= 0");
+      throw std::invalid_argument("force " + item +
+                                  " pN is not allowed: forces must be finite and >= 0");
     out.push_back(v);
   }
   if (out.empty()) throw std::invalid_argument("the force list is empty (expected e.g. 0,16,88)");
@@ -33,7 +35,8 @@ ProgressSink stderr_progress(bool quiet) {
   if (quiet) return {};
   const auto start = std::chrono::steady_clock::now();
   return [start](const std::string& message) {
-    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double t =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::cerr << "[" << std::fixed << std::setprecision(1) << std::setw(7) << t << " s] " << message
               << std::endl;
   };

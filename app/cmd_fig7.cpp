@@ -14,8 +14,8 @@ void check_output_directory(const std::string& dir, bool overwrite) {
   if (fs::exists(dir) && !fs::is_directory(dir))
     throw std::invalid_argument("--out '" + dir + "' exists and is not a directory");
   if (fs::is_directory(dir) && !fs::is_empty(dir) && !overwrite)
-    throw std::invalid_argument("--out '" + dir +
-                                "' is not empty; choose another directory or pass --force-overwrite");
+    throw std::invalid_argument(
+        "--out '" + dir + "' is not empty; choose another directory or pass --force-overwrite");
 }
 
 void add_fig7_command(CLI::App& app, Action& action) {
@@ -30,8 +30,9 @@ void add_fig7_command(CLI::App& app, Action& action) {
   auto* cmd = app.add_subcommand("fig7", "Fig. 7: diameters vs force, models against Mills 2004");
   cmd->add_option("--out", o->out, "output directory (must be empty unless --force-overwrite)")
       ->capture_default_str();
-  cmd->add_option("--force", o->forces,
-                  "increasing comma-separated forces in pN (default: Mills forces, then 220, 250, 300)");
+  cmd->add_option(
+      "--force", o->forces,
+      "increasing comma-separated forces in pN (default: Mills forces, then 220, 250, 300)");
   cmd->add_option("--method", o->methods,
                   "methods to run, repeatable: discrete:N or continuum:ORDER:ELEMENTS "
                   "(default: discrete:2000 and continuum 2, 3, 4, full at 4000 elements)");
@@ -53,8 +54,8 @@ void add_fig7_command(CLI::App& app, Action& action) {
       for (size_t k = 0; k < r.runs.size(); ++k) {
         const auto& q = r.fits[k];
         std::cout << "  " << std::left << std::setw(44) << r.runs[k].method.label() << std::right
-                  << std::fixed << std::setprecision(2) << " D_A rms " << q.axial_rms_um
-                  << " um (" << q.axial_inside << "/" << q.points << " inside), D_T rms "
+                  << std::fixed << std::setprecision(2) << " D_A rms " << q.axial_rms_um << " um ("
+                  << q.axial_inside << "/" << q.points << " inside), D_T rms "
                   << q.transverse_rms_um << " um (" << q.transverse_inside << "/" << q.points
                   << " inside), " << std::setprecision(1) << r.runs[k].total_s << " s"
                   << (r.runs[k].all_converged() ? "" : "  NOT CONVERGED") << "\n";

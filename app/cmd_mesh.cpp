@@ -36,7 +36,8 @@ void add_mesh_command(CLI::App& app, Action& action) {
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("mesh", "Triangulate the Evans-Fung rest shape and report its quality");
+  auto* cmd =
+      app.add_subcommand("mesh", "Triangulate the Evans-Fung rest shape and report its quality");
   cmd->add_option("--vertices,-n", o->vertices, "vertex count N (100 to 40,000; hit within 10 %)")
       ->capture_default_str();
   cmd->add_option("--quality", o->quality, "phi-minimised | projected | equal-area")

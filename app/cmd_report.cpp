@@ -34,7 +34,8 @@ void add_stability_command(CLI::App& app, Action& action) {
       for (const auto& row : r.rows)
         std::cout << row.study << " | " << row.method << " | " << row.parameter << " "
                   << row.parameter_value << " | " << row.metric << " = " << row.value << "\n";
-      std::cout << "outputs: " << o->out << "/stability.csv, stability.json, stability_orders.png\n";
+      std::cout << "outputs: " << o->out
+                << "/stability.csv, stability.json, stability_orders.png\n";
       return 0;
     };
   });

@@ -8,11 +8,11 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "continuum/continuum_stretch.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
 #include "core/units.hpp"
-#include "continuum/continuum_stretch.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
 
@@ -77,7 +77,8 @@ int run_discrete(const StretchCli& o) {
   const std::vector<double> forces = parse_force_list(o.forces);
   const NetworkParameters params = to_network_parameters(o);
   if (!(o.tolerance_pN > 0))
-    throw std::invalid_argument("--tolerance must be positive, got " + std::to_string(o.tolerance_pN));
+    throw std::invalid_argument("--tolerance must be positive, got " +
+                                std::to_string(o.tolerance_pN));
   if (!o.out.empty()) ensure_output_directory(o.out);
   const ProgressSink progress = stderr_progress(o.quiet);
   RestShapeOptions ro;
@@ -107,8 +108,8 @@ int run_discrete(const StretchCli& o) {
                   "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
                       std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
                       std::to_string(rest_force) + " pN"};
-  csv.header = {"force_pN", "axial_um", "transverse_um", "energy_pNum", "iterations", "converged",
-                "wall_s", "vertices", "residual_pN", "area_drift", "volume_drift"};
+  csv.header = {"force_pN", "axial_um", "transverse_um", "energy_pNum", "iterations",  "converged",
+                "wall_s",   "vertices", "residual_pN",   "area_drift",  "volume_drift"};
   for (const auto& p : pts) {
     rows.push_back({{"force_pN", p.force_pN},
                     {"axial_um", p.axial_um},
@@ -146,7 +147,8 @@ int run_discrete(const StretchCli& o) {
     std::cout << std::setw(9) << "force_pN" << std::setw(11) << "axial_um" << std::setw(14)
               << "transverse_um" << std::setw(14) << "energy_pNum" << std::setw(11) << "iterations"
               << std::setw(10) << "converged" << std::setw(9) << "wall_s" << std::setw(9)
-              << "vertices" << "\n";
+              << "vertices"
+              << "\n";
     for (const auto& p : pts)
       std::cout << std::fixed << std::setprecision(2) << std::setw(9) << p.force_pN
                 << std::setprecision(4) << std::setw(11) << p.axial_um << std::setw(14)
@@ -287,12 +289,14 @@ void add_stretch_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--mesh-quality", o->mesh_quality, "phi-minimised | projected | equal-area")
       ->capture_default_str();
-  cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")->capture_default_str();
+  cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")
+      ->capture_default_str();
   cmd->add_option("--contact-fraction", o->contact_fraction, "contact patch fraction per bead")
       ->capture_default_str();
   cmd->add_option("--lbar", o->lbar_nm, "spectrin rest link length (nm)")->capture_default_str();
   cmd->add_option("--lmax", o->lmax_nm, "spectrin contour length Lmax (nm)")->capture_default_str();
-  cmd->add_option("--persistence", o->persistence_nm, "persistence length (nm)")->capture_default_str();
+  cmd->add_option("--persistence", o->persistence_nm, "persistence length (nm)")
+      ->capture_default_str();
   cmd->add_option("--temperature", o->temperature_K, "temperature (K)")->capture_default_str();
   cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J)")->capture_default_str();
   cmd->add_option("--h0", o->h0_per_um, "spontaneous curvature H0 (1/um)")->capture_default_str();

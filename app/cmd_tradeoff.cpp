@@ -56,7 +56,8 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   << row.transverse_error_um << "), " << std::setprecision(2) << row.wall_s << " s"
                   << (row.pareto ? "  [Pareto]" : "") << (row.converged ? "" : "  NOT CONVERGED")
                   << "\n";
-      std::cout << "outputs: " << o->out << "/tradeoff.csv, tradeoff_axial.png, tradeoff_transverse.png\n";
+      std::cout << "outputs: " << o->out
+                << "/tradeoff.csv, tradeoff_axial.png, tradeoff_transverse.png\n";
       return 0;
     };
   });

@@ -11,8 +11,8 @@ namespace rbc {
 
 std::vector<ExperimentPoint> load_experiment(const std::string& path) {
   const CsvTable t = read_csv(path);
-  const std::vector<std::string> expected = {"force_pN", "axial_um", "axial_err_um", "transverse_um",
-                                             "transverse_err_um"};
+  const std::vector<std::string> expected = {"force_pN", "axial_um", "axial_err_um",
+                                             "transverse_um", "transverse_err_um"};
   if (t.header != expected)
     throw std::runtime_error("experiment file '" + path +
                              "' must have columns force_pN,axial_um,axial_err_um,transverse_um,"

@@ -12,8 +12,8 @@ namespace rbc {
 std::vector<Method> default_fig7_methods() {
   std::vector<Method> m;
   m.push_back({MethodKind::discrete, 2000, WlcExpansion::full});
-  for (auto order : {WlcExpansion::order2, WlcExpansion::order3, WlcExpansion::order4,
-                     WlcExpansion::full})
+  for (auto order :
+       {WlcExpansion::order2, WlcExpansion::order3, WlcExpansion::order4, WlcExpansion::full})
     m.push_back({MethodKind::continuum, 4000, order});
   return m;
 }
@@ -23,8 +23,8 @@ void check_increasing_forces(const std::vector<double>& f) {
     if (!(f[k] >= 0) || !std::isfinite(f[k]))
       throw std::invalid_argument("force " + std::to_string(f[k]) + " pN must be finite and >= 0");
     if (k > 0 && !(f[k] > f[k - 1]))
-      throw std::invalid_argument("forces must increase: " + std::to_string(f[k]) +
-                                  " pN follows " + std::to_string(f[k - 1]) + " pN");
+      throw std::invalid_argument("forces must increase: " + std::to_string(f[k]) + " pN follows " +
+                                  std::to_string(f[k - 1]) + " pN");
   }
 }
 
@@ -55,7 +55,8 @@ void write_experiment_csv(const std::vector<ExperimentPoint>& e, const std::stri
                 "units: pN, um; err = half the error bar"};
   t.header = {"force_pN", "axial_um", "axial_err_um", "transverse_um", "transverse_err_um"};
   for (const auto& p : e)
-    t.rows.push_back({p.force_pN, p.axial_um, p.axial_err_um, p.transverse_um, p.transverse_err_um});
+    t.rows.push_back(
+        {p.force_pN, p.axial_um, p.axial_err_um, p.transverse_um, p.transverse_err_um});
   write_csv(path, t);
 }
 
@@ -63,11 +64,12 @@ void write_experiment_csv(const std::vector<ExperimentPoint>& e, const std::stri
 
 void write_fig7(const Fig7Result& r, const std::string& dir) {
   ensure_output_directory(dir);
-  write_experiment_csv(r.experiment, dir + "/experiment_mills2004.csv", "experiment (main reading)");
+  write_experiment_csv(r.experiment, dir + "/experiment_mills2004.csv",
+                       "experiment (main reading)");
   write_experiment_csv(r.alternative, dir + "/experiment_mills2004_alternative.csv",
                        "experiment (alternative reading)");
-  static const char* palette[] = {"#000000", "#1f77b4", "#2ca02c", "#ff7f0e", "#d62728",
-                                  "#9467bd", "#8c564b", "#e377c2"};
+  static const char* palette[] = {"#000000", "#1f77b4", "#2ca02c", "#ff7f0e",
+                                  "#d62728", "#9467bd", "#8c564b", "#e377c2"};
   PlotSpec spec;
   spec.title = "Optical-tweezers stretch of a red blood cell (Fig. 7, Hartmann 2008)";
   spec.xlabel = "total stretching force F (pN)";
@@ -77,19 +79,19 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
   spec.width_px = 1100;
   spec.extra_commands = {"set label 'axial D_A' at graph 0.03, graph 0.93",
                          "set label 'transverse D_T' at graph 0.03, graph 0.12"};
-  spec.series.push_back({"Mills 2004 D_A", "experiment_mills2004.csv", "1:2:3", "yerrorbars",
-                         "#555555", 7, 1});
-  spec.series.push_back({"Mills 2004 D_T", "experiment_mills2004.csv", "1:4:5", "yerrorbars",
-                         "#555555", 5, 1});
+  spec.series.push_back(
+      {"Mills 2004 D_A", "experiment_mills2004.csv", "1:2:3", "yerrorbars", "#555555", 7, 1});
+  spec.series.push_back(
+      {"Mills 2004 D_T", "experiment_mills2004.csv", "1:4:5", "yerrorbars", "#555555", 5, 1});
   spec.series.push_back({"alternative reading (D_A, D_T)", "experiment_mills2004_alternative.csv",
                          "1:2", "points", "#aaaaaa", 6, 1});
-  spec.series.push_back({"", "experiment_mills2004_alternative.csv", "1:4", "points", "#aaaaaa",
-                         6, 1});
+  spec.series.push_back(
+      {"", "experiment_mills2004_alternative.csv", "1:4", "points", "#aaaaaa", 6, 1});
   CsvTable fit;
   fit.comments = {"goodness of fit against Mills 2004 (main reading), 0-193 pN",
                   "rms in um; inside = points within their error bars"};
-  fit.header = {"method_index", "axial_rms_um", "transverse_rms_um", "axial_inside",
-                "transverse_inside", "points", "total_wall_s", "all_converged"};
+  fit.header = {"method_index",      "axial_rms_um", "transverse_rms_um", "axial_inside",
+                "transverse_inside", "points",       "total_wall_s",      "all_converged"};
   nlohmann::json summary = nlohmann::json::array();
   for (size_t k = 0; k < r.runs.size(); ++k) {
     const MethodRun& run = r.runs[k];
@@ -98,8 +100,8 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
     t.comments = {run.method.label(), "units: pN, um, s"};
     t.header = {"force_pN", "axial_um", "transverse_um", "wall_s", "converged", "residual"};
     for (const auto& p : run.points)
-      t.rows.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.converged ? 1.0 : 0.0,
-                        p.residual});
+      t.rows.push_back(
+          {p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.converged ? 1.0 : 0.0, p.residual});
     write_csv(dir + "/" + file, t);
     const char* color = palette[(k + 1) % 8];
     const int dash = run.method.kind == MethodKind::discrete ? 1 : 2;
@@ -107,8 +109,9 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
     spec.series.push_back({"", file, "1:3", "lines", color, 7, dash});
     const FitQuality& q = r.fits[k];
     fit.rows.push_back({static_cast<double>(k), q.axial_rms_um, q.transverse_rms_um,
-                        static_cast<double>(q.axial_inside), static_cast<double>(q.transverse_inside),
-                        static_cast<double>(q.points), run.total_s, run.all_converged() ? 1.0 : 0.0});
+                        static_cast<double>(q.axial_inside),
+                        static_cast<double>(q.transverse_inside), static_cast<double>(q.points),
+                        run.total_s, run.all_converged() ? 1.0 : 0.0});
     summary.push_back({{"method", run.method.name()},
                        {"label", run.method.label()},
                        {"vertices", run.vertices},

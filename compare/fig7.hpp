@@ -11,8 +11,8 @@ namespace rbc {
 
 struct Fig7Options {
   /// Forces (pN), increasing: the Mills forces, then on to 300 pN where the laws part.
-  std::vector<double> forces_pN = {0,     16,  19.5,  30.6, 38,  46.6, 67.6, 87.6, 108.8,
-                                   130.0, 151, 172.8, 193,  220, 250,  300};
+  std::vector<double> forces_pN = {0,     16,    19.5, 30.6,  38,  46.6, 67.6, 87.6,
+                                   108.8, 130.0, 151,  172.8, 193, 220,  250,  300};
   std::vector<Method> methods;  ///< default: see default_fig7_methods()
   std::string data_dir;         ///< empty: default_data_directory()
 };

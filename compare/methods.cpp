@@ -6,8 +6,8 @@
 
 #include "continuum/continuum_stretch.hpp"
 #include "core/rest_shape.hpp"
-#include "homogenise/invariant_laws.hpp"
 #include "discrete/stretch.hpp"
+#include "homogenise/invariant_laws.hpp"
 
 namespace rbc {
 
@@ -95,9 +95,10 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
   run.vertices = model.topo.num_vertices;
   run.elements = model.num_elements();
   run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const auto pts = run_continuum_stretch(model, forces, ContinuumOptions{}, [&](const std::string& msg) {
-    if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
-  });
+  const auto pts =
+      run_continuum_stretch(model, forces, ContinuumOptions{}, [&](const std::string& msg) {
+        if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
+      });
   for (const auto& p : pts)
     run.points.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.residual_pN,
                           p.iterations, p.converged});

@@ -13,7 +13,7 @@ enum class MethodKind { discrete, continuum };
 
 struct Method {
   MethodKind kind = MethodKind::discrete;
-  int resolution = 2000;  ///< vertices (discrete) or elements (continuum)
+  int resolution = 2000;                      ///< vertices (discrete) or elements (continuum)
   WlcExpansion order = WlcExpansion::order2;  ///< continuum law (discrete: always the full WLC)
   /// Short stable name, e.g. "discrete_N2000" or "continuum_p2_E4000".
   std::string name() const;

@@ -41,7 +41,8 @@ void render_plot(const PlotSpec& spec, const std::string& dir, const std::string
   write_text_atomic(script, g.str());
   const std::string cmd = "cd '" + dir + "' && gnuplot '" + name + ".gp' 2>&1";
   FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) throw std::runtime_error("cannot run gnuplot (is it installed? apt-get install gnuplot-nox)");
+  if (!pipe)
+    throw std::runtime_error("cannot run gnuplot (is it installed? apt-get install gnuplot-nox)");
   std::string output;
   std::array<char, 256> buf{};
   while (fgets(buf.data(), buf.size(), pipe)) output += buf.data();

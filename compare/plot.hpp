@@ -9,12 +9,12 @@ namespace rbc {
 /// One curve or point set. `columns` is gnuplot's `using` spec over the CSV data file.
 struct PlotSeries {
   std::string title;
-  std::string data_file;  ///< CSV with a header line, relative to the plot's directory
-  std::string columns;    ///< e.g. "1:2" (lines) or "1:2:3" (yerrorbars)
+  std::string data_file;              ///< CSV with a header line, relative to the plot's directory
+  std::string columns;                ///< e.g. "1:2" (lines) or "1:2:3" (yerrorbars)
   std::string style = "linespoints";  ///< gnuplot style: lines, linespoints, yerrorbars, points
-  std::string color;      ///< e.g. "#1f77b4"; empty = gnuplot's default cycle
+  std::string color;                  ///< e.g. "#1f77b4"; empty = gnuplot's default cycle
   int point_type = 7;
-  int dash_type = 1;      ///< 1 solid, 2 dashed, ...
+  int dash_type = 1;  ///< 1 solid, 2 dashed, ...
 };
 
 struct PlotSpec {

@@ -11,6 +11,7 @@
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
+#include "discrete/mc_run.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
 #include "homogenise/moduli.hpp"
@@ -46,13 +47,15 @@ void order_sweep(const StabilityOptions& o, StabilityResult& res, const Progress
   const TriMesh mesh = make_continuum_mesh(o.continuum_elements);
   const NetworkParameters defaults;
   const double x0 = defaults.wlc.lbar_um / defaults.wlc.lmax_um;
-  for (auto order : {WlcExpansion::full, WlcExpansion::order2, WlcExpansion::order3,
-                     WlcExpansion::order4}) {
+  for (auto order :
+       {WlcExpansion::full, WlcExpansion::order2, WlcExpansion::order3, WlcExpansion::order4}) {
     report(progress, "stability: continuum order " + to_string(order) + " up to " +
                          std::to_string(o.order_forces_pN.back()) + " pN");
     const ContinuumModel model = build_continuum_model(
         mesh, make_membrane_law(defaults.wlc, defaults.steric, order), ContinuumParameters{});
-    const auto pts = run_continuum_stretch(model, o.order_forces_pN, ContinuumOptions{});
+    ContinuumOptions co;
+    co.max_bisections = o.continuum_bisections;
+    const auto pts = run_continuum_stretch(model, o.order_forces_pN, co);
     OrderCurve c;
     c.order = to_string(order);
     for (const auto& p : pts) {
@@ -117,7 +120,9 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
     report(progress, "stability: continuum p=" + to_string(order) + " solver budget");
     const ContinuumModel model = build_continuum_model(
         mesh, make_membrane_law(defaults.wlc, defaults.steric, order), ContinuumParameters{});
-    const auto cp = run_continuum_stretch(model, o.budget_forces_pN, ContinuumOptions{});
+    ContinuumOptions co;
+    co.max_bisections = o.continuum_bisections;
+    const auto cp = run_continuum_stretch(model, o.budget_forces_pN, co);
     for (const auto& p : cp) {
       const std::string m = "continuum p=" + to_string(order);
       res.rows.push_back({"solver_budget", m, "force_pN", p.force_pN, "converged",
@@ -130,8 +135,8 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
 
 void mesh_quality_sweep(const StabilityOptions& o, StabilityResult& res,
                         const ProgressSink& progress) {
-  for (auto q : {RestMeshQuality::phi_minimised, RestMeshQuality::projected,
-                 RestMeshQuality::equal_area}) {
+  for (auto q :
+       {RestMeshQuality::phi_minimised, RestMeshQuality::projected, RestMeshQuality::equal_area}) {
     report(progress, "stability: discrete network quality " + to_string(q));
     RestShapeOptions ro;
     ro.target_vertices = o.discrete_vertices;
@@ -167,12 +172,61 @@ void steric_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
       const Network net = build_network(mesh, p);
       const auto pts = run_stretch(net, {0.0, o.steric_force_pN}, StretchOptions{});
       res.rows.push_back({"steric", m.str(), "eta", eta, "K_closed_pN_per_um", lm.K_pN_per_um, ""});
-      res.rows.push_back({"steric", m.str(), "eta", eta, "axial_um_at_force",
-                          pts.back().axial_um,
+      res.rows.push_back({"steric", m.str(), "eta", eta, "axial_um_at_force", pts.back().axial_um,
                           pts.back().status + " at " + std::to_string(o.steric_force_pN) + " pN"});
-      res.rows.push_back({"steric", m.str(), "eta", eta, "transverse_um_at_force",
-                          pts.back().transverse_um, ""});
+      res.rows.push_back(
+          {"steric", m.str(), "eta", eta, "transverse_um_at_force", pts.back().transverse_um, ""});
     }
+}
+
+// Monte Carlo limits: acceptance and decorrelation against the trial step at 300 K, and
+// against temperature with the adaptive step (where the penalties stop holding area/volume).
+void monte_carlo_sweep(const StabilityOptions& o, StabilityResult& res,
+                       const ProgressSink& progress) {
+  RestShapeOptions ro;
+  ro.target_vertices = o.mc_vertices;
+  const Network net = build_network(make_rest_shape(ro), NetworkParameters{});
+  Positions x0 = net.rest;
+  ConstraintMultipliers lambda;
+  const StretchPoint eq = solve_equilibrium(net, 0.0, x0, lambda, StretchOptions{});
+  const std::string method = "monte carlo N=" + std::to_string(net.topo.num_vertices);
+  auto run = [&](double temperature, double step, int adapt) {
+    McRunSetup setup;
+    setup.sampler.temperature_K = temperature;
+    setup.sampler.initial_step_um = step;
+    setup.sampler.adapt_sweeps = adapt;
+    setup.sampler.seed = 7;
+    setup.multipliers = lambda;
+    setup.reference_axial_um = eq.axial_um;
+    setup.reference_transverse_um = eq.transverse_um;
+    McRun mc(net, setup, x0);
+    mc.advance(adapt + o.mc_sweeps);
+    return mc.summarise();
+  };
+  for (double step : o.mc_steps_um) {
+    report(progress, "stability: Monte Carlo step " + std::to_string(step) + " um at 300 K");
+    const McSummary s = run(300.0, step, 0);
+    res.rows.push_back({"monte_carlo", method, "step_um", step, "acceptance", s.acceptance,
+                        "fixed step, 300 K, 0 pN"});
+    res.rows.push_back({"monte_carlo", method, "step_um", step, "energy_inefficiency",
+                        s.energy.inefficiency,
+                        "statistical inefficiency g of the energy series (sweeps per independent "
+                        "sample); large g = slow decorrelation"});
+  }
+  for (double t : o.mc_temperatures_K) {
+    report(progress, "stability: Monte Carlo at " + std::to_string(t) + " K");
+    const McSummary s = run(t, 0.0, o.mc_sweeps / 2);
+    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "axial_shift_um",
+                        s.axial.mean - eq.axial_um, "mean D_A minus the zero-temperature D_A"});
+    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "axial_std_um",
+                        std::sqrt(s.axial.variance), "thermal fluctuation of D_A"});
+    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "max_area_drift",
+                        s.max_area_drift,
+                        "largest |A - A0|/A0 sampled: above 1e-4 the penalties no longer hold "
+                        "the bilayer area (MODEL.md)"});
+    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "acceptance", s.acceptance,
+                        "adaptive step"});
+  }
 }
 
 }  // namespace
@@ -192,8 +246,9 @@ void add_resolution_rows(const TradeoffResult& t, double tol, std::vector<Stabil
     rows.push_back({"resolution", family, "tolerance", tol, "coarsest_resolution",
                     static_cast<double>(r->run.method.resolution),
                     "vertices (discrete) or elements (continuum) within the tolerance of the "
-                    "reference D_A at " + std::to_string(t.force_pN) + " pN; wall " +
-                        std::to_string(r->wall_s) + " s"});
+                    "reference D_A at " +
+                        std::to_string(t.force_pN) + " pN; wall " + std::to_string(r->wall_s) +
+                        " s"});
 }
 
 StabilityResult run_stability(const StabilityOptions& o, const TradeoffResult* tradeoff,
@@ -203,6 +258,7 @@ StabilityResult run_stability(const StabilityOptions& o, const TradeoffResult* t
   budget_sweep(o, res, progress);
   mesh_quality_sweep(o, res, progress);
   steric_sweep(o, res, progress);
+  if (o.include_monte_carlo) monte_carlo_sweep(o, res, progress);
   if (tradeoff)
     for (double tol : {0.01, 0.05}) add_resolution_rows(*tradeoff, tol, res.rows);
   return res;
@@ -217,10 +273,14 @@ void write_stability(const StabilityResult& r, const std::string& dir) {
   for (const auto& row : r.rows) {
     csv << row.study << "," << row.method << "," << row.parameter << "," << row.parameter_value
         << "," << row.metric << "," << row.value << ",\"" << row.note << "\"\n";
-    rows.push_back({{"study", row.study}, {"method", row.method}, {"parameter", row.parameter},
-                    {"parameter_value", row.parameter_value}, {"metric", row.metric},
-                    {"value", std::isfinite(row.value) ? nlohmann::json(row.value) : nlohmann::json()},
-                    {"note", row.note}});
+    rows.push_back(
+        {{"study", row.study},
+         {"method", row.method},
+         {"parameter", row.parameter},
+         {"parameter_value", row.parameter_value},
+         {"metric", row.metric},
+         {"value", std::isfinite(row.value) ? nlohmann::json(row.value) : nlohmann::json()},
+         {"note", row.note}});
   }
   write_text_atomic(dir + "/stability.csv", csv.str());
   write_text_atomic(dir + "/stability.json", rows.dump(2) + "\n");

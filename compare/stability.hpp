@@ -15,7 +15,10 @@ struct StabilityOptions {
   int discrete_vertices = 1000;   ///< network for the discrete sweeps
   int continuum_elements = 2000;  ///< mesh for the continuum sweeps
   /// Force ladder (pN) for the order-departure sweep, continuation in this order.
-  std::vector<double> order_forces_pN = {0, 50, 100, 150, 200, 250, 300, 400, 500, 700, 1000};
+  std::vector<double> order_forces_pN = {0, 50, 100, 150, 200, 250, 300, 400, 500};
+  /// Halvings of a failing force increment allowed to the continuum solver in the sweeps
+  /// (small: a law or solver that fails is itself the finding, and must not stall the study).
+  int continuum_bisections = 2;
   /// Force ladder (pN) for the solver-budget sweep.
   std::vector<double> budget_forces_pN = {200, 500, 1000, 2000, 5000};
   int discrete_iteration_budget = 20000;  ///< L-BFGS iterations per force
@@ -23,6 +26,14 @@ struct StabilityOptions {
   std::vector<double> qs = {1.0, 2.0};
   double steric_force_pN = 88.0;
   bool include_continuum = true;
+  /// Monte Carlo limits: a small network (vertices) sampled at 0 pN for `mc_sweeps`
+  /// production sweeps, with fixed trial steps (um) at 300 K and with adaptive steps at
+  /// the temperatures (K).
+  int mc_vertices = 300;
+  int mc_sweeps = 300;
+  std::vector<double> mc_steps_um = {0.001, 0.003, 0.01, 0.03, 0.1};
+  std::vector<double> mc_temperatures_K = {30, 300, 3000, 30000};
+  bool include_monte_carlo = true;
 };
 
 /// One measured fact: study, method, a parameter and a metric, with a note.

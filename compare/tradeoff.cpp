@@ -16,8 +16,7 @@ TradeoffReference richardson_reference(const std::vector<TradeoffRow>& rows) {
   for (const auto& r : rows)
     if (r.run.method.kind == MethodKind::discrete && r.converged) d.push_back(&r);
   if (d.empty()) throw std::runtime_error("no converged discrete run to serve as reference");
-  std::sort(d.begin(), d.end(),
-            [](auto* a, auto* b) { return a->run.vertices < b->run.vertices; });
+  std::sort(d.begin(), d.end(), [](auto* a, auto* b) { return a->run.vertices < b->run.vertices; });
   TradeoffReference ref;
   const TradeoffRow& f2 = *d.back();
   if (d.size() == 1) {
@@ -58,11 +57,13 @@ void mark_pareto_front(std::vector<TradeoffRow>& rows) {
 
 TradeoffResult run_tradeoff(const TradeoffOptions& o, const ProgressSink& progress) {
   if (!(o.force_pN >= 0) || !std::isfinite(o.force_pN))
-    throw std::invalid_argument("--force must be finite and >= 0, got " + std::to_string(o.force_pN));
+    throw std::invalid_argument("--force must be finite and >= 0, got " +
+                                std::to_string(o.force_pN));
   TradeoffResult res;
   res.force_pN = o.force_pN;
   std::vector<Method> methods;
-  for (int n : o.discrete_vertices) methods.push_back({MethodKind::discrete, n, WlcExpansion::full});
+  for (int n : o.discrete_vertices)
+    methods.push_back({MethodKind::discrete, n, WlcExpansion::full});
   if (o.include_continuum)
     for (auto order : o.continuum_orders)
       for (int e : o.continuum_elements) methods.push_back({MethodKind::continuum, e, order});
@@ -96,8 +97,9 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
                       std::to_string(r.reference.transverse_um) + " +- " +
                       std::to_string(r.reference.transverse_error_um) + " um",
                   "kind: 0 discrete, 1 continuum; order: 0 full, 2, 3, 4 (continuum law)"};
-  all.header = {"kind", "order", "resolution", "vertices", "elements", "axial_um", "transverse_um",
-                "wall_s", "converged", "axial_error_um", "transverse_error_um", "pareto"};
+  all.header = {"kind",      "order",          "resolution",          "vertices",
+                "elements",  "axial_um",       "transverse_um",       "wall_s",
+                "converged", "axial_error_um", "transverse_error_um", "pareto"};
   // One CSV per series so gnuplot can draw each with its own style.
   std::vector<std::pair<std::string, std::vector<const TradeoffRow*>>> series;
   auto series_for = [&](const std::string& name) -> std::vector<const TradeoffRow*>& {
@@ -119,11 +121,17 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
                         static_cast<double>(row.run.elements), row.axial_um, row.transverse_um,
                         row.wall_s, row.converged ? 1.0 : 0.0, row.axial_error_um,
                         row.transverse_error_um, row.pareto ? 1.0 : 0.0});
-    rows.push_back({{"method", m.name()}, {"label", m.label()}, {"vertices", row.run.vertices},
-                    {"elements", row.run.elements}, {"axial_um", row.axial_um},
-                    {"transverse_um", row.transverse_um}, {"wall_s", row.wall_s},
-                    {"converged", row.converged}, {"axial_error_um", row.axial_error_um},
-                    {"transverse_error_um", row.transverse_error_um}, {"pareto", row.pareto}});
+    rows.push_back({{"method", m.name()},
+                    {"label", m.label()},
+                    {"vertices", row.run.vertices},
+                    {"elements", row.run.elements},
+                    {"axial_um", row.axial_um},
+                    {"transverse_um", row.transverse_um},
+                    {"wall_s", row.wall_s},
+                    {"converged", row.converged},
+                    {"axial_error_um", row.axial_error_um},
+                    {"transverse_error_um", row.transverse_error_um},
+                    {"pareto", row.pareto}});
     if (!row.converged) continue;
     series_for(m.kind == MethodKind::discrete ? "discrete" : "continuum_p" + to_string(m.order))
         .push_back(&row);
@@ -142,8 +150,9 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
   static const char* colors[] = {"#1f77b4", "#2ca02c", "#ff7f0e", "#d62728", "#9467bd"};
   for (const bool axial : {true, false}) {
     PlotSpec spec;
-    spec.title = std::string("Accuracy against cost at ") + std::to_string(static_cast<int>(r.force_pN)) +
-                 " pN (" + (axial ? "axial D_A" : "transverse D_T") + ")";
+    spec.title = std::string("Accuracy against cost at ") +
+                 std::to_string(static_cast<int>(r.force_pN)) + " pN (" +
+                 (axial ? "axial D_A" : "transverse D_T") + ")";
     spec.xlabel = "wall time per solve incl. set-up (s)";
     spec.ylabel = std::string("|error| in ") + (axial ? "D_A" : "D_T") + " (um) vs reference";
     spec.log_x = spec.log_y = true;
@@ -156,12 +165,14 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
       std::sort(sorted.begin(), sorted.end(),
                 [](auto* a, auto* b) { return a->wall_s < b->wall_s; });
       for (auto* p : sorted)
-        t.rows.push_back({p->wall_s, std::max(axial ? p->axial_error_um : p->transverse_error_um, 1e-6),
+        t.rows.push_back({p->wall_s,
+                          std::max(axial ? p->axial_error_um : p->transverse_error_um, 1e-6),
                           static_cast<double>(p->run.method.resolution)});
       const std::string file = "tradeoff_" + name + ".csv";
       write_csv(dir + "/" + file, t);
       if (name == "pareto") {
-        if (axial) spec.series.push_back({"Pareto front (D_A)", file, "1:2", "lines", "#777777", 7, 2});
+        if (axial)
+          spec.series.push_back({"Pareto front (D_A)", file, "1:2", "lines", "#777777", 7, 2});
       } else {
         spec.series.push_back({name, file, "1:2", "linespoints", colors[k++ % 5], 7, 1});
       }

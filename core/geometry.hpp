@@ -12,7 +12,9 @@ namespace rbc {
 using Vec3 = Eigen::Vector3d;
 
 /// Edge length |b - a|. Gradient w.r.t. b is (b - a)/|b - a| (and minus that for a).
-inline double edge_length(const Vec3& a, const Vec3& b) { return (b - a).norm(); }
+inline double edge_length(const Vec3& a, const Vec3& b) {
+  return (b - a).norm();
+}
 
 /// Triangle area A = |(b - a) x (c - a)| / 2 and, if grad != nullptr, dA/d(a,b,c)
 /// as columns: dA/da = n x (c - b) / 2 with n the unit normal (cyclic for b, c).
@@ -52,11 +54,12 @@ inline double tetra_volume(const Vec3& a, const Vec3& b, const Vec3& c,
 /// is convex (a ridge), zero when flat. theta = atan2((n0 x n1) . e/|e|, n0 . n1).
 /// Gradient columns (a, b, c, d), with h_c, h_d the heights over the hinge and
 /// t_c = (c - a).e/|e|^2: dtheta/dc = -n0/h_c, dtheta/dd = -n1/h_d,
-/// dtheta/da = -(1 - t_c) dtheta/dc - (1 - t_d) dtheta/dd, dtheta/db = -t_c dtheta/dc - t_d dtheta/dd.
+/// dtheta/da = -(1 - t_c) dtheta/dc - (1 - t_d) dtheta/dd, dtheta/db = -t_c dtheta/dc - t_d
+/// dtheta/dd.
 inline double dihedral_angle(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
                              Eigen::Matrix<double, 3, 4>* grad = nullptr) {
   const Vec3 e = b - a;
-  const Vec3 m0 = e.cross(c - a);   // 2 A0 n0
+  const Vec3 m0 = e.cross(c - a);        // 2 A0 n0
   const Vec3 m1 = (a - b).cross(d - b);  // 2 A1 n1
   const double el = e.norm();
   const double theta = std::atan2(m0.cross(m1).dot(e) / el, m0.dot(m1));

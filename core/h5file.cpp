@@ -34,8 +34,12 @@ H5File H5File::open_read(const std::string& path) {
   return H5File(id, path);
 }
 
-H5File::H5File(H5File&& o) noexcept : id_(o.id_), path_(std::move(o.path_)) { o.id_ = -1; }
-H5File::~H5File() { close(); }
+H5File::H5File(H5File&& o) noexcept : id_(o.id_), path_(std::move(o.path_)) {
+  o.id_ = -1;
+}
+H5File::~H5File() {
+  close();
+}
 void H5File::close() {
   if (id_ >= 0) H5Fclose(id_);
   id_ = -1;
@@ -56,7 +60,8 @@ void H5File::write_raw(const std::string& name, hid_t type, const void* data, hs
   ensure_parent_groups(name);
   const hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(2, dims, nullptr);
-  const hid_t set = H5Dcreate2(id_, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t set =
+      H5Dcreate2(id_, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   const herr_t status = set >= 0 ? H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) : -1;
   if (set >= 0) H5Dclose(set);
   H5Sclose(space);
@@ -76,7 +81,8 @@ void H5File::write(const std::string& n, const unsigned long long* d, hsize_t r,
 void H5File::write_attribute(const std::string& name, double value) {
   const hid_t space = H5Screate(H5S_SCALAR);
   const hid_t a = H5Acreate2(id_, name.c_str(), H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT);
-  if (a < 0 || H5Awrite(a, H5T_NATIVE_DOUBLE, &value) < 0) fail(path_, "cannot write attribute " + name);
+  if (a < 0 || H5Awrite(a, H5T_NATIVE_DOUBLE, &value) < 0)
+    fail(path_, "cannot write attribute " + name);
   H5Aclose(a);
   H5Sclose(space);
 }
@@ -84,7 +90,8 @@ void H5File::write_attribute(const std::string& name, double value) {
 void H5File::write_attribute(const std::string& name, long long value) {
   const hid_t space = H5Screate(H5S_SCALAR);
   const hid_t a = H5Acreate2(id_, name.c_str(), H5T_NATIVE_LLONG, space, H5P_DEFAULT, H5P_DEFAULT);
-  if (a < 0 || H5Awrite(a, H5T_NATIVE_LLONG, &value) < 0) fail(path_, "cannot write attribute " + name);
+  if (a < 0 || H5Awrite(a, H5T_NATIVE_LLONG, &value) < 0)
+    fail(path_, "cannot write attribute " + name);
   H5Aclose(a);
   H5Sclose(space);
 }
@@ -127,14 +134,23 @@ std::pair<hsize_t, hsize_t> H5File::read_raw(const std::string& name, hid_t type
 }
 
 std::pair<hsize_t, hsize_t> H5File::read(const std::string& n, std::vector<double>& out) const {
-  return read_raw(n, H5T_NATIVE_DOUBLE, [&](size_t k) { out.resize(k); return static_cast<void*>(out.data()); });
+  return read_raw(n, H5T_NATIVE_DOUBLE, [&](size_t k) {
+    out.resize(k);
+    return static_cast<void*>(out.data());
+  });
 }
 std::pair<hsize_t, hsize_t> H5File::read(const std::string& n, std::vector<int>& out) const {
-  return read_raw(n, H5T_NATIVE_INT, [&](size_t k) { out.resize(k); return static_cast<void*>(out.data()); });
+  return read_raw(n, H5T_NATIVE_INT, [&](size_t k) {
+    out.resize(k);
+    return static_cast<void*>(out.data());
+  });
 }
 std::pair<hsize_t, hsize_t> H5File::read(const std::string& n,
                                          std::vector<unsigned long long>& out) const {
-  return read_raw(n, H5T_NATIVE_ULLONG, [&](size_t k) { out.resize(k); return static_cast<void*>(out.data()); });
+  return read_raw(n, H5T_NATIVE_ULLONG, [&](size_t k) {
+    out.resize(k);
+    return static_cast<void*>(out.data());
+  });
 }
 
 double H5File::read_attribute_double(const std::string& name) const {

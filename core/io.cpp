@@ -1,12 +1,12 @@
 #include "core/io.hpp"
 
+#include <unistd.h>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
-#include <unistd.h>
 
 #include "core/h5file.hpp"
 
@@ -107,8 +107,8 @@ CsvTable read_csv(const std::string& path) {
         used = 0;
       }
       if (used == 0 || c.find_first_not_of(" \t", used) != std::string::npos)
-        throw std::runtime_error("CSV file '" + path + "' line " + std::to_string(lineno) +
-                                 ": '" + c + "' is not a number");
+        throw std::runtime_error("CSV file '" + path + "' line " + std::to_string(lineno) + ": '" +
+                                 c + "' is not a number");
       row.push_back(v);
     }
     t.rows.push_back(std::move(row));
@@ -138,11 +138,12 @@ void write_mesh_snapshot(const std::string& base, const MeshSnapshot& snap) {
   x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
     << "  <Grid Name=\"membrane\" GridType=\"Uniform\">\n"
     << "   <Topology TopologyType=\"Triangle\" NumberOfElements=\"" << nf << "\">\n"
-    << "    <DataItem Dimensions=\"" << nf << " 3\" NumberType=\"Int\" Format=\"HDF\">"
-    << h5_name << ":/mesh/faces</DataItem>\n   </Topology>\n"
+    << "    <DataItem Dimensions=\"" << nf << " 3\" NumberType=\"Int\" Format=\"HDF\">" << h5_name
+    << ":/mesh/faces</DataItem>\n   </Topology>\n"
     << "   <Geometry GeometryType=\"XYZ\">\n"
-    << "    <DataItem Dimensions=\"" << nv << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
-    << h5_name << ":/mesh/positions_um</DataItem>\n   </Geometry>\n";
+    << "    <DataItem Dimensions=\"" << nv
+    << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name
+    << ":/mesh/positions_um</DataItem>\n   </Geometry>\n";
   auto attribute = [&](const MeshField& fld, const char* centre, const char* group, hsize_t n) {
     x << "   <Attribute Name=\"" << fld.first << "\" AttributeType=\"Scalar\" Center=\"" << centre
       << "\">\n    <DataItem Dimensions=\"" << n << "\" NumberType=\"Float\" Precision=\"8\" "

@@ -32,7 +32,8 @@ Topology build_topology(const Faces& faces, int num_vertices) {
     for (int k = 0; k < 3; ++k) {
       const int a = faces(k, f), b = faces((k + 1) % 3, f), c = faces((k + 2) % 3, f);
       if (a < 0 || a >= num_vertices || b < 0 || b >= num_vertices)
-        throw std::invalid_argument("face " + std::to_string(f) + " has a vertex index outside [0, " +
+        throw std::invalid_argument("face " + std::to_string(f) +
+                                    " has a vertex index outside [0, " +
                                     std::to_string(num_vertices) + ")");
       if (a == b) throw std::invalid_argument("face " + std::to_string(f) + " is degenerate");
       if (!half.emplace(std::make_pair(a, b), std::make_pair(f, c)).second)

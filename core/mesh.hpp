@@ -33,16 +33,16 @@ struct Adjacency {
 /// a torus for periodic patches). Built once by build_topology(); immutable after.
 struct Topology {
   int num_vertices = 0;
-  Faces faces;                 ///< 3 x F
-  Eigen::Matrix2Xi edges;      ///< 2 x E, edges(0,e) < edges(1,e)
+  Faces faces;             ///< 3 x F
+  Eigen::Matrix2Xi edges;  ///< 2 x E, edges(0,e) < edges(1,e)
   /// 2 x E: the two faces sharing edge e. Face edge_faces(0,e) traverses the edge
   /// as edges(0,e) -> edges(1,e); face edge_faces(1,e) traverses it backwards.
   Eigen::Matrix2Xi edge_faces;
   /// 2 x E: the vertex opposite edge e in edge_faces(0,e) and edge_faces(1,e).
   Eigen::Matrix2Xi edge_opposite;
-  Adjacency vertex_faces;      ///< faces around each vertex
-  Adjacency vertex_edges;      ///< edges incident to each vertex
-  Adjacency vertex_neighbours; ///< 1-ring vertices
+  Adjacency vertex_faces;       ///< faces around each vertex
+  Adjacency vertex_edges;       ///< edges incident to each vertex
+  Adjacency vertex_neighbours;  ///< 1-ring vertices
 
   int num_faces() const { return static_cast<int>(faces.cols()); }
   int num_edges() const { return static_cast<int>(edges.cols()); }
@@ -55,7 +55,7 @@ Topology build_topology(const Faces& faces, int num_vertices);
 
 /// A triangle mesh: positions plus connectivity.
 struct TriMesh {
-  Positions x;   ///< 3 x N, um
+  Positions x;  ///< 3 x N, um
   Topology topo;
 };
 

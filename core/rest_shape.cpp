@@ -94,8 +94,8 @@ TriMesh make_icosphere(int frequency) {
       }
     auto [it, fresh] = index.emplace(key, static_cast<int>(pts.size()));
     if (fresh)
-      pts.push_back(((i * corner[c[0]] + j * corner[c[1]] + k * corner[c[2]]) / frequency)
-                        .normalized());
+      pts.push_back(
+          ((i * corner[c[0]] + j * corner[c[1]] + k * corner[c[2]]) / frequency).normalized());
     return it->second;
   };
   std::vector<std::array<int, 3>> tris;
@@ -144,8 +144,8 @@ Eigen::Vector3d equal_area_sphere_point(const EvansFungShape& sh, const Eigen::V
   const double target = 0.5 * (1.0 - std::clamp(s.z(), -1.0, 1.0));
   const auto it = std::lower_bound(cumulative.begin(), cumulative.end(), target);
   int k = std::clamp(static_cast<int>(it - cumulative.begin()), 1, n);
-  const double w = (target - cumulative[k - 1]) /
-                   std::max(cumulative[k] - cumulative[k - 1], 1e-300);
+  const double w =
+      (target - cumulative[k - 1]) / std::max(cumulative[k] - cumulative[k - 1], 1e-300);
   const double tp = units::pi * (k - 1 + std::clamp(w, 0.0, 1.0)) / n;
   const double phi = std::atan2(s.y(), s.x());
   (void)sh;
@@ -218,8 +218,9 @@ MeshQualityReport assess_mesh(const TriMesh& mesh) {
   r.edge_max_um = l.maxCoeff();
   for (int f = 0; f < t.num_faces(); ++f) {
     const auto& c = t.faces.col(f);
-    r.worst_aspect_ratio = std::max(
-        r.worst_aspect_ratio, triangle_aspect_ratio(mesh.x.col(c(0)), mesh.x.col(c(1)), mesh.x.col(c(2))));
+    r.worst_aspect_ratio =
+        std::max(r.worst_aspect_ratio,
+                 triangle_aspect_ratio(mesh.x.col(c(0)), mesh.x.col(c(1)), mesh.x.col(c(2))));
   }
   r.degree_histogram = degree_histogram(t);
   return r;
@@ -255,7 +256,8 @@ TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) 
         const double r = um.col(i).norm();
         const Eigen::Vector3d sh = um.col(i) / r;
         const Eigen::Matrix3d ds_du = (Eigen::Matrix3d::Identity() - sh * sh.transpose()) / r;
-        gu.col(i) = ds_du.transpose() * (evans_fung_jacobian(opt.shape, sh).transpose() * gx.col(i));
+        gu.col(i) =
+            ds_du.transpose() * (evans_fung_jacobian(opt.shape, sh).transpose() * gx.col(i));
       }
       return value;
     };
@@ -276,7 +278,8 @@ TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) 
   for (int i = 0; i < n; ++i) mesh.x.col(i) = evans_fung_point(opt.shape, s.col(i));
   double scale = 1.0;
   if (opt.match_volume) {
-    scale = std::cbrt(evans_fung_measures(opt.shape).volume_um3 / enclosed_volume(mesh.x, mesh.topo));
+    scale =
+        std::cbrt(evans_fung_measures(opt.shape).volume_um3 / enclosed_volume(mesh.x, mesh.topo));
     mesh.x *= scale;  // the shape is centred at the origin
   }
   if (report) {
@@ -289,16 +292,19 @@ TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) 
 
 std::string to_string(RestMeshQuality q) {
   switch (q) {
-    case RestMeshQuality::phi_minimised: return "phi-minimised";
-    case RestMeshQuality::projected: return "projected";
-    case RestMeshQuality::equal_area: return "equal-area";
+    case RestMeshQuality::phi_minimised:
+      return "phi-minimised";
+    case RestMeshQuality::projected:
+      return "projected";
+    case RestMeshQuality::equal_area:
+      return "equal-area";
   }
   return "unknown";
 }
 
 RestMeshQuality rest_mesh_quality_from_string(const std::string& name) {
-  for (auto q : {RestMeshQuality::phi_minimised, RestMeshQuality::projected,
-                 RestMeshQuality::equal_area})
+  for (auto q :
+       {RestMeshQuality::phi_minimised, RestMeshQuality::projected, RestMeshQuality::equal_area})
     if (to_string(q) == name) return q;
   throw std::invalid_argument("unknown mesh quality '" + name +
                               "', expected phi-minimised, projected or equal-area");

@@ -44,7 +44,7 @@ struct RestShapeOptions {
   EvansFungShape shape;
   int target_vertices = 2000;  ///< N, 100 to 40,000; the mesh has N within 10 %
   RestMeshQuality quality = RestMeshQuality::phi_minimised;
-  int max_phi_iterations = 6000;   ///< L-BFGS iterations for the Phi minimisation
+  int max_phi_iterations = 6000;  ///< L-BFGS iterations for the Phi minimisation
   /// Stop when the largest tangential Phi gradient is below this fraction of the mean edge.
   double phi_tolerance = 1e-4;
   /// Scale the mesh about its centre so that it encloses exactly the Evans-Fung volume.

@@ -22,10 +22,9 @@ double constraint_energy_of_totals(double area, double volume, double area0, dou
          lambda.volume_pN_per_um2 * dv + 0.5 * p.volume_stiffness_pN_per_um5 * dv * dv;
 }
 
-double constraint_energy(const Positions& x, const Topology& topo, double area0,
-                         double volume0, const ConstraintParameters& p,
-                         const ConstraintMultipliers& lambda, Positions* grad,
-                         ConstraintState* state) {
+double constraint_energy(const Positions& x, const Topology& topo, double area0, double volume0,
+                         const ConstraintParameters& p, const ConstraintMultipliers& lambda,
+                         Positions* grad, ConstraintState* state) {
   const double area = total_area(x, topo), volume = enclosed_volume(x, topo);
   if (state) *state = {area, volume};
   const double da = area - area0, dv = volume - volume0;

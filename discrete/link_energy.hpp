@@ -23,7 +23,8 @@ inline double link_energy(const WlcDensity& w, double lbar_um, const Eigen::Vect
   if (!(v.v < std::numeric_limits<double>::infinity())) return v.v;
   if (grad_b) *grad_b = sqrt3 * v.dv * d;
   if (hess_bb)
-    *hess_bb = sqrt3 * (v.dv * Eigen::Matrix3d::Identity() + 2.0 * v.d2v / lbar2 * d * d.transpose());
+    *hess_bb =
+        sqrt3 * (v.dv * Eigen::Matrix3d::Identity() + 2.0 * v.d2v / lbar2 * d * d.transpose());
   return 0.5 * sqrt3 * lbar2 * v.v;
 }
 

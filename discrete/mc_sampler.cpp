@@ -55,8 +55,8 @@ void McOptions::validate() const {
 
 double constraint_energy_of_totals(const Network& net, const ConstraintMultipliers& lambda,
                                    double area, double volume) {
-  return constraint_energy_of_totals(area, volume, net.area0_um2, net.volume0_um3,
-                                     net.constraints, lambda);
+  return constraint_energy_of_totals(area, volume, net.area0_um2, net.volume0_um3, net.constraints,
+                                     lambda);
 }
 
 std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,

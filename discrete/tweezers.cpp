@@ -8,7 +8,9 @@
 
 namespace rbc {
 
-std::string to_string(PatchRule r) { return r == PatchRule::by_area ? "area" : "vertices"; }
+std::string to_string(PatchRule r) {
+  return r == PatchRule::by_area ? "area" : "vertices";
+}
 
 PatchRule patch_rule_from_string(const std::string& name) {
   if (name == "area") return PatchRule::by_area;
@@ -35,7 +37,8 @@ TweezerPatch select_tweezer_patch(const Positions& rest, const Topology& topo,
   for (int side = 0; side < 2; ++side) {  // side 0: largest x (+x pull); side 1: smallest x
     std::vector<int> chosen;
     double area = 0;
-    const int target_count = std::max(1, static_cast<int>(std::lround(params.contact_fraction * n)));
+    const int target_count =
+        std::max(1, static_cast<int>(std::lround(params.contact_fraction * n)));
     for (int k = 0; k < n; ++k) {
       const int v = side == 0 ? order[k] : order[n - 1 - k];
       if (params.rule == PatchRule::by_area) {

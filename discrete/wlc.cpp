@@ -67,10 +67,14 @@ void WlcParameters::validate() const {
 
 std::string to_string(WlcExpansion e) {
   switch (e) {
-    case WlcExpansion::full: return "full";
-    case WlcExpansion::order2: return "2";
-    case WlcExpansion::order3: return "3";
-    case WlcExpansion::order4: return "4";
+    case WlcExpansion::full:
+      return "full";
+    case WlcExpansion::order2:
+      return "2";
+    case WlcExpansion::order3:
+      return "3";
+    case WlcExpansion::order4:
+      return "4";
   }
   return "?";
 }
@@ -102,7 +106,7 @@ double max_admissible_z(const WlcDensity& w) {
 DensityValue evaluate(const WlcDensity& w, double z) {
   DensityValue r;
   if (w.expansion != WlcExpansion::full) {
-    const int order = w.expansion == WlcExpansion::order2 ? 2
+    const int order = w.expansion == WlcExpansion::order2   ? 2
                       : w.expansion == WlcExpansion::order3 ? 3
                                                             : 4;
     const double d = z - 1.0;
@@ -120,7 +124,7 @@ DensityValue evaluate(const WlcDensity& w, double z) {
   const double phi = (3 * x * x - 2 * x * x * x) / om;
   const double dphi = (6 * x - 9 * x * x + 4 * x * x * x) / (om * om);
   const double d2phi = (6 - 12 * x + 12 * x * x - 4 * x * x * x) / (om * om * om);
-  const double dx = w.x0 * w.x0 / (2 * x);                   // dx/dz
+  const double dx = w.x0 * w.x0 / (2 * x);                          // dx/dz
   const double d2x = -w.x0 * w.x0 * w.x0 * w.x0 / (4 * x * x * x);  // d2x/dz2
   r.v = w.prefactor_pN_per_um * phi;
   r.dv = w.prefactor_pN_per_um * dphi * dx;

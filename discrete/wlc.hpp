@@ -9,9 +9,9 @@ namespace rbc {
 /// Spectrin-level WLC parameters, internal units (um, K). Defaults: Li et al. 2005,
 /// Table 1 of the paper: Lbar = 75 nm, Lmax = 237.75 nm, p = 7.5 nm, T = 300 K.
 struct WlcParameters {
-  double lbar_um = 0.075;         ///< rest (equilibrium) link length at the spectrin level
-  double lmax_um = 0.23775;       ///< contour (maximum) length
-  double persistence_um = 0.0075; ///< persistence length p
+  double lbar_um = 0.075;          ///< rest (equilibrium) link length at the spectrin level
+  double lmax_um = 0.23775;        ///< contour (maximum) length
+  double persistence_um = 0.0075;  ///< persistence length p
   double temperature_K = 300.0;
   /// Throws std::invalid_argument naming the value if non-physical (Lmax <= Lbar, p <= 0, T <= 0).
   void validate() const;

@@ -14,8 +14,8 @@ namespace rbc {
 /// Psi and its derivatives w.r.t. (I1, I2), all in pN/um (energy per reference area).
 struct InvariantDerivatives {
   double psi = 0;
-  double d1 = 0, d2 = 0;            ///< dPsi/dI1, dPsi/dI2
-  double d11 = 0, d12 = 0, d22 = 0; ///< second derivatives
+  double d1 = 0, d2 = 0;             ///< dPsi/dI1, dPsi/dI2
+  double d11 = 0, d12 = 0, d22 = 0;  ///< second derivatives
 };
 
 /// An isotropic membrane law. evaluate(I1, I2) returns psi = +infinity outside the law's

@@ -28,8 +28,8 @@ inline void perturb(Positions& x, double amplitude_um, unsigned seed) {
 /// Central-difference check of a gradient: returns the largest absolute error over
 /// `samples` random coordinates for step h. Truncation error is O(h^2).
 inline double fd_gradient_error(const std::function<double(const Eigen::VectorXd&)>& f,
-                                const Eigen::VectorXd& x, const Eigen::VectorXd& grad,
-                                double h, int samples, unsigned seed) {
+                                const Eigen::VectorXd& x, const Eigen::VectorXd& grad, double h,
+                                int samples, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_int_distribution<Eigen::Index> pick(0, x.size() - 1);
   double worst = 0.0;

@@ -79,7 +79,8 @@ TEST(Cli, NonEmptyOutputDirectoryIsRefusedWithoutOverwrite) {
 
 TEST(Cli, StretchJsonHasTheDocumentedFieldsAndWritesFilesThatOpen) {
   const std::string dir = fresh_dir("stretch");
-  const CommandRun r = rbc("stretch --model discrete --force 0,50 -n 200 --json --quiet --out " + dir);
+  const CommandRun r =
+      rbc("stretch --model discrete --force 0,50 -n 200 --json --quiet --out " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   ASSERT_EQ(j.size(), 2u);

@@ -4,6 +4,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 
 #include "compare/report.hpp"
 #include "core/io.hpp"
@@ -82,11 +84,15 @@ TEST(Compare, TinyReportWritesEveryFileWithSensibleNumbers) {
   o.stability.budget_forces_pN = {300, 1500};
   o.stability.etas = {5e-3, 5e-4};
   o.stability.qs = {1.0};
+  o.stability.mc_vertices = 150;
+  o.stability.mc_sweeps = 60;
+  o.stability.mc_steps_um = {0.003, 0.1};
+  o.stability.mc_temperatures_K = {300};
   run_report(o, dir, {});
-  for (const char* f : {"report.md", "fig7/fig7.png", "fig7/fig7_fit.csv", "fig7/fig7.json",
-                        "tradeoff/tradeoff.csv", "tradeoff/tradeoff_axial.png",
-                        "tradeoff/tradeoff_transverse.png", "stability/stability.csv",
-                        "stability/stability_orders.png"})
+  for (const char* f :
+       {"report.md", "fig7/fig7.png", "fig7/fig7_fit.csv", "fig7/fig7.json",
+        "tradeoff/tradeoff.csv", "tradeoff/tradeoff_axial.png", "tradeoff/tradeoff_transverse.png",
+        "stability/stability.csv", "stability/stability_orders.png"})
     EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
   // No temporary file is left behind.
   for (const auto& e : fs::recursive_directory_iterator(dir))
@@ -105,6 +111,19 @@ TEST(Compare, TinyReportWritesEveryFileWithSensibleNumbers) {
   for (const auto& r : t.rows)
     for (double v : r) EXPECT_TRUE(std::isfinite(v));
   EXPECT_LT(t.rows[2][9], t.rows[0][9]);  // axial_error_um: N=600 vs N=150
+  // Monte Carlo: a larger trial step is accepted less often.
+  std::ifstream st(dir + "/stability/stability.csv");
+  std::map<double, double> acceptance;  // step -> acceptance
+  for (std::string line; std::getline(st, line);) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    if (cells.size() >= 6 && cells[0] == "monte_carlo" && cells[2] == "step_um" &&
+        cells[4] == "acceptance")
+      acceptance[std::stod(cells[3])] = std::stod(cells[5]);
+  }
+  ASSERT_EQ(acceptance.size(), 2u);
+  EXPECT_GT(acceptance[0.003], acceptance[0.1]);
   std::ifstream md(dir + "/report.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("The paper's claims"), std::string::npos);

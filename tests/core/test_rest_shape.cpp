@@ -37,7 +37,8 @@ TEST(RestShape, EvansFungAreaVolumeDiameterAt2000Vertices) {
   s.radius_um *= r.volume_scale;
   double worst = 0;
   for (int i = 0; i < m.topo.num_vertices; ++i) {
-    const double rr = std::min(1.0, m.x.col(i).head<2>().squaredNorm() / (s.radius_um * s.radius_um));
+    const double rr =
+        std::min(1.0, m.x.col(i).head<2>().squaredNorm() / (s.radius_um * s.radius_um));
     const double z = s.radius_um * std::sqrt(1 - rr) * (s.c0 + s.c1 * rr + s.c2 * rr * rr);
     worst = std::max(worst, std::abs(std::abs(m.x(2, i)) - z));
   }

@@ -17,7 +17,9 @@ Network cell_network(int n, RestMeshQuality quality = RestMeshQuality::phi_minim
   return build_network(make_rest_shape(o), NetworkParameters{});
 }
 
-double relative_change(double after, double before) { return std::abs(after / before - 1.0); }
+double relative_change(double after, double before) {
+  return std::abs(after / before - 1.0);
+}
 
 TEST(DiscreteStretch, CellStaysPutAtZeroForceOnPhiMinimisedNetwork) {
   // MODEL.md "Residual forces": the near-equilateral network is near equilibrium at rest;
@@ -57,7 +59,8 @@ TEST(DiscreteStretch, AgreesWithMillsAtTheEndsOfTheRange) {
   // MODEL.md section 5: with the paper's parameters the discrete model lies inside the
   // experimental error bars at 0 and 193 pN (and is stiffer in between).
   const Network net = cell_network(500);
-  const CsvTable mills = read_csv(std::string(RBC_SOURCE_DIR) + "/data/mills2004_optical_tweezers.csv");
+  const CsvTable mills =
+      read_csv(std::string(RBC_SOURCE_DIR) + "/data/mills2004_optical_tweezers.csv");
   const auto& first = mills.rows.front();
   const auto& last = mills.rows.back();
   const auto pts = run_stretch(net, {first[0], last[0]}, StretchOptions{});
