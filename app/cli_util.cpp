@@ -8,7 +8,8 @@
 
 namespace rbc::app {
 
-std::vector<double> parse_force_list(const std::string& text) {
+std::vector<double> parse_number_list(const std::string& text, const std::string& what,
+                                      const std::string& example, bool allow_negative) {
   std::vector<double> out;
   std::stringstream ss(text);
   for (std::string item; std::getline(ss, item, ',');) {
@@ -20,15 +21,21 @@ std::vector<double> parse_force_list(const std::string& text) {
       used = 0;
     }
     if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos)
-      throw std::invalid_argument("force '" + item +
-                                  "' is not a number (expected pN, e.g. 0,16,88)");
-    if (!std::isfinite(v) || v < 0)
-      throw std::invalid_argument("force " + item +
-                                  " pN is not allowed: forces must be finite and >= 0");
+      throw std::invalid_argument(what + " '" + item + "' is not a number (expected " + example +
+                                  ")");
+    if (!std::isfinite(v) || (!allow_negative && v < 0))
+      throw std::invalid_argument(what + " " + item + " is not allowed: expected " +
+                                  (allow_negative ? "a finite value" : "finite values >= 0") +
+                                  ", e.g. " + example);
     out.push_back(v);
   }
-  if (out.empty()) throw std::invalid_argument("the force list is empty (expected e.g. 0,16,88)");
+  if (out.empty())
+    throw std::invalid_argument("the " + what + " list is empty (expected e.g. " + example + ")");
   return out;
+}
+
+std::vector<double> parse_force_list(const std::string& text) {
+  return parse_number_list(text, "force", "0,16,88 in pN", false);
 }
 
 ProgressSink stderr_progress(bool quiet) {

@@ -8,8 +8,13 @@
 
 namespace rbc::app {
 
-/// Parses "0,16,38.5" into forces in pN; throws std::invalid_argument naming the bad item
-/// for non-numbers, negative or non-finite values.
+/// Parses a comma-separated list of finite numbers; throws std::invalid_argument naming the
+/// bad item and `what` (e.g. "force"), with `example` as the expected form. Negative values
+/// are refused unless allow_negative.
+std::vector<double> parse_number_list(const std::string& text, const std::string& what,
+                                      const std::string& example, bool allow_negative);
+
+/// Parses "0,16,38.5" into forces in pN (finite, >= 0).
 std::vector<double> parse_force_list(const std::string& text);
 
 /// Progress sink writing "[elapsed s] message" lines to stderr (quiet = discard).

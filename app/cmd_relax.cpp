@@ -30,23 +30,7 @@ struct RelaxCli {
 
 /// Parses "0,0.1" (1/um); negative values are allowed (H0 has a sign).
 std::vector<double> parse_h0_list(const std::string& text) {
-  std::vector<double> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) {
-    size_t used = 0;
-    double v = 0;
-    try {
-      v = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(v))
-      throw std::invalid_argument("H0 '" + item +
-                                  "' is not a finite number (expected 1/um, e.g. 0,0.1)");
-    out.push_back(v);
-  }
-  if (out.empty()) throw std::invalid_argument("the H0 list is empty (expected e.g. 0,0.1)");
-  return out;
+  return parse_number_list(text, "H0", "0,0.1 in 1/um", true);
 }
 
 int run_relax(const RelaxCli& o) {

@@ -73,6 +73,96 @@ std::string force_tag(double f) {
   return s.str();
 }
 
+/// One equilibrium as both models report it (elements = 0 for the discrete network).
+struct StretchRow {
+  double force_pN = 0, axial_um = 0, transverse_um = 0, energy_pNum = 0;
+  int iterations = 0;
+  bool converged = false;
+  double wall_s = 0;
+  int vertices = 0, elements = 0;
+  double residual_pN = 0, area_drift = 0, volume_drift = 0;
+  std::string status;
+};
+
+template <class Point>
+StretchRow to_row(const Point& p, int elements) {
+  return {p.force_pN,   p.axial_um,     p.transverse_um, p.energy_pNum, p.iterations,
+          p.converged,  p.wall_s,       p.vertices,      elements,      p.residual_pN,
+          p.area_drift, p.volume_drift, p.status};
+}
+
+/// Prints the table (or JSON), writes stretch.csv and run.json under --out, and reports
+/// every non-converged force with its residual. Returns the exit code (1 if any failed).
+int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
+                 const std::vector<std::string>& comments, nlohmann::json run) {
+  const bool continuum = o.model == "continuum";
+  nlohmann::json rows = nlohmann::json::array();
+  CsvTable csv;
+  csv.comments = comments;
+  csv.header = {"force_pN",   "axial_um",  "transverse_um", "energy_pNum",
+                "iterations", "converged", "wall_s",        "vertices"};
+  if (continuum) csv.header.push_back("elements");
+  for (const char* h : {"residual_pN", "area_drift", "volume_drift"}) csv.header.push_back(h);
+  for (const auto& p : pts) {
+    nlohmann::json j = {{"force_pN", p.force_pN},
+                        {"axial_um", p.axial_um},
+                        {"transverse_um", p.transverse_um},
+                        {"energy_pNum", p.energy_pNum},
+                        {"iterations", p.iterations},
+                        {"converged", p.converged},
+                        {"wall_s", p.wall_s},
+                        {"vertices", p.vertices},
+                        {"residual_pN", p.residual_pN},
+                        {"area_drift", p.area_drift},
+                        {"volume_drift", p.volume_drift}};
+    std::vector<double> r = {p.force_pN,
+                             p.axial_um,
+                             p.transverse_um,
+                             p.energy_pNum,
+                             static_cast<double>(p.iterations),
+                             p.converged ? 1.0 : 0.0,
+                             p.wall_s,
+                             static_cast<double>(p.vertices)};
+    if (continuum) {
+      j["elements"] = p.elements;
+      r.push_back(p.elements);
+    }
+    for (double v : {p.residual_pN, p.area_drift, p.volume_drift}) r.push_back(v);
+    rows.push_back(j);
+    csv.rows.push_back(r);
+  }
+  if (!o.out.empty()) {
+    write_csv(o.out + "/stretch.csv", csv);
+    run["points"] = rows;
+    write_text_atomic(o.out + "/run.json", run.dump(2) + "\n");
+  }
+  if (o.json) {
+    std::cout << rows.dump(2) << "\n";
+  } else {
+    std::cout << "# " << comments.back() << "\n";
+    std::cout << std::setw(9) << "force_pN" << std::setw(11) << "axial_um" << std::setw(14)
+              << "transverse_um" << std::setw(14) << "energy_pNum" << std::setw(11) << "iterations"
+              << std::setw(10) << "converged" << std::setw(9) << "wall_s" << std::setw(10)
+              << (continuum ? "elements" : "vertices") << "\n";
+    for (const auto& p : pts)
+      std::cout << std::fixed << std::setprecision(2) << std::setw(9) << p.force_pN
+                << std::setprecision(4) << std::setw(11) << p.axial_um << std::setw(14)
+                << p.transverse_um << std::setprecision(3) << std::setw(14) << p.energy_pNum
+                << std::setw(11) << p.iterations << std::setw(10) << (p.converged ? "yes" : "NO")
+                << std::setprecision(2) << std::setw(9) << p.wall_s << std::setw(10)
+                << (continuum ? p.elements : p.vertices) << "\n";
+  }
+  int status = 0;
+  for (const auto& p : pts)
+    if (!p.converged) {
+      std::cerr << "rbc: error: force " << p.force_pN << " pN did not converge (" << p.status
+                << "): largest vertex force residual " << p.residual_pN << " pN, area drift "
+                << p.area_drift << ", volume drift " << p.volume_drift << "\n";
+      status = 1;
+    }
+  return status;
+}
+
 int run_discrete(const StretchCli& o) {
   const std::vector<double> forces = parse_force_list(o.forces);
   const NetworkParameters params = to_network_parameters(o);
@@ -100,72 +190,24 @@ int run_discrete(const StretchCli& o) {
   so.minimiser.force_tolerance = o.tolerance_pN;
   so.minimiser.max_iterations = o.max_iterations;
   const std::vector<StretchPoint> pts = run_stretch(net, forces, so, progress);
-
-  nlohmann::json rows = nlohmann::json::array();
-  CsvTable csv;
-  csv.comments = {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
-                  "units: force pN, diameters um, energy pN*um, wall time s",
-                  "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
-                      std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
-                      std::to_string(rest_force) + " pN"};
-  csv.header = {"force_pN", "axial_um", "transverse_um", "energy_pNum", "iterations",  "converged",
-                "wall_s",   "vertices", "residual_pN",   "area_drift",  "volume_drift"};
-  for (const auto& p : pts) {
-    rows.push_back({{"force_pN", p.force_pN},
-                    {"axial_um", p.axial_um},
-                    {"transverse_um", p.transverse_um},
-                    {"energy_pNum", p.energy_pNum},
-                    {"iterations", p.iterations},
-                    {"converged", p.converged},
-                    {"wall_s", p.wall_s},
-                    {"vertices", p.vertices},
-                    {"residual_pN", p.residual_pN},
-                    {"area_drift", p.area_drift},
-                    {"volume_drift", p.volume_drift}});
-    csv.rows.push_back({p.force_pN, p.axial_um, p.transverse_um, p.energy_pNum,
-                        static_cast<double>(p.iterations), p.converged ? 1.0 : 0.0, p.wall_s,
-                        static_cast<double>(p.vertices), p.residual_pN, p.area_drift,
-                        p.volume_drift});
-  }
-  if (!o.out.empty()) {
+  if (!o.out.empty())
     for (const auto& p : pts) {
       const Eigen::VectorXd u = (p.x - net.rest).colwise().norm().transpose();
       MeshSnapshot s{p.x, net.topo.faces, {{"displacement_um", u}}, {}, {{"force_pN", p.force_pN}}};
       write_mesh_snapshot(o.out + "/shape_" + force_tag(p.force_pN) + "pN", s);
     }
-    write_csv(o.out + "/stretch.csv", csv);
-    nlohmann::json run = {{"model", "discrete"},
-                          {"mesh", mesh_report_json(mesh_report)},
-                          {"largest_rest_inplane_force_pN", rest_force},
-                          {"points", rows}};
-    write_text_atomic(o.out + "/run.json", run.dump(2) + "\n");
-  }
-  if (o.json) {
-    std::cout << rows.dump(2) << "\n";
-  } else {
-    std::cout << "# " << csv.comments[2] << "\n";
-    std::cout << std::setw(9) << "force_pN" << std::setw(11) << "axial_um" << std::setw(14)
-              << "transverse_um" << std::setw(14) << "energy_pNum" << std::setw(11) << "iterations"
-              << std::setw(10) << "converged" << std::setw(9) << "wall_s" << std::setw(9)
-              << "vertices"
-              << "\n";
-    for (const auto& p : pts)
-      std::cout << std::fixed << std::setprecision(2) << std::setw(9) << p.force_pN
-                << std::setprecision(4) << std::setw(11) << p.axial_um << std::setw(14)
-                << p.transverse_um << std::setprecision(3) << std::setw(14) << p.energy_pNum
-                << std::setw(11) << p.iterations << std::setw(10) << (p.converged ? "yes" : "NO")
-                << std::setprecision(2) << std::setw(9) << p.wall_s << std::setw(9) << p.vertices
-                << "\n";
-  }
-  int status = 0;
-  for (const auto& p : pts)
-    if (!p.converged) {
-      std::cerr << "rbc: error: force " << p.force_pN << " pN did not converge (" << p.status
-                << "): largest vertex force residual " << p.residual_pN << " pN, area drift "
-                << p.area_drift << ", volume drift " << p.volume_drift << "\n";
-      status = 1;
-    }
-  return status;
+  std::vector<StretchRow> rows;
+  for (const auto& p : pts) rows.push_back(to_row(p, 0));
+  return emit_stretch(
+      o, rows,
+      {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
+       "units: force pN, diameters um, energy pN*um, wall time s",
+       "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
+           std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
+           std::to_string(rest_force) + " pN"},
+      {{"model", "discrete"},
+       {"mesh", mesh_report_json(mesh_report)},
+       {"largest_rest_inplane_force_pN", rest_force}});
 }
 
 // Continuum branch (issue 4): surface FEM with the homogenised law of the given order.
@@ -195,36 +237,7 @@ int run_continuum(const StretchCli& o) {
   report(progress, "continuum mesh: " + std::to_string(mesh_report.vertices) + " vertices, " +
                        std::to_string(model.num_elements()) + " elements, law " + model.law.name);
   const std::vector<ContinuumStretchPoint> pts = run_continuum_stretch(model, forces, co, progress);
-
-  nlohmann::json rows = nlohmann::json::array();
-  CsvTable csv;
-  csv.comments = {"rbc stretch --model continuum: optical-tweezers stretch, surface FEM, Newton",
-                  "units: force pN, diameters um, energy pN*um, wall time s",
-                  "order " + to_string(order) + ", elements " +
-                      std::to_string(model.num_elements()) + ", vertices " +
-                      std::to_string(mesh_report.vertices)};
-  csv.header = {"force_pN",   "axial_um",    "transverse_um", "energy_pNum",
-                "iterations", "converged",   "wall_s",        "vertices",
-                "elements",   "residual_pN", "area_drift",    "volume_drift"};
-  for (const auto& p : pts) {
-    rows.push_back({{"force_pN", p.force_pN},
-                    {"axial_um", p.axial_um},
-                    {"transverse_um", p.transverse_um},
-                    {"energy_pNum", p.energy_pNum},
-                    {"iterations", p.iterations},
-                    {"converged", p.converged},
-                    {"wall_s", p.wall_s},
-                    {"vertices", p.vertices},
-                    {"elements", p.elements},
-                    {"residual_pN", p.residual_pN},
-                    {"area_drift", p.area_drift},
-                    {"volume_drift", p.volume_drift}});
-    csv.rows.push_back({p.force_pN, p.axial_um, p.transverse_um, p.energy_pNum,
-                        static_cast<double>(p.iterations), p.converged ? 1.0 : 0.0, p.wall_s,
-                        static_cast<double>(p.vertices), static_cast<double>(p.elements),
-                        p.residual_pN, p.area_drift, p.volume_drift});
-  }
-  if (!o.out.empty()) {
+  if (!o.out.empty())
     for (const auto& p : pts) {
       const Eigen::VectorXd u = (p.x - model.rest).colwise().norm().transpose();
       MeshSnapshot s{p.x,
@@ -237,39 +250,17 @@ int run_continuum(const StretchCli& o) {
                      {{"force_pN", p.force_pN}}};
       write_mesh_snapshot(o.out + "/shape_" + force_tag(p.force_pN) + "pN", s);
     }
-    write_csv(o.out + "/stretch.csv", csv);
-    nlohmann::json run = {{"model", "continuum"},
-                          {"order", to_string(order)},
-                          {"mesh", mesh_report_json(mesh_report)},
-                          {"points", rows}};
-    write_text_atomic(o.out + "/run.json", run.dump(2) + "\n");
-  }
-  if (o.json) {
-    std::cout << rows.dump(2) << "\n";
-  } else {
-    std::cout << "# " << csv.comments[2] << "\n";
-    std::cout << std::setw(9) << "force_pN" << std::setw(11) << "axial_um" << std::setw(14)
-              << "transverse_um" << std::setw(14) << "energy_pNum" << std::setw(11) << "iterations"
-              << std::setw(10) << "converged" << std::setw(9) << "wall_s" << std::setw(10)
-              << "elements"
-              << "\n";
-    for (const auto& p : pts)
-      std::cout << std::fixed << std::setprecision(2) << std::setw(9) << p.force_pN
-                << std::setprecision(4) << std::setw(11) << p.axial_um << std::setw(14)
-                << p.transverse_um << std::setprecision(3) << std::setw(14) << p.energy_pNum
-                << std::setw(11) << p.iterations << std::setw(10) << (p.converged ? "yes" : "NO")
-                << std::setprecision(2) << std::setw(9) << p.wall_s << std::setw(10) << p.elements
-                << "\n";
-  }
-  int status = 0;
-  for (const auto& p : pts)
-    if (!p.converged) {
-      std::cerr << "rbc: error: force " << p.force_pN << " pN did not converge (" << p.status
-                << "): largest vertex force residual " << p.residual_pN << " pN, area drift "
-                << p.area_drift << ", volume drift " << p.volume_drift << "\n";
-      status = 1;
-    }
-  return status;
+  std::vector<StretchRow> rows;
+  for (const auto& p : pts) rows.push_back(to_row(p, p.elements));
+  return emit_stretch(
+      o, rows,
+      {"rbc stretch --model continuum: optical-tweezers stretch, surface FEM, Newton",
+       "units: force pN, diameters um, energy pN*um, wall time s",
+       "order " + to_string(order) + ", elements " + std::to_string(model.num_elements()) +
+           ", vertices " + std::to_string(mesh_report.vertices)},
+      {{"model", "continuum"},
+       {"order", to_string(order)},
+       {"mesh", mesh_report_json(mesh_report)}});
 }
 
 }  // namespace
@@ -314,7 +305,6 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->callback([o, &action] {
     action = [o]() -> int {
       if (o->model == "discrete") return run_discrete(*o);
-      // CONTINUUM BRANCH: wired by continuum/ (issue 4).
       if (o->model == "continuum") return run_continuum(*o);
       throw std::invalid_argument("model '" + o->model + "' is not one of discrete, continuum");
     };

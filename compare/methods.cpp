@@ -62,6 +62,17 @@ bool MethodRun::all_converged() const {
 
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
+/// Copies a model's equilibria into the common curve and stamps the total time.
+template <class Point>
+void finish_run(MethodRun& run, const std::vector<Point>& pts, Clock::time_point t0) {
+  for (const auto& p : pts)
+    run.points.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.residual_pN,
+                          p.iterations, p.converged});
+  run.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
 MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
                        const ProgressSink& progress) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -76,10 +87,7 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   const auto pts = run_stretch(net, forces, StretchOptions{}, [&](const std::string& msg) {
     if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
   });
-  for (const auto& p : pts)
-    run.points.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.residual_pN,
-                          p.iterations, p.converged});
-  run.total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  finish_run(run, pts, t0);
   return run;
 }
 
@@ -99,10 +107,7 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
       run_continuum_stretch(model, forces, ContinuumOptions{}, [&](const std::string& msg) {
         if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
       });
-  for (const auto& p : pts)
-    run.points.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.residual_pN,
-                          p.iterations, p.converged});
-  run.total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  finish_run(run, pts, t0);
   return run;
 }
 
