@@ -5,6 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 .ci/bootstrap.sh rbc
+export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"  # idle OpenMP threads sleep
 out="${RBC_OUT:-results/fig7}"
 ./build/rbc fig7 --out "$out" --force-overwrite "$@"
 echo

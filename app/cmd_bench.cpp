@@ -44,6 +44,7 @@ void BM_DiscreteStretch88(benchmark::State& state) {
     ConstraintMultipliers lambda;
     const StretchPoint p = solve_equilibrium(net, 88.0, x, lambda, so);
     state.counters["iterations"] = p.iterations;
+    state.counters["factorisations"] = p.factorisations;
     state.counters["converged"] = p.converged;
     state.counters["axial_um"] = p.axial_um;
   }
@@ -55,8 +56,9 @@ void BM_DiscreteStretch88(benchmark::State& state) {
 void add_bench_command(CLI::App& app, Action& action) {
   auto args = std::make_shared<std::vector<std::string>>();
   auto* cmd = app.add_subcommand(
-      "bench", "Benchmarks: `rbc bench stretch` (discrete energy+gradient and time to equilibrium "
-               "at 88 pN for N = 500, 2000, 8000, 27500); extra arguments go to Google Benchmark");
+      "bench",
+      "Benchmarks: `rbc bench stretch` (discrete energy+gradient and time to equilibrium "
+      "at 88 pN for N = 500, 2000, 8000, 27500); extra arguments go to Google Benchmark");
   cmd->allow_extras();
   cmd->prefix_command();
   cmd->callback([cmd, args, &action] {
@@ -66,9 +68,18 @@ void add_bench_command(CLI::App& app, Action& action) {
       if (suite != "stretch")
         throw std::invalid_argument("unknown benchmark suite '" + suite + "' (expected stretch)");
       benchmark::RegisterBenchmark("discrete/energy_gradient", BM_DiscreteEnergyGradient)
-          ->Arg(500)->Arg(2000)->Arg(8000)->Arg(27500)->Unit(benchmark::kMicrosecond);
+          ->Arg(500)
+          ->Arg(2000)
+          ->Arg(8000)
+          ->Arg(27500)
+          ->Unit(benchmark::kMicrosecond);
       benchmark::RegisterBenchmark("discrete/stretch_88pN", BM_DiscreteStretch88)
-          ->Arg(500)->Arg(2000)->Arg(8000)->Arg(27500)->Unit(benchmark::kSecond)->Iterations(1);
+          ->Arg(500)
+          ->Arg(2000)
+          ->Arg(8000)
+          ->Arg(27500)
+          ->Unit(benchmark::kSecond)
+          ->Iterations(1);
       std::vector<char*> argv{const_cast<char*>("rbc-bench")};
       std::vector<std::string> rest(args->begin() + (args->empty() ? 0 : 1), args->end());
       for (auto& s : rest) argv.push_back(s.data());

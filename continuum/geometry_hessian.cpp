@@ -1,18 +1,10 @@
 #include "continuum/geometry_hessian.hpp"
 
+#include "discrete/element_hessian.hpp"
+
 #include <cmath>
 
 namespace rbc {
-
-namespace {
-
-Eigen::Matrix3d cross_matrix(const Vec3& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
-}  // namespace
 
 double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector9d* grad,
                              Matrix9d* hess) {
@@ -49,14 +41,7 @@ double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector
 }
 
 Matrix9d tetra_volume_hessian(const Vec3& a, const Vec3& b, const Vec3& c) {
-  Matrix9d h = Matrix9d::Zero();
-  h.block<3, 3>(0, 3) = -cross_matrix(c) / 6.0;
-  h.block<3, 3>(0, 6) = cross_matrix(b) / 6.0;
-  h.block<3, 3>(3, 6) = -cross_matrix(a) / 6.0;
-  h.block<3, 3>(3, 0) = h.block<3, 3>(0, 3).transpose();
-  h.block<3, 3>(6, 0) = h.block<3, 3>(0, 6).transpose();
-  h.block<3, 3>(6, 3) = h.block<3, 3>(3, 6).transpose();
-  return h;
+  return face_volume_hessian(a, b, c);  // discrete/element_hessian.hpp
 }
 
 }  // namespace rbc

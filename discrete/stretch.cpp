@@ -1,21 +1,33 @@
 #include "discrete/stretch.hpp"
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <sstream>
 
-#include <Eigen/CholmodSupport>
-
 #include "core/geometry.hpp"
-#include "discrete/hessian_approximation.hpp"
 
 namespace rbc {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
 
 StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
                                ConstraintMultipliers& lambda, const StretchOptions& opt,
                                const ProgressSink& progress) {
+  return solve_equilibrium(net, force_pN, x, lambda, opt, progress, nullptr);
+}
+
+StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
+                               ConstraintMultipliers& lambda, const StretchOptions& opt,
+                               const ProgressSink& progress, NewtonPreconditioner* shared) {
   const auto start = std::chrono::steady_clock::now();
   StretchPoint pt;
   pt.force_pN = force_pN;
@@ -25,61 +37,77 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   load.force_pN = force_pN;
   Eigen::VectorXd u = flat(x);
   LbfgsOptions lo = opt.minimiser;
-  if (lo.max_step <= 0) lo.max_step = 0.25 * net.lbar_um.minCoeff();
-  // Preconditioner: P = approximate_hessian + the penalties' rank-2 part U K U^T,
-  // U = [dA/dx, dV/dx], K = diag(kA, kV), applied by Sherman-Morrison-Woodbury:
-  // (P + U K U^T)^{-1} v = P^{-1} v - Z (K^{-1} + U^T Z)^{-1} Z^T v, Z = P^{-1} U.
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> factor;
-  Eigen::MatrixXd z;
-  Eigen::Matrix2d utz;
-  bool factored = false;
+  // Preconditioner: factorised at the start of the force and again whenever L-BFGS stalls.
+  std::unique_ptr<NewtonPreconditioner> owned;
+  NewtonPreconditioner* pre = nullptr;
   if (n >= opt.precondition_min_vertices) {
-    factor.compute(approximate_hessian(net, x));
-    factored = factor.info() == Eigen::Success;
-    if (factored) {
-      Positions ga = Positions::Zero(3, n), gv = Positions::Zero(3, n);
-      ConstraintParameters unit;
-      unit.area_stiffness_pN_per_um3 = unit.volume_stiffness_pN_per_um5 = 1.0;
-      constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, unit, {1.0, 0.0}, &ga);
-      constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, unit, {0.0, 1.0}, &gv);
-      // With unit multipliers and the state at x, the gradients are dA/dx + (A - A0) dA/dx;
-      // rescale to the pure constraint gradients.
-      const double da = total_area(x, net.topo) - net.area0_um2;
-      const double dv = enclosed_volume(x, net.topo) - net.volume0_um3;
-      Eigen::MatrixXd u(3 * n, 2);
-      u.col(0) = flat(ga) / (1.0 + da);
-      u.col(1) = flat(gv) / (1.0 + dv);
-      z = factor.solve(u);
-      utz = u.transpose() * z;
-    } else {
-      report(progress, "  preconditioner factorisation failed; using plain L-BFGS");
-    }
+    if (!shared) owned = std::make_unique<NewtonPreconditioner>(net, opt.preconditioner);
+    pre = shared ? shared : owned.get();
   }
-  auto set_preconditioner = [&](double stiffness_scale) {
-    if (!factored) return;
-    Eigen::Matrix2d m = utz;
-    m(0, 0) += 1.0 / (stiffness_scale * net.constraints.area_stiffness_pN_per_um3);
-    m(1, 1) += 1.0 / (stiffness_scale * net.constraints.volume_stiffness_pN_per_um5);
-    const Eigen::Matrix2d m_inv = m.inverse();
-    lo.precondition = [&factor, &z, m_inv](Eigen::VectorXd& v) {
-      const Eigen::Vector2d ztv = z.transpose() * v;
-      v = factor.solve(v);
-      v -= z * (m_inv * ztv);
-    };
+  if (lo.max_step <= 0)
+    lo.max_step = (pre ? opt.preconditioned_max_step_links : opt.plain_max_step_links) *
+                  net.lbar_um.minCoeff();
+  const int factorisations_before = pre ? pre->statistics().factorisations : 0;
+  auto refresh = [&] {
+    const Positions p = Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n);
+    if (pre->refresh(p, lambda, load.stiffness_scale)) {
+      lo.precondition = [pre](Eigen::VectorXd& v) { pre->apply(v); };
+    } else {
+      lo.precondition = nullptr;
+      report(progress,
+             "  preconditioner factorisation failed; plain L-BFGS until the next refresh");
+    }
   };
+  if (pre) refresh();
+
+  Objective f = [&](const Eigen::VectorXd& v, Eigen::VectorXd& g) {
+    Positions p = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
+    Positions gp;
+    const double e = network_energy(net, p, load, &gp);
+    if (std::isfinite(e)) g = flat(gp);
+    return e;
+  };
+  // One minimisation at fixed multipliers; with a preconditioner it is restarted from a
+  // fresh factorisation whenever refresh_interval iterations cut the residual < 10x.
+  auto minimise = [&]() {
+    MinimiserResult total;
+    int used = 0;
+    double reference = std::numeric_limits<double>::quiet_NaN();
+    for (;;) {
+      bool stalled = false;
+      int since = 0;
+      IterationMonitor monitor;
+      if (pre && opt.refresh_interval > 0)
+        monitor = [&](int, double, double residual) {
+          if (std::isnan(reference)) reference = residual;
+          if (++since >= opt.refresh_interval && residual > 0.1 * reference) {
+            stalled = true;
+            return false;
+          }
+          return true;
+        };
+      LbfgsOptions seg = lo;
+      seg.max_iterations = std::max(lo.max_iterations - used, 0);
+      total = minimise_lbfgs(f, u, seg, monitor);
+      used += total.iterations;
+      if (!stalled) break;
+      reference = total.residual;
+      std::ostringstream msg;
+      msg << "  refactorising after " << used << " iterations, residual " << total.residual
+          << " pN";
+      report(progress, msg.str());
+      refresh();
+    }
+    total.iterations = used;
+    return total;
+  };
+
   MinimiserResult r;
   double previous_violation = std::numeric_limits<double>::infinity();
   for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
     load.multipliers = lambda;
-    set_preconditioner(load.stiffness_scale);
-    Objective f = [&](const Eigen::VectorXd& v, Eigen::VectorXd& g) {
-      Positions p = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
-      Positions gp;
-      const double e = network_energy(net, p, load, &gp);
-      if (std::isfinite(e)) g = flat(gp);
-      return e;
-    };
-    r = minimise_lbfgs(f, u, lo);
+    if (pre && pre->ready()) pre->set_stiffness_scale(load.stiffness_scale);
+    r = minimise();
     pt.iterations += r.iterations;
     Eigen::Map<const Eigen::Matrix3Xd> p(u.data(), 3, n);
     const double a = total_area(p, net.topo), v = enclosed_volume(p, net.topo);
@@ -114,6 +142,15 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   pt.status = !r.converged() ? to_string(r.status)
               : held         ? "converged"
                              : "constraints not held after multiplier updates";
+  if (pre) {
+    const auto& s = pre->statistics();
+    pt.factorisations = s.factorisations - factorisations_before;
+    std::ostringstream msg;
+    msg << "  preconditioner: " << pt.factorisations
+        << " factorisations, |L| = " << s.factor_nonzeros << ", totals: assembly " << s.assembly_s
+        << " s, factorisation " << s.factorisation_s << " s, solves " << s.solve_s << " s";
+    report(progress, msg.str());
+  }
   LoadState plain;
   plain.force_pN = force_pN;
   EnergyBreakdown parts;
@@ -123,7 +160,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   pt.axial_um = d.axial_um;
   pt.transverse_um = d.transverse_um;
   pt.x = x;
-  pt.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  pt.wall_s = seconds_since(start);
   return pt;
 }
 
@@ -132,12 +169,15 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
   std::vector<StretchPoint> out;
   Positions x = net.rest;
   ConstraintMultipliers lambda;
+  std::unique_ptr<NewtonPreconditioner> pre;
+  if (net.topo.num_vertices >= opt.precondition_min_vertices)
+    pre = std::make_unique<NewtonPreconditioner>(net, opt.preconditioner);
   for (double f : forces) {
-    out.push_back(solve_equilibrium(net, f, x, lambda, opt, progress));
+    out.push_back(solve_equilibrium(net, f, x, lambda, opt, progress, pre.get()));
     std::ostringstream msg;
     const auto& p = out.back();
-    msg << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um
-        << " um, " << p.iterations << " iterations, " << p.wall_s << " s, " << p.status;
+    msg << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um << " um, "
+        << p.iterations << " iterations, " << p.wall_s << " s, " << p.status;
     report(progress, msg.str());
   }
   return out;

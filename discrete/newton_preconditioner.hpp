@@ -1,0 +1,69 @@
+#pragma once
+// Prepared state of the stretch's Newton-type preconditioner: the network Hessian
+// (discrete/network_hessian.hpp) factorised by CHOLMOD (supernodal, symbolic analysis done
+// once per network), plus the augmented-Lagrangian penalties' rank-two part applied by
+// Sherman-Morrison-Woodbury. Used as L-BFGS's initial inverse Hessian (core/lbfgs.hpp).
+#include <memory>
+
+#include "discrete/network_hessian.hpp"
+
+namespace rbc {
+
+/// Fill-reducing ordering of the sparse Cholesky factorisation.
+enum class FillOrdering {
+  automatic,          ///< CHOLMOD's default: AMD, METIS tried when AMD's fill is high
+  amd,                ///< approximate minimum degree
+  metis,              ///< METIS nested dissection
+  nested_dissection,  ///< CHOLMOD's own nested dissection (NESDIS)
+};
+
+/// Which matrix refresh() factorises.
+enum class HessianChoice {
+  /// The element-wise projected Hessian (always semidefinite; overestimates the stiffness of
+  /// modes where elements under compression cancel elements under tension).
+  projected,
+  /// The exact Hessian (+ shift) when its Cholesky factorisation succeeds (near a stable
+  /// equilibrium: Newton's quadratic convergence), else the projected one.
+  exact_when_definite,
+};
+
+struct NewtonPreconditionerOptions {
+  NetworkHessianOptions hessian;
+  HessianChoice choice = HessianChoice::exact_when_definite;
+  FillOrdering ordering = FillOrdering::metis;
+  /// OpenMP threads of the factorisation and solves (BLAS); 0 = the caller's. One is the
+  /// default: CHOLMOD's many small BLAS calls scale poorly and collapse on a loaded machine.
+  int blas_threads = 1;
+};
+
+class NewtonPreconditioner {
+ public:
+  NewtonPreconditioner(const Network& net, const NewtonPreconditionerOptions& options = {});
+  ~NewtonPreconditioner();
+  NewtonPreconditioner(const NewtonPreconditioner&) = delete;
+  NewtonPreconditioner& operator=(const NewtonPreconditioner&) = delete;
+
+  /// Assembles the Hessian at x (feasible, 3 x N um) with the augmented-Lagrangian state
+  /// (multipliers, penalty stiffness scale) and factorises it. Returns false when the
+  /// factorisation fails (then apply() is the identity).
+  bool refresh(const Positions& x, const ConstraintMultipliers& lambda, double stiffness_scale);
+  /// Changes only the penalty stiffness scale of the Woodbury correction (cheap).
+  void set_stiffness_scale(double stiffness_scale);
+  /// v <- P^{-1} v, P = Hessian + U diag(k_A, k_V) U^T, U = [dA/dx, dV/dx] at the refresh x.
+  void apply(Eigen::VectorXd& v) const;
+  bool ready() const;
+
+  struct Statistics {
+    int factorisations = 0;
+    int exact_factorisations = 0;  ///< of which the exact (unprojected) Hessian
+    double assembly_s = 0, factorisation_s = 0, solve_s = 0;  ///< accumulated wall time
+    double factor_nonzeros = 0;                               ///< nonzeros of the Cholesky factor L
+  };
+  const Statistics& statistics() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rbc
