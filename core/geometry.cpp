@@ -1,6 +1,7 @@
 #include "core/geometry.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace rbc {
 
@@ -51,7 +52,43 @@ Eigen::VectorXd edge_lengths(const Positions& x, const Topology& topo) {
 Diameters measure_diameters(const Positions& x) {
   Diameters d;
   d.axial_um = x.row(0).maxCoeff() - x.row(0).minCoeff();
-  d.transverse_um = x.row(1).maxCoeff() - x.row(1).minCoeff();
+  // Extent along (0, cos phi, sin phi): scan phi in [0, pi) by 2 degrees, then refine the
+  // best bracket by golden-section search (the width is smooth near its maximum).
+  auto extent = [&](double phi) {
+    const Eigen::RowVectorXd p = std::cos(phi) * x.row(1) + std::sin(phi) * x.row(2);
+    return p.maxCoeff() - p.minCoeff();
+  };
+  constexpr int kScan = 90;
+  const double step = 3.14159265358979323846 / kScan;
+  int best = 0;
+  double best_width = -1.0;
+  for (int k = 0; k < kScan; ++k) {
+    const double w = extent(k * step);
+    if (w > best_width) {
+      best_width = w;
+      best = k;
+    }
+  }
+  double lo = (best - 1) * step, hi = (best + 1) * step;
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  double m1 = hi - g * (hi - lo), m2 = lo + g * (hi - lo);
+  double w1 = extent(m1), w2 = extent(m2);
+  for (int it = 0; it < 30; ++it) {
+    if (w1 > w2) {
+      hi = m2;
+      m2 = m1;
+      w2 = w1;
+      m1 = hi - g * (hi - lo);
+      w1 = extent(m1);
+    } else {
+      lo = m1;
+      m1 = m2;
+      w1 = w2;
+      m2 = lo + g * (hi - lo);
+      w2 = extent(m2);
+    }
+  }
+  d.transverse_um = std::max({best_width, w1, w2});
   return d;
 }
 

@@ -102,3 +102,26 @@ TEST(Geometry, PhiVanishesOnlyForEquilateralAndHasCorrectGradient) {
 
 }  // namespace
 }  // namespace rbc
+
+namespace rbc {
+namespace {
+TEST(Geometry, TransverseDiameterIgnoresRotationAboutTheStretchAxis) {
+  // A flat ellipse-like disc: 8 um along x, 6 um along y, 2 um thick in z.
+  Positions x(3, 400);
+  for (int k = 0; k < 400; ++k) {
+    const double t = 2 * units::pi * k / 400.0;
+    x.col(k) << 4 * std::cos(t), 3 * std::sin(t), (k % 2 ? 1.0 : -1.0) * 0.2 * std::cos(t);
+  }
+  const Diameters d0 = measure_diameters(x);
+  EXPECT_NEAR(d0.axial_um, 8.0, 1e-9);
+  EXPECT_NEAR(d0.transverse_um, 6.0, 1e-3);
+  // Rotating about x changes max y - min y but not the transverse diameter.
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Diameters d1 = measure_diameters(r * x);
+  EXPECT_NEAR(d1.axial_um, d0.axial_um, 1e-12);
+  EXPECT_NEAR(d1.transverse_um, d0.transverse_um, 1e-6);
+  const Positions rx = r * x;
+  EXPECT_LT(rx.row(1).maxCoeff() - rx.row(1).minCoeff(), 5.5);  // the naive y extent shrinks
+}
+}  // namespace
+}  // namespace rbc
