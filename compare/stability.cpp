@@ -224,8 +224,8 @@ void monte_carlo_sweep(const StabilityOptions& o, StabilityResult& res,
                         s.max_area_drift,
                         "largest |A - A0|/A0 sampled: above 1e-4 the penalties no longer hold "
                         "the bilayer area (MODEL.md)"});
-    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "acceptance", s.acceptance,
-                        "adaptive step"});
+    res.rows.push_back(
+        {"monte_carlo", method, "temperature_K", t, "acceptance", s.acceptance, "adaptive step"});
   }
 }
 

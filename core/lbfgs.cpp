@@ -1,19 +1,23 @@
 #include "core/lbfgs.hpp"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <deque>
-#include <vector>
 #include <limits>
+#include <vector>
 
 namespace rbc {
 
 std::string to_string(MinimiserStatus status) {
   switch (status) {
-    case MinimiserStatus::converged: return "converged";
-    case MinimiserStatus::max_iterations: return "iteration limit reached";
-    case MinimiserStatus::line_search_failed: return "line search failed";
-    case MinimiserStatus::infeasible_start: return "infeasible starting point";
+    case MinimiserStatus::converged:
+      return "converged";
+    case MinimiserStatus::max_iterations:
+      return "iteration limit reached";
+    case MinimiserStatus::line_search_failed:
+      return "line search failed";
+    case MinimiserStatus::infeasible_start:
+      return "infeasible starting point";
   }
   return "unknown";
 }

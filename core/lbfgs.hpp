@@ -17,17 +17,17 @@ namespace rbc {
 using Objective = std::function<double(const Eigen::VectorXd& x, Eigen::VectorXd& grad)>;
 
 struct LbfgsOptions {
-  int memory = 12;                ///< correction pairs kept
-  int max_iterations = 20000;     ///< iterations before giving up
+  int memory = 12;             ///< correction pairs kept
+  int max_iterations = 20000;  ///< iterations before giving up
   /// Converged when the largest block norm of the gradient (with block = 3: the largest
   /// net vertex force, pN) is below this.
   double force_tolerance = 1e-3;
-  int block = 3;                  ///< gradient entries per degree of freedom block
+  int block = 3;  ///< gradient entries per degree of freedom block
   /// Largest block displacement a line-search trial may make (um for positions);
   /// <= 0 means no cap.
   double max_step = 0.0;
-  double armijo = 1e-4;           ///< sufficient-decrease constant
-  int max_line_search = 60;       ///< trials before the line search gives up
+  double armijo = 1e-4;      ///< sufficient-decrease constant
+  int max_line_search = 60;  ///< trials before the line search gives up
   /// Optional preconditioner: replaces v by P^{-1} v, with P symmetric positive definite
   /// approximating the Hessian. It is the two-loop recursion's initial inverse Hessian
   /// (in place of the scalar s.y/y.y), so a good P makes the steps nearly Newton steps.

@@ -97,8 +97,8 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
   return energy;
 }
 
-double juelicher_vertex_energy(const Positions& x, const Topology& topo,
-                               const BendingParameters& p, int v) {
+double juelicher_vertex_energy(const Positions& x, const Topology& topo, const BendingParameters& p,
+                               int v) {
   double m = 0, a = 0;
   for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e)
     m += hinge_length_angle(x, topo, *e);
@@ -112,8 +112,8 @@ double juelicher_vertex_energy(const Positions& x, const Topology& topo,
   return 0.5 * p.kappa_pNum * hv * hv * a;
 }
 
-double dihedral_bending_energy(const Positions& x, const Topology& topo, double kb,
-                               double theta0, Positions* grad) {
+double dihedral_bending_energy(const Positions& x, const Topology& topo, double kb, double theta0,
+                               Positions* grad) {
   return assemble_parallel(topo.num_edges(), grad, [&](int e, Positions& g) {
     const int a = topo.edges(0, e), b = topo.edges(1, e);
     const int c = topo.edge_opposite(0, e), d = topo.edge_opposite(1, e);

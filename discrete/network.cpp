@@ -65,9 +65,9 @@ double inplane_energy(const Network& net, const Positions& x, Positions* grad, d
       collapsed = true;  // benign race: every writer writes true
       return 0.0;
     }
-    const double v = steric_face_energy(net.steric_C_pN_per_um, net.steric, net.abar_um2(f),
-                                        x.col(c(0)), x.col(c(1)), x.col(c(2)),
-                                        grad ? &gf : nullptr);
+    const double v =
+        steric_face_energy(net.steric_C_pN_per_um, net.steric, net.abar_um2(f), x.col(c(0)),
+                           x.col(c(1)), x.col(c(2)), grad ? &gf : nullptr);
     if (grad)
       for (int k = 0; k < 3; ++k) g.col(c(k)) += gf.col(k);
     return v;
