@@ -8,27 +8,13 @@
 #include "core/units.hpp"
 #include "discrete/bending_energy.hpp"
 #include "discrete/network.hpp"
+#include "discrete_cell_fixture.hpp"
 #include "fixtures.hpp"
 
 namespace rbc {
 namespace {
 
-// A small perturbed cell network (N ~ 250) on which no gradient vanishes by symmetry.
-struct SmallCell {
-  Network net;
-  Positions x;
-  LoadState load;
-  explicit SmallCell(NetworkParameters p = {}) {
-    RestShapeOptions o;
-    o.target_vertices = 250;
-    const TriMesh m = make_rest_shape(o);
-    net = build_network(m, p);
-    x = net.rest;
-    testing::perturb(x, 0.02, 11);
-    load.force_pN = 50.0;
-    load.multipliers = {3.0, -1.5};
-  }
-};
+using testing::SmallCell;
 
 using TermFn = std::function<double(const Positions&, Positions*)>;
 

@@ -16,26 +16,13 @@
 #include "discrete/mc_sampler.hpp"
 #include "discrete/network.hpp"
 #include "discrete/stretch.hpp"
+#include "discrete_cell_fixture.hpp"
 #include "fixtures.hpp"
 
 namespace rbc {
 namespace {
 
-// A small perturbed cell network (N ~ 250) carrying a force and non-zero multipliers.
-struct SmallCell {
-  Network net;
-  Positions x;
-  LoadState load;
-  SmallCell() {
-    RestShapeOptions o;
-    o.target_vertices = 250;
-    net = build_network(make_rest_shape(o), NetworkParameters{});
-    x = net.rest;
-    testing::perturb(x, 0.02, 11);
-    load.force_pN = 50.0;
-    load.multipliers = {3.0, -1.5};
-  }
-};
+using testing::SmallCell;
 
 TEST(McSampler, LocalEnergyChangeEqualsFullEnergyDifference) {
   SmallCell c;

@@ -11,6 +11,7 @@
 #include "discrete/bending_energy.hpp"
 #include "discrete/network_hessian.hpp"
 #include "discrete/stretch.hpp"
+#include "discrete_cell_fixture.hpp"
 #include "fixtures.hpp"
 
 namespace rbc {
@@ -130,20 +131,8 @@ TEST(ElementHessian, ProjectionIsSemidefiniteAndKeepsPositiveMatrices) {
 }
 
 // A perturbed cell under load with nonzero multipliers (every Hessian term active).
-struct LoadedCell {
-  Network net;
-  Positions x;
-  LoadState load;
-  LoadedCell() {
-    RestShapeOptions o;
-    o.target_vertices = 250;
-    net = build_network(make_rest_shape(o), NetworkParameters{});
-    x = net.rest;
-    testing::perturb(x, 0.02, 17);
-    load.force_pN = 50.0;
-    load.multipliers = {3.0, -1.5};
-    load.stiffness_scale = 2.0;
-  }
+struct LoadedCell : testing::SmallCell {
+  LoadedCell() : testing::SmallCell(NetworkParameters{}, 17, 2.0) {}
   ConstraintCurvature curvature() const {
     const double a = total_area(x, net.topo), v = enclosed_volume(x, net.topo);
     return {load.multipliers.area_pN_per_um + load.stiffness_scale *

@@ -10,16 +10,12 @@
 #include "homogenise/lattice_density.hpp"
 #include "homogenise/periodic_network.hpp"
 
+#include "homogenise_parameter_sets.hpp"
+
 namespace rbc {
 namespace {
 
-std::vector<std::pair<WlcParameters, StericParameters>> parameter_sets() {
-  return {{WlcParameters{}, StericParameters{}},
-          {WlcParameters{}, StericParameters{2.0, 0.005}},
-          {WlcParameters{0.05, 0.1, 0.01, 310.0}, StericParameters{0.5, 0.1}},
-          {WlcParameters{0.1, 0.5, 0.004, 280.0}, StericParameters{3.0, 0.02}},
-          {WlcParameters{0.075, 0.09, 0.0075, 300.0}, StericParameters{1.0, 0.5}}};
-}
+using testing::parameter_sets;
 
 Eigen::Matrix2Xd random_displacements(int n, double amplitude, unsigned seed) {
   std::mt19937 rng(seed);
