@@ -40,7 +40,8 @@ struct McCli {
   int streams = 0;  // 0: one per OpenMP thread
   double adapt_fraction = 0.2;
   int sample_every = 1;
-  std::string checkpoint, resume, out, start = "equilibrium";
+  double penalty_scale = McRunSetup{}.penalty_scale;
+  std::string checkpoint, resume, out, start = "equilibrium", bending = "juelicher";
   long long checkpoint_every = 100;
   long long snapshot_every = 0;
   bool json = false, quiet = false;
@@ -110,7 +111,13 @@ nlohmann::json stat_json(const BlockingResult& b) {
           {"blocking_converged", b.converged}};
 }
 
-int run_mc(const McCli& o, bool force_given, bool temperature_given, bool seed_given) {
+/// Which chain-defining options were given on the command line (checked against a resumed
+/// checkpoint, which otherwise supplies them).
+struct GivenOptions {
+  bool force = false, temperature = false, seed = false, penalty_scale = false;
+};
+
+int run_mc(const McCli& o, const GivenOptions& given) {
   if (!(o.temperature_K >= 0) || !std::isfinite(o.temperature_K))
     throw std::invalid_argument("--temperature must be >= 0 K, got " +
                                 std::to_string(o.temperature_K));
@@ -131,9 +138,11 @@ int run_mc(const McCli& o, bool force_given, bool temperature_given, bool seed_g
 
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
+  NetworkParameters params;
+  params.bending_model = bending_model_from_string(o.bending);
   const Network net = [&] {
     SerialScope serial;  // the rest shape must be identical on resume (network fingerprint)
-    return build_network(make_rest_shape(ro), NetworkParameters{});
+    return build_network(make_rest_shape(ro), params);
   }();
   report(progress, "network: " + std::to_string(net.topo.num_vertices) + " vertices");
 
@@ -141,17 +150,21 @@ int run_mc(const McCli& o, bool force_given, bool temperature_given, bool seed_g
   if (!o.resume.empty()) {
     McCheckpoint cp = read_mc_checkpoint(o.resume, net);
     auto differs = [](double a, double b) { return std::abs(a - b) > 1e-12 * (1 + std::abs(b)); };
-    if (force_given && differs(o.force_pN, cp.setup.force_pN))
+    if (given.force && differs(o.force_pN, cp.setup.force_pN))
       throw std::invalid_argument("checkpoint '" + o.resume + "' was run at " +
                                   std::to_string(cp.setup.force_pN) + " pN, not " +
                                   std::to_string(o.force_pN) + " pN");
-    if (temperature_given && differs(o.temperature_K, cp.setup.sampler.temperature_K))
+    if (given.temperature && differs(o.temperature_K, cp.setup.sampler.temperature_K))
       throw std::invalid_argument("checkpoint '" + o.resume + "' was run at " +
                                   std::to_string(cp.setup.sampler.temperature_K) + " K, not " +
                                   std::to_string(o.temperature_K) + " K");
-    if (seed_given && o.seed != cp.setup.sampler.seed)
+    if (given.seed && o.seed != cp.setup.sampler.seed)
       throw std::invalid_argument("checkpoint '" + o.resume + "' was seeded with " +
                                   std::to_string(cp.setup.sampler.seed));
+    if (given.penalty_scale && differs(o.penalty_scale, cp.setup.penalty_scale))
+      throw std::invalid_argument("checkpoint '" + o.resume + "' was run with penalty scale " +
+                                  std::to_string(cp.setup.penalty_scale) + ", not " +
+                                  std::to_string(o.penalty_scale));
     report(progress, "resuming at sweep " + std::to_string(cp.chain.sweep) + " from " + o.resume);
     run = std::make_unique<McRun>(net, cp.setup, cp.chain, cp.series);
   } else {
@@ -163,6 +176,7 @@ int run_mc(const McCli& o, bool force_given, bool temperature_given, bool seed_g
     setup.sampler.adapt_sweeps =
         static_cast<int>(std::llround(o.adapt_fraction * double(o.sweeps)));
     setup.sample_every = o.sample_every;
+    setup.penalty_scale = o.penalty_scale;
     setup.validate();
     // Zero-temperature equilibrium by continuation: start state, multipliers and reference.
     Positions x = net.rest;
@@ -232,6 +246,8 @@ int run_mc(const McCli& o, bool force_given, bool temperature_given, bool seed_g
                       {"kT_pNum", units::thermal_energy_pNum(su.sampler.temperature_K)},
                       {"seed", su.sampler.seed},
                       {"streams", su.sampler.streams},
+                      {"bending", to_string(net.bending_model)},
+                      {"penalty_scale", su.penalty_scale},
                       {"threads", omp_get_max_threads()},
                       {"colours", run->sampler().colours().size()},
                       {"sweeps", run->sampler().sweeps_done()},
@@ -327,6 +343,12 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_option("--sample-every", o->sample_every, "sweeps between recorded samples")
       ->capture_default_str();
   cmd->add_option("--start", o->start, "equilibrium | rest")->capture_default_str();
+  cmd->add_option("--bending", o->bending, "juelicher | dihedral")->capture_default_str();
+  auto* penalty =
+      cmd->add_option("--penalty-scale", o->penalty_scale,
+                      "multiplies the area/volume penalty stiffnesses while sampling (thermal "
+                      "drift of A and V falls as 1/sqrt)")
+          ->capture_default_str();
   cmd->add_option("--checkpoint", o->checkpoint, "write the chain state to FILE (HDF5, atomic)");
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "sweeps between checkpoints")
       ->capture_default_str();
@@ -338,9 +360,10 @@ void add_mc_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "print the summary as JSON");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, force, temp, seed, &action] {
-    const bool fg = force->count() > 0, tg = temp->count() > 0, sg = seed->count() > 0;
-    action = [o, fg, tg, sg] { return run_mc(*o, fg, tg, sg); };
+  cmd->callback([o, force, temp, seed, penalty, &action] {
+    const GivenOptions given{force->count() > 0, temp->count() > 0, seed->count() > 0,
+                             penalty->count() > 0};
+    action = [o, given] { return run_mc(*o, given); };
   });
 }
 

@@ -112,22 +112,27 @@ double juelicher_vertex_energy(const Positions& x, const Topology& topo, const B
   return 0.5 * p.kappa_pNum * hv * hv * a;
 }
 
+double dihedral_hinge_energy(const Positions& x, const Topology& topo, double kb, double theta0,
+                             int e, Eigen::Matrix<double, 3, 4>* grad) {
+  const int a = topo.edges(0, e), b = topo.edges(1, e);
+  const int c = topo.edge_opposite(0, e), d = topo.edge_opposite(1, e);
+  const double theta = dihedral_angle(x.col(a), x.col(b), x.col(c), x.col(d), grad);
+  if (grad) *grad *= kb * std::sin(theta - theta0);  // dE/dtheta dtheta/dx
+  return kb * (1.0 - std::cos(theta - theta0));
+}
+
 double dihedral_bending_energy(const Positions& x, const Topology& topo, double kb, double theta0,
                                Positions* grad) {
   return assemble_parallel(topo.num_edges(), grad, [&](int e, Positions& g) {
-    const int a = topo.edges(0, e), b = topo.edges(1, e);
-    const int c = topo.edge_opposite(0, e), d = topo.edge_opposite(1, e);
-    Eigen::Matrix<double, 3, 4> gt;
-    const double theta =
-        dihedral_angle(x.col(a), x.col(b), x.col(c), x.col(d), grad ? &gt : nullptr);
+    Eigen::Matrix<double, 3, 4> gh;
+    const double energy = dihedral_hinge_energy(x, topo, kb, theta0, e, grad ? &gh : nullptr);
     if (grad) {
-      const double s = kb * std::sin(theta - theta0);
-      g.col(a) += s * gt.col(0);
-      g.col(b) += s * gt.col(1);
-      g.col(c) += s * gt.col(2);
-      g.col(d) += s * gt.col(3);
+      g.col(topo.edges(0, e)) += gh.col(0);
+      g.col(topo.edges(1, e)) += gh.col(1);
+      g.col(topo.edge_opposite(0, e)) += gh.col(2);
+      g.col(topo.edge_opposite(1, e)) += gh.col(3);
     }
-    return kb * (1.0 - std::cos(theta - theta0));
+    return energy;
   });
 }
 

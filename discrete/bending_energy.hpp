@@ -48,8 +48,14 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
 double juelicher_vertex_energy(const Positions& x, const Topology& topo,
                                const BendingParameters& params, int v);
 
+/// One Kantor-Nelson hinge, k_b (1 - cos(theta_e - theta0)) [pN um], theta_e the exterior
+/// dihedral angle at edge e (0 when flat); its gradient (pN, 3 x 4: a, b, opposite0, opposite1)
+/// if grad != nullptr (overwritten). Also the local term Monte Carlo updates.
+double dihedral_hinge_energy(const Positions& x, const Topology& topo, double kb_pNum,
+                             double theta0_rad, int e, Eigen::Matrix<double, 3, 4>* grad = nullptr);
+
 /// Kantor-Nelson dihedral energy E = k_b sum_e (1 - cos(theta_e - theta0)) [pN um],
-/// theta_e the exterior dihedral angle (0 when flat). Gradient accumulated into grad.
+/// the sum of dihedral_hinge_energy over all edges. Gradient accumulated into grad.
 double dihedral_bending_energy(const Positions& x, const Topology& topo, double kb_pNum,
                                double theta0_rad, Positions* grad = nullptr);
 

@@ -15,7 +15,7 @@ namespace rbc {
 
 namespace {
 
-constexpr long long kFormat = 1;
+constexpr long long kFormat = 2;  // 2: penalty_scale; bending model in the fingerprint
 
 struct Fnv1a {
   std::uint64_t h = 0xcbf29ce484222325ull;
@@ -43,6 +43,11 @@ std::uint64_t network_fingerprint(const Network& net) {
   f.add(&nf, sizeof nf);
   f.add(net.topo.faces.data(), sizeof(int) * std::size_t(net.topo.faces.size()));
   f.add(net.rest.data(), sizeof(double) * std::size_t(net.rest.size()));
+  // The bending model and constants: a chain is only valid on the energy it sampled.
+  const int model = static_cast<int>(net.bending_model);
+  const double bending[] = {net.bending.kappa_pNum, net.bending.h0_per_um, net.dihedral_kb_pNum};
+  f.add(&model, sizeof model);
+  f.add(bending, sizeof bending);
   return f.h;
 }
 
@@ -90,6 +95,7 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     h.write_attribute("target_acceptance", u.sampler.target_acceptance);
     h.write_attribute("adapt_gain", u.sampler.adapt_gain);
     h.write_attribute("sample_every", static_cast<long long>(u.sample_every));
+    h.write_attribute("penalty_scale", u.penalty_scale);
     h.write_attribute("reference_axial_um", u.reference_axial_um);
     h.write_attribute("reference_transverse_um", u.reference_transverse_um);
     std::vector<int> mobile = u.sampler.mobile;
@@ -161,6 +167,7 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   u.sampler.target_acceptance = h.read_attribute_double("target_acceptance");
   u.sampler.adapt_gain = h.read_attribute_double("adapt_gain");
   u.sample_every = static_cast<int>(h.read_attribute_int("sample_every"));
+  u.penalty_scale = h.read_attribute_double("penalty_scale");
   u.reference_axial_um = h.read_attribute_double("reference_axial_um");
   u.reference_transverse_um = h.read_attribute_double("reference_transverse_um");
   std::vector<int> mobile;

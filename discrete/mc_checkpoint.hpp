@@ -11,7 +11,8 @@
 // the state bytes), /series (samples x 8, see mc_sample_columns()); root attributes
 // format, fingerprint, vertices, faces, sweep, step_um, rng_type, rng_bytes, temperature_K,
 // force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams, adapt_sweeps,
-// sample_every, target_acceptance, adapt_gain, reference_axial_um, reference_transverse_um.
+// sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,
+// reference_transverse_um.
 #include <cstdint>
 #include <string>
 
@@ -19,7 +20,8 @@
 
 namespace rbc {
 
-/// FNV-1a 64-bit hash of (N, F, faces, rest positions): identifies the network a chain runs on.
+/// FNV-1a 64-bit hash of (N, F, faces, rest positions, bending model and constants): identifies
+/// the network a chain runs on.
 std::uint64_t network_fingerprint(const Network& net);
 
 struct McCheckpoint {

@@ -36,6 +36,9 @@ void McRunSetup::validate() const {
   sampler.validate();
   if (!std::isfinite(force_pN))
     throw std::invalid_argument("force must be finite, got " + std::to_string(force_pN) + " pN");
+  if (!(penalty_scale > 0) || !std::isfinite(penalty_scale))
+    throw std::invalid_argument("penalty scale must be > 0 and finite, got " +
+                                std::to_string(penalty_scale));
   if (sample_every < 1)
     throw std::invalid_argument("sample interval must be >= 1 sweep, got " +
                                 std::to_string(sample_every));
@@ -46,6 +49,7 @@ LoadState load_of(const McRunSetup& s) {
   LoadState l;
   l.force_pN = s.force_pN;
   l.multipliers = s.multipliers;
+  l.stiffness_scale = s.penalty_scale;
   return l;
 }
 }  // namespace

@@ -53,10 +53,48 @@ void McOptions::validate() const {
     throw std::invalid_argument("adaptation gain must be >= 0, got " + std::to_string(adapt_gain));
 }
 
-double constraint_energy_of_totals(const Network& net, const ConstraintMultipliers& lambda,
-                                   double area, double volume) {
-  return constraint_energy_of_totals(area, volume, net.area0_um2, net.volume0_um3, net.constraints,
-                                     lambda);
+double constraint_energy_of_totals(const Network& net, const LoadState& load, double area,
+                                   double volume) {
+  ConstraintParameters penalty = net.constraints;
+  penalty.area_stiffness_pN_per_um3 *= load.stiffness_scale;
+  penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
+  return constraint_energy_of_totals(area, volume, net.area0_um2, net.volume0_um3, penalty,
+                                     load.multipliers);
+}
+
+BendingTerms bending_terms(const Network& net) {
+  const Topology& t = net.topo;
+  const int n = t.num_vertices;
+  BendingTerms bt;
+  bt.offsets.assign(n + 1, 0);
+  if (net.bending_model == BendingModel::juelicher) {
+    // Vertex cells: the Juelicher energy of w reads w's 1-ring, so a move at v changes the
+    // cells of v and of its neighbours.
+    bt.count = n;
+    for (int v = 0; v < n; ++v) {
+      bt.terms.push_back(v);
+      for (const int* w = t.vertex_neighbours.begin(v); w != t.vertex_neighbours.end(v); ++w)
+        bt.terms.push_back(*w);
+      bt.offsets[v + 1] = static_cast<int>(bt.terms.size());
+    }
+  } else {
+    // Hinges: v is an end of its incident edges and the wing vertex of the edge opposite it in
+    // each incident face.
+    bt.count = t.num_edges();
+    for (int v = 0; v < n; ++v) {
+      for (const int* e = t.vertex_edges.begin(v); e != t.vertex_edges.end(v); ++e)
+        bt.terms.push_back(*e);
+      for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
+        const auto& c = t.faces.col(*f);
+        const int k = c(0) == v ? 0 : c(1) == v ? 1 : 2;
+        const int p = c((k + 1) % 3), q = c((k + 2) % 3);
+        for (const int* h = t.vertex_edges.begin(p); h != t.vertex_edges.end(p); ++h)
+          if (t.edges(0, *h) == q || t.edges(1, *h) == q) bt.terms.push_back(*h);
+      }
+      bt.offsets[v + 1] = static_cast<int>(bt.terms.size());
+    }
+  }
+  return bt;
 }
 
 std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,
@@ -105,10 +143,6 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
                      const McOptions& options)
     : net_(net), load_(load), opt_(options) {
   opt_.validate();
-  if (net.bending_model != BendingModel::juelicher)
-    throw std::invalid_argument(
-        "Monte Carlo supports the juelicher bending model only (local updates need a per-hinge "
-        "dihedral kernel)");
   if (start.cols() != net.topo.num_vertices)
     throw std::invalid_argument("start positions have " + std::to_string(start.cols()) +
                                 " vertices, the network " + std::to_string(net.topo.num_vertices));
@@ -122,9 +156,8 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
   // Distance >= 3: see the header (Juelicher terms of a move at v read positions up to distance 2).
   colours_ = colour_vertices(net.topo, 3, opt_.mobile);
   const int n = net.topo.num_vertices;
-  bend_offset_.resize(n + 1);
-  for (int v = 0; v <= n; ++v) bend_offset_[v] = net.topo.vertex_neighbours.offsets[v] + v;
-  bend_new_.assign(bend_offset_[n], 0.0);
+  bend_terms_ = bending_terms(net);
+  bend_new_.assign(bend_terms_.terms.size(), 0.0);
   proposal_.resize(n);
   tweezer_slot_.assign(n, -1);
   for (size_t k = 0; k < net.patch.vertex.size(); ++k) {
@@ -171,7 +204,7 @@ double McSampler::energy() const {
   for (double v : fe) e += v;
   for (double v : bend_) e += v;
   e += tweezers_energy(net_.patch, load_.force_pN, x_, net_.rest);
-  return e + constraint_energy_of_totals(net_, load_.multipliers, area_, volume_);
+  return e + constraint_energy_of_totals(net_, load_, area_, volume_);
 }
 
 McSampler::~McSampler() {
@@ -213,10 +246,9 @@ void McSampler::restore(const McChainState& s) {
   sweep_ = s.sweep;
   for (size_t k = 0; k < rng_.size(); ++k)
     std::memcpy(gsl_rng_state(rng_[k]), s.rng_state[k].data(), s.rng_state[k].size());
-  const int n = net_.topo.num_vertices;
-  bend_.resize(n);
+  bend_.resize(bend_terms_.count);
 #pragma omp parallel for schedule(static)
-  for (int v = 0; v < n; ++v) bend_[v] = juelicher_vertex_energy(x_, net_.topo, net_.bending, v);
+  for (int k = 0; k < bend_terms_.count; ++k) bend_[k] = bending_term_energy(k);
   recompute_totals();
 }
 
@@ -264,6 +296,12 @@ double McSampler::local_inplane_tweezers(int v) const {
   return e;
 }
 
+double McSampler::bending_term_energy(int k) const {
+  return net_.bending_model == BendingModel::juelicher
+             ? juelicher_vertex_energy(x_, net_.topo, net_.bending, k)
+             : dihedral_hinge_energy(x_, net_.topo, net_.dihedral_kb_pNum, 0.0, k);
+}
+
 void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double* bend_new) {
   // Only x_v changes; reads stay within graph distance 2 of v (see the header), so concurrent
   // proposals at same-colour vertices (distance >= 3) neither race nor interact.
@@ -291,12 +329,10 @@ void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double
     new_v += tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
   }
   double bend_change = 0;
-  bend_new[0] = juelicher_vertex_energy(x_, t, net_.bending, v);
-  bend_change += bend_new[0] - bend_[v];
-  int k = 1;
-  for (const int* w = t.vertex_neighbours.begin(v); w != t.vertex_neighbours.end(v); ++w, ++k) {
-    bend_new[k] = juelicher_vertex_energy(x_, t, net_.bending, *w);
-    bend_change += bend_new[k] - bend_[*w];
+  for (int i = bend_terms_.offsets[v], k = 0; i < bend_terms_.offsets[v + 1]; ++i, ++k) {
+    const int term = bend_terms_.terms[i];
+    bend_new[k] = bending_term_energy(term);
+    bend_change += bend_new[k] - bend_[term];
   }
   x_.col(v) = from;
   if (!std::isfinite(bend_change)) {
@@ -312,22 +348,20 @@ McMoveDelta McSampler::move_delta(int v, const Eigen::Vector3d& to) {
   if (v < 0 || v >= net_.topo.num_vertices)
     throw std::invalid_argument("vertex " + std::to_string(v) + " out of range");
   McMoveDelta d;
-  propose(v, to, d, &bend_new_[bend_offset_[v]]);
+  propose(v, to, d, &bend_new_[bend_terms_.offsets[v]]);
   return d;
 }
 
 double McSampler::move_energy_change(int v, const Eigen::Vector3d& to) {
   const McMoveDelta d = move_delta(v, to);
   if (!d.feasible) return kInf;
-  const ConstraintMultipliers& l = load_.multipliers;
   return d.local_pNum +
-         constraint_energy_of_totals(net_, l, area_ + d.area_um2, volume_ + d.volume_um3) -
-         constraint_energy_of_totals(net_, l, area_, volume_);
+         constraint_energy_of_totals(net_, load_, area_ + d.area_um2, volume_ + d.volume_um3) -
+         constraint_energy_of_totals(net_, load_, area_, volume_);
 }
 
 McSweepStats McSampler::sweep() {
   recompute_totals();
-  const Topology& t = net_.topo;
   const int streams = opt_.streams;
   McSweepStats st;
   const double step = step_;
@@ -346,14 +380,13 @@ McSweepStats McSampler::sweep() {
         Proposal& p = proposal_[v];
         for (int c = 0; c < 3; ++c) p.to(c) = x_(c, v) + step * (2.0 * gsl_rng_uniform(r) - 1.0);
         p.u = gsl_rng_uniform(r);
-        propose(v, p.to, p.delta, &bend_new_[bend_offset_[v]]);
+        propose(v, p.to, p.delta, &bend_new_[bend_terms_.offsets[v]]);
       }
     }
     // Phase 2: sequential acceptance with the exact global area/volume term.
 #pragma omp single
     {
-      const ConstraintMultipliers& l = load_.multipliers;
-      double g_now = constraint_energy_of_totals(net_, l, area_, volume_);
+      double g_now = constraint_energy_of_totals(net_, load_, area_, volume_);
       for (const int v : cls) {
         const Proposal& p = proposal_[v];
         ++st.attempted;
@@ -362,7 +395,7 @@ McSweepStats McSampler::sweep() {
           continue;
         }
         const double a = area_ + p.delta.area_um2, vol = volume_ + p.delta.volume_um3;
-        const double g_new = constraint_energy_of_totals(net_, l, a, vol);
+        const double g_new = constraint_energy_of_totals(net_, load_, a, vol);
         const double de = p.delta.local_pNum + (g_new - g_now);
         const bool accept = de <= 0 || (beta_ < kInf && p.u < std::exp(-beta_ * de));
         if (!accept) continue;
@@ -371,11 +404,8 @@ McSweepStats McSampler::sweep() {
         area_ = a;
         volume_ = vol;
         g_now = g_new;
-        const double* bn = &bend_new_[bend_offset_[v]];
-        bend_[v] = bn[0];
-        int k = 1;
-        for (const int* w = t.vertex_neighbours.begin(v); w != t.vertex_neighbours.end(v); ++w, ++k)
-          bend_[*w] = bn[k];
+        for (int i = bend_terms_.offsets[v]; i < bend_terms_.offsets[v + 1]; ++i)
+          bend_[bend_terms_.terms[i]] = bend_new_[i];
       }
     }
   }

@@ -4,17 +4,21 @@
 // the minimiser (MODEL.md section 2), sampled at beta = 1/(kB T), kB T from core/units.hpp.
 //
 // What the chain samples. pi(x) ~ exp(-beta F(x)) with
-//   F = links + steric + Juelicher bending - tweezer work
-//     + lambda_A (A - A0) + kA/2 (A - A0)^2 + lambda_V (V - V0) + kV/2 (V - V0)^2,
+//   F = links + steric + bending (Juelicher or dihedral) - tweezer work
+//     + lambda_A (A - A0) + s kA/2 (A - A0)^2 + lambda_V (V - V0) + s kV/2 (V - V0)^2,
 // the multipliers lambda held FIXED (typically those of the zero-temperature equilibrium, so
-// that as T -> 0 the chain collapses onto the minimiser's equilibrium) and kA, kV the network's
-// penalty stiffnesses. A and V are therefore held by a stiff quadratic well, not exactly: their
-// thermal spread is sqrt(kB T / k) (about 5e-5 relative at 300 K with the defaults).
+// that as T -> 0 the chain collapses onto the minimiser's equilibrium), kA, kV the network's
+// penalty stiffnesses and s = LoadState::stiffness_scale. A and V are therefore held by a stiff
+// quadratic well, not exactly: their thermal spread is sqrt(kB T / (s k)), about 5e-5 A0 and
+// 7e-5 V0 at 300 K for s = 1, so runs that must keep the drift below 1e-4 (MODEL.md) raise s
+// (McRunSetup::penalty_scale). Raising s at fixed lambda does not move the T = 0 minimum, whose
+// violation is already < 1e-6.
 //
 // Parallel sweeps and detailed balance. The mobile vertices are coloured so that two
 // vertices of one colour are at graph distance >= 3: a move at v changes the links and faces
-// at v and the Juelicher vertex energies of v and its 1-ring (which read positions up to
-// distance 2), so same-colour moves share no local term. The only coupling left is through
+// at v and the bending terms listed by bending_terms() (Juelicher cells of v and its 1-ring, or
+// the hinges with v as an end or a wing), all of which read positions up to distance 2 only,
+// so same-colour moves share no local term. The only coupling left is through
 // the global quadratic A and V terms. Each colour pass therefore runs in two phases:
 //   1. in parallel (one RNG stream per chunk of the colour): propose x_v' = x_v + step * U[-1,1]^3,
 //      compute the LOCAL energy change and the area and volume changes dA_v, dV_v, draw u_v;
@@ -28,8 +32,8 @@
 //
 // Running totals A and V are updated incrementally per accepted move and recomputed from
 // scratch (a fixed-order sum, so bit-reproducible) at the start of every sweep; the largest
-// incremental drift seen is reported. Juelicher vertex energies are cached per vertex and
-// recomputed from scratch for v and its 1-ring on each accepted move (no drift).
+// incremental drift seen is reported. Bending terms are cached and the few a move changes are
+// recomputed from scratch on each accepted move (no drift).
 //
 // Step size: during the first adapt_sweeps sweeps the step follows
 // log(step) += adapt_gain n/(n + 200) (acceptance - target) (n moves in the sweep), then it is
@@ -87,10 +91,21 @@ struct McMoveDelta {
 };
 
 /// Area/volume part of F as a function of the totals:
-///   G(A, V) = lA (A - A0) + kA/2 (A - A0)^2 + lV (V - V0) + kV/2 (V - V0)^2   [pN um]
-/// (the formula of constraint_energy(), evaluated from running totals instead of positions).
-double constraint_energy_of_totals(const Network& net, const ConstraintMultipliers& lambda,
-                                   double area_um2, double volume_um3);
+///   G(A, V) = lA (A - A0) + s kA/2 (A - A0)^2 + lV (V - V0) + s kV/2 (V - V0)^2   [pN um]
+/// with s = load.stiffness_scale (the formula network_energy() uses, evaluated from running
+/// totals instead of positions).
+double constraint_energy_of_totals(const Network& net, const LoadState& load, double area_um2,
+                                   double volume_um3);
+
+/// The local bending terms of the network's model and which of them a single-vertex move
+/// changes: Juelicher vertex cells (term = vertex; a move at v changes v and its 1-ring) or
+/// Kantor-Nelson hinges (term = edge; a move at v changes its incident edges and the edge
+/// opposite v in each incident face). terms[offsets[v] .. offsets[v+1]) lists v's terms.
+struct BendingTerms {
+  int count = 0;  ///< number of terms (N or E)
+  std::vector<int> offsets, terms;
+};
+BendingTerms bending_terms(const Network& net);
 
 /// Greedy distance-d colouring of `vertices` (all if empty): two vertices of one colour are at
 /// graph distance >= min_distance. Colours are vertex lists in increasing order.
@@ -102,8 +117,8 @@ std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_dist
 class McSampler {
  public:
   /// Starts the chain at `start` (must be feasible) with fresh streams seeded from options.seed.
-  /// Throws std::invalid_argument for invalid options, an infeasible start, or a non-Juelicher
-  /// bending model (no per-hinge dihedral kernel exists for local updates yet).
+  /// Throws std::invalid_argument for invalid options or an infeasible start. The area and
+  /// volume penalties are those of network_energy() at `load` (stiffness_scale included).
   McSampler(const Network& net, const LoadState& load, const Positions& start,
             const McOptions& options);
   ~McSampler();
@@ -148,6 +163,7 @@ class McSampler {
     McMoveDelta delta;
     double u = 0;
   };
+  double bending_term_energy(int term) const;
   void propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double* bend_new);
   void recompute_totals();
   double local_inplane_tweezers(int v) const;
@@ -163,9 +179,9 @@ class McSampler {
   double max_area_drift_ = 0, max_volume_drift_ = 0;
   std::vector<std::vector<int>> colours_;
   std::vector<gsl_rng*> rng_;
-  std::vector<double> bend_;        ///< Juelicher energy of each vertex cell
-  std::vector<int> bend_offset_;    ///< start of v's (1 + degree) slots in bend_new_
-  std::vector<double> bend_new_;    ///< proposed energies of v and its 1-ring
+  BendingTerms bend_terms_;
+  std::vector<double> bend_;        ///< energy of each bending term (pN um)
+  std::vector<double> bend_new_;    ///< proposed energies, aligned with bend_terms_.terms
   std::vector<Proposal> proposal_;  ///< per vertex
   std::vector<int> tweezer_slot_;   ///< index into tweezer_single_ or -1
   std::vector<TweezerPatch> tweezer_single_;

@@ -107,6 +107,11 @@ TEST(McCheckpoint, CheckpointOfAnotherNetworkIsRefused) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("another network"), std::string::npos) << e.what();
   }
+  // Same mesh, other bending energy: the chain sampled a different distribution.
+  NetworkParameters dihedral;
+  dihedral.bending_model = BendingModel::dihedral;
+  EXPECT_THROW(read_mc_checkpoint(file, build_network(TriMesh{net.rest, net.topo}, dihedral)),
+               std::invalid_argument);
   EXPECT_NO_THROW(read_mc_checkpoint(file, net));
 }
 

@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -24,8 +25,21 @@ namespace {
 
 using testing::SmallCell;
 
-TEST(McSampler, LocalEnergyChangeEqualsFullEnergyDifference) {
-  SmallCell c;
+// The local change must equal the full network_energy difference for either bending model
+// (Juelicher cells or dihedral hinges) and for a raised penalty stiffness.
+struct LocalUpdateCase {
+  BendingModel bending;
+  double stiffness_scale;
+};
+void PrintTo(const LocalUpdateCase& c, std::ostream* os) {
+  *os << to_string(c.bending) << " bending, penalty scale " << c.stiffness_scale;
+}
+class McLocalUpdate : public ::testing::TestWithParam<LocalUpdateCase> {};
+
+TEST_P(McLocalUpdate, LocalEnergyChangeEqualsFullEnergyDifference) {
+  NetworkParameters params;
+  params.bending_model = GetParam().bending;
+  SmallCell c(params, 11, GetParam().stiffness_scale);
   McOptions o;
   McSampler mc(c.net, c.load, c.x, o);
   std::mt19937 rng(5);
@@ -51,6 +65,15 @@ TEST(McSampler, LocalEnergyChangeEqualsFullEnergyDifference) {
   // The sampler's positions are untouched by trial evaluations.
   EXPECT_EQ((mc.positions() - c.x).cwiseAbs().maxCoeff(), 0.0);
 }
+
+INSTANTIATE_TEST_SUITE_P(BendingModelsAndPenalties, McLocalUpdate,
+                         ::testing::Values(LocalUpdateCase{BendingModel::juelicher, 1.0},
+                                           LocalUpdateCase{BendingModel::dihedral, 1.0},
+                                           LocalUpdateCase{BendingModel::juelicher, 25.0}),
+                         [](const auto& info) {
+                           return to_string(info.param.bending) + "_penalty" +
+                                  std::to_string(static_cast<int>(info.param.stiffness_scale));
+                         });
 
 TEST(McSampler, InfeasibleMovesAreRejectedLikeNetworkEnergy) {
   SmallCell c;
@@ -116,6 +139,53 @@ TEST(McSampler, ColouringSeparatesSameColourVerticesByThreeLinks) {
   // (7 suffice on the triangular lattice); greedy must stay near that, far from one per vertex.
   EXPECT_GE(colours.size(), 7u);
   EXPECT_LT(colours.size(), 40u);
+}
+
+// bending_terms() must list, for every vertex, exactly the terms whose value depends on it
+// (checked against the stencils read off the topology directly), and same-colour vertices
+// must share none of them.
+TEST(McSampler, BendingTermsListExactlyTheTermsThatReadTheVertex) {
+  for (const BendingModel model : {BendingModel::juelicher, BendingModel::dihedral}) {
+    NetworkParameters params;
+    params.bending_model = model;
+    SmallCell c(params);
+    const Topology& t = c.net.topo;
+    const BendingTerms bt = bending_terms(c.net);
+    // Stencil of each term: the vertices its energy reads.
+    std::vector<std::vector<int>> reads(bt.count);
+    if (model == BendingModel::juelicher) {
+      ASSERT_EQ(bt.count, t.num_vertices);
+      for (int w = 0; w < t.num_vertices; ++w) {
+        reads[w].push_back(w);
+        for (const int* u = t.vertex_neighbours.begin(w); u != t.vertex_neighbours.end(w); ++u)
+          reads[w].push_back(*u);
+      }
+    } else {
+      ASSERT_EQ(bt.count, t.num_edges());
+      for (int e = 0; e < t.num_edges(); ++e)
+        reads[e] = {t.edges(0, e), t.edges(1, e), t.edge_opposite(0, e), t.edge_opposite(1, e)};
+    }
+    std::vector<std::vector<int>> expected(t.num_vertices);
+    for (int k = 0; k < bt.count; ++k)
+      for (int v : reads[k]) expected[v].push_back(k);
+    for (int v = 0; v < t.num_vertices; ++v) {
+      std::vector<int> listed(bt.terms.begin() + bt.offsets[v],
+                              bt.terms.begin() + bt.offsets[v + 1]);
+      std::sort(listed.begin(), listed.end());
+      std::sort(expected[v].begin(), expected[v].end());
+      ASSERT_EQ(listed, expected[v]) << to_string(model) << " vertex " << v;
+    }
+    for (const auto& cls : colour_vertices(t, 3)) {
+      std::vector<int> owner(bt.count, -1);
+      for (int v : cls)
+        for (int i = bt.offsets[v]; i < bt.offsets[v + 1]; ++i) {
+          EXPECT_EQ(owner[bt.terms[i]], -1)
+              << to_string(model) << ": vertices " << owner[bt.terms[i]] << " and " << v
+              << " share a term";
+          owner[bt.terms[i]] = v;
+        }
+    }
+  }
 }
 
 TEST(McSampler, ChainDependsOnStreamsNotOnThreadCount) {
@@ -326,6 +396,7 @@ TEST(McSampler, ZeroTemperatureLimitApproachesTheMinimiser) {
   LoadState load;
   load.force_pN = force;
   load.multipliers = lambda;
+  load.stiffness_scale = setup.penalty_scale;  // the free energy the chain samples
   const double e_eq = network_energy(net, xeq, load);
   const double e_start = network_energy(net, start, load);
   run.advance(400);
@@ -339,6 +410,48 @@ TEST(McSampler, ZeroTemperatureLimitApproachesTheMinimiser) {
   EXPECT_LT(run.series().back().energy_pNum - e_eq, 0.05 * (e_start - e_eq));
   EXPECT_GE(run.series().back().energy_pNum - e_eq, -1e-9 * std::abs(e_eq))
       << "the chain went below the minimiser's energy";
+}
+
+// Equipartition for the area and volume penalties: the total area and volume are collective
+// coordinates held by quadratic wells of stiffness s kA and s kV, far stiffer than the network's
+// own area stiffness (K/A0 ~ 0.1 pN/um^3 against s kA >= 100 pN/um^3), so their thermal
+// variances are kB T/(s kA) and kB T/(s kV). Checked for the default and a 25x stiffer penalty,
+// which also shows that the penalty scale reaches the acceptance test, not only the energy.
+TEST(McSampler, AreaAndVolumeFluctuationsObeyEquipartition) {
+  RestShapeOptions ro;
+  ro.target_vertices = 250;
+  const Network net = build_network(make_rest_shape(ro), NetworkParameters{});
+  for (const double scale : {1.0, 25.0}) {
+    McOptions o;
+    o.temperature_K = 300;
+    o.seed = 3;
+    o.streams = 2;
+    o.adapt_sweeps = 60;
+    LoadState load;
+    load.stiffness_scale = scale;
+    McSampler mc(net, load, net.rest, o);
+    for (int k = 0; k < o.adapt_sweeps; ++k) mc.sweep();
+    // The wells equilibrate within a sweep (the blocking inefficiency of A is ~1), so 600
+    // consecutive sweeps give the standard deviation to about 1/sqrt(2 x 600) ~ 3 %.
+    const int samples = 600;
+    double sa = 0, saa = 0, sv = 0, svv = 0;
+    for (int k = 0; k < samples; ++k) {
+      mc.sweep();
+      sa += mc.area_um2();
+      saa += mc.area_um2() * mc.area_um2();
+      sv += mc.volume_um3();
+      svv += mc.volume_um3() * mc.volume_um3();
+    }
+    const double std_area = std::sqrt(saa / samples - (sa / samples) * (sa / samples));
+    const double std_volume = std::sqrt(svv / samples - (sv / samples) * (sv / samples));
+    const double kT = units::thermal_energy_pNum(300.0);
+    const double expected_area =
+        std::sqrt(kT / (scale * net.constraints.area_stiffness_pN_per_um3));
+    const double expected_volume =
+        std::sqrt(kT / (scale * net.constraints.volume_stiffness_pN_per_um5));
+    EXPECT_NEAR(std_area, expected_area, 0.15 * expected_area) << "penalty scale " << scale;
+    EXPECT_NEAR(std_volume, expected_volume, 0.15 * expected_volume) << "penalty scale " << scale;
+  }
 }
 
 }  // namespace
