@@ -49,6 +49,12 @@ TEST(Cli, BadInputExitsTwoWithAClearMessage) {
       {"fig7 --force 10,5 --method discrete:150 --out /tmp/rbc_cli_never", "increase"},
       {"fig7 --method bogus:1", "bogus"},
       {"stretch --force 10 -n 200 --out /proc/rbc_cannot_write_here", "rbc_cannot_write_here"},
+      {"mc -n 150 --temperature -5", "-5"},
+      {"mc -n 150 --sweeps -3", "sweeps"},
+      {"mc -n 150 --penalty-scale 0", "penalty"},
+      {"mc -n 150 --bending nope", "nope"},
+      {"mc -n 150 --resume /nonexistent/rbc_chain.h5", "rbc_chain.h5"},
+      {"bench nope", "nope"},
   };
   for (const auto& c : cases) {
     const CommandRun r = rbc(c.args);
