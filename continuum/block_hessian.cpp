@@ -15,26 +15,10 @@ BlockHessian::BlockHessian(const Topology& topo) {
     for (int a : star)
       for (int b : star) cols[b].push_back(a);
   }
-  offsets_.assign(n + 1, 0);
-  for (int j = 0; j < n; ++j) {
-    std::sort(cols[j].begin(), cols[j].end());
-    cols[j].erase(std::unique(cols[j].begin(), cols[j].end()), cols[j].end());
-    offsets_[j + 1] = offsets_[j] + static_cast<int>(cols[j].size());
-  }
-  rows_.reserve(offsets_[n]);
-  for (int j = 0; j < n; ++j) rows_.insert(rows_.end(), cols[j].begin(), cols[j].end());
-
-  // Column-major scalar matrix: column 3j + c holds rows 3i + r for every block row i of j.
-  m_.resize(3 * n, 3 * n);
-  Eigen::VectorXi nnz(3 * n);
-  for (int j = 0; j < n; ++j)
-    for (int c = 0; c < 3; ++c) nnz(3 * j + c) = 3 * (offsets_[j + 1] - offsets_[j]);
-  m_.reserve(nnz);
-  for (int j = 0; j < n; ++j)
-    for (int c = 0; c < 3; ++c)
-      for (int k = offsets_[j]; k < offsets_[j + 1]; ++k)
-        for (int r = 0; r < 3; ++r) m_.insert(3 * rows_[k] + r, 3 * j + c) = 0.0;
-  m_.makeCompressed();
+  BlockPattern p = make_block_pattern(std::move(cols));
+  offsets_ = std::move(p.col_offsets);
+  rows_ = std::move(p.rows);
+  m_ = std::move(p.matrix);
 }
 
 void BlockHessian::set_zero() {

@@ -7,6 +7,7 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
+#include "core/block_pattern.hpp"
 #include "core/mesh.hpp"
 
 namespace rbc {

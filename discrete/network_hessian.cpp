@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/block_pattern.hpp"
 #include "core/geometry.hpp"
 #include "discrete/link_energy.hpp"
 
@@ -82,27 +83,10 @@ NetworkHessian::NetworkHessian(const Network& net, const NetworkHessianOptions& 
           const int i = group_vertices_[g.first + k], j = group_vertices_[g.first + l];
           if (i > j) cols[j].push_back(i);
         }
-  block_col_offsets_.assign(n + 1, 0);
-  for (int j = 0; j < n; ++j) {
-    std::sort(cols[j].begin(), cols[j].end());
-    cols[j].erase(std::unique(cols[j].begin(), cols[j].end()), cols[j].end());
-    block_col_offsets_[j + 1] = block_col_offsets_[j] + static_cast<int>(cols[j].size());
-  }
-  block_rows_.reserve(block_col_offsets_[n]);
-  for (int j = 0; j < n; ++j) block_rows_.insert(block_rows_.end(), cols[j].begin(), cols[j].end());
-
-  // Scalar CSC matrix: column 3j + c holds rows 3i + r of every block row i of column j.
-  m_.resize(3 * n, 3 * n);
-  Eigen::VectorXi nnz(3 * n);
-  for (int j = 0; j < n; ++j)
-    for (int c = 0; c < 3; ++c)
-      nnz(3 * j + c) = 3 * (block_col_offsets_[j + 1] - block_col_offsets_[j]);
-  m_.reserve(nnz);
-  for (int j = 0; j < n; ++j)
-    for (int c = 0; c < 3; ++c)
-      for (int k = block_col_offsets_[j]; k < block_col_offsets_[j + 1]; ++k)
-        for (int r = 0; r < 3; ++r) m_.insert(3 * block_rows_[k] + r, 3 * j + c) = 0.0;
-  m_.makeCompressed();
+  BlockPattern pattern = make_block_pattern(std::move(cols));
+  block_col_offsets_ = std::move(pattern.col_offsets);
+  block_rows_ = std::move(pattern.rows);
+  m_ = std::move(pattern.matrix);
   block_start_.resize(block_rows_.size());
   block_stride_.resize(block_rows_.size());
   diagonal_block_.resize(n);
