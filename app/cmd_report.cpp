@@ -62,7 +62,11 @@ void add_report_command(CLI::App& app, Action& action) {
         ro.tradeoff.continuum_elements = {500, 1000, 2000, 4000};
         ro.stability.discrete_vertices = 500;
         ro.stability.continuum_elements = 1000;
+        ro.mc_convergence.mc_budget_s = 10.0;
+      } else {
+        ro.mc_convergence.mc_budget_s = 30.0;
       }
+      ro.mc_convergence.vertices = 500;
       run_report(ro, o->out, stderr_progress(o->quiet));
       std::cout << "report: " << o->out << "/report.md (figures and CSVs beside it)\n";
       return 0;

@@ -1,14 +1,50 @@
 // `rbc tradeoff`: accuracy against wall time for every method and resolution.
+#include <algorithm>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "compare/mc_convergence.hpp"
 #include "compare/tradeoff.hpp"
 
 namespace rbc::app {
 
 void check_output_directory(const std::string& dir, bool overwrite);  // cmd_fig7.cpp
+
+namespace {
+
+/// The time-to-accuracy table of the Monte Carlo study, one accuracy level per line.
+void print_time_to_accuracy(const McConvergenceResult& r) {
+  const auto& o = r.options;
+  std::cout << std::defaultfloat << std::setprecision(6) << "time to accuracy at " << o.force_pN
+            << " pN, N = " << r.vertices << ": reference D_A " << r.reference.axial_um
+            << " um (minimiser at " << r.reference.force_tolerance_pN << " pN); Monte Carlo at "
+            << o.mc_temperature_K << " K (step adapting to " << o.mc_target_acceptance
+            << " acceptance) for " << r.mc_wall_s << " s, "
+            << (r.mc.empty() ? 0 : r.mc.back().sweeps) << " sweeps\n"
+            << "  accuracy  level_um   minimiser_s        mc_s   mc_sweeps  mc/minimiser\n";
+  auto cell = [](const auto& v, int width, int digits) {
+    std::ostringstream s;
+    if (v)
+      s << std::fixed << std::setprecision(digits) << *v;
+    else
+      s << "-";
+    return std::string(std::max(0, width - static_cast<int>(s.str().size())), ' ') + s.str();
+  };
+  for (const auto& t : r.time_to_accuracy)
+    std::cout << std::fixed << std::setprecision(1) << std::setw(8) << 100 * t.relative << " %"
+              << std::setprecision(4) << std::setw(10) << t.level_um << cell(t.minimiser_s, 14, 3)
+              << cell(t.mc_s, 12, 3) << cell(t.mc_sweeps, 12, 0) << cell(t.ratio(), 14, 2) << "\n";
+  if (std::any_of(r.time_to_accuracy.begin(), r.time_to_accuracy.end(),
+                  [](const TimeToAccuracy& t) { return !t.ratio(); }))
+    std::cout << "  (- = not reached: minimiser at the tolerances tried, Monte Carlo in "
+              << std::defaultfloat << o.mc_budget_s << " s)\n";
+  std::cout << mc_convergence_conclusion(r) << "\n";
+}
+
+}  // namespace
 
 void add_tradeoff_command(CLI::App& app, Action& action) {
   struct Opts {
@@ -16,6 +52,8 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     std::vector<int> vertices, elements;
     std::vector<std::string> orders;
     bool no_continuum = false, overwrite = false, quiet = false;
+    int mc_vertices = 500;
+    double mc_budget = 20.0, mc_acceptance = McConvergenceOptions{}.mc_target_acceptance;
     std::string out = "results/tradeoff";
   };
   auto o = std::make_shared<Opts>();
@@ -29,6 +67,15 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       ->delimiter(',');
   cmd->add_option("--orders", o->orders, "continuum orders (default 2,full)")->delimiter(',');
   cmd->add_flag("--no-continuum", o->no_continuum, "discrete networks only");
+  cmd->add_option("--mc-vertices", o->mc_vertices,
+                  "network for the time-to-accuracy study, Monte Carlo against the minimiser")
+      ->capture_default_str();
+  cmd->add_option("--mc-budget", o->mc_budget,
+                  "wall-clock budget of that study's Monte Carlo chain (s; 0 = skip the study)")
+      ->capture_default_str();
+  cmd->add_option("--mc-acceptance", o->mc_acceptance,
+                  "acceptance the quench's trial step adapts to (at most 0.5 at 0 K)")
+      ->capture_default_str();
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
@@ -43,6 +90,12 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         for (const auto& s : o->orders) to.continuum_orders.push_back(wlc_expansion_from_string(s));
       }
       to.include_continuum = !o->no_continuum;
+      McConvergenceOptions mo;
+      mo.force_pN = o->force;
+      mo.vertices = o->mc_vertices;
+      mo.mc_budget_s = o->mc_budget;
+      mo.mc_target_acceptance = o->mc_acceptance;
+      if (o->mc_budget != 0) mo.validate();  // bad input fails before the long runs
       check_output_directory(o->out, o->overwrite);
       const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet));
       write_tradeoff(r, o->out);
@@ -58,6 +111,12 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   << "\n";
       std::cout << "outputs: " << o->out
                 << "/tradeoff.csv, tradeoff_axial.png, tradeoff_transverse.png\n";
+      if (o->mc_budget == 0) return 0;
+      const McConvergenceResult mc = run_mc_convergence(mo, stderr_progress(o->quiet));
+      write_mc_convergence(mc, o->out);
+      print_time_to_accuracy(mc);
+      std::cout << "outputs: " << o->out << "/mc_convergence.csv, mc_convergence.json, "
+                << "mc_convergence.png\n";
       return 0;
     };
   });

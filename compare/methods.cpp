@@ -60,6 +60,12 @@ bool MethodRun::all_converged() const {
   return true;
 }
 
+Network make_discrete_network(int vertices) {
+  RestShapeOptions ro;
+  ro.target_vertices = vertices;
+  return build_network(make_rest_shape(ro), NetworkParameters{});
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -78,9 +84,7 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   const auto t0 = std::chrono::steady_clock::now();
   MethodRun run;
   run.method = m;
-  RestShapeOptions ro;
-  ro.target_vertices = m.resolution;
-  const Network net = build_network(make_rest_shape(ro), NetworkParameters{});
+  const Network net = make_discrete_network(m.resolution);
   run.vertices = net.topo.num_vertices;
   run.elements = net.topo.num_faces();
   run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

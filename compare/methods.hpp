@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/progress.hpp"
+#include "discrete/network.hpp"
 #include "discrete/wlc.hpp"
 
 namespace rbc {
@@ -39,6 +40,10 @@ struct MethodRun {
   double total_s = 0;  ///< set-up plus all forces
   bool all_converged() const;
 };
+
+/// The discrete network every comparison uses at a resolution: the Evans-Fung rest shape
+/// triangulated with about `vertices` vertices and the default spectrin parameters.
+Network make_discrete_network(int vertices);
 
 /// Stretches the cell with the method over `forces_pN` (continuation in the given order).
 MethodRun run_method(const Method& method, const std::vector<double>& forces_pN,

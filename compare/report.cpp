@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
+#include <optional>
 #include <sstream>
 
 #include "core/io.hpp"
@@ -21,6 +23,54 @@ std::string fixed(double v, int digits) {
   std::ostringstream s;
   s << std::fixed << std::setprecision(digits) << v;
   return s.str();
+}
+
+/// A speed ratio with as many decimals as make it readable: 26x, 3.4x, 0.031x.
+std::string ratio_text(double ratio) {
+  return fixed(ratio, ratio >= 10 ? 0 : ratio >= 1 ? 1 : 3) + "x";
+}
+
+/// Report subsection of the Monte Carlo convergence study: chart, time-to-accuracy table and
+/// the conclusion computed from it.
+void write_mc_convergence_section(std::ostream& md, const McConvergenceResult& r) {
+  const McConvergenceOptions& o = r.options;
+  md << "\n### Time to the same accuracy: Monte Carlo against the minimiser\n\n"
+     << "The zero-temperature answer of one network (N = " << r.vertices << ", "
+     << fixed(o.force_pN, 0) << " pN), both from the rest shape. Reference: the minimiser at "
+     << r.reference.force_tolerance_pN << " pN, D_A = " << fixed(r.reference.axial_um, 4)
+     << " um, D_T = " << fixed(r.reference.transverse_um, 4)
+     << " um. Minimiser: one solve per force tolerance, timed around the solve. Monte Carlo: "
+     << (o.mc_temperature_K == 0 ? std::string("a quench at 0 K (downhill moves only)")
+                                 : "Metropolis at " + fixed(o.mc_temperature_K, 0) + " K")
+     << " with the trial step adapting to " << fixed(100 * o.mc_target_acceptance, 0)
+     << " % acceptance and the area and volume multipliers held at the reference's (a head "
+        "start: its times are lower bounds), run for "
+     << fixed(r.mc_wall_s, 1) << " s (" << (r.mc.empty() ? 0 : r.mc.back().sweeps)
+     << " sweeps).\n\n![time to accuracy](tradeoff/mc_convergence.png)\n\n"
+     << "| accuracy (of D_A) | level (um) | minimiser (s) | Monte Carlo (s) | Monte Carlo / "
+        "minimiser |\n|---|---|---|---|---|\n";
+  for (const auto& t : r.time_to_accuracy) {
+    md << "| " << fixed(100 * t.relative, 1) << " % | " << fixed(t.level_um, 4) << " | "
+       << (t.minimiser_s ? fixed(*t.minimiser_s, 3) : "not reached") << " | "
+       << (t.mc_s ? fixed(*t.mc_s, 3) + " (" + std::to_string(*t.mc_sweeps) + " sweeps)"
+                  : "not reached in " + fixed(r.mc_wall_s, 1) + " s")
+       << " | " << (t.ratio() ? ratio_text(*t.ratio()) : "") << " |\n";
+  }
+  // When even the loosest tolerance beats every level, the minimiser's times are upper bounds.
+  const auto loosest = std::max_element(
+      r.minimiser.begin(), r.minimiser.end(),
+      [](const auto& a, const auto& b) { return a.force_tolerance_pN < b.force_tolerance_pN; });
+  double tightest_level_um = std::numeric_limits<double>::infinity();
+  for (const auto& t : r.time_to_accuracy)
+    tightest_level_um = std::min(tightest_level_um, t.level_um);
+  if (loosest != r.minimiser.end() && loosest->axial_error_um <= tightest_level_um)
+    md << "\nThe loosest tolerance tried (" << loosest->force_tolerance_pN
+       << " pN) already gives D_A within "
+       << fixed(100 * loosest->axial_error_um / r.reference.axial_um, 3)
+       << " %, so the minimiser's times are upper bounds at every level.\n";
+  md << "\n"
+     << mc_convergence_conclusion(r)
+     << " Data: `tradeoff/mc_convergence.csv`, `tradeoff/mc_convergence.json`.\n";
 }
 
 }  // namespace
@@ -124,6 +174,11 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
   write_fig7(fig7, dir + "/fig7");
   const TradeoffResult trade = run_tradeoff(o.tradeoff, progress);
   write_tradeoff(trade, dir + "/tradeoff");
+  std::optional<McConvergenceResult> mc;
+  if (o.include_mc_convergence) {
+    mc = run_mc_convergence(o.mc_convergence, progress);
+    write_mc_convergence(*mc, dir + "/tradeoff");
+  }
   const StabilityResult stab = run_stability(o.stability, &trade, progress);
   write_stability(stab, dir + "/stability");
   const auto claims = check_claims(fig7, trade, stab);
@@ -166,6 +221,7 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
   md << "\nNote: the continuum model converges to the continuum limit of the network, so its "
         "error against the discrete reference includes the homogenisation error (and the "
         "discrete network's residual prestress, MODEL.md section 2), not only discretisation.\n";
+  if (mc) write_mc_convergence_section(md, *mc);
   md << "\n## Where methods stop working\n\n";
   if (!stab.orders.empty())
     md << "![Taylor orders vs full WLC](stability/stability_orders.png)\n\n";

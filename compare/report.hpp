@@ -4,6 +4,7 @@
 #include <string>
 
 #include "compare/fig7.hpp"
+#include "compare/mc_convergence.hpp"
 #include "compare/stability.hpp"
 #include "compare/tradeoff.hpp"
 
@@ -13,6 +14,10 @@ struct ReportOptions {
   Fig7Options fig7;
   TradeoffOptions tradeoff;
   StabilityOptions stability;
+  /// Time to the same accuracy, Monte Carlo against the minimiser (written beside the
+  /// trade-off chart, in DIR/tradeoff/).
+  McConvergenceOptions mc_convergence;
+  bool include_mc_convergence = true;
 };
 
 /// The paper's claims, checked with numbers.
@@ -24,7 +29,8 @@ struct ClaimCheck {
 std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResult& tradeoff,
                                      const StabilityResult& stability);
 
-/// Runs the three studies into DIR/fig7, DIR/tradeoff, DIR/stability and writes DIR/report.md.
+/// Runs the three studies into DIR/fig7, DIR/tradeoff, DIR/stability (and the Monte Carlo
+/// convergence study into DIR/tradeoff) and writes DIR/report.md.
 void run_report(const ReportOptions& options, const std::string& dir, const ProgressSink& progress);
 
 }  // namespace rbc

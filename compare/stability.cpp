@@ -98,9 +98,7 @@ void order_sweep(const StabilityOptions& o, StabilityResult& res, const Progress
 }
 
 void budget_sweep(const StabilityOptions& o, StabilityResult& res, const ProgressSink& progress) {
-  RestShapeOptions ro;
-  ro.target_vertices = std::min(o.discrete_vertices, 500);
-  const Network net = build_network(make_rest_shape(ro), NetworkParameters{});
+  const Network net = make_discrete_network(std::min(o.discrete_vertices, 500));
   StretchOptions so;
   so.minimiser.max_iterations = o.discrete_iteration_budget;
   report(progress, "stability: discrete solver budget up to " +
@@ -183,9 +181,7 @@ void steric_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
 // against temperature with the adaptive step (where the penalties stop holding area/volume).
 void monte_carlo_sweep(const StabilityOptions& o, StabilityResult& res,
                        const ProgressSink& progress) {
-  RestShapeOptions ro;
-  ro.target_vertices = o.mc_vertices;
-  const Network net = build_network(make_rest_shape(ro), NetworkParameters{});
+  const Network net = make_discrete_network(o.mc_vertices);
   Positions x0 = net.rest;
   ConstraintMultipliers lambda;
   const StretchPoint eq = solve_equilibrium(net, 0.0, x0, lambda, StretchOptions{});

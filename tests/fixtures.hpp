@@ -1,5 +1,7 @@
 #pragma once
 // Shared test fixtures: seeded random perturbations and small meshes.
+#include <omp.h>
+
 #include <Eigen/Core>
 #include <cmath>
 #include <functional>
@@ -9,6 +11,16 @@
 #include "core/rest_shape.hpp"
 
 namespace rbc::testing {
+
+/// Runs its scope on one OpenMP thread: the parallel reductions (rest shape, network energy,
+/// hence L-BFGS) sum in thread-arrival order, so only then are results bit-reproducible.
+struct OneOpenMpThread {
+  int saved = omp_get_max_threads();
+  OneOpenMpThread() { omp_set_num_threads(1); }
+  ~OneOpenMpThread() { omp_set_num_threads(saved); }
+  OneOpenMpThread(const OneOpenMpThread&) = delete;
+  OneOpenMpThread& operator=(const OneOpenMpThread&) = delete;
+};
 
 /// Positions of an icosphere of the given frequency scaled to radius r (um).
 inline TriMesh sphere_mesh(int frequency, double radius_um) {

@@ -88,11 +88,15 @@ TEST(Compare, TinyReportWritesEveryFileWithSensibleNumbers) {
   o.stability.mc_sweeps = 60;
   o.stability.mc_steps_um = {0.003, 0.1};
   o.stability.mc_temperatures_K = {300};
+  o.mc_convergence.vertices = 150;
+  o.mc_convergence.force_pN = 50;
+  o.mc_convergence.mc_budget_s = 1.0;
   run_report(o, dir, {});
   for (const char* f :
        {"report.md", "fig7/fig7.png", "fig7/fig7_fit.csv", "fig7/fig7.json",
         "tradeoff/tradeoff.csv", "tradeoff/tradeoff_axial.png", "tradeoff/tradeoff_transverse.png",
-        "stability/stability.csv", "stability/stability_orders.png"})
+        "stability/stability.csv", "stability/stability_orders.png", "tradeoff/mc_convergence.png",
+        "tradeoff/mc_convergence.csv"})
     EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
   // No temporary file is left behind.
   for (const auto& e : fs::recursive_directory_iterator(dir))
@@ -128,6 +132,12 @@ TEST(Compare, TinyReportWritesEveryFileWithSensibleNumbers) {
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("The paper's claims"), std::string::npos);
   EXPECT_NE(text.find("fig7/fig7.png"), std::string::npos);
+  // The Monte Carlo time-to-accuracy subsection sits in the trade-off section, with its chart.
+  const size_t mc_section = text.find("Monte Carlo against the minimiser");
+  ASSERT_NE(mc_section, std::string::npos);
+  EXPECT_GT(mc_section, text.find("## Speed against accuracy"));
+  EXPECT_LT(mc_section, text.find("## Where methods stop working"));
+  EXPECT_NE(text.find("tradeoff/mc_convergence.png"), std::string::npos);
 }
 
 }  // namespace

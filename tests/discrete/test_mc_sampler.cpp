@@ -235,11 +235,7 @@ TEST(McSampler, RunningTotalsMatchRecomputedAreaAndVolume) {
 TEST(McSampler, SingleVertexHistogramMatchesBoltzmannChiSquare) {
   // A 42-vertex mesh is far too small to gain from threads; thousands of tiny parallel
   // regions on a busy machine only cost time.
-  struct OneThread {
-    int saved = omp_get_max_threads();
-    OneThread() { omp_set_num_threads(1); }
-    ~OneThread() { omp_set_num_threads(saved); }
-  } one_thread;
+  const testing::OneOpenMpThread one_thread;
   TriMesh m = testing::sphere_mesh(2, 1.0);  // 42 vertices, links ~ 0.33 um
   const Network net = build_network(m, NetworkParameters{});
   LoadState load;

@@ -1,0 +1,166 @@
+// compare/mc_convergence: time to the same accuracy, Monte Carlo against the minimiser, on a
+// tiny network with a short budget (the study itself), plus the time-to-accuracy rule and
+// the input checks.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "compare/mc_convergence.hpp"
+#include "core/io.hpp"
+#include "fixtures.hpp"
+
+namespace rbc {
+namespace {
+namespace fs = std::filesystem;
+
+ConvergencePoint point(ConvergenceKind kind, double wall_s, double error_um, double tol = 0) {
+  ConvergencePoint p;
+  p.kind = kind;
+  p.wall_s = wall_s;
+  p.axial_error_um = error_um;
+  p.force_tolerance_pN = tol;
+  return p;
+}
+
+/// Wall time of first_at_accuracy, or -1 when the level is not reached.
+double reached_s(const std::vector<ConvergencePoint>& series, double level_um) {
+  const ConvergencePoint* p = first_at_accuracy(series, level_um);
+  return p ? p->wall_s : -1.0;
+}
+
+TEST(McConvergence, TimeToAccuracyTakesTheFirstCrossingForMcAndALastingOneForTheMinimiser) {
+  using K = ConvergenceKind;
+  // Monte Carlo: first sample at or below the level, even if a later one is above.
+  const std::vector<ConvergencePoint> mc = {
+      point(K::monte_carlo, 0.1, 1.0), point(K::monte_carlo, 0.2, 0.4),
+      point(K::monte_carlo, 0.4, 0.6), point(K::monte_carlo, 0.8, 0.2)};
+  EXPECT_DOUBLE_EQ(reached_s(mc, 0.5), 0.2);
+  EXPECT_DOUBLE_EQ(reached_s(mc, 0.3), 0.8);
+  EXPECT_DOUBLE_EQ(reached_s(mc, 0.1), -1.0);
+  // Minimiser: the loose solve at 1e-1 is lucky (0.05) but 3e-2 is worse again (0.3), so the
+  // 0.1 level counts only from 1e-2 on.
+  const std::vector<ConvergencePoint> mini = {
+      point(K::minimiser, 0.01, 0.05, 1e-1), point(K::minimiser, 0.02, 0.3, 3e-2),
+      point(K::minimiser, 0.05, 0.02, 1e-2), point(K::minimiser, 0.09, 0.0, 1e-3)};
+  EXPECT_DOUBLE_EQ(reached_s(mini, 0.1), 0.05);
+  EXPECT_DOUBLE_EQ(reached_s(mini, 0.5), 0.01);
+  EXPECT_DOUBLE_EQ(reached_s(mini, 1e-9), 0.09);
+  // The table: levels relative to the reference D_A, ratio only where both reach.
+  McConvergenceResult r;
+  r.options.relative_accuracies = {0.1, 0.01};
+  r.reference.axial_um = 5.0;  // levels 0.5 and 0.05 um
+  r.minimiser = mini;
+  r.mc = mc;
+  r.mc[1].sweeps = 7;
+  const auto table = time_to_accuracy_table(r);
+  ASSERT_EQ(table.size(), 2u);
+  EXPECT_DOUBLE_EQ(table[0].level_um, 0.5);
+  EXPECT_DOUBLE_EQ(*table[0].minimiser_s, 0.01);
+  EXPECT_DOUBLE_EQ(*table[0].mc_s, 0.2);
+  EXPECT_EQ(*table[0].mc_sweeps, 7);
+  EXPECT_DOUBLE_EQ(*table[0].ratio(), 20.0);
+  EXPECT_DOUBLE_EQ(*table[1].minimiser_s, 0.05);
+  EXPECT_FALSE(table[1].mc_s.has_value());
+  EXPECT_FALSE(table[1].ratio().has_value());
+  // The conclusion follows the numbers: Monte Carlo 20x slower at 10 %, short of 1 %.
+  const std::string text = mc_convergence_conclusion([&] {
+    McConvergenceResult c = r;
+    c.time_to_accuracy = table;
+    return c;
+  }());
+  EXPECT_NE(text.find("20 times slower"), std::string::npos) << text;
+  EXPECT_NE(text.find("does not reach 1 %"), std::string::npos) << text;
+}
+
+TEST(McConvergence, InvalidOptionsThrowNamingTheValue) {
+  auto throws_with = [](McConvergenceOptions o, const std::string& word) {
+    try {
+      run_mc_convergence(o, {});
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+      return;
+    }
+    ADD_FAILURE() << "no std::invalid_argument for " << word;
+  };
+  McConvergenceOptions o;
+  o.vertices = 50;
+  throws_with(o, "vertices");
+  o = {};
+  o.force_pN = -1;
+  throws_with(o, "force");
+  o.force_pN = std::nan("");
+  throws_with(o, "force");
+  o = {};
+  o.mc_budget_s = 0;
+  throws_with(o, "budget");
+  o.mc_budget_s = std::numeric_limits<double>::infinity();
+  throws_with(o, "budget");
+  o = {};
+  o.mc_temperature_K = -3;
+  throws_with(o, "temperature");
+  o = {};
+  o.mc_target_acceptance = 1.0;
+  throws_with(o, "acceptance");
+  o = {};
+  o.force_tolerances_pN = {1e-2, 0.0};
+  throws_with(o, "tolerance");
+}
+
+TEST(McConvergence, TinyStudyConvergesAndWritesItsFiles) {
+  // One thread: the re-solve at the reference's tolerance then reproduces the reference
+  // exactly (with threads, sums in arrival order scatter D_A by ~1e-4 um between runs).
+  const testing::OneOpenMpThread one_thread;
+  McConvergenceOptions o;
+  o.vertices = 150;
+  o.force_pN = 50;
+  o.mc_budget_s = 1.5;
+  // Tolerances a factor 30-100 apart: closer ones are not ordered in D_A, because where L-BFGS
+  // stops inside a tolerance scatters D_A (measured at N = 162, 50 pN: 2.3e-3 um at 1e-1 pN,
+  // 2.7e-6 um at 3e-2 pN, 6.4e-4 um at 1e-2 pN), while 3 pN leaves it 5e-2 um off.
+  o.force_tolerances_pN = {3.0, 1e-1, 1e-3};
+  const McConvergenceResult r = run_mc_convergence(o, {});
+  ASSERT_TRUE(r.reference.converged);
+  ASSERT_GT(r.reference.axial_um, 0);
+  EXPECT_GE(r.mc_wall_s, o.mc_budget_s);
+
+  // Minimiser: the error shrinks (non-strictly) as the tolerance tightens, and the tightest
+  // tolerance is within 1 % of D_A.
+  ASSERT_EQ(r.minimiser.size(), o.force_tolerances_pN.size());
+  for (size_t k = 1; k < r.minimiser.size(); ++k)
+    EXPECT_LE(r.minimiser[k].axial_error_um, r.minimiser[k - 1].axial_error_um)
+        << "tolerance " << r.minimiser[k].force_tolerance_pN;
+  EXPECT_LT(r.minimiser.back().axial_error_um, 0.01 * r.reference.axial_um);
+  EXPECT_EQ(r.minimiser.back().axial_error_um, 0.0);  // same solve as the reference
+
+  // Monte Carlo: a log-spaced series in time order that makes progress.
+  ASSERT_GE(r.mc.size(), 20u);
+  for (size_t k = 1; k < r.mc.size(); ++k) {
+    EXPECT_GT(r.mc[k].wall_s, r.mc[k - 1].wall_s);
+    EXPECT_GT(r.mc[k].sweeps, r.mc[k - 1].sweeps);
+  }
+  EXPECT_LT(r.mc.back().axial_error_um, r.mc.front().axial_error_um);
+  for (const auto& p : r.mc) EXPECT_TRUE(std::isfinite(p.axial_error_um));
+  ASSERT_EQ(r.time_to_accuracy.size(), o.relative_accuracies.size());
+  // The minimiser reaches the 1 % level (its tightest solve is within 1 %).
+  EXPECT_TRUE(r.time_to_accuracy[2].minimiser_s.has_value());
+
+  const std::string dir = std::string(RBC_BINARY_DIR) + "/test_output/mc_convergence";
+  fs::remove_all(dir);
+  write_mc_convergence(r, dir);
+  for (const char* f : {"mc_convergence.csv", "mc_convergence.json", "mc_convergence.png"})
+    EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".partial-"), std::string::npos) << e.path();
+  const CsvTable t = read_csv(dir + "/mc_convergence.csv");
+  EXPECT_EQ(t.rows.size(), r.minimiser.size() + r.mc.size());
+  std::ifstream js(dir + "/mc_convergence.json");
+  const nlohmann::json j = nlohmann::json::parse(js);
+  EXPECT_DOUBLE_EQ(j["reference"]["axial_um"].get<double>(), r.reference.axial_um);
+  EXPECT_EQ(j["time_to_accuracy"].size(), o.relative_accuracies.size());
+  EXPECT_EQ(j["monte_carlo"].size(), r.mc.size());
+}
+
+}  // namespace
+}  // namespace rbc
