@@ -38,7 +38,7 @@ void add_fig7_command(CLI::App& app, Action& action) {
                   "(default: discrete:2000 and continuum 2, 3, 4, full at 4000 elements)");
   cmd->add_option("--data", o->data_dir, "directory with the Mills CSV files (default: data/)");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
-  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] {
     action = [o]() -> int {
       Fig7Options fo;

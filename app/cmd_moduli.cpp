@@ -227,7 +227,7 @@ void add_moduli_command(CLI::App& app, Action& action) {
   cmd->add_flag("--json", o->json,
                 "print JSON (mu_closed, K_closed, mu_numeric, K_numeric, young, poisson; uN/m; "
                 "young/poisson from the numerical moduli)");
-  cmd->add_flag("--quiet", o->quiet, "no progress lines on stderr");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress lines on stderr");
   cmd->callback([o, &action] { action = [o] { return run_moduli(*o); }; });
 }
 

@@ -166,7 +166,7 @@ void add_relax_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--out", o->out, "write relaxed shapes (HDF5/XDMF), relax.csv and relax.json");
   cmd->add_flag("--json", o->json, "print a JSON array on stdout");
-  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] { action = [o]() -> int { return run_relax(*o); }; });
 }
 

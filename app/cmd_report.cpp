@@ -24,7 +24,7 @@ void add_stability_command(CLI::App& app, Action& action) {
   cmd->add_flag("--no-continuum", o->no_continuum, "discrete sweeps only");
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
-  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] {
     action = [o]() -> int {
       check_output_directory(o->out, o->overwrite);
@@ -52,7 +52,7 @@ void add_report_command(CLI::App& app, Action& action) {
   cmd->add_flag("--quick", o->quick,
                 "small resolutions (minutes, not the full study; for a first look)");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
-  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] {
     action = [o]() -> int {
       check_output_directory(o->out, o->overwrite);

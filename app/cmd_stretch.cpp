@@ -301,7 +301,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--elements", o->elements, "continuum: triangles")->capture_default_str();
   cmd->add_option("--out", o->out, "write per-force HDF5/XDMF shapes, stretch.csv and run.json");
   cmd->add_flag("--json", o->json, "print a JSON array of points on stdout");
-  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] {
     action = [o]() -> int {
       if (o->model == "discrete") return run_discrete(*o);

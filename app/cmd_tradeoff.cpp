@@ -78,7 +78,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
-  cmd->add_flag("--quiet", o->quiet, "no progress on stderr");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] {
     action = [o]() -> int {
       TradeoffOptions to;

@@ -25,6 +25,15 @@ std::string fixed(double v, int digits) {
   return s.str();
 }
 
+/// A table value: 4 decimals, or 2 significant digits in scientific notation when that would
+/// print a non-zero value as 0.0000 (area drifts of 1e-5, say).
+std::string table_value(double v) {
+  if (v == 0 || std::abs(v) >= 1e-3) return fixed(v, 4);
+  std::ostringstream s;
+  s << std::scientific << std::setprecision(1) << v;
+  return s.str();
+}
+
 /// A speed ratio with as many decimals as make it readable: 26x, 3.4x, 0.031x.
 std::string ratio_text(double ratio) {
   return fixed(ratio, ratio >= 10 ? 0 : ratio >= 1 ? 1 : 3) + "x";
@@ -229,8 +238,9 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
         "|\n|---|---|---|---|---|---|---|\n";
   for (const auto& r : stab.rows)
     md << "| " << r.study << " | " << r.method << " | " << r.parameter << " | " << r.parameter_value
-       << " | " << r.metric << " | " << (std::isfinite(r.value) ? fixed(r.value, 4) : "not reached")
-       << " | " << r.note << " |\n";
+       << " | " << r.metric << " | "
+       << (std::isfinite(r.value) ? table_value(r.value) : "not reached") << " | " << r.note
+       << " |\n";
   md << "\nAll rows: `stability/stability.csv`.\n";
   write_text_atomic(dir + "/report.md", md.str());
 }
