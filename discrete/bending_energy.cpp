@@ -99,17 +99,14 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
 
 double juelicher_vertex_energy(const Positions& x, const Topology& topo, const BendingParameters& p,
                                int v) {
-  double m = 0, a = 0;
+  double lt = 0, area = 0;
   for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e)
-    m += hinge_length_angle(x, topo, *e);
+    lt += hinge_length_angle(x, topo, *e);
   for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) {
     const auto& t = topo.faces.col(*f);
-    a += triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
+    area += triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
   }
-  m *= 0.5;
-  a /= 3.0;
-  const double hv = (m - p.h0_per_um * a) / a;
-  return 0.5 * p.kappa_pNum * hv * hv * a;
+  return juelicher_cell_energy(p, lt, area);
 }
 
 double dihedral_hinge_energy(const Positions& x, const Topology& topo, double kb, double theta0,

@@ -43,6 +43,15 @@ double dihedral_stiffness_pNum(double kappa_pNum, DihedralMapping mapping);
 double juelicher_bending_energy(const Positions& x, const Topology& topo,
                                 const BendingParameters& params, Positions* grad = nullptr);
 
+/// Juelicher energy of one vertex cell from its sums over the cell's edges and faces:
+/// M = sum_lt/2 (um), A = sum_area/3 (um^2), E = (kappa/2)(M - H0 A)^2/A   [pN um].
+inline double juelicher_cell_energy(const BendingParameters& p, double sum_lt_um,
+                                    double sum_area_um2) {
+  const double m = 0.5 * sum_lt_um, a = sum_area_um2 / 3.0;
+  const double h = (m - p.h0_per_um * a) / a;  // the cell's H - H0 (1/um)
+  return 0.5 * p.kappa_pNum * h * h * a;
+}
+
 /// Juelicher energy of one vertex cell, (kappa/2)(M_v - H0 A_v)^2/A_v, from scratch
 /// (for local Monte Carlo updates; the sum over v equals juelicher_bending_energy).
 double juelicher_vertex_energy(const Positions& x, const Topology& topo,

@@ -62,39 +62,47 @@ double constraint_energy_of_totals(const Network& net, const LoadState& load, do
                                      load.multipliers);
 }
 
-BendingTerms bending_terms(const Network& net) {
-  const Topology& t = net.topo;
+BendingTerms vertex_cell_stencil(const Topology& t) {
+  // The Juelicher energy of w reads w's 1-ring, so a move at v changes the cells of v and of
+  // its neighbours.
   const int n = t.num_vertices;
   BendingTerms bt;
+  bt.count = n;
   bt.offsets.assign(n + 1, 0);
-  if (net.bending_model == BendingModel::juelicher) {
-    // Vertex cells: the Juelicher energy of w reads w's 1-ring, so a move at v changes the
-    // cells of v and of its neighbours.
-    bt.count = n;
-    for (int v = 0; v < n; ++v) {
-      bt.terms.push_back(v);
-      for (const int* w = t.vertex_neighbours.begin(v); w != t.vertex_neighbours.end(v); ++w)
-        bt.terms.push_back(*w);
-      bt.offsets[v + 1] = static_cast<int>(bt.terms.size());
-    }
-  } else {
-    // Hinges: v is an end of its incident edges and the wing vertex of the edge opposite it in
-    // each incident face.
-    bt.count = t.num_edges();
-    for (int v = 0; v < n; ++v) {
-      for (const int* e = t.vertex_edges.begin(v); e != t.vertex_edges.end(v); ++e)
-        bt.terms.push_back(*e);
-      for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
-        const auto& c = t.faces.col(*f);
-        const int k = c(0) == v ? 0 : c(1) == v ? 1 : 2;
-        const int p = c((k + 1) % 3), q = c((k + 2) % 3);
-        for (const int* h = t.vertex_edges.begin(p); h != t.vertex_edges.end(p); ++h)
-          if (t.edges(0, *h) == q || t.edges(1, *h) == q) bt.terms.push_back(*h);
-      }
-      bt.offsets[v + 1] = static_cast<int>(bt.terms.size());
-    }
+  for (int v = 0; v < n; ++v) {
+    bt.terms.push_back(v);
+    for (const int* w = t.vertex_neighbours.begin(v); w != t.vertex_neighbours.end(v); ++w)
+      bt.terms.push_back(*w);
+    bt.offsets[v + 1] = static_cast<int>(bt.terms.size());
   }
   return bt;
+}
+
+BendingTerms hinge_stencil(const Topology& t) {
+  // v is an end of its incident edges (in vertex_edges order) and the wing vertex of the edge
+  // opposite it in each incident face (in vertex_faces order).
+  const int n = t.num_vertices;
+  BendingTerms bt;
+  bt.count = t.num_edges();
+  bt.offsets.assign(n + 1, 0);
+  for (int v = 0; v < n; ++v) {
+    for (const int* e = t.vertex_edges.begin(v); e != t.vertex_edges.end(v); ++e)
+      bt.terms.push_back(*e);
+    for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
+      const auto& c = t.faces.col(*f);
+      const int k = c(0) == v ? 0 : c(1) == v ? 1 : 2;
+      const int p = c((k + 1) % 3), q = c((k + 2) % 3);
+      for (const int* h = t.vertex_edges.begin(p); h != t.vertex_edges.end(p); ++h)
+        if (t.edges(0, *h) == q || t.edges(1, *h) == q) bt.terms.push_back(*h);
+    }
+    bt.offsets[v + 1] = static_cast<int>(bt.terms.size());
+  }
+  return bt;
+}
+
+BendingTerms bending_terms(const Network& net) {
+  return net.bending_model == BendingModel::juelicher ? vertex_cell_stencil(net.topo)
+                                                      : hinge_stencil(net.topo);
 }
 
 std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,
@@ -158,6 +166,14 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
   const int n = net.topo.num_vertices;
   bend_terms_ = bending_terms(net);
   bend_new_.assign(bend_terms_.terms.size(), 0.0);
+  if (net.bending_model == BendingModel::juelicher) {
+    hinges_ = hinge_stencil(net.topo);
+    lt_new_.assign(hinges_.terms.size(), 0.0);
+  }
+  link_new_.assign(net.topo.vertex_edges.items.size(), 0.0);
+  area_new_.assign(net.topo.vertex_faces.items.size(), 0.0);
+  volume_new_.assign(area_new_.size(), 0.0);
+  steric_new_.assign(area_new_.size(), 0.0);
   proposal_.resize(n);
   tweezer_slot_.assign(n, -1);
   for (size_t k = 0; k < net.patch.vertex.size(); ++k) {
@@ -246,10 +262,50 @@ void McSampler::restore(const McChainState& s) {
   sweep_ = s.sweep;
   for (size_t k = 0; k < rng_.size(); ++k)
     std::memcpy(gsl_rng_state(rng_[k]), s.rng_state[k].data(), s.rng_state[k].size());
-  bend_.resize(bend_terms_.count);
+  // Caches of every local term at x_, each exactly the value its kernel gives (so sums of
+  // cached and fresh values agree with a from-scratch evaluation to the last bit).
+  const Topology& t = net_.topo;
+  const int ne = t.num_edges(), nf = t.num_faces();
+  link_e_.resize(ne);
 #pragma omp parallel for schedule(static)
-  for (int k = 0; k < bend_terms_.count; ++k) bend_[k] = bending_term_energy(k);
+  for (int e = 0; e < ne; ++e)
+    link_e_[e] =
+        link_energy(net_.wlc, net_.lbar_um(e), x_.col(t.edges(0, e)), x_.col(t.edges(1, e)));
+  face_area_.resize(nf);
+  face_volume_.resize(nf);
+  steric_.resize(nf);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f) {
+    const auto& c = t.faces.col(f);
+    face_area_[f] = triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+    face_volume_[f] = tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+    steric_[f] = steric_of_area(f, face_area_[f]);
+  }
+  bend_.resize(bend_terms_.count);
+  if (net_.bending_model == BendingModel::juelicher) {
+    lt_.resize(ne);
+#pragma omp parallel for schedule(static)
+    for (int e = 0; e < ne; ++e) lt_[e] = hinge_length_angle(x_, t, e);
+#pragma omp parallel for schedule(static)
+    for (int w = 0; w < bend_terms_.count; ++w) {
+      double lt = 0, area = 0;
+      for (const int* e = t.vertex_edges.begin(w); e != t.vertex_edges.end(w); ++e) lt += lt_[*e];
+      for (const int* f = t.vertex_faces.begin(w); f != t.vertex_faces.end(w); ++f)
+        area += face_area_[*f];
+      bend_[w] = juelicher_cell_energy(net_.bending, lt, area);
+    }
+  } else {
+#pragma omp parallel for schedule(static)
+    for (int e = 0; e < bend_terms_.count; ++e)
+      bend_[e] = dihedral_hinge_energy(x_, t, net_.dihedral_kb_pNum, 0.0, e);
+  }
   recompute_totals();
+}
+
+double McSampler::steric_of_area(int f, double area_um2) const {
+  // steric_face_energy() from a known area: Abar_f s(A_f/Abar_f).
+  const double abar = net_.abar_um2(f);
+  return abar * steric_density(net_.steric_C_pN_per_um, net_.steric, area_um2 / abar).v;
 }
 
 void McSampler::recompute_totals() {
@@ -276,63 +332,89 @@ void McSampler::recompute_totals() {
   volume_ = vol;
 }
 
-double McSampler::local_inplane_tweezers(int v) const {
-  const Topology& t = net_.topo;
-  double e = 0;
-  for (const int* k = t.vertex_edges.begin(v); k != t.vertex_edges.end(v); ++k) {
-    e += link_energy(net_.wlc, net_.lbar_um(*k), x_.col(t.edges(0, *k)), x_.col(t.edges(1, *k)));
-    if (!(e < kInf)) return kInf;
-  }
-  for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
-    const auto& c = t.faces.col(*f);
-    const double ratio =
-        triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2))) / net_.abar_um2(*f);
-    if (ratio < kCollapsedFaceRatio) return kInf;  // network_energy's rule
-    e += steric_face_energy(net_.steric_C_pN_per_um, net_.steric, net_.abar_um2(*f), x_.col(c(0)),
-                            x_.col(c(1)), x_.col(c(2)));
-  }
-  if (tweezer_slot_[v] >= 0)
-    e += tweezers_energy(tweezer_single_[tweezer_slot_[v]], load_.force_pN, x_, net_.rest);
-  return e;
+namespace {
+/// The new value of `id` if it is among the changed ids[lo, hi) (values aligned with ids),
+/// else its cached value.
+double changed_or_cached(int id, const std::vector<int>& ids, int lo, int hi,
+                         const std::vector<double>& changed, const std::vector<double>& cached) {
+  for (int k = lo; k < hi; ++k)
+    if (ids[k] == id) return changed[k];
+  return cached[id];
 }
+}  // namespace
 
-double McSampler::bending_term_energy(int k) const {
-  return net_.bending_model == BendingModel::juelicher
-             ? juelicher_vertex_energy(x_, net_.topo, net_.bending, k)
-             : dihedral_hinge_energy(x_, net_.topo, net_.dihedral_kb_pNum, 0.0, k);
-}
-
-void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double* bend_new) {
-  // Only x_v changes; reads stay within graph distance 2 of v (see the header), so concurrent
-  // proposals at same-colour vertices (distance >= 3) neither race nor interact.
+void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d) {
+  // Only x_v changes. Old values come from the caches; new ones are computed for the links and
+  // faces at v, the hinges with v as an end or wing, and the bending terms of bending_terms(),
+  // into v's own slots of the *_new_ arrays. Reads stay within graph distance 2 of v, so
+  // concurrent proposals at same-colour vertices (distance >= 3) neither race nor interact.
   const Topology& t = net_.topo;
-  const double old_e = local_inplane_tweezers(v);
-  double old_a = 0, old_v = 0;
-  for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
-    const auto& c = t.faces.col(*f);
-    old_a += triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
-    old_v += tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+  d = McMoveDelta{};
+  const int e_lo = t.vertex_edges.offsets[v], e_hi = t.vertex_edges.offsets[v + 1];
+  const int f_lo = t.vertex_faces.offsets[v], f_hi = t.vertex_faces.offsets[v + 1];
+  const TweezerPatch* bead = tweezer_slot_[v] >= 0 ? &tweezer_single_[tweezer_slot_[v]] : nullptr;
+  double old_e = 0, old_a = 0, old_vol = 0;
+  for (int k = e_lo; k < e_hi; ++k) old_e += link_e_[t.vertex_edges.items[k]];
+  for (int k = f_lo; k < f_hi; ++k) {
+    const int f = t.vertex_faces.items[k];
+    old_e += steric_[f];
+    old_a += face_area_[f];
+    old_vol += face_volume_[f];
   }
+  if (bead) old_e += tweezers_energy(*bead, load_.force_pN, x_, net_.rest);
+
   const Eigen::Vector3d from = x_.col(v);
   x_.col(v) = to;
-  d = McMoveDelta{};
-  const double new_e = local_inplane_tweezers(v);
-  if (!(new_e < kInf)) {
-    d.feasible = false;
+  double new_e = 0, new_a = 0, new_vol = 0;
+  bool feasible = true;
+  for (int k = e_lo; k < e_hi && feasible; ++k) {
+    const int e = t.vertex_edges.items[k];
+    link_new_[k] =
+        link_energy(net_.wlc, net_.lbar_um(e), x_.col(t.edges(0, e)), x_.col(t.edges(1, e)));
+    feasible = link_new_[k] < kInf;
+    new_e += link_new_[k];
+  }
+  for (int k = f_lo; k < f_hi && feasible; ++k) {
+    const int f = t.vertex_faces.items[k];
+    const auto& c = t.faces.col(f);
+    area_new_[k] = triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+    feasible = area_new_[k] / net_.abar_um2(f) >= kCollapsedFaceRatio;  // network_energy's rule
+    volume_new_[k] = tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
+    steric_new_[k] = steric_of_area(f, area_new_[k]);
+    new_e += steric_new_[k];
+    new_a += area_new_[k];
+    new_vol += volume_new_[k];
+  }
+  if (!feasible) {
     x_.col(v) = from;
+    d.feasible = false;
     return;
   }
-  double new_a = 0, new_v = 0;
-  for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f) {
-    const auto& c = t.faces.col(*f);
-    new_a += triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
-    new_v += tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
-  }
+  if (bead) new_e += tweezers_energy(*bead, load_.force_pN, x_, net_.rest);
+
   double bend_change = 0;
-  for (int i = bend_terms_.offsets[v], k = 0; i < bend_terms_.offsets[v + 1]; ++i, ++k) {
-    const int term = bend_terms_.terms[i];
-    bend_new[k] = bending_term_energy(term);
-    bend_change += bend_new[k] - bend_[term];
+  const int b_lo = bend_terms_.offsets[v], b_hi = bend_terms_.offsets[v + 1];
+  if (net_.bending_model == BendingModel::juelicher) {
+    // New L theta of the changed hinges, then the cells of v and its ring from their sums with
+    // the changed hinges and faces substituted (in juelicher_vertex_energy's summation order).
+    const int h_lo = hinges_.offsets[v], h_hi = hinges_.offsets[v + 1];
+    for (int k = h_lo; k < h_hi; ++k) lt_new_[k] = hinge_length_angle(x_, t, hinges_.terms[k]);
+    for (int k = b_lo; k < b_hi; ++k) {
+      const int w = bend_terms_.terms[k];
+      double lt = 0, area = 0;
+      for (const int* e = t.vertex_edges.begin(w); e != t.vertex_edges.end(w); ++e)
+        lt += changed_or_cached(*e, hinges_.terms, h_lo, h_hi, lt_new_, lt_);
+      for (const int* f = t.vertex_faces.begin(w); f != t.vertex_faces.end(w); ++f)
+        area += changed_or_cached(*f, t.vertex_faces.items, f_lo, f_hi, area_new_, face_area_);
+      bend_new_[k] = juelicher_cell_energy(net_.bending, lt, area);
+      bend_change += bend_new_[k] - bend_[w];
+    }
+  } else {
+    for (int k = b_lo; k < b_hi; ++k) {
+      const int e = bend_terms_.terms[k];
+      bend_new_[k] = dihedral_hinge_energy(x_, t, net_.dihedral_kb_pNum, 0.0, e);
+      bend_change += bend_new_[k] - bend_[e];
+    }
   }
   x_.col(v) = from;
   if (!std::isfinite(bend_change)) {
@@ -341,14 +423,32 @@ void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double
   }
   d.local_pNum = (new_e - old_e) + bend_change;
   d.area_um2 = new_a - old_a;
-  d.volume_um3 = new_v - old_v;
+  d.volume_um3 = new_vol - old_vol;
+}
+
+void McSampler::commit(int v, const Eigen::Vector3d& to) {
+  const Topology& t = net_.topo;
+  x_.col(v) = to;
+  for (int k = t.vertex_edges.offsets[v]; k < t.vertex_edges.offsets[v + 1]; ++k)
+    link_e_[t.vertex_edges.items[k]] = link_new_[k];
+  for (int k = t.vertex_faces.offsets[v]; k < t.vertex_faces.offsets[v + 1]; ++k) {
+    const int f = t.vertex_faces.items[k];
+    face_area_[f] = area_new_[k];
+    face_volume_[f] = volume_new_[k];
+    steric_[f] = steric_new_[k];
+  }
+  if (net_.bending_model == BendingModel::juelicher)
+    for (int k = hinges_.offsets[v]; k < hinges_.offsets[v + 1]; ++k)
+      lt_[hinges_.terms[k]] = lt_new_[k];
+  for (int k = bend_terms_.offsets[v]; k < bend_terms_.offsets[v + 1]; ++k)
+    bend_[bend_terms_.terms[k]] = bend_new_[k];
 }
 
 McMoveDelta McSampler::move_delta(int v, const Eigen::Vector3d& to) {
   if (v < 0 || v >= net_.topo.num_vertices)
     throw std::invalid_argument("vertex " + std::to_string(v) + " out of range");
   McMoveDelta d;
-  propose(v, to, d, &bend_new_[bend_terms_.offsets[v]]);
+  propose(v, to, d);
   return d;
 }
 
@@ -380,7 +480,7 @@ McSweepStats McSampler::sweep() {
         Proposal& p = proposal_[v];
         for (int c = 0; c < 3; ++c) p.to(c) = x_(c, v) + step * (2.0 * gsl_rng_uniform(r) - 1.0);
         p.u = gsl_rng_uniform(r);
-        propose(v, p.to, p.delta, &bend_new_[bend_terms_.offsets[v]]);
+        propose(v, p.to, p.delta);
       }
     }
     // Phase 2: sequential acceptance with the exact global area/volume term.
@@ -400,12 +500,10 @@ McSweepStats McSampler::sweep() {
         const bool accept = de <= 0 || (beta_ < kInf && p.u < std::exp(-beta_ * de));
         if (!accept) continue;
         ++st.accepted;
-        x_.col(v) = p.to;
+        commit(v, p.to);
         area_ = a;
         volume_ = vol;
         g_now = g_new;
-        for (int i = bend_terms_.offsets[v]; i < bend_terms_.offsets[v + 1]; ++i)
-          bend_[bend_terms_.terms[i]] = bend_new_[i];
       }
     }
   }

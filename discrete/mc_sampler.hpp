@@ -106,6 +106,11 @@ struct BendingTerms {
   std::vector<int> offsets, terms;
 };
 BendingTerms bending_terms(const Network& net);
+/// Juelicher stencil: term = vertex cell; v's terms are v and its neighbours.
+BendingTerms vertex_cell_stencil(const Topology& topo);
+/// Hinge stencil: term = edge; v's terms are its incident edges (vertex_edges order), then the
+/// edge opposite v in each incident face (vertex_faces order).
+BendingTerms hinge_stencil(const Topology& topo);
 
 /// Greedy distance-d colouring of `vertices` (all if empty): two vertices of one colour are at
 /// graph distance >= min_distance. Colours are vertex lists in increasing order.
@@ -163,10 +168,10 @@ class McSampler {
     McMoveDelta delta;
     double u = 0;
   };
-  double bending_term_energy(int term) const;
-  void propose(int v, const Eigen::Vector3d& to, McMoveDelta& d, double* bend_new);
+  void propose(int v, const Eigen::Vector3d& to, McMoveDelta& d);
+  void commit(int v, const Eigen::Vector3d& to);  ///< accepts v's last proposal
   void recompute_totals();
-  double local_inplane_tweezers(int v) const;
+  double steric_of_area(int f, double area_um2) const;
 
   const Network& net_;
   LoadState load_;
@@ -179,11 +184,22 @@ class McSampler {
   double max_area_drift_ = 0, max_volume_drift_ = 0;
   std::vector<std::vector<int>> colours_;
   std::vector<gsl_rng*> rng_;
-  BendingTerms bend_terms_;
-  std::vector<double> bend_;        ///< energy of each bending term (pN um)
-  std::vector<double> bend_new_;    ///< proposed energies, aligned with bend_terms_.terms
-  std::vector<Proposal> proposal_;  ///< per vertex
-  std::vector<int> tweezer_slot_;   ///< index into tweezer_single_ or -1
+  // Caches of the local terms at x_ (exact kernel values, refreshed on every accepted move)
+  // and, aligned with each vertex's stencil slots, the values of its pending proposal.
+  BendingTerms bend_terms_;          ///< bending terms a move changes (bending_terms())
+  BendingTerms hinges_;              ///< Juelicher: hinges a move changes (hinge_stencil())
+  std::vector<double> bend_;         ///< energy of each bending term (pN um)
+  std::vector<double> link_e_;       ///< link energy per edge (pN um)
+  std::vector<double> lt_;           ///< Juelicher: L_e theta_e per edge (um)
+  std::vector<double> face_area_;    ///< per face (um^2)
+  std::vector<double> face_volume_;  ///< signed tetrahedron volume per face (um^3)
+  std::vector<double> steric_;       ///< steric energy per face (pN um)
+  std::vector<double> bend_new_;     ///< aligned with bend_terms_.terms
+  std::vector<double> lt_new_;       ///< aligned with hinges_.terms
+  std::vector<double> link_new_;     ///< aligned with topo.vertex_edges.items
+  std::vector<double> area_new_, volume_new_, steric_new_;  ///< aligned with vertex_faces.items
+  std::vector<Proposal> proposal_;                          ///< per vertex
+  std::vector<int> tweezer_slot_;                           ///< index into tweezer_single_ or -1
   std::vector<TweezerPatch> tweezer_single_;
 };
 

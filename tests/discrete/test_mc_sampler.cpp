@@ -41,29 +41,38 @@ TEST_P(McLocalUpdate, LocalEnergyChangeEqualsFullEnergyDifference) {
   params.bending_model = GetParam().bending;
   SmallCell c(params, 11, GetParam().stiffness_scale);
   McOptions o;
+  o.temperature_K = 300;
+  o.streams = 2;
   McSampler mc(c.net, c.load, c.x, o);
   std::mt19937 rng(5);
   std::uniform_int_distribution<int> pick(0, c.net.topo.num_vertices - 1);
   std::normal_distribution<double> g(0.0, 0.03);
-  const double e0 = network_energy(c.net, c.x, c.load);
-  int tweezer_moves = 0;
-  for (int k = 0; k < 300; ++k) {
-    // Every tenth move hits a bead-patch vertex so the tweezer work is exercised.
-    const int v = k % 10 == 0 ? c.net.patch.vertex[k % c.net.patch.vertex.size()] : pick(rng);
-    if (k % 10 == 0) ++tweezer_moves;
-    const Eigen::Vector3d to = c.x.col(v) + Eigen::Vector3d(g(rng), g(rng), g(rng));
-    const double local = mc.move_energy_change(v, to);
-    Positions y = c.x;
-    y.col(v) = to;
-    const double full = network_energy(c.net, y, c.load) - e0;
-    ASSERT_TRUE(std::isfinite(full));
-    // Round-off of the full difference: a few ulps of the total energy per term.
-    EXPECT_NEAR(local, full, 1e-11 * (1.0 + std::abs(e0)) + 1e-9 * std::abs(full))
-        << "vertex " << v << " move " << k;
+  // At the start, and again after sweeps have accepted moves (the sampler's caches of the
+  // local terms must follow every accepted move exactly).
+  for (const int sweeps : {0, 10}) {
+    for (int s = 0; s < sweeps; ++s) mc.sweep();
+    const Positions x = mc.positions();
+    const double e0 = network_energy(c.net, x, c.load);
+    int tweezer_moves = 0;
+    for (int k = 0; k < 300; ++k) {
+      // Every tenth move hits a bead-patch vertex so the tweezer work is exercised.
+      const int v = k % 10 == 0 ? c.net.patch.vertex[k % c.net.patch.vertex.size()] : pick(rng);
+      if (k % 10 == 0) ++tweezer_moves;
+      const Eigen::Vector3d to = x.col(v) + Eigen::Vector3d(g(rng), g(rng), g(rng));
+      const double local = mc.move_energy_change(v, to);
+      Positions y = x;
+      y.col(v) = to;
+      const double full = network_energy(c.net, y, c.load) - e0;
+      ASSERT_TRUE(std::isfinite(full));
+      // Round-off of the full difference: a few ulps of the total energy per term.
+      EXPECT_NEAR(local, full, 1e-11 * (1.0 + std::abs(e0)) + 1e-9 * std::abs(full))
+          << "vertex " << v << " move " << k << " after " << sweeps << " sweeps";
+    }
+    EXPECT_GT(tweezer_moves, 0);
+    // The sampler's positions are untouched by trial evaluations.
+    EXPECT_EQ((mc.positions() - x).cwiseAbs().maxCoeff(), 0.0);
   }
-  EXPECT_GT(tweezer_moves, 0);
-  // The sampler's positions are untouched by trial evaluations.
-  EXPECT_EQ((mc.positions() - c.x).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT((mc.positions() - c.x).cwiseAbs().maxCoeff(), 0.0) << "the sweeps moved nothing";
 }
 
 INSTANTIATE_TEST_SUITE_P(BendingModelsAndPenalties, McLocalUpdate,
