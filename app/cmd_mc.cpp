@@ -114,7 +114,8 @@ nlohmann::json stat_json(const BlockingResult& b) {
 /// Which chain-defining options were given on the command line (checked against a resumed
 /// checkpoint, which otherwise supplies them).
 struct GivenOptions {
-  bool force = false, temperature = false, seed = false, penalty_scale = false;
+  bool force = false, temperature = false, seed = false, penalty_scale = false, vertices = false,
+       bending = false;
 };
 
 int run_mc(const McCli& o, const GivenOptions& given) {
@@ -140,6 +141,16 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   ro.target_vertices = o.vertices;
   NetworkParameters params;
   params.bending_model = bending_model_from_string(o.bending);
+  if (!o.resume.empty()) {
+    // The network comes from the checkpoint unless given; a different one given is an error
+    // (caught by the fingerprint for the mesh, named here for the bending model).
+    const McCheckpointNetwork cn = peek_mc_checkpoint_network(o.resume);
+    if (!given.vertices) ro.target_vertices = cn.vertices;
+    if (given.bending && params.bending_model != cn.bending_model)
+      throw std::invalid_argument("checkpoint '" + o.resume + "' was run with " +
+                                  to_string(cn.bending_model) + " bending, not " + o.bending);
+    params.bending_model = cn.bending_model;
+  }
   const Network net = [&] {
     SerialScope serial;  // the rest shape must be identical on resume (network fingerprint)
     return build_network(make_rest_shape(ro), params);
@@ -324,8 +335,9 @@ void add_mc_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<McCli>();
   auto* cmd =
       app.add_subcommand("mc", "Metropolis Monte Carlo of the spectrin network at temperature T");
-  cmd->add_option("--vertices,-n", o->vertices, "vertex count N (100 to 40,000)")
-      ->capture_default_str();
+  auto* vertices = cmd->add_option("--vertices,-n", o->vertices,
+                                   "vertex count N (100 to 40,000; --resume: the checkpoint's)")
+                       ->capture_default_str();
   auto* force =
       cmd->add_option("--force,-f", o->force_pN, "total bead force F (pN)")->capture_default_str();
   auto* temp = cmd->add_option("--temperature,-T", o->temperature_K, "sampling temperature (K)")
@@ -343,7 +355,9 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_option("--sample-every", o->sample_every, "sweeps between recorded samples")
       ->capture_default_str();
   cmd->add_option("--start", o->start, "equilibrium | rest")->capture_default_str();
-  cmd->add_option("--bending", o->bending, "juelicher | dihedral")->capture_default_str();
+  auto* bending =
+      cmd->add_option("--bending", o->bending, "juelicher | dihedral (--resume: the checkpoint's)")
+          ->capture_default_str();
   auto* penalty =
       cmd->add_option("--penalty-scale", o->penalty_scale,
                       "multiplies the area/volume penalty stiffnesses while sampling (thermal "
@@ -360,9 +374,9 @@ void add_mc_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "print the summary as JSON");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, force, temp, seed, penalty, &action] {
-    const GivenOptions given{force->count() > 0, temp->count() > 0, seed->count() > 0,
-                             penalty->count() > 0};
+  cmd->callback([o, force, temp, seed, penalty, vertices, bending, &action] {
+    const GivenOptions given{force->count() > 0,   temp->count() > 0,     seed->count() > 0,
+                             penalty->count() > 0, vertices->count() > 0, bending->count() > 0};
     action = [o, given] { return run_mc(*o, given); };
   });
 }

@@ -78,6 +78,7 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     h.write_attribute("format", kFormat);
     h.write_attribute("fingerprint", hex(network_fingerprint(net)));
     h.write_attribute("vertices", static_cast<long long>(net.topo.num_vertices));
+    h.write_attribute("bending_model", to_string(net.bending_model));
     h.write_attribute("faces", static_cast<long long>(net.topo.num_faces()));
     h.write_attribute("sweep", c.sweep);
     h.write_attribute("step_um", c.step_um);
@@ -108,6 +109,21 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     std::filesystem::remove(tmp, ec);
     throw;
   }
+}
+
+McCheckpointNetwork peek_mc_checkpoint_network(const std::string& path) {
+  const H5File h = H5File::open_read(path);
+  if (h.read_attribute_int("format") != kFormat)
+    throw std::runtime_error("checkpoint '" + path + "' is corrupt: unknown format version " +
+                             std::to_string(h.read_attribute_int("format")));
+  McCheckpointNetwork n;
+  n.vertices = static_cast<int>(h.read_attribute_int("vertices"));
+  try {
+    n.bending_model = bending_model_from_string(h.read_attribute_string("bending_model"));
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error("checkpoint '" + path + "' is corrupt: " + e.what());
+  }
+  return n;
 }
 
 McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {

@@ -9,9 +9,9 @@
 //
 // Layout: /positions_um (N x 3), /rng_state (streams x words, uint64, little-endian packing of
 // the state bytes), /series (samples x 8, see mc_sample_columns()); root attributes
-// format, fingerprint, vertices, faces, sweep, step_um, rng_type, rng_bytes, temperature_K,
-// force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams, adapt_sweeps,
-// sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,
+// format, fingerprint, vertices, bending_model, faces, sweep, step_um, rng_type, rng_bytes,
+// temperature_K, force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams,
+// adapt_sweeps, sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,
 // reference_transverse_um.
 #include <cstdint>
 #include <string>
@@ -33,6 +33,15 @@ struct McCheckpoint {
 /// Writes the checkpoint atomically; throws std::runtime_error naming the path on failure
 /// (no partial file is left at `path`).
 void write_mc_checkpoint(const std::string& path, const Network& net, const McCheckpoint& cp);
+
+/// What a checkpoint says about its network, so a resumed run can rebuild the same one.
+struct McCheckpointNetwork {
+  int vertices = 0;  ///< actual vertex count (a valid rest-shape target: it reproduces the mesh)
+  BendingModel bending_model = BendingModel::juelicher;
+};
+/// Reads those attributes; throws std::runtime_error naming the file when it is missing or
+/// corrupt.
+McCheckpointNetwork peek_mc_checkpoint_network(const std::string& path);
 
 /// Reads and checks a checkpoint against `net`. Throws std::runtime_error for a missing or
 /// corrupt file (naming it and what is wrong) and std::invalid_argument for a checkpoint of

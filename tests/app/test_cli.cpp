@@ -99,4 +99,27 @@ TEST(Cli, StretchJsonHasTheDocumentedFieldsAndWritesFilesThatOpen) {
     EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
 }
 
+// A resumed Monte Carlo run rebuilds the checkpoint's network (size and bending model) without
+// being told, continues the chain to the requested total, and refuses a contradicting option.
+TEST(Cli, McResumeRebuildsTheCheckpointsNetwork) {
+  const std::string dir = fresh_dir("mc_resume");
+  fs::create_directories(dir);
+  const std::string cp = dir + "/chain.h5";
+  const CommandRun first =
+      rbc("mc -n 150 --bending dihedral --force 20 --sweeps 20 --json -q --checkpoint " + cp);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const auto j1 = nlohmann::json::parse(first.output);
+  const CommandRun resumed = rbc("mc --sweeps 40 --json -q --resume " + cp);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  const auto j2 = nlohmann::json::parse(resumed.output);
+  EXPECT_EQ(j2["vertices"], j1["vertices"]);
+  EXPECT_EQ(j2["bending"], "dihedral");
+  EXPECT_EQ(j2["sweeps"], 40);
+  EXPECT_EQ(j2["sweeps_this_run"], 20);
+  EXPECT_EQ(j2["force_pN"], j1["force_pN"]);
+  const CommandRun wrong = rbc("mc --sweeps 40 -q --bending juelicher --resume " + cp);
+  EXPECT_EQ(wrong.exit_code, 2) << wrong.output;
+  EXPECT_NE(wrong.output.find("dihedral"), std::string::npos) << wrong.output;
+}
+
 }  // namespace
