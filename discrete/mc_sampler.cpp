@@ -203,21 +203,11 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
 }
 
 double McSampler::energy() const {
-  const Topology& t = net_.topo;
-  const int ne = t.num_edges(), nf = t.num_faces();
-  std::vector<double> le(ne), fe(nf);
-#pragma omp parallel for schedule(static)
-  for (int e = 0; e < ne; ++e)
-    le[e] = link_energy(net_.wlc, net_.lbar_um(e), x_.col(t.edges(0, e)), x_.col(t.edges(1, e)));
-#pragma omp parallel for schedule(static)
-  for (int f = 0; f < nf; ++f) {
-    const auto& c = t.faces.col(f);
-    fe[f] = steric_face_energy(net_.steric_C_pN_per_um, net_.steric, net_.abar_um2(f), x_.col(c(0)),
-                               x_.col(c(1)), x_.col(c(2)));
-  }
+  // The caches hold each term's exact kernel value at x_, so this fixed-order sum is what a
+  // from-scratch evaluation would give, without re-evaluating every term per sample.
   double e = 0;
-  for (double v : le) e += v;
-  for (double v : fe) e += v;
+  for (double v : link_e_) e += v;
+  for (double v : steric_) e += v;
   for (double v : bend_) e += v;
   e += tweezers_energy(net_.patch, load_.force_pN, x_, net_.rest);
   return e + constraint_energy_of_totals(net_, load_, area_, volume_);
@@ -309,20 +299,12 @@ double McSampler::steric_of_area(int f, double area_um2) const {
 }
 
 void McSampler::recompute_totals() {
-  // Per-face values in parallel, summed in a fixed order: bit-reproducible for any thread count.
-  const Topology& t = net_.topo;
-  const int nf = t.num_faces();
-  std::vector<double> fa(nf), fv(nf);
-#pragma omp parallel for schedule(static) if (nf > 4096)
-  for (int f = 0; f < nf; ++f) {
-    const auto& c = t.faces.col(f);
-    fa[f] = triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
-    fv[f] = tetra_volume(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
-  }
+  // The per-face caches (exact kernel values at x_) summed in a fixed order: bit-reproducible
+  // for any thread count, and equal to a from-scratch sum over the faces.
   double a = 0, vol = 0;
-  for (int f = 0; f < nf; ++f) {
-    a += fa[f];
-    vol += fv[f];
+  for (std::size_t f = 0; f < face_area_.size(); ++f) {
+    a += face_area_[f];
+    vol += face_volume_[f];
   }
   if (sweep_ > 0 || area_ != 0) {
     max_area_drift_ = std::max(max_area_drift_, std::abs(area_ - a));

@@ -30,8 +30,8 @@
 // satisfies detailed balance with respect to pi, with no linearisation of the global terms.
 // The chain depends on (seed, streams) only, never on the number of OpenMP threads.
 //
-// Running totals A and V are updated incrementally per accepted move and recomputed from
-// scratch (a fixed-order sum, so bit-reproducible) at the start of every sweep; the largest
+// Running totals A and V are updated incrementally per accepted move and re-summed from the
+// per-face caches (a fixed-order sum, so bit-reproducible) at the start of every sweep; the largest
 // incremental drift seen is reported. Bending terms are cached and the few a move changes are
 // recomputed from scratch on each accepted move (no drift).
 //
@@ -139,9 +139,9 @@ class McSampler {
   /// The split change (without the global term).
   McMoveDelta move_delta(int v, const Eigen::Vector3d& to);
 
-  /// The sampled free energy F at the current state (pN um), summed in a fixed order from the
-  /// same kernels network_energy() uses (so it is bit-reproducible for any thread count; it
-  /// agrees with network_energy() to round-off).
+  /// The sampled free energy F at the current state (pN um): the cached local terms (exact
+  /// kernel values) summed in a fixed order, plus tweezers and the area/volume terms. It is
+  /// bit-reproducible for any thread count and agrees with network_energy() to round-off.
   double energy() const;
 
   const Positions& positions() const { return x_; }
