@@ -38,6 +38,8 @@ struct NewtonOptions {
   int max_factor_reuse = 4;
   /// A factorisation is reused only while each step cuts the net force by this factor.
   double reuse_contraction = 0.25;
+  /// Polled once per Newton iteration; returning true stops the solve by throwing Cancelled.
+  CancelCheck cancel;
   void validate() const;  ///< positive tolerances and counts
 };
 

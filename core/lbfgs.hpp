@@ -10,6 +10,8 @@
 #include <functional>
 #include <string>
 
+#include "core/progress.hpp"
+
 namespace rbc {
 
 /// Objective: returns the energy at x and writes its gradient into grad (same size as x).
@@ -32,6 +34,8 @@ struct LbfgsOptions {
   /// approximating the Hessian. It is the two-loop recursion's initial inverse Hessian
   /// (in place of the scalar s.y/y.y), so a good P makes the steps nearly Newton steps.
   std::function<void(Eigen::VectorXd& v)> precondition;
+  /// Polled once per iteration; returning true stops the minimiser by throwing Cancelled.
+  CancelCheck cancel;
 };
 
 enum class MinimiserStatus { converged, max_iterations, line_search_failed, infeasible_start };

@@ -1,12 +1,32 @@
 #pragma once
-// The one channel through which library code reports progress; drivers decide where it
-// goes (stderr for the CLI, nowhere in tests). Library code never prints.
+// The one channel through which library code reports progress, and the one hook through which
+// a caller cancels long work; drivers decide where progress goes (stderr for the CLI, nowhere
+// in tests) and what cancels (a signal flag in the CLI, Ctrl-C in Python). Library code never
+// prints.
 #include <functional>
+#include <stdexcept>
 #include <string>
 
 namespace rbc {
 using ProgressSink = std::function<void(const std::string& message)>;
 inline void report(const ProgressSink& sink, const std::string& message) {
   if (sink) sink(message);
+}
+
+/// Cooperative cancellation: long-running drivers and solvers call it between iterations
+/// (cheap, a few times per iteration at most); when it returns true they stop by throwing
+/// Cancelled. Empty = never cancelled. It lives in the options struct of each driver
+/// (LbfgsOptions::cancel, NewtonOptions::cancel, McRunSetup::cancel, ...).
+using CancelCheck = std::function<bool()>;
+
+/// Thrown by a driver whose CancelCheck returned true. It is not a failure of the solver:
+/// callers (the CLI, the Python package) catch it, remove partial outputs and exit/raise.
+struct Cancelled : std::runtime_error {
+  Cancelled() : std::runtime_error("cancelled by the caller") {}
+};
+
+/// Throws Cancelled when `check` is set and returns true.
+inline void throw_if_cancelled(const CancelCheck& check) {
+  if (check && check()) throw Cancelled();
 }
 }  // namespace rbc

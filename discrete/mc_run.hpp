@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/progress.hpp"
 #include "discrete/mc_observables.hpp"
 #include "discrete/mc_sampler.hpp"
 
@@ -39,6 +40,9 @@ struct McRunSetup {
   double penalty_scale = 25.0;
   /// Zero-temperature equilibrium diameters at this force (um), for the thermal shift.
   double reference_axial_um = 0, reference_transverse_um = 0;
+  /// Polled once per sweep; returning true stops the run by throwing Cancelled (the chain is
+  /// left at the last completed sweep, so a checkpoint can still be written).
+  CancelCheck cancel;
   /// sampler.validate(), force finite, sample_every >= 1, penalty_scale > 0 and finite.
   void validate() const;
 };
