@@ -32,8 +32,9 @@ void add_stability_command(CLI::App& app, Action& action) {
       const StabilityResult r = run_stability(o->s, nullptr, stderr_progress(o->quiet));
       write_stability(r, o->out);
       for (const auto& row : r.rows)
-        std::cout << row.study << " | " << row.method << " | " << row.parameter << " "
-                  << row.parameter_value << " | " << row.metric << " = " << row.value << "\n";
+        std::cout << to_string(row.study) << " | " << row.method << " | " << row.parameter << " "
+                  << row.parameter_value << " | " << to_string(row.metric) << " = "
+                  << (row.value ? std::to_string(*row.value) : std::string("not reached")) << "\n";
       std::cout << "outputs: " << o->out
                 << "/stability.csv, stability.json, stability_orders.png\n";
       return 0;

@@ -30,7 +30,7 @@ void render_plot(const PlotSpec& spec, const std::string& dir, const std::string
   for (size_t k = 0; k < spec.series.size(); ++k) {
     const auto& s = spec.series[k];
     g << (k ? ", \\\n     " : "") << "'" << s.data_file << "' skip 1 using " << s.columns
-      << " with " << s.style << " title '" << s.title << "'";
+      << " with " << s.style << " title '" << s.title << "' noenhanced";
     if (!s.color.empty()) g << " lc rgb '" << s.color << "'";
     if (s.style.find("points") != std::string::npos || s.style == "yerrorbars")
       g << " pt " << s.point_type;

@@ -6,7 +6,9 @@
 
 namespace rbc {
 
-/// One curve or point set. `columns` is gnuplot's `using` spec over the CSV data file.
+/// One curve or point set. `columns` is gnuplot's `using` spec over the CSV data file. The
+/// title is printed literally (gnuplot's enhanced text is off for legend entries, so a method
+/// name such as "continuum_p2" is not typeset with a subscript).
 struct PlotSeries {
   std::string title;
   std::string data_file;              ///< CSV with a header line, relative to the plot's directory

@@ -121,17 +121,17 @@ std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResul
     std::ostringstream ev;
     bool any = false, early = false, parts_above = false;
     for (const auto& row : stability.rows) {
-      if (row.study != "taylor_order") continue;
-      if (row.metric == "departure_force_pN" && row.parameter_value == 0.05) {
+      if (row.study != StabilityStudy::taylor_order) continue;
+      if (row.metric == StabilityMetric::departure_force_pN && row.parameter_value == 0.05) {
         any = true;
         ev << row.method << " departs by 5 % at "
-           << (std::isfinite(row.value) ? fixed(row.value, 0) + " pN" : "no ladder force") << "; ";
-        if (std::isfinite(row.value)) (row.value < 200 ? early : parts_above) = true;
+           << (row.value ? fixed(*row.value, 0) + " pN" : "no ladder force") << "; ";
+        if (row.value) (*row.value < 200 ? early : parts_above) = true;
       }
-      if (row.metric == "unphysical_from_force_pN") {
+      if (row.metric == StabilityMetric::unphysical_from_force_pN) {
         ev << row.method << " stretches a link past Lmax (or fails) from "
-           << (std::isfinite(row.value) ? fixed(row.value, 0) + " pN" : "no ladder force") << "; ";
-        if (std::isfinite(row.value)) (row.value < 200 ? early : parts_above) = true;
+           << (row.value ? fixed(*row.value, 0) + " pN" : "no ladder force") << "; ";
+        if (row.value) (*row.value < 200 ? early : parts_above) = true;
       }
     }
     c.verdict = !any          ? "not checked"
@@ -237,10 +237,9 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
   md << "| study | method | parameter | value | metric | result | note "
         "|\n|---|---|---|---|---|---|---|\n";
   for (const auto& r : stab.rows)
-    md << "| " << r.study << " | " << r.method << " | " << r.parameter << " | " << r.parameter_value
-       << " | " << r.metric << " | "
-       << (std::isfinite(r.value) ? table_value(r.value) : "not reached") << " | " << r.note
-       << " |\n";
+    md << "| " << to_string(r.study) << " | " << r.method << " | " << r.parameter << " | "
+       << r.parameter_value << " | " << to_string(r.metric) << " | "
+       << (r.value ? table_value(*r.value) : "not reached") << " | " << r.note << " |\n";
   md << "\nAll rows: `stability/stability.csv`.\n";
   write_text_atomic(dir + "/report.md", md.str());
 }

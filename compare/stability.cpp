@@ -27,8 +27,9 @@ double largest_stretch(double i1, double i2) {
 }
 
 // Relative departure of D_A(order) from D_A(full) along the ladder; returns the first force
-// (linearly interpolated) where it exceeds `tolerance`, or NaN if it never does.
-double departure_force(const OrderCurve& c, const OrderCurve& full, double tolerance) {
+// (linearly interpolated) where it exceeds `tolerance`, or nothing if it never does.
+std::optional<double> departure_force(const OrderCurve& c, const OrderCurve& full,
+                                      double tolerance) {
   double prev_f = 0, prev_dev = 0;
   for (size_t k = 0; k < c.force_pN.size() && k < full.force_pN.size(); ++k) {
     if (!c.converged[k] || !full.converged[k]) break;
@@ -40,7 +41,7 @@ double departure_force(const OrderCurve& c, const OrderCurve& full, double toler
     prev_f = c.force_pN[k];
     prev_dev = dev;
   }
-  return std::nan("");
+  return std::nullopt;
 }
 
 void order_sweep(const StabilityOptions& o, StabilityResult& res, const ProgressSink& progress) {
@@ -75,25 +76,26 @@ void order_sweep(const StabilityOptions& o, StabilityResult& res, const Progress
     const OrderCurve& c = res.orders[k];
     const std::string method = "continuum p=" + c.order;
     for (double tol : {0.01, 0.05})
-      res.rows.push_back({"taylor_order", method, "tolerance", tol, "departure_force_pN",
-                          departure_force(c, full, tol),
-                          "first force where D_A departs from the full WLC law by this fraction "
-                          "(NaN: not within the ladder)"});
+      res.rows.push_back({StabilityStudy::taylor_order, method, "tolerance", tol,
+                          StabilityMetric::departure_force_pN, departure_force(c, full, tol),
+                          "first force where D_A departs from the full WLC law by this fraction"});
     // Unphysical: a link direction stretched beyond the contour length (L > Lmax), which
     // the full WLC forbids, or a non-converged solve.
-    double unphysical = std::nan("");
+    std::optional<double> unphysical;
     for (size_t i = 0; i < c.force_pN.size(); ++i)
       if (!c.converged[i] || c.max_link_stretch[i] >= 1.0) {
         unphysical = c.force_pN[i];
         break;
       }
-    res.rows.push_back({"taylor_order", method, "", 0, "unphysical_from_force_pN", unphysical,
+    res.rows.push_back({StabilityStudy::taylor_order, method, "", 0,
+                        StabilityMetric::unphysical_from_force_pN, unphysical,
                         "first ladder force with a link direction past Lmax (L/Lmax >= 1) or "
                         "no convergence"});
   }
   for (const auto& c : res.orders)
-    res.rows.push_back({"taylor_order", "continuum p=" + c.order, "force_pN", c.force_pN.back(),
-                        "max_link_stretch_L_over_Lmax", c.max_link_stretch.back(),
+    res.rows.push_back({StabilityStudy::taylor_order, "continuum p=" + c.order, "force_pN",
+                        c.force_pN.back(), StabilityMetric::max_link_stretch_L_over_Lmax,
+                        c.max_link_stretch.back(),
                         "largest L/Lmax over element directions at the top force"});
 }
 
@@ -106,10 +108,11 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
   const auto pts = run_stretch(net, o.budget_forces_pN, so);
   const std::string method = "discrete N=" + std::to_string(net.topo.num_vertices);
   for (const auto& p : pts) {
-    res.rows.push_back({"solver_budget", method, "force_pN", p.force_pN, "converged",
-                        p.converged ? 1.0 : 0.0, p.status});
-    res.rows.push_back({"solver_budget", method, "force_pN", p.force_pN, "iterations",
-                        static_cast<double>(p.iterations), "L-BFGS iterations"});
+    res.rows.push_back({StabilityStudy::solver_budget, method, "force_pN", p.force_pN,
+                        StabilityMetric::converged, p.converged ? 1.0 : 0.0, p.status});
+    res.rows.push_back({StabilityStudy::solver_budget, method, "force_pN", p.force_pN,
+                        StabilityMetric::iterations, static_cast<double>(p.iterations),
+                        "L-BFGS iterations"});
   }
   if (!o.include_continuum) return;
   const TriMesh mesh = make_continuum_mesh(o.continuum_elements);
@@ -123,10 +126,11 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
     const auto cp = run_continuum_stretch(model, o.budget_forces_pN, co);
     for (const auto& p : cp) {
       const std::string m = "continuum p=" + to_string(order);
-      res.rows.push_back({"solver_budget", m, "force_pN", p.force_pN, "converged",
-                          p.converged ? 1.0 : 0.0, p.status});
-      res.rows.push_back({"solver_budget", m, "force_pN", p.force_pN, "iterations",
-                          static_cast<double>(p.iterations), "Newton iterations (all sub-steps)"});
+      res.rows.push_back({StabilityStudy::solver_budget, m, "force_pN", p.force_pN,
+                          StabilityMetric::converged, p.converged ? 1.0 : 0.0, p.status});
+      res.rows.push_back({StabilityStudy::solver_budget, m, "force_pN", p.force_pN,
+                          StabilityMetric::iterations, static_cast<double>(p.iterations),
+                          "Newton iterations (all sub-steps)"});
     }
   }
 }
@@ -144,13 +148,15 @@ void mesh_quality_sweep(const StabilityOptions& o, StabilityResult& res,
     const Diameters rest = measure_diameters(net.rest);
     const auto pts = run_stretch(net, {0.0, 88.0}, StretchOptions{});
     const std::string method = "discrete " + to_string(q);
-    res.rows.push_back({"mesh_quality", method, "phi_over_area", mr.phi_over_area,
-                        "zero_force_axial_change", pts[0].axial_um / rest.axial_um - 1.0,
+    res.rows.push_back({StabilityStudy::mesh_quality, method, "phi_over_area", mr.phi_over_area,
+                        StabilityMetric::zero_force_axial_change,
+                        pts[0].axial_um / rest.axial_um - 1.0,
                         "relative D_A change in the zero-force relaxation"});
-    res.rows.push_back({"mesh_quality", method, "phi_over_area", mr.phi_over_area,
-                        "axial_um_at_88pN", pts[1].axial_um, pts[1].status});
-    res.rows.push_back({"mesh_quality", method, "phi_over_area", mr.phi_over_area,
-                        "largest_rest_inplane_force_pN", largest_rest_inplane_force_pN(net), ""});
+    res.rows.push_back({StabilityStudy::mesh_quality, method, "phi_over_area", mr.phi_over_area,
+                        StabilityMetric::axial_um_at_88pN, pts[1].axial_um, pts[1].status});
+    res.rows.push_back({StabilityStudy::mesh_quality, method, "phi_over_area", mr.phi_over_area,
+                        StabilityMetric::largest_rest_inplane_force_pN,
+                        largest_rest_inplane_force_pN(net), ""});
   }
 }
 
@@ -169,11 +175,13 @@ void steric_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
       const LinearModuli lm = closed_form_moduli(p.wlc, p.steric);
       const Network net = build_network(mesh, p);
       const auto pts = run_stretch(net, {0.0, o.steric_force_pN}, StretchOptions{});
-      res.rows.push_back({"steric", m.str(), "eta", eta, "K_closed_pN_per_um", lm.K_pN_per_um, ""});
-      res.rows.push_back({"steric", m.str(), "eta", eta, "axial_um_at_force", pts.back().axial_um,
+      res.rows.push_back({StabilityStudy::steric, m.str(), "eta", eta,
+                          StabilityMetric::K_closed_pN_per_um, lm.K_pN_per_um, ""});
+      res.rows.push_back({StabilityStudy::steric, m.str(), "eta", eta,
+                          StabilityMetric::axial_um_at_force, pts.back().axial_um,
                           pts.back().status + " at " + std::to_string(o.steric_force_pN) + " pN"});
-      res.rows.push_back(
-          {"steric", m.str(), "eta", eta, "transverse_um_at_force", pts.back().transverse_um, ""});
+      res.rows.push_back({StabilityStudy::steric, m.str(), "eta", eta,
+                          StabilityMetric::transverse_um_at_force, pts.back().transverse_um, ""});
     }
 }
 
@@ -202,30 +210,90 @@ void monte_carlo_sweep(const StabilityOptions& o, StabilityResult& res,
   for (double step : o.mc_steps_um) {
     report(progress, "stability: Monte Carlo step " + std::to_string(step) + " um at 300 K");
     const McSummary s = run(300.0, step, 0);
-    res.rows.push_back({"monte_carlo", method, "step_um", step, "acceptance", s.acceptance,
-                        "fixed step, 300 K, 0 pN"});
-    res.rows.push_back({"monte_carlo", method, "step_um", step, "energy_inefficiency",
-                        s.energy.inefficiency,
+    res.rows.push_back({StabilityStudy::monte_carlo, method, "step_um", step,
+                        StabilityMetric::acceptance, s.acceptance, "fixed step, 300 K, 0 pN"});
+    res.rows.push_back({StabilityStudy::monte_carlo, method, "step_um", step,
+                        StabilityMetric::energy_inefficiency, s.energy.inefficiency,
                         "statistical inefficiency g of the energy series (sweeps per independent "
                         "sample); large g = slow decorrelation"});
   }
   for (double t : o.mc_temperatures_K) {
     report(progress, "stability: Monte Carlo at " + std::to_string(t) + " K");
     const McSummary s = run(t, 0.0, o.mc_sweeps / 2);
-    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "axial_shift_um",
-                        s.axial.mean - eq.axial_um, "mean D_A minus the zero-temperature D_A"});
-    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "axial_std_um",
-                        std::sqrt(s.axial.variance), "thermal fluctuation of D_A"});
-    res.rows.push_back({"monte_carlo", method, "temperature_K", t, "max_area_drift",
-                        s.max_area_drift,
+    res.rows.push_back({StabilityStudy::monte_carlo, method, "temperature_K", t,
+                        StabilityMetric::axial_shift_um, s.axial.mean - eq.axial_um,
+                        "mean D_A minus the zero-temperature D_A"});
+    res.rows.push_back({StabilityStudy::monte_carlo, method, "temperature_K", t,
+                        StabilityMetric::axial_std_um, std::sqrt(s.axial.variance),
+                        "thermal fluctuation of D_A"});
+    res.rows.push_back({StabilityStudy::monte_carlo, method, "temperature_K", t,
+                        StabilityMetric::max_area_drift, s.max_area_drift,
                         "largest |A - A0|/A0 sampled: above 1e-4 the penalties no longer hold "
                         "the bilayer area (MODEL.md)"});
-    res.rows.push_back(
-        {"monte_carlo", method, "temperature_K", t, "acceptance", s.acceptance, "adaptive step"});
+    res.rows.push_back({StabilityStudy::monte_carlo, method, "temperature_K", t,
+                        StabilityMetric::acceptance, s.acceptance, "adaptive step"});
   }
 }
 
 }  // namespace
+
+std::string to_string(StabilityStudy s) {
+  switch (s) {
+    case StabilityStudy::taylor_order:
+      return "taylor_order";
+    case StabilityStudy::solver_budget:
+      return "solver_budget";
+    case StabilityStudy::mesh_quality:
+      return "mesh_quality";
+    case StabilityStudy::steric:
+      return "steric";
+    case StabilityStudy::monte_carlo:
+      return "monte_carlo";
+    case StabilityStudy::resolution:
+      return "resolution";
+  }
+  return "unknown";
+}
+
+std::string to_string(StabilityMetric m) {
+  switch (m) {
+    case StabilityMetric::departure_force_pN:
+      return "departure_force_pN";
+    case StabilityMetric::unphysical_from_force_pN:
+      return "unphysical_from_force_pN";
+    case StabilityMetric::max_link_stretch_L_over_Lmax:
+      return "max_link_stretch_L_over_Lmax";
+    case StabilityMetric::converged:
+      return "converged";
+    case StabilityMetric::iterations:
+      return "iterations";
+    case StabilityMetric::zero_force_axial_change:
+      return "zero_force_axial_change";
+    case StabilityMetric::axial_um_at_88pN:
+      return "axial_um_at_88pN";
+    case StabilityMetric::largest_rest_inplane_force_pN:
+      return "largest_rest_inplane_force_pN";
+    case StabilityMetric::K_closed_pN_per_um:
+      return "K_closed_pN_per_um";
+    case StabilityMetric::axial_um_at_force:
+      return "axial_um_at_force";
+    case StabilityMetric::transverse_um_at_force:
+      return "transverse_um_at_force";
+    case StabilityMetric::acceptance:
+      return "acceptance";
+    case StabilityMetric::energy_inefficiency:
+      return "energy_inefficiency";
+    case StabilityMetric::axial_shift_um:
+      return "axial_shift_um";
+    case StabilityMetric::axial_std_um:
+      return "axial_std_um";
+    case StabilityMetric::max_area_drift:
+      return "max_area_drift";
+    case StabilityMetric::coarsest_resolution:
+      return "coarsest_resolution";
+  }
+  return "unknown";
+}
 
 void add_resolution_rows(const TradeoffResult& t, double tol, std::vector<StabilityRow>& rows) {
   std::map<std::string, const TradeoffRow*> coarsest;
@@ -239,12 +307,12 @@ void add_resolution_rows(const TradeoffResult& t, double tol, std::vector<Stabil
       coarsest[family] = &r;
   }
   for (const auto& [family, r] : coarsest)
-    rows.push_back({"resolution", family, "tolerance", tol, "coarsest_resolution",
-                    static_cast<double>(r->run.method.resolution),
-                    "vertices (discrete) or elements (continuum) within the tolerance of the "
-                    "reference D_A at " +
-                        std::to_string(t.force_pN) + " pN; wall " + std::to_string(r->wall_s) +
-                        " s"});
+    rows.push_back(
+        {StabilityStudy::resolution, family, "tolerance", tol, StabilityMetric::coarsest_resolution,
+         static_cast<double>(r->run.method.resolution),
+         "vertices (discrete) or elements (continuum) within the tolerance of the "
+         "reference D_A at " +
+             std::to_string(t.force_pN) + " pN; wall " + std::to_string(r->wall_s) + " s"});
 }
 
 StabilityResult run_stability(const StabilityOptions& o, const TradeoffResult* tradeoff,
@@ -263,20 +331,28 @@ StabilityResult run_stability(const StabilityOptions& o, const TradeoffResult* t
 void write_stability(const StabilityResult& r, const std::string& dir) {
   ensure_output_directory(dir);
   std::ostringstream csv;
-  csv << "# where each method stops working (rbc stability); NaN = not reached in the sweep\n"
+  csv << "# where each method stops working (rbc stability); value 'not reached': the sweep "
+         "did not reach what the metric looks for\n"
       << "study,method,parameter,parameter_value,metric,value,note\n";
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& row : r.rows) {
-    csv << row.study << "," << row.method << "," << row.parameter << "," << row.parameter_value
-        << "," << row.metric << "," << row.value << ",\"" << row.note << "\"\n";
-    rows.push_back(
-        {{"study", row.study},
-         {"method", row.method},
-         {"parameter", row.parameter},
-         {"parameter_value", row.parameter_value},
-         {"metric", row.metric},
-         {"value", std::isfinite(row.value) ? nlohmann::json(row.value) : nlohmann::json()},
-         {"note", row.note}});
+    const bool reached = row.value && std::isfinite(*row.value);
+    csv << to_string(row.study) << "," << row.method << "," << row.parameter << ","
+        << row.parameter_value << "," << to_string(row.metric) << ",";
+    if (reached)
+      csv << *row.value;
+    else
+      csv << "not reached";
+    csv << ",\"" << row.note << "\"\n";
+    nlohmann::json j = {{"study", to_string(row.study)},
+                        {"method", row.method},
+                        {"parameter", row.parameter},
+                        {"parameter_value", row.parameter_value},
+                        {"metric", to_string(row.metric)},
+                        {"reached", reached},
+                        {"note", row.note}};
+    if (reached) j["value"] = *row.value;
+    rows.push_back(std::move(j));
   }
   write_text_atomic(dir + "/stability.csv", csv.str());
   write_text_atomic(dir + "/stability.json", rows.dump(2) + "\n");

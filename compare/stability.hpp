@@ -3,6 +3,7 @@
 // Taylor orders against the full WLC, solver budgets at extreme forces, the discrete
 // answer against triangle quality, the steric regularisation, and the coarsest
 // resolutions that still give 1 % and 5 % (from a trade-off study).
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,12 +37,49 @@ struct StabilityOptions {
   bool include_monte_carlo = true;
 };
 
-/// One measured fact: study, method, a parameter and a metric, with a note.
+/// Which sweep a row comes from.
+enum class StabilityStudy {
+  taylor_order,
+  solver_budget,
+  mesh_quality,
+  steric,
+  monte_carlo,
+  resolution
+};
+
+/// What a row measures; the name (to_string) is the CSV/JSON key and carries the unit.
+enum class StabilityMetric {
+  departure_force_pN,            ///< first force where D_A departs from the full law by a fraction
+  unphysical_from_force_pN,      ///< first force with a link past Lmax or no convergence
+  max_link_stretch_L_over_Lmax,  ///< largest L/Lmax at the top force
+  converged,                     ///< 1 or 0
+  iterations,                    ///< solver iterations
+  zero_force_axial_change,       ///< relative D_A change in the zero-force relaxation
+  axial_um_at_88pN,
+  largest_rest_inplane_force_pN,
+  K_closed_pN_per_um,
+  axial_um_at_force,
+  transverse_um_at_force,
+  acceptance,
+  energy_inefficiency,  ///< statistical inefficiency of the energy series (sweeps)
+  axial_shift_um,
+  axial_std_um,
+  max_area_drift,
+  coarsest_resolution,  ///< vertices or elements
+};
+
+std::string to_string(StabilityStudy s);
+std::string to_string(StabilityMetric m);
+
+/// One measured fact: study, method, a parameter and a metric, with a note. `value` is empty
+/// when the sweep did not reach what the metric looks for (written "not reached", never inf
+/// or NaN).
 struct StabilityRow {
-  std::string study, method, parameter;
+  StabilityStudy study = StabilityStudy::taylor_order;
+  std::string method, parameter;
   double parameter_value = 0;
-  std::string metric;
-  double value = 0;
+  StabilityMetric metric = StabilityMetric::converged;
+  std::optional<double> value;
   std::string note;
 };
 
