@@ -32,6 +32,8 @@ void McConvergenceOptions::validate() const {
     fail("Monte Carlo temperature (K)", mc_temperature_K, "finite and >= 0");
   if (!(mc_target_acceptance > 0 && mc_target_acceptance < 1))
     fail("Monte Carlo target acceptance", mc_target_acceptance, "in (0, 1)");
+  if (mc_sweeps < 0)
+    fail("Monte Carlo sweep count", static_cast<double>(mc_sweeps), ">= 0 (0 = budget)");
   if (sample_every_sweeps < 0)
     fail("Monte Carlo sample interval (sweeps)", sample_every_sweeps, ">= 0 (0 = log-spaced)");
   if (force_tolerances_pN.empty())
@@ -146,7 +148,7 @@ void run_chain(const Network& net, const McConvergenceOptions& o, McConvergenceR
   for (long long sweeps = 1;; ++sweeps) {
     mc.sweep();
     const double t = seconds_since(t0);
-    const bool done = t >= o.mc_budget_s;
+    const bool done = o.mc_sweeps > 0 ? sweeps >= o.mc_sweeps : t >= o.mc_budget_s;
     const bool due =
         o.sample_every_sweeps > 0 ? sweeps % o.sample_every_sweeps == 0 : t >= next_sample_s;
     if (due || done) {

@@ -32,7 +32,10 @@ struct McConvergenceOptions {
   /// 1e-8 um and D_A is still 3.8 um short after 30 s.
   double mc_target_acceptance = 0.1;
   int sample_every_sweeps = 0;  ///< > 0: fixed interval; 0: ~100 log-spaced wall times
-  unsigned long seed = 1;       ///< of the chain's RNG stream
+  /// > 0: run exactly this many sweeps (fixed work, reproducible; with sample_every_sweeps
+  /// > 0 every sample is at a fixed sweep count) instead of the wall-clock budget.
+  long long mc_sweeps = 0;
+  unsigned long seed = 1;  ///< of the chain's RNG stream
   /// From loose to the reference's own: at N ~ 500, 88 pN, 0.1 pN already gives D_A to
   /// ~0.02 %, so the looser ones resolve the minimiser's time at the 10 % to 0.3 % levels.
   std::vector<double> force_tolerances_pN = {3.0, 1.0, 0.3, 0.1, 1e-2, 1e-3};
@@ -40,7 +43,7 @@ struct McConvergenceOptions {
   std::vector<double> relative_accuracies = {0.1, 0.03, 0.01, 0.003};
   /// Throws std::invalid_argument naming the value: vertices >= 100, force finite and >= 0,
   /// budget finite and > 0, temperature finite and >= 0, target acceptance in (0, 1), sample
-  /// interval >= 0, tolerances and accuracy levels non-empty, finite and > 0.
+  /// interval >= 0, sweep count >= 0, tolerances and accuracy levels non-empty, finite and > 0.
   void validate() const;
 };
 

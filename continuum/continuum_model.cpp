@@ -5,10 +5,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "continuum/geometry_hessian.hpp"
-#include "continuum/helfrich_hessian.hpp"
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
+#include "discrete/element_hessian.hpp"
 
 namespace rbc {
 

@@ -1,6 +1,6 @@
 #include "continuum/membrane_element.hpp"
 
-#include "continuum/geometry_hessian.hpp"
+#include "discrete/element_hessian.hpp"
 
 #include <cmath>
 #include <limits>

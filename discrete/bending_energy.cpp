@@ -1,5 +1,6 @@
 #include "discrete/bending_energy.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -7,6 +8,7 @@
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
 #include "core/units.hpp"
+#include "discrete/element_hessian.hpp"
 
 namespace rbc {
 
@@ -49,10 +51,25 @@ double hinge_length_angle(const Positions& x, const Topology& topo, int e,
   return len * theta;
 }
 
+std::vector<JuelicherCell> juelicher_cells(const Topology& topo, const BendingParameters& p,
+                                           const std::vector<double>& lt,
+                                           const std::vector<double>& af) {
+  const int nv = topo.num_vertices;
+  std::vector<JuelicherCell> cells(nv);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < nv; ++v) {
+    double m = 0, a = 0;
+    for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e) m += lt[*e];
+    for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) a += af[*f];
+    cells[v] = juelicher_cell(p, m, a);
+  }
+  return cells;
+}
+
 double juelicher_bending_energy(const Positions& x, const Topology& topo,
                                 const BendingParameters& p, Positions* grad) {
   const int nv = topo.num_vertices, ne = topo.num_edges(), nf = topo.num_faces();
-  std::vector<double> lt(ne), af(nf), h(nv);
+  std::vector<double> lt(ne), af(nf);
 #pragma omp parallel for schedule(static)
   for (int e = 0; e < ne; ++e) lt[e] = hinge_length_angle(x, topo, e);
 #pragma omp parallel for schedule(static)
@@ -60,24 +77,18 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
     const auto& t = topo.faces.col(f);
     af[f] = triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
   }
+  const std::vector<JuelicherCell> cells = juelicher_cells(topo, p, lt, af);
   double energy = 0.0;
 #pragma omp parallel for reduction(+ : energy) schedule(static)
-  for (int v = 0; v < nv; ++v) {
-    double m = 0, a = 0;
-    for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e) m += lt[*e];
-    for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) a += af[*f];
-    m *= 0.5;
-    a /= 3.0;
-    h[v] = (m - p.h0_per_um * a) / a;  // (M - H0 A)/A: the vertex's H - H0
-    energy += 0.5 * p.kappa_pNum * h[v] * h[v] * a;
-  }
+  for (int v = 0; v < nv; ++v) energy += cells[v].energy_pNum;
   if (!grad) return energy;
   // dE = kappa sum_i h_i (dM_i - H0 dA_i) - kappa/2 h_i^2 dA_i, with dM_i = 1/2 sum d(L theta)
   // over the vertex's edges and dA_i = 1/3 sum dA_f over its faces.
+  const auto h = [&](int v) { return cells[v].h_per_um; };
   assemble_parallel(ne, grad, [&](int e, Positions& g) {
     Eigen::Matrix<double, 3, 4> gl;
     hinge_length_angle(x, topo, e, &gl);
-    const double coef = 0.5 * p.kappa_pNum * (h[topo.edges(0, e)] + h[topo.edges(1, e)]);
+    const double coef = 0.5 * p.kappa_pNum * (h(topo.edges(0, e)) + h(topo.edges(1, e)));
     g.col(topo.edges(0, e)) += coef * gl.col(0);
     g.col(topo.edges(1, e)) += coef * gl.col(1);
     g.col(topo.edge_opposite(0, e)) += coef * gl.col(2);
@@ -90,23 +101,132 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
     triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)), &ga);
     double coef = 0;
     for (int k = 0; k < 3; ++k)
-      coef -= p.kappa_pNum * (p.h0_per_um * h[t(k)] + 0.5 * h[t(k)] * h[t(k)]) / 3.0;
+      coef -= p.kappa_pNum * (p.h0_per_um * h(t(k)) + 0.5 * h(t(k)) * h(t(k))) / 3.0;
     for (int k = 0; k < 3; ++k) g.col(t(k)) += coef * ga.col(k);
     return 0.0;
   });
   return energy;
 }
 
-double juelicher_vertex_energy(const Positions& x, const Topology& topo, const BendingParameters& p,
-                               int v) {
-  double lt = 0, area = 0;
-  for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e)
-    lt += hinge_length_angle(x, topo, *e);
-  for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) {
-    const auto& t = topo.faces.col(*f);
-    area += triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
+namespace {
+
+int star_slot(const VertexStars& s, int v, int w) {
+  for (int k = 0; k < s.size(v); ++k)
+    if (s.begin(v)[k] == w) return k;
+  throw std::logic_error("vertex outside its star");  // topology invariant
+}
+
+}  // namespace
+
+VertexStars make_vertex_stars(const Topology& t) {
+  const int n = t.num_vertices;
+  VertexStars s;
+  s.offsets.assign(n + 1, 0);
+  for (int v = 0; v < n; ++v) {
+    s.vertices.push_back(v);
+    s.vertices.insert(s.vertices.end(), t.vertex_neighbours.begin(v), t.vertex_neighbours.end(v));
+    s.offsets[v + 1] = static_cast<int>(s.vertices.size());
   }
-  return juelicher_cell_energy(p, lt, area);
+  s.hinge_slots.reserve(4 * t.vertex_edges.items.size());
+  s.face_slots.reserve(3 * t.vertex_faces.items.size());
+  for (int v = 0; v < n; ++v) {
+    for (const int* e = t.vertex_edges.begin(v); e != t.vertex_edges.end(v); ++e)
+      for (int id :
+           {t.edges(0, *e), t.edges(1, *e), t.edge_opposite(0, *e), t.edge_opposite(1, *e)})
+        s.hinge_slots.push_back(star_slot(s, v, id));
+    for (const int* f = t.vertex_faces.begin(v); f != t.vertex_faces.end(v); ++f)
+      for (int k = 0; k < 3; ++k) s.face_slots.push_back(star_slot(s, v, t.faces(k, *f)));
+  }
+  return s;
+}
+
+double JuelicherHessianTerms::hinge_coef(const Topology& t, int e) const {
+  return 0.5 * params.kappa_pNum * (cells[t.edges(0, e)].h_per_um + cells[t.edges(1, e)].h_per_um);
+}
+
+double JuelicherHessianTerms::face_coef(const Topology& t, int f) const {
+  double coef = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double h = cells[t.faces(k, f)].h_per_um;
+    coef -= params.kappa_pNum * (params.h0_per_um * h + 0.5 * h * h) / 3.0;
+  }
+  return coef;
+}
+
+void JuelicherHessianTerms::cell_gradient(const Topology& t, const VertexStars& stars, int v,
+                                          double* u) const {
+  std::fill(u, u + 3 * stars.size(v), 0.0);
+  const int e0 = t.vertex_edges.offsets[v], f0 = t.vertex_faces.offsets[v];
+  for (int k = 0; k < t.vertex_edges.size(v); ++k) {
+    const int e = t.vertex_edges.items[e0 + k];
+    for (int q = 0; q < 4; ++q)
+      Eigen::Map<Eigen::Vector3d>(u + 3 * stars.hinge_slots[4 * (e0 + k) + q]) +=
+          0.5 * dq[e].col(q);
+  }
+  const double c = -(params.h0_per_um + cells[v].h_per_um) / 3.0;
+  for (int k = 0; k < t.vertex_faces.size(v); ++k) {
+    const int f = t.vertex_faces.items[f0 + k];
+    for (int q = 0; q < 3; ++q)
+      Eigen::Map<Eigen::Vector3d>(u + 3 * stars.face_slots[3 * (f0 + k) + q]) += c * da[f].col(q);
+  }
+}
+
+JuelicherHessianTerms juelicher_hessian_terms(const Positions& x, const Topology& t,
+                                              const BendingParameters& p) {
+  const int ne = t.num_edges(), nf = t.num_faces();
+  JuelicherHessianTerms r;
+  r.params = p;
+  std::vector<double> lt(ne), af(nf);
+  r.dq.resize(ne);
+  r.da.resize(nf);
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < ne; ++e) lt[e] = hinge_length_angle(x, t, e, &r.dq[e]);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f)
+    af[f] =
+        triangle_area(x.col(t.faces(0, f)), x.col(t.faces(1, f)), x.col(t.faces(2, f)), &r.da[f]);
+  r.cells = juelicher_cells(t, p, lt, af);
+  return r;
+}
+
+void add_juelicher_hessian(const Positions& x, const Topology& t, const BendingParameters& p,
+                           BlockMatrix& h) {
+  const int nv = t.num_vertices, ne = t.num_edges(), nf = t.num_faces();
+  const JuelicherHessianTerms terms = juelicher_hessian_terms(x, t, p);
+  std::vector<Matrix12d> hq(ne);
+  std::vector<Matrix9d> ha(nf);
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < ne; ++e) {
+    hinge_length_angle_hessian(x.col(t.edges(0, e)), x.col(t.edges(1, e)),
+                               x.col(t.edge_opposite(0, e)), x.col(t.edge_opposite(1, e)), nullptr,
+                               &hq[e]);
+    hq[e] *= terms.hinge_coef(t, e);
+  }
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f) {
+    triangle_area_hessian(x.col(t.faces(0, f)), x.col(t.faces(1, f)), x.col(t.faces(2, f)), nullptr,
+                          &ha[f]);
+    ha[f] *= terms.face_coef(t, f);
+  }
+  for (int e = 0; e < ne; ++e) {
+    const int verts[4] = {t.edges(0, e), t.edges(1, e), t.edge_opposite(0, e),
+                          t.edge_opposite(1, e)};
+    h.add_local<4>(verts, hq[e]);
+  }
+  for (int f = 0; f < nf; ++f) {
+    const int verts[3] = {t.faces(0, f), t.faces(1, f), t.faces(2, f)};
+    h.add_local<3>(verts, ha[f]);
+  }
+  // Rank-one cell terms (kappa/A_v) u_v u_v^T over the closed star of v.
+  const VertexStars stars = make_vertex_stars(t);
+  std::vector<int> star;
+  Eigen::VectorXd u;
+  for (int v = 0; v < nv; ++v) {
+    star.assign(stars.begin(v), stars.begin(v) + stars.size(v));
+    u.resize(3 * static_cast<Eigen::Index>(star.size()));
+    terms.cell_gradient(t, stars, v, u.data());
+    h.add_outer(star, u, terms.cell_weight(v));
+  }
 }
 
 double dihedral_hinge_energy(const Positions& x, const Topology& topo, double kb, double theta0,

@@ -3,6 +3,10 @@
 // H = C1 + C2 (MODEL.md section 2; paper eq. (7)), discretised on the network.
 #include <string>
 
+#include <Eigen/Core>
+#include <vector>
+
+#include "core/block_pattern.hpp"
 #include "core/mesh.hpp"
 
 namespace rbc {
@@ -43,19 +47,80 @@ double dihedral_stiffness_pNum(double kappa_pNum, DihedralMapping mapping);
 double juelicher_bending_energy(const Positions& x, const Topology& topo,
                                 const BendingParameters& params, Positions* grad = nullptr);
 
-/// Juelicher energy of one vertex cell from its sums over the cell's edges and faces:
-/// M = sum_lt/2 (um), A = sum_area/3 (um^2), E = (kappa/2)(M - H0 A)^2/A   [pN um].
-inline double juelicher_cell_energy(const BendingParameters& p, double sum_lt_um,
+/// One Juelicher vertex cell, formed from its sums over the cell's edges and faces; the one
+/// place the per-vertex bending quantities are defined (energy, gradient, Hessian and the
+/// Monte Carlo local updates all use it).
+struct JuelicherCell {
+  double m_um = 0;         ///< M = sum_lt/2, integrated H = C1 + C2 over the cell (um)
+  double a_um2 = 0;        ///< A = sum_area/3, barycentric cell area (um^2)
+  double h_per_um = 0;     ///< h = (M - H0 A)/A, the cell's H - H0 (1/um)
+  double energy_pNum = 0;  ///< (kappa/2)(M - H0 A)^2/A = (kappa/2) h^2 A (pN um)
+};
+inline JuelicherCell juelicher_cell(const BendingParameters& p, double sum_lt_um,
                                     double sum_area_um2) {
-  const double m = 0.5 * sum_lt_um, a = sum_area_um2 / 3.0;
-  const double h = (m - p.h0_per_um * a) / a;  // the cell's H - H0 (1/um)
-  return 0.5 * p.kappa_pNum * h * h * a;
+  JuelicherCell c;
+  c.m_um = 0.5 * sum_lt_um;
+  c.a_um2 = sum_area_um2 / 3.0;
+  c.h_per_um = (c.m_um - p.h0_per_um * c.a_um2) / c.a_um2;
+  c.energy_pNum = 0.5 * p.kappa_pNum * c.h_per_um * c.h_per_um * c.a_um2;
+  return c;
 }
 
-/// Juelicher energy of one vertex cell, (kappa/2)(M_v - H0 A_v)^2/A_v, from scratch
-/// (for local Monte Carlo updates; the sum over v equals juelicher_bending_energy).
-double juelicher_vertex_energy(const Positions& x, const Topology& topo,
-                               const BendingParameters& params, int v);
+/// Juelicher energy of one vertex cell, E = (kappa/2)(M - H0 A)^2/A (pN um), from the sums
+/// sum_lt (um) over the cell's edges and sum_area (um^2) over its faces.
+inline double juelicher_cell_energy(const BendingParameters& p, double sum_lt_um,
+                                    double sum_area_um2) {
+  return juelicher_cell(p, sum_lt_um, sum_area_um2).energy_pNum;
+}
+
+/// Every vertex cell from per-edge L_e theta_e (lt, um, E entries) and per-face areas (af,
+/// um^2, F entries), summed over topo.vertex_edges / vertex_faces in their order.
+std::vector<JuelicherCell> juelicher_cells(const Topology& topo, const BendingParameters& params,
+                                           const std::vector<double>& lt,
+                                           const std::vector<double>& af);
+
+/// The closed star of every vertex (the reach of one Juelicher cell): vertex v, then its
+/// neighbours in topo.vertex_neighbours order, with the local slot of every vertex of each
+/// incident hinge and face. Built once per mesh.
+struct VertexStars {
+  std::vector<int> offsets;   ///< star of v: vertices[offsets[v] .. offsets[v + 1])
+  std::vector<int> vertices;  ///< v first
+  /// Per (v, k-th edge of topo.vertex_edges(v)), at 4 (vertex_edges.offsets[v] + k): the
+  /// slots of the hinge's a, b, opposite0, opposite1 in the star.
+  std::vector<int> hinge_slots;
+  /// Per (v, k-th face of topo.vertex_faces(v)), at 3 (vertex_faces.offsets[v] + k).
+  std::vector<int> face_slots;
+  int size(int v) const { return offsets[v + 1] - offsets[v]; }
+  const int* begin(int v) const { return vertices.data() + offsets[v]; }
+};
+VertexStars make_vertex_stars(const Topology& topo);
+
+/// The Juelicher Hessian as a sum of element terms (g = (M - H0 A)^2/A has g_MM g_AA =
+/// g_MA^2, so each cell's (M, A) form is rank one):
+///   d2E = sum_v (kappa/A_v) u_v u_v^T + sum_e c_e d2q_e + sum_f beta_f d2A_f,
+///   u_v = dM_v - (H0 + h_v) dA_v (cell_gradient),  c_e = (kappa/2)(h_a + h_b),
+///   beta_f = -(kappa/3) sum_{k in f} (H0 h_k + h_k^2/2)                        [pN/um]
+/// (q_e = L_e theta_e, d2q_e by element_hessian.hpp, d2A_f its triangle_area_hessian). The
+/// Newton preconditioner keeps the semidefinite cell terms and folds beta_f into its face
+/// elements; juelicher_hessian adds all three exactly.
+struct JuelicherHessianTerms {
+  BendingParameters params;
+  std::vector<JuelicherCell> cells;             ///< per vertex
+  std::vector<Eigen::Matrix<double, 3, 4>> dq;  ///< per edge: d(L theta) (a, b, c, d)
+  std::vector<Eigen::Matrix3d> da;              ///< per face: dA_f (columns a, b, c; um)
+  double cell_weight(int v) const { return params.kappa_pNum / cells[v].a_um2; }  ///< pN/um^3
+  double hinge_coef(const Topology& topo, int e) const;                           ///< c_e (pN)
+  double face_coef(const Topology& topo, int f) const;  ///< beta_f (pN/um)
+  /// u_v (3 x stars.size(v) entries, star order; um and dimensionless parts as dM, dA/um).
+  void cell_gradient(const Topology& topo, const VertexStars& stars, int v, double* u) const;
+};
+JuelicherHessianTerms juelicher_hessian_terms(const Positions& x, const Topology& topo,
+                                              const BendingParameters& params);
+
+/// Adds the exact Juelicher Hessian (pN/um) at x into h; h's pattern must hold every pair
+/// within a closed vertex star (continuum/block_hessian.hpp).
+void add_juelicher_hessian(const Positions& x, const Topology& topo,
+                           const BendingParameters& params, BlockMatrix& h);
 
 /// One Kantor-Nelson hinge, k_b (1 - cos(theta_e - theta0)) [pN um], theta_e the exterior
 /// dihedral angle at edge e (0 when flat); its gradient (pN, 3 x 4: a, b, opposite0, opposite1)

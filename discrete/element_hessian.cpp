@@ -1,6 +1,7 @@
 #include "discrete/element_hessian.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <cmath>
 #include <unsupported/Eigen/AutoDiff>
 
 namespace rbc {
@@ -40,8 +41,8 @@ T hinge_value_gradient(const Eigen::Matrix<T, 3, 1>& a, const Eigen::Matrix<T, 3
 
 }  // namespace
 
-double hinge_length_angle_second(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
-                                 Eigen::Matrix<double, 3, 4>* grad, HingeMatrix* hess) {
+double hinge_length_angle_hessian(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                                  Eigen::Matrix<double, 3, 4>* grad, Matrix12d* hess) {
   using Jet = Eigen::AutoDiffScalar<Eigen::Matrix<double, 12, 1>>;
   using JV = Eigen::Matrix<Jet, 3, 1>;
   const Vec3* p[4] = {&a, &b, &c, &d};
@@ -50,7 +51,7 @@ double hinge_length_angle_second(const Vec3& a, const Vec3& b, const Vec3& c, co
     for (int i = 0; i < 3; ++i) v[k](i) = Jet((*p[k])(i), 12, 3 * k + i);
   Eigen::Matrix<Jet, 3, 4> g;
   const Jet q = hinge_value_gradient<Jet>(v[0], v[1], v[2], v[3], g);
-  HingeMatrix h;
+  Matrix12d h;
   for (int k = 0; k < 4; ++k)
     for (int i = 0; i < 3; ++i) {
       h.row(3 * k + i) = g(i, k).derivatives().transpose();
@@ -60,26 +61,42 @@ double hinge_length_angle_second(const Vec3& a, const Vec3& b, const Vec3& c, co
   return q.value();
 }
 
-FaceMatrix face_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 n = (b - a).cross(c - a);
-  const double len = n.norm();
-  const Vec3 nh = n / len;
-  const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - nh * nh.transpose();
-  const Eigen::Matrix3d j[3] = {cross_matrix(c - b), cross_matrix(a - c), cross_matrix(b - a)};
-  const Eigen::Matrix3d nx = 0.5 * cross_matrix(nh);
-  FaceMatrix h;
-  for (int k = 0; k < 3; ++k)
-    for (int l = 0; l < 3; ++l) {
-      Eigen::Matrix3d blk = j[k].transpose() * p * j[l] / (2.0 * len);
-      if (l == (k + 1) % 3) blk -= nx;
-      if (k == (l + 1) % 3) blk += nx;
-      h.block<3, 3>(3 * k, 3 * l) = blk;
-    }
-  return h;
+double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector9d* grad,
+                             Matrix9d* hess) {
+  const Vec3 e1 = b - a, e2 = c - a;
+  const double g11 = e1.squaredNorm(), g12 = e1.dot(e2), g22 = e2.squaredNorm();
+  const double det = g11 * g22 - g12 * g12;
+  const double sq = std::sqrt(det);
+  // Derivatives in edge variables (e1, e2), then mapped by e1 = b - a, e2 = c - a.
+  Eigen::Matrix<double, 6, 1> dD;
+  dD.segment<3>(0) = 2.0 * g22 * e1 - 2.0 * g12 * e2;
+  dD.segment<3>(3) = 2.0 * g11 * e2 - 2.0 * g12 * e1;
+  const Eigen::Matrix<double, 6, 1> dA = dD / (4.0 * sq);
+  if (grad) {
+    grad->segment<3>(0) = -dA.segment<3>(0) - dA.segment<3>(3);
+    grad->segment<3>(3) = dA.segment<3>(0);
+    grad->segment<3>(6) = dA.segment<3>(3);
+  }
+  if (hess) {
+    const Eigen::Matrix3d id = Eigen::Matrix3d::Identity();
+    Eigen::Matrix<double, 6, 6> d2D;
+    d2D.block<3, 3>(0, 0) = 2.0 * g22 * id - 2.0 * e2 * e2.transpose();
+    d2D.block<3, 3>(3, 3) = 2.0 * g11 * id - 2.0 * e1 * e1.transpose();
+    d2D.block<3, 3>(0, 3) = 4.0 * e1 * e2.transpose() - 2.0 * e2 * e1.transpose() - 2.0 * g12 * id;
+    d2D.block<3, 3>(3, 0) = d2D.block<3, 3>(0, 3).transpose();
+    const Eigen::Matrix<double, 6, 6> h = d2D / (4.0 * sq) - dD * dD.transpose() / (8.0 * sq * det);
+    Eigen::Matrix<double, 6, 9> map = Eigen::Matrix<double, 6, 9>::Zero();
+    map.block<3, 3>(0, 0) = -id;
+    map.block<3, 3>(0, 3) = id;
+    map.block<3, 3>(3, 0) = -id;
+    map.block<3, 3>(3, 6) = id;
+    *hess = map.transpose() * h * map;
+  }
+  return 0.5 * sq;
 }
 
-FaceMatrix face_volume_hessian(const Vec3& a, const Vec3& b, const Vec3& c) {
-  FaceMatrix h = FaceMatrix::Zero();
+Matrix9d tetra_volume_hessian(const Vec3& a, const Vec3& b, const Vec3& c) {
+  Matrix9d h = Matrix9d::Zero();
   h.block<3, 3>(0, 3) = -cross_matrix(c) / 6.0;
   h.block<3, 3>(3, 6) = -cross_matrix(a) / 6.0;
   h.block<3, 3>(6, 0) = -cross_matrix(b) / 6.0;

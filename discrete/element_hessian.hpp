@@ -1,37 +1,44 @@
 #pragma once
-// Second derivatives of the per-face geometric measures that the network's Newton-type
-// Hessian (discrete/network_hessian.hpp) needs; the values and gradients are the
-// core/geometry.hpp kernels. Vertex-major layout: entries 3k..3k+2 belong to vertex k of
-// the face (a, b, c).
+// Second derivatives of the per-element geometric measures (triangle area, tetrahedron
+// volume, hinge length x angle) that every Newton-type Hessian of the project uses: the
+// discrete network preconditioner (discrete/network_hessian.hpp), the Juelicher bending
+// Hessian (discrete/bending_energy.hpp) and the continuum elements and constraints
+// (continuum/). The values and first derivatives are the core/geometry.hpp kernels except
+// where stated. Vertex-major layout: entries 3k..3k+2 belong to vertex k of the element.
 #include <Eigen/Core>
 
 #include "core/geometry.hpp"
 
 namespace rbc {
 
-using FaceMatrix = Eigen::Matrix<double, 9, 9>;
+using Matrix9d = Eigen::Matrix<double, 9, 9>;
+using Vector9d = Eigen::Matrix<double, 9, 1>;
+using Matrix12d = Eigen::Matrix<double, 12, 12>;
 
-/// Hessian (9 x 9, dimensionless) of the triangle area A = |n|/2, n = a x b + b x c + c x a:
-/// with the Jacobians dn/dx_k = [e_k]_x (e_k the edge opposite vertex k: e_a = c - b,
-/// e_b = a - c, e_c = b - a), nh = n/|n| and the projector P = I - nh nh^T,
-///   d2A/dx_k dx_l = (1/(2|n|)) [e_k]_x^T P [e_l]_x + (1/2) s_kl [nh]_x,
-/// s_kl = -1 for the cyclic pairs (a,b), (b,c), (c,a), +1 for (b,a), (c,b), (a,c), 0 on the
-/// diagonal (the bilinear part of n). The triangle must be non-degenerate.
-FaceMatrix face_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c);
+/// Triangle area A = sqrt(D)/2 with D = |e1|^2 |e2|^2 - (e1.e2)^2 = |e1 x e2|^2, e1 = b - a,
+/// e2 = c - a (um^2). Gradient (9, um) and Hessian (9 x 9, dimensionless) when requested:
+///   dA = dD/(4 sqrt D),  d2A = d2D/(4 sqrt D) - dD dD^T/(8 D^(3/2)),
+///   d2D/de1^2 = 2|e2|^2 I - 2 e2 e2^T,  d2D/de2^2 = 2|e1|^2 I - 2 e1 e1^T,
+///   dD/de1 = 2|e2|^2 e1 - 2(e1.e2) e2,  d2D/de1de2 = 4 e1 e2^T - 2 e2 e1^T - 2 (e1.e2) I.
+/// The triangle must be non-degenerate (D > 0).
+double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector9d* grad,
+                             Matrix9d* hess);
 
-/// Hessian (9 x 9, um) of the signed tetrahedron volume V = a.(b x c)/6 (core/geometry.hpp):
-/// d2V/da db = -[c]_x/6, d2V/db dc = -[a]_x/6, d2V/dc da = -[b]_x/6, transposes below the
-/// diagonal, zero diagonal blocks; [v]_x is the cross-product matrix ([v]_x w = v x w).
-FaceMatrix face_volume_hessian(const Vec3& a, const Vec3& b, const Vec3& c);
+/// Hessian (9 x 9, um) of the signed tetrahedron volume V = a.(b x c)/6 (core/geometry.hpp
+/// tetra_volume): d2V/da db = -[c]_x/6, d2V/db dc = -[a]_x/6, d2V/dc da = -[b]_x/6,
+/// transposes below the diagonal, zero diagonal blocks; [v]_x is the cross-product matrix
+/// ([v]_x w = v x w).
+Matrix9d tetra_volume_hessian(const Vec3& a, const Vec3& b, const Vec3& c);
 
-using HingeMatrix = Eigen::Matrix<double, 12, 12>;
-
-/// Hessian (12 x 12, vertex-major a, b, c, d; 1/um) of one hinge's q = |b - a| theta
-/// (bending_energy.hpp hinge_length_angle; theta core/geometry.hpp's dihedral_angle), by
-/// forward-mode automatic differentiation (Eigen AutoDiff, 12 directions) of the analytic
-/// gradient, so exact to rounding. Writes the gradient (3 x 4) too; returns q (um).
-double hinge_length_angle_second(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
-                                 Eigen::Matrix<double, 3, 4>* grad, HingeMatrix* hess);
+/// q = |b - a| theta(a, b, c, d) (um) of the hinge (a, b) with opposite vertices c (in the
+/// face traversing a -> b) and d; theta is core/geometry.hpp's exterior dihedral angle
+/// (Juelicher 1996's integrated mean curvature per edge). Gradient (3 x 4 columns a, b, c, d;
+/// dimensionless) and Hessian (12 x 12, vertex-major a, b, c, d; 1/um) by forward-mode
+/// automatic differentiation (Eigen AutoDiff, 12 directions) of the analytic gradient, so
+/// exact to rounding. The value and gradient agree with bending_energy.hpp's
+/// hinge_length_angle to rounding.
+double hinge_length_angle_hessian(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                                  Eigen::Matrix<double, 3, 4>* grad, Matrix12d* hess);
 
 /// Replaces the symmetric matrix h by its projection onto the positive semidefinite cone
 /// (negative eigenvalues set to zero), as in projected Newton (Teran et al. 2005).

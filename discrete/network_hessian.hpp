@@ -6,6 +6,8 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
+#include "core/block_pattern.hpp"
+#include "discrete/bending_energy.hpp"
 #include "discrete/element_hessian.hpp"
 #include "discrete/network.hpp"
 
@@ -73,37 +75,29 @@ class NetworkHessian {
   /// As above, with the projection chosen per call (overrides options.project).
   const Eigen::SparseMatrix<double>& assemble(const Positions& x,
                                               const ConstraintCurvature& constraints, bool project);
-  const Eigen::SparseMatrix<double>& matrix() const { return m_; }
+  const Eigen::SparseMatrix<double>& matrix() const { return m_.matrix(); }
 
  private:
   struct Group {              ///< vertices of a rank-one term (a vertex star or a hinge)
     int first = 0, size = 0;  ///< range in group_vertices_
   };
-  int block_code(int i, int j) const;  ///< 2 * block + (stored transposed), -1 if absent
-  void add(int code, const Eigen::Matrix3d& b);
-  void add_diagonal(int vertex, const Eigen::Matrix3d& b);
 
   const Network* net_;
   NetworkHessianOptions opt_;
-  Eigen::SparseMatrix<double> m_;
-  std::vector<int> block_col_offsets_, block_rows_;  ///< lower block pattern, sorted rows
-  std::vector<int> block_start_, block_stride_;      ///< scalar value index of each block
-  std::vector<int> diagonal_block_;                  ///< block id of (v, v)
-  std::vector<int> face_edges_;                      ///< 3 per face: edges (0,1), (1,2), (2,0)
-  std::vector<int> face_codes_;                      ///< 9 per face, local (k, l) row-major
+  BlockMatrix m_;                ///< lower block storage (core/block_pattern.hpp)
+  VertexStars stars_;            ///< Juelicher cells' closed stars
+  std::vector<int> face_edges_;  ///< 3 per face: edges (0,1), (1,2), (2,0)
+  std::vector<int> face_codes_;  ///< 9 per face, local (k, l) row-major
   std::vector<Group> groups_;
   std::vector<int> group_vertices_;
   std::vector<int> group_codes_;  ///< per group, size^2 codes (k, l) row-major
   std::vector<int> group_code_offsets_;
   std::vector<int> hinge_codes_;  ///< 16 per edge (a, b, c, d), when hinge_curvature
-  // Per-vertex star incidence (Juelicher): local slot of each hinge vertex / face vertex.
-  std::vector<int> star_hinge_slots_;  ///< per (v, incident edge): 4 slots
-  std::vector<int> star_face_slots_;   ///< per (v, incident face): 3 slots
   // Work buffers reused across assemblies.
-  std::vector<FaceMatrix> face_k_;
+  std::vector<Matrix9d> face_k_;
   std::vector<double> group_u_;  ///< 3 x group size per group
   std::vector<double> group_w_;
-  std::vector<HingeMatrix> hinge_k_;
+  std::vector<Matrix12d> hinge_k_;
 };
 
 }  // namespace rbc

@@ -31,4 +31,14 @@ StericDensity steric_density(double C, const StericParameters& s, double J) {
   return r;
 }
 
+Matrix9d steric_face_hessian(double C, const StericParameters& s, double abar_um2,
+                             const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                             const Eigen::Vector3d& c) {
+  Vector9d dA;
+  Matrix9d d2A, h;
+  const double area = triangle_area_hessian(a, b, c, &dA, &d2A);
+  steric_face_terms<9>(C, s, abar_um2, area, dA, &d2A, nullptr, &h);
+  return h;
+}
+
 }  // namespace rbc

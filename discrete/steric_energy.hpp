@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/geometry.hpp"
+#include "discrete/element_hessian.hpp"
 #include "discrete/wlc.hpp"
 
 namespace rbc {
@@ -28,10 +29,26 @@ struct StericDensity {
 };
 StericDensity steric_density(double C, const StericParameters& s, double J);
 
+/// The steric face term through its face area, in any coordinates of dimension N (the 9
+/// vertex coordinates of a mesh face, the 4 edge-vector components of a planar periodic
+/// face): given the area A (um^2), its gradient dA (N) and, for the Hessian, d2A (N x N),
+///   E = Abar s(J),  dE = s'(J) dA  [pN],  d2E = s''(J)/Abar dA dA^T + s'(J) d2A  [pN/um],
+/// J = A/Abar. The one home of the steric chain rule: every Hessian of the term uses it.
+template <int N>
+double steric_face_terms(double C, const StericParameters& s, double abar_um2, double area_um2,
+                         const Eigen::Matrix<double, N, 1>& dA,
+                         const Eigen::Matrix<double, N, N>* d2A, Eigen::Matrix<double, N, 1>* grad,
+                         Eigen::Matrix<double, N, N>* hess) {
+  const StericDensity d = steric_density(C, s, area_um2 / abar_um2);
+  if (grad) *grad = d.dv * dA;
+  if (hess) *hess = d.d2v / abar_um2 * dA * dA.transpose() + d.dv * *d2A;
+  return abar_um2 * d.v;
+}
+
 /// One face f = (a, b, c) with rest area Abar_f (um^2):
 ///   E_f = Abar_f s(A_f/Abar_f) = 2 Abar_f C / ((A_f/Abar_f)^q + eta)   [pN um]
 ///   dE/dx = s'(J) dA/dx                                                  [pN]
-/// Columns of grad are dE/da, dE/db, dE/dc.
+/// Columns of grad are dE/da, dE/db, dE/dc (the area gradient of core/geometry.hpp).
 inline double steric_face_energy(double C, const StericParameters& s, double abar_um2,
                                  const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                  const Eigen::Vector3d& c, Eigen::Matrix3d* grad = nullptr) {
@@ -41,5 +58,11 @@ inline double steric_face_energy(double C, const StericParameters& s, double aba
   if (grad) *grad = d.dv * ga;
   return abar_um2 * d.v;
 }
+
+/// Hessian (9 x 9, vertex-major a, b, c; pN/um) of steric_face_energy: steric_face_terms
+/// with the area derivatives of element_hessian.hpp's triangle_area_hessian.
+Matrix9d steric_face_hessian(double C, const StericParameters& s, double abar_um2,
+                             const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                             const Eigen::Vector3d& c);
 
 }  // namespace rbc

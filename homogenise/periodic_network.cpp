@@ -38,8 +38,8 @@ double local_link(const NetworkMaterial& m, const PeriodicEdge& e, const Eigen::
 }
 
 /// Local energy of a face in (e1, e2): the discrete/ steric kernel for value and gradient;
-/// Hessian from the same density, s''(J)/Abar grad A grad A^T + s'(J) hess A, with the planar
-/// A = (e1 x e2)/2, grad A = (e2y, -e2x, -e1y, e1x)/2.
+/// Hessian from the steric term's chain rule (steric_face_terms) with the planar area
+/// A = (e1 x e2)/2, grad A = (e2y, -e2x, -e1y, e1x)/2 and its constant Hessian.
 double local_face(const NetworkMaterial& m, const PeriodicFace& f, const Eigen::Vector2d& e1,
                   const Eigen::Vector2d& e2, Eigen::Matrix<double, 4, 1>& g, Eigen::Matrix4d& h,
                   bool want_hessian) {
@@ -51,12 +51,11 @@ double local_face(const NetworkMaterial& m, const PeriodicFace& f, const Eigen::
                                       Eigen::Vector3d(e2.x(), e2.y(), 0.0), &G);
   g << G(0, 1), G(1, 1), G(0, 2), G(1, 2);
   if (want_hessian) {
-    const StericDensity st = steric_density(m.C_pN_per_um, m.steric, area / f.abar_um2);
     const Eigen::Vector4d ga(0.5 * e2.y(), -0.5 * e2.x(), -0.5 * e1.y(), 0.5 * e1.x());
     Eigen::Matrix4d ha = Eigen::Matrix4d::Zero();
     ha(0, 3) = ha(3, 0) = 0.5;
     ha(1, 2) = ha(2, 1) = -0.5;
-    h = st.d2v / f.abar_um2 * ga * ga.transpose() + st.dv * ha;
+    steric_face_terms<4>(m.C_pN_per_um, m.steric, f.abar_um2, area, ga, &ha, nullptr, &h);
   }
   return E;
 }

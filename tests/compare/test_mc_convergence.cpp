@@ -24,6 +24,11 @@ ConvergencePoint point(ConvergenceKind kind, double wall_s, double error_um, dou
   return p;
 }
 
+/// Sweeps of the tiny quench (N = 150, 50 pN, seed 5). Measured D_A error against the
+/// minimiser's 10.595 um: 1.85 um after 100 sweeps, 0.096 um after 1,100, 0.016 um after
+/// 2,100 (0.15 %), so 2,000 sweeps clear the 1 % oracle with a 6x margin.
+constexpr long long kQuenchSweeps = 2000;
+
 /// Wall time of first_at_accuracy, or -1 when the level is not reached.
 double reached_s(const std::vector<ConvergencePoint>& series, double level_um) {
   const ConvergencePoint* p = first_at_accuracy(series, level_um);
@@ -98,6 +103,9 @@ TEST(McConvergence, InvalidOptionsThrowNamingTheValue) {
   o.mc_budget_s = std::numeric_limits<double>::infinity();
   throws_with(o, "budget");
   o = {};
+  o.mc_sweeps = -1;
+  throws_with(o, "sweep");
+  o = {};
   o.mc_temperature_K = -3;
   throws_with(o, "temperature");
   o = {};
@@ -109,42 +117,47 @@ TEST(McConvergence, InvalidOptionsThrowNamingTheValue) {
 }
 
 TEST(McConvergence, TinyStudyConvergesAndWritesItsFiles) {
-  // One thread: the re-solve at the reference's tolerance then reproduces the reference
-  // exactly (with threads, sums in arrival order scatter D_A by ~1e-4 um between runs).
+  // Fixed work, not wall time: the chain runs a fixed number of seeded sweeps, sampled at
+  // fixed sweep counts, so every assertion below sees the same chain on any machine.
   const testing::OneOpenMpThread one_thread;
   McConvergenceOptions o;
   o.vertices = 150;
   o.force_pN = 50;
-  o.mc_budget_s = 1.5;
+  o.mc_sweeps = kQuenchSweeps;
+  o.sample_every_sweeps = kQuenchSweeps / 40;
+  o.seed = 5;
   // Tolerances a factor 30-100 apart: closer ones are not ordered in D_A, because where L-BFGS
   // stops inside a tolerance scatters D_A (measured at N = 162, 50 pN: 2.3e-3 um at 1e-1 pN,
   // 2.7e-6 um at 3e-2 pN, 6.4e-4 um at 1e-2 pN), while 3 pN leaves it 5e-2 um off.
-  o.force_tolerances_pN = {3.0, 1e-1, 1e-3};
+  o.force_tolerances_pN = {3.0, 1e-1, 1e-2};
   const McConvergenceResult r = run_mc_convergence(o, {});
   ASSERT_TRUE(r.reference.converged);
   ASSERT_GT(r.reference.axial_um, 0);
-  EXPECT_GE(r.mc_wall_s, o.mc_budget_s);
 
   // Minimiser: the error shrinks (non-strictly) as the tolerance tightens, and the tightest
-  // tolerance is within 1 % of D_A.
+  // (ten times looser than the reference's 1e-3 pN) is within the L-BFGS scatter measured
+  // above (6.4e-4 um at 1e-2 pN; bound 1e-2 um, 0.1 % of D_A).
   ASSERT_EQ(r.minimiser.size(), o.force_tolerances_pN.size());
   for (size_t k = 1; k < r.minimiser.size(); ++k)
     EXPECT_LE(r.minimiser[k].axial_error_um, r.minimiser[k - 1].axial_error_um)
         << "tolerance " << r.minimiser[k].force_tolerance_pN;
-  EXPECT_LT(r.minimiser.back().axial_error_um, 0.01 * r.reference.axial_um);
-  EXPECT_EQ(r.minimiser.back().axial_error_um, 0.0);  // same solve as the reference
+  EXPECT_LT(r.minimiser.back().axial_error_um, 1e-2);
 
-  // Monte Carlo: a log-spaced series in time order that makes progress.
-  ASSERT_GE(r.mc.size(), 20u);
-  for (size_t k = 1; k < r.mc.size(); ++k) {
-    EXPECT_GT(r.mc[k].wall_s, r.mc[k - 1].wall_s);
-    EXPECT_GT(r.mc[k].sweeps, r.mc[k - 1].sweeps);
-  }
-  EXPECT_LT(r.mc.back().axial_error_um, r.mc.front().axial_error_um);
-  for (const auto& p : r.mc) EXPECT_TRUE(std::isfinite(p.axial_error_um));
+  // Monte Carlo: exactly the requested samples, in sweep order; and the oracle is the other
+  // method: a zero-temperature quench with the reference's multipliers descends to the same
+  // minimum, so after the fixed work its D_A agrees with the minimiser's to 1 % (measured:
+  // see kQuenchSweeps) and is far closer than after the first sample.
+  ASSERT_EQ(r.mc.size(), 40u);
+  for (size_t k = 1; k < r.mc.size(); ++k) EXPECT_GT(r.mc[k].sweeps, r.mc[k - 1].sweeps);
+  EXPECT_EQ(r.mc.back().sweeps, kQuenchSweeps);
+  EXPECT_LT(r.mc.back().axial_error_um, 0.01 * r.reference.axial_um);
+  EXPECT_LT(r.mc.back().axial_error_um, 0.2 * r.mc.front().axial_error_um);
   ASSERT_EQ(r.time_to_accuracy.size(), o.relative_accuracies.size());
-  // The minimiser reaches the 1 % level (its tightest solve is within 1 %).
+  // Both methods reach the 10 % and 1 % levels.
+  EXPECT_TRUE(r.time_to_accuracy[0].minimiser_s.has_value());
+  EXPECT_TRUE(r.time_to_accuracy[0].mc_s.has_value());
   EXPECT_TRUE(r.time_to_accuracy[2].minimiser_s.has_value());
+  EXPECT_TRUE(r.time_to_accuracy[2].mc_s.has_value());
 
   const std::string dir = std::string(RBC_BINARY_DIR) + "/test_output/mc_convergence";
   fs::remove_all(dir);

@@ -5,10 +5,10 @@
 #include <Eigen/Geometry>
 #include <random>
 
-#include "continuum/geometry_hessian.hpp"
-#include "continuum/helfrich_hessian.hpp"
-#include "continuum/hinge_hessian.hpp"
+#include "continuum/block_hessian.hpp"
 #include "continuum/membrane_element.hpp"
+#include "discrete/bending_energy.hpp"
+#include "discrete/element_hessian.hpp"
 #include "fixtures.hpp"
 #include "hessian_check.hpp"
 #include "p2_law.hpp"

@@ -62,7 +62,8 @@ TEST(ElementHessian, TriangleAreaMatchesFiniteDifferences) {
     triangle_area(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), &g);
     return Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(g.data(), 9));
   };
-  const FaceMatrix h = face_area_hessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6));
+  Matrix9d h;
+  triangle_area_hessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), nullptr, &h);
   EXPECT_LT((h - h.transpose()).norm(), 1e-14 * h.norm());
   const Eigen::VectorXd d = random_unit(9, 4);
   expect_second_order(hessian_fd_errors(grad, x, h * d, d, 1e-2), 1e-4, "area Hessian");
@@ -81,7 +82,7 @@ TEST(ElementHessian, TetraVolumeMatchesFiniteDifferences) {
     tetra_volume(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), &g);
     return Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(g.data(), 9));
   };
-  const FaceMatrix h = face_volume_hessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6));
+  const Matrix9d h = tetra_volume_hessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6));
   const Eigen::VectorXd d = random_unit(9, 6);
   // V is cubic: the central difference of its (quadratic) gradient is exact up to round-off.
   const auto e = hessian_fd_errors(grad, x, h * d, d, 1e-2);
@@ -106,9 +107,9 @@ TEST(ElementHessian, HingeLengthAngleMatchesFiniteDifferences) {
     return Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(g.data(), 12));
   };
   Eigen::Matrix<double, 3, 4> g;
-  HingeMatrix h;
-  hinge_length_angle_second(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9), &g,
-                            &h);
+  Matrix12d h;
+  hinge_length_angle_hessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9), &g,
+                             &h);
   EXPECT_LT((Eigen::Map<Eigen::VectorXd>(g.data(), 12) - grad(x)).norm(), 1e-13);
   const Eigen::VectorXd d = random_unit(12, 8);
   expect_second_order(hessian_fd_errors(grad, x, h * d, d, 1e-2), 1e-4, "hinge Hessian");
