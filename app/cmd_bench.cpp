@@ -2,16 +2,22 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <algorithm>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <vector>
 
+#include <chrono>
+
 #include "app/commands.hpp"
+#include "continuum/continuum_stretch.hpp"
 #include "core/rest_shape.hpp"
 #include "discrete/mc_sampler.hpp"
 #include "discrete/network.hpp"
 #include "discrete/stretch.hpp"
+#include "homogenise/invariant_laws.hpp"
 
 namespace rbc::app {
 namespace {
@@ -53,6 +59,204 @@ void BM_DiscreteStretch88(benchmark::State& state) {
     state.counters["axial_um"] = p.axial_um;
   }
   state.counters["vertices"] = net.topo.num_vertices;
+}
+
+/// The 13 Mills et al. (2004) forces (pN), the CLI's default list.
+const std::vector<double> kMillsForces{0,    16,    19.5, 30.6, 38,    46.6, 67.6,
+                                       87.6, 108.8, 130,  151,  172.8, 193};
+
+double seconds_of(const std::function<void()>& run) {
+  const auto t0 = std::chrono::steady_clock::now();
+  run();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Wall time (s) of one energy + gradient evaluation, the median of 7 batches: the unit in
+/// which every sweep row is also reported (a machine-independent measure of solver work).
+double evaluation_seconds(const std::function<void()>& eval) {
+  std::vector<double> t;
+  for (int b = 0; b < 7; ++b) {
+    int reps = 0;
+    const double s = seconds_of([&] {
+      const auto t0 = std::chrono::steady_clock::now();
+      do {
+        eval();
+        ++reps;
+      } while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(20));
+    });
+    t.push_back(s / reps);
+  }
+  std::sort(t.begin(), t.end());
+  return t[3];
+}
+
+const ContinuumModel& cached_continuum(int elements, double persistence_factor = 1.0) {
+  static std::map<std::pair<int, double>, ContinuumModel> cache;
+  const auto key = std::make_pair(elements, persistence_factor);
+  auto it = cache.find(key);
+  if (it == cache.end()) {
+    WlcParameters w;
+    w.persistence_um *= persistence_factor;
+    const IsotropicMembraneLaw law = make_membrane_law(w, StericParameters{}, WlcExpansion::order2);
+    it = cache.emplace(key, build_continuum_model(make_continuum_mesh(elements), law, {})).first;
+  }
+  return it->second;
+}
+
+const Network& cached_network_p(int n, double persistence_factor) {
+  static std::map<std::pair<int, double>, Network> cache;
+  const auto key = std::make_pair(n, persistence_factor);
+  auto it = cache.find(key);
+  if (it == cache.end()) {
+    RestShapeOptions ro;
+    ro.target_vertices = n;
+    NetworkParameters p;
+    p.wlc.persistence_um *= persistence_factor;
+    it = cache.emplace(key, build_network(make_rest_shape(ro), p)).first;
+  }
+  return it->second;
+}
+
+void set_sweep_counters(benchmark::State& state, double seconds, double eval_s, int iterations,
+                        bool converged, int vertices) {
+  state.counters["seconds"] = seconds;
+  state.counters["eg_evals"] = seconds / eval_s;  // time in energy+gradient evaluations
+  state.counters["iterations"] = iterations;
+  state.counters["converged"] = converged;
+  state.counters["vertices"] = vertices;
+}
+
+double continuum_eval_seconds(const ContinuumModel& m) {
+  Positions g;
+  return evaluation_seconds(
+      [&] { benchmark::DoNotOptimize(continuum_energy(m, m.rest, 88.0, &g)); });
+}
+
+double network_eval_seconds(const Network& net) {
+  Positions g;
+  LoadState load;
+  load.force_pN = 88.0;
+  return evaluation_seconds(
+      [&] { benchmark::DoNotOptimize(network_energy(net, net.rest, load, &g)); });
+}
+
+/// Issue 11 rows: continuum p = 2 over forces from rest (continuation), range(0) elements,
+/// range(1) = number of leading Mills forces (13 = all; 8 = 0..87.6 pN is not the issue's
+/// 8-force list, which is {0,16,38,67.6,87.6,130,172.8,193}: range(1) = 0 selects that).
+void BM_ContinuumSweep(benchmark::State& state) {
+  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  std::vector<double> forces = kMillsForces;
+  if (state.range(1) == 0) forces = {0, 16, 38, 67.6, 87.6, 130, 172.8, 193};
+  const double eval_s = continuum_eval_seconds(m);
+  for (auto _ : state) {
+    std::vector<ContinuumStretchPoint> pts;
+    const double s =
+        seconds_of([&] { pts = run_continuum_stretch(m, forces, ContinuumOptions{}); });
+    int it = 0;
+    bool ok = true;
+    for (const auto& p : pts) it += p.iterations, ok = ok && p.converged;
+    set_sweep_counters(state, s, eval_s, it, ok, static_cast<int>(m.rest.cols()));
+  }
+}
+
+/// Continuum 88 pN from the 0 pN equilibrium (range(0) elements).
+void BM_Continuum88From0(benchmark::State& state) {
+  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  const auto rest = run_continuum_stretch(m, {0.0}, ContinuumOptions{});
+  const double eval_s = continuum_eval_seconds(m);
+  for (auto _ : state) {
+    std::vector<ContinuumStretchPoint> pts;
+    const double s = seconds_of([&] {
+      pts = run_continuum_stretch(m, {88.0}, ContinuumOptions{}, {},
+                                  StretchState{{88.0}, {rest[0].x}, {rest[0].multipliers}});
+    });
+    set_sweep_counters(state, s, eval_s, pts[0].iterations, pts[0].converged,
+                       static_cast<int>(m.rest.cols()));
+  }
+}
+
+/// Warm re-solve of the 13 forces after a 1 % persistence-length change, from the previous
+/// parameters' equilibria; `cold_ratio` is its time over the cold 13-force sweep's.
+void BM_ContinuumWarm(benchmark::State& state) {
+  const int e = static_cast<int>(state.range(0));
+  const ContinuumModel& m0 = cached_continuum(e, 1.0);
+  const ContinuumModel& m1 = cached_continuum(e, 1.01);
+  const StretchState before = stretch_state(run_continuum_stretch(m0, kMillsForces, {}));
+  const double eval_s = continuum_eval_seconds(m1);
+  const double cold_s = seconds_of([&] { run_continuum_stretch(m1, kMillsForces, {}); });
+  for (auto _ : state) {
+    std::vector<ContinuumStretchPoint> pts;
+    const double s =
+        seconds_of([&] { pts = run_continuum_stretch(m1, kMillsForces, {}, {}, before); });
+    int it = 0;
+    bool ok = true;
+    for (const auto& p : pts) it += p.iterations, ok = ok && p.converged;
+    set_sweep_counters(state, s, eval_s, it, ok, static_cast<int>(m1.rest.cols()));
+    state.counters["cold_ratio"] = s / cold_s;
+  }
+}
+
+/// Discrete 13-force sweep from rest (range(0) vertices).
+void BM_DiscreteSweep(benchmark::State& state) {
+  const Network& net = cached_network_p(static_cast<int>(state.range(0)), 1.0);
+  const double eval_s = network_eval_seconds(net);
+  StretchOptions so;
+  if (state.range(1) >= 0) so.precondition_min_vertices = static_cast<int>(state.range(1));
+  for (auto _ : state) {
+    std::vector<StretchPoint> pts;
+    const double s = seconds_of([&] { pts = run_stretch(net, kMillsForces, so); });
+    int it = 0;
+    bool ok = true;
+    for (const auto& p : pts) it += p.iterations, ok = ok && p.converged;
+    set_sweep_counters(state, s, eval_s, it, ok, net.topo.num_vertices);
+  }
+}
+
+/// Discrete 88 pN from the 0 pN equilibrium (range(0) vertices).
+void BM_Discrete88From0(benchmark::State& state) {
+  const Network& net = cached_network_p(static_cast<int>(state.range(0)), 1.0);
+  const auto rest = run_stretch(net, {0.0}, StretchOptions{});
+  const double eval_s = network_eval_seconds(net);
+  for (auto _ : state) {
+    std::vector<StretchPoint> pts;
+    const double s = seconds_of([&] {
+      pts = run_stretch(net, {88.0}, StretchOptions{}, {},
+                        StretchState{{88.0}, {rest[0].x}, {rest[0].multipliers}});
+    });
+    set_sweep_counters(state, s, eval_s, pts[0].iterations, pts[0].converged,
+                       net.topo.num_vertices);
+  }
+}
+
+/// Discrete warm re-solve of the 13 forces after a 1 % persistence-length change.
+void BM_DiscreteWarm(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const Network& n0 = cached_network_p(n, 1.0);
+  const Network& n1 = cached_network_p(n, 1.01);
+  const StretchState before = stretch_state(run_stretch(n0, kMillsForces, StretchOptions{}));
+  const double eval_s = network_eval_seconds(n1);
+  const double cold_s = seconds_of([&] { run_stretch(n1, kMillsForces, StretchOptions{}); });
+  for (auto _ : state) {
+    std::vector<StretchPoint> pts;
+    const double s =
+        seconds_of([&] { pts = run_stretch(n1, kMillsForces, StretchOptions{}, {}, before); });
+    int it = 0;
+    bool ok = true;
+    for (const auto& p : pts) it += p.iterations, ok = ok && p.converged;
+    set_sweep_counters(state, s, eval_s, it, ok, n1.topo.num_vertices);
+    state.counters["cold_ratio"] = s / cold_s;
+  }
+}
+
+/// Continuum energy + gradient per vertex.
+void BM_ContinuumEnergyGradient(benchmark::State& state) {
+  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  Positions g;
+  for (auto _ : state) benchmark::DoNotOptimize(continuum_energy(m, m.rest, 88.0, &g));
+  state.counters["vertices"] = static_cast<double>(m.rest.cols());
+  state.counters["ns_per_vertex"] = benchmark::Counter(
+      static_cast<double>(m.rest.cols()) * static_cast<double>(state.iterations()),
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 /// Metropolis sweeps at 300 K, zero force, from the rest shape, on state.range(1) OpenMP threads.
@@ -126,7 +330,9 @@ void add_bench_command(CLI::App& app, Action& action) {
       "bench",
       "Benchmarks: `rbc bench stretch` (discrete energy+gradient and time to equilibrium "
       "at 88 pN for N = 500, 2000, 8000, 27500), `rbc bench mc` (Monte Carlo vertex moves/s "
-      "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up); extra arguments go "
+      "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up), `rbc bench sweep` "
+      "(issue 11's rows: force sweeps, warm re-solves, each also in energy+gradient "
+      "evaluations); extra arguments go "
       "to Google Benchmark");
   cmd->allow_extras();
   cmd->prefix_command();
@@ -148,6 +354,36 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Arg(27500)
             ->Unit(benchmark::kSecond)
             ->Iterations(1);
+      } else if (suite == "sweep") {
+        // The rows of issue 11's table, one benchmark per row (note_speed.md).
+        const auto once = [](benchmark::internal::Benchmark* b) {
+          return b->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+        };
+        once(benchmark::RegisterBenchmark("continuum/sweep13_from_rest", BM_ContinuumSweep)
+                 ->Args({1000, 13}));
+        once(benchmark::RegisterBenchmark("continuum/88pN_from_0pN", BM_Continuum88From0)
+                 ->Arg(9680));
+        once(benchmark::RegisterBenchmark("continuum/sweep8_from_rest", BM_ContinuumSweep)
+                 ->Args({5120, 0}));
+        once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc", BM_ContinuumWarm)
+                 ->Arg(1000));
+        // range(1): preconditioner threshold (-1: the default; 0: always; huge: never).
+        once(benchmark::RegisterBenchmark("discrete/sweep13_from_rest", BM_DiscreteSweep)
+                 ->Args({250, -1})
+                 ->Args({250, 0})
+                 ->Args({250, 1 << 30}));
+        once(benchmark::RegisterBenchmark("discrete/warm13_persistence_1pc", BM_DiscreteWarm)
+                 ->Arg(250));
+        once(
+            benchmark::RegisterBenchmark("discrete/88pN_from_0pN", BM_Discrete88From0)->Arg(27500));
+        benchmark::RegisterBenchmark("continuum/energy_gradient", BM_ContinuumEnergyGradient)
+            ->Arg(1000)
+            ->Arg(9680)
+            ->Unit(benchmark::kMicrosecond);
+        benchmark::RegisterBenchmark("discrete/energy_gradient", BM_DiscreteEnergyGradient)
+            ->Arg(250)
+            ->Arg(27500)
+            ->Unit(benchmark::kMicrosecond);
       } else if (suite == "mc") {
         benchmark::RegisterBenchmark("mc/sweep", BM_McSweep)
             ->ArgNames({"N", "threads"})
@@ -157,7 +393,7 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->MinTime(2.0);
       } else {
         throw std::invalid_argument("unknown benchmark suite '" + suite +
-                                    "' (expected stretch or mc)");
+                                    "' (expected stretch, sweep or mc)");
       }
       std::vector<char*> argv{const_cast<char*>("rbc-bench")};
       std::vector<std::string> rest(args->begin() + (args->empty() ? 0 : 1), args->end());

@@ -35,7 +35,8 @@ struct StretchCli {
   double lbar_nm = 75.0, lmax_nm = 237.75, persistence_nm = 7.5, temperature_K = 300.0;
   double kappa_J = 2e-19, h0_per_um = 0.0;
   double q = 1.0, eta = 0.005;
-  double tolerance_pN = 1e-3;
+  double tolerance_pN = 1e-3;    ///< discrete default; the continuum's is Newton's 1e-6 pN
+  bool tolerance_given = false;  ///< --tolerance on the command line (the continuum honours it)
   int max_iterations = 50000;
   std::string order = "2";
   int elements = 4000;
@@ -224,6 +225,8 @@ int run_continuum(const StretchCli& o) {
                                 std::to_string(o.tolerance_pN));
   ContinuumOptions co;
   co.newton.max_iterations = std::min(o.max_iterations, 1000);
+  co.max_iterations_per_force = std::min(o.max_iterations, co.max_iterations_per_force);
+  if (o.tolerance_given) co.newton.force_tolerance_pN = o.tolerance_pN;
   co.validate();
   if (!o.out.empty()) ensure_output_directory(o.out);
   const ProgressSink progress = stderr_progress(o.quiet);
@@ -293,8 +296,10 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--h0", o->h0_per_um, "spontaneous curvature H0 (1/um)")->capture_default_str();
   cmd->add_option("--q", o->q, "steric exponent q")->capture_default_str();
   cmd->add_option("--eta", o->eta, "steric regularisation eta")->capture_default_str();
-  cmd->add_option("--tolerance", o->tolerance_pN, "largest net vertex force at convergence (pN)")
-      ->capture_default_str();
+  auto* tolerance =
+      cmd->add_option("--tolerance", o->tolerance_pN,
+                      "largest net vertex force at convergence (pN; continuum default 1e-6)")
+          ->capture_default_str();
   cmd->add_option("--max-iterations", o->max_iterations, "minimiser iterations per force")
       ->capture_default_str();
   cmd->add_option("--order", o->order, "continuum: 2 | 3 | 4 | full")->capture_default_str();
@@ -302,7 +307,8 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--out", o->out, "write per-force HDF5/XDMF shapes, stretch.csv and run.json");
   cmd->add_flag("--json", o->json, "print a JSON array of points on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, &action] {
+  cmd->callback([o, &action, tolerance] {
+    o->tolerance_given = tolerance->count() > 0;
     action = [o]() -> int {
       if (o->model == "discrete") return run_discrete(*o);
       if (o->model == "continuum") return run_continuum(*o);

@@ -86,6 +86,18 @@ double membrane_energy(const ContinuumModel& model, const Positions& x, Position
 
 void add_membrane_hessian(const ContinuumModel& model, const Positions& x, BlockHessian& h) {
   const int nf = model.num_elements();
+  if (nf <= kChunkElements) {  // serial, without the per-element buffer
+    Matrix9d he;
+    for (int f = 0; f < nf; ++f) {
+      const auto t = model.topo.faces.col(f);
+      const double e = membrane_element_energy(model.law, model.reference[f], x.col(t(0)),
+                                               x.col(t(1)), x.col(t(2)), nullptr, &he);
+      if (!std::isfinite(e)) continue;  // callers only assemble at feasible states
+      const int verts[3] = {t(0), t(1), t(2)};
+      h.add_local<3>(verts, he);
+    }
+    return;
+  }
   std::vector<Matrix9d> he(nf);
 #pragma omp parallel for schedule(static)
   for (int f = 0; f < nf; ++f) {
@@ -106,7 +118,7 @@ double continuum_energy(const ContinuumModel& model, const Positions& x, double 
   // Feasibility first: a collapsed element makes every term meaningless.
   const int nf = model.num_elements();
   bool collapsed = false;
-#pragma omp parallel for reduction(|| : collapsed) schedule(static)
+#pragma omp parallel for reduction(|| : collapsed) schedule(static) if (nf > kChunkElements)
   for (int f = 0; f < nf; ++f) {
     const auto t = model.topo.faces.col(f);
     const double a = triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
@@ -153,6 +165,18 @@ ConstraintValues evaluate_constraints(const Positions& x, const Topology& topo) 
 void add_constraint_hessian(const Positions& x, const Topology& topo, double area_coef,
                             double volume_coef, BlockHessian& h) {
   const int nf = topo.num_faces();
+  if (nf <= kChunkElements) {  // serial, without the per-face buffer
+    Matrix9d ha;
+    for (int f = 0; f < nf; ++f) {
+      const auto t = topo.faces.col(f);
+      triangle_area_hessian(x.col(t(0)), x.col(t(1)), x.col(t(2)), nullptr, &ha);
+      const int verts[3] = {t(0), t(1), t(2)};
+      h.add_local<3>(verts, Matrix9d(area_coef * ha +
+                                     volume_coef * tetra_volume_hessian(x.col(t(0)), x.col(t(1)),
+                                                                        x.col(t(2)))));
+    }
+    return;
+  }
   std::vector<Matrix9d> hf(nf);
 #pragma omp parallel for schedule(static)
   for (int f = 0; f < nf; ++f) {

@@ -1,5 +1,6 @@
 #include "continuum/continuum_stretch.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -16,6 +17,12 @@ std::string to_string(ContinuumSolver s) {
 
 void ContinuumOptions::validate() const {
   newton.validate();
+  if (max_iterations_per_force < 1)
+    throw std::invalid_argument("Newton iterations per force must be >= 1, got " +
+                                std::to_string(max_iterations_per_force));
+  if (!(time_budget_s >= 0) || !std::isfinite(time_budget_s))
+    throw std::invalid_argument("time budget per force must be finite and >= 0 s, got " +
+                                std::to_string(time_budget_s));
   if (max_bisections < 0)
     throw std::invalid_argument("max_bisections must be >= 0, got " +
                                 std::to_string(max_bisections));
@@ -79,18 +86,56 @@ namespace {
 
 /// Solves at `to` from the equilibrium at `from`; on failure, restores the start and goes
 /// through the midpoint (depth-limited). Accumulates iterations and sub-steps.
+/// Limits of one requested force: iterations left, deadline.
+struct ForceBudget {
+  int iterations_left = 0;
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+  bool exhausted() const {
+    return iterations_left <= 0 || std::chrono::steady_clock::now() > deadline;
+  }
+};
+
+ForceBudget make_budget(const ContinuumOptions& options) {
+  ForceBudget b;
+  b.iterations_left = options.max_iterations_per_force;
+  if (options.time_budget_s > 0)
+    b.deadline = std::chrono::steady_clock::now() +
+                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                     std::chrono::duration<double>(options.time_budget_s));
+  return b;
+}
+
+/// One solve at `to` from x, lambda within the budget.
+NewtonResult solve_once(const ContinuumModel& model, NewtonSolver& newton, double to, Positions& x,
+                        ConstraintMultipliers& lambda, const ContinuumOptions& options,
+                        ForceBudget& budget, const ProgressSink& progress) {
+  throw_if_cancelled(options.cancel);
+  NewtonLimits limits;
+  limits.max_iterations = std::max(budget.iterations_left, 0);
+  limits.deadline = budget.deadline;
+  const NewtonResult r = options.solver == ContinuumSolver::newton
+                             ? newton.solve(to, x, lambda, progress, limits)
+                             : solve_equilibrium_lbfgs(model, to, x, lambda, options);
+  budget.iterations_left -= std::max(r.iterations, 1);
+  return r;
+}
+
 NewtonResult solve_with_bisection(const ContinuumModel& model, NewtonSolver& newton, double from,
                                   double to, Positions& x, ConstraintMultipliers& lambda,
                                   const ContinuumOptions& options, int depth, int& substeps,
-                                  int& iterations, const ProgressSink& progress) {
+                                  int& iterations, ForceBudget& budget,
+                                  const ProgressSink& progress) {
   const Positions x0 = x;
   const ConstraintMultipliers l0 = lambda;
-  NewtonResult r = options.solver == ContinuumSolver::newton
-                       ? newton.solve(to, x, lambda, progress)
-                       : solve_equilibrium_lbfgs(model, to, x, lambda, options);
+  NewtonResult r = solve_once(model, newton, to, x, lambda, options, budget, progress);
   iterations += r.iterations;
   ++substeps;
-  if (r.converged() || depth >= options.max_bisections) return r;
+  if (r.converged() || depth >= options.max_bisections || budget.exhausted()) {
+    if (!r.converged() && budget.exhausted() && r.status != NewtonStatus::time_budget &&
+        budget.iterations_left <= 0)
+      r.status = NewtonStatus::max_iterations;
+    return r;
+  }
   x = x0;
   lambda = l0;
   const double mid = 0.5 * (from + to);
@@ -101,10 +146,10 @@ NewtonResult solve_with_bisection(const ContinuumModel& model, NewtonSolver& new
     report(progress, m.str());
   }
   const NewtonResult rm = solve_with_bisection(model, newton, from, mid, x, lambda, options,
-                                               depth + 1, substeps, iterations, progress);
+                                               depth + 1, substeps, iterations, budget, progress);
   if (!rm.converged()) return rm;
   return solve_with_bisection(model, newton, mid, to, x, lambda, options, depth + 1, substeps,
-                              iterations, progress);
+                              iterations, budget, progress);
 }
 
 }  // namespace
@@ -113,12 +158,33 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
                                                          const std::vector<double>& forces_pN,
                                                          const ContinuumOptions& options,
                                                          const ProgressSink& progress) {
+  return run_continuum_stretch(model, forces_pN, options, progress, StretchState{});
+}
+
+StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points) {
+  StretchState s;
+  for (const auto& p : points) {
+    s.forces_pN.push_back(p.force_pN);
+    s.x.push_back(p.x);
+    s.multipliers.push_back(p.multipliers);
+  }
+  return s;
+}
+
+std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
+                                                         const std::vector<double>& forces_pN,
+                                                         const ContinuumOptions& options,
+                                                         const ProgressSink& progress,
+                                                         const StretchState& warm) {
   options.validate();
   for (double f : forces_pN)
     if (!std::isfinite(f) || f < 0)
       throw std::invalid_argument("stretch force must be finite and >= 0 pN, got " +
                                   std::to_string(f));
-  NewtonSolver newton(model, options.newton);
+  if (!warm.empty()) warm.check_matches(static_cast<int>(model.rest.cols()), forces_pN);
+  NewtonOptions newton_options = options.newton;
+  if (!newton_options.cancel) newton_options.cancel = options.cancel;
+  NewtonSolver newton(model, newton_options);
   Positions x = model.rest;
   ConstraintMultipliers lambda;
   double previous = 0.0;
@@ -127,18 +193,40 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
   double f_before = 0.0;
   bool have_secant = false;
   std::vector<ContinuumStretchPoint> out;
-  for (double f : forces_pN) {
+  for (size_t k = 0; k < forces_pN.size(); ++k) {
+    const double f = forces_pN[k];
     const auto t0 = std::chrono::steady_clock::now();
     ContinuumStretchPoint p;
     p.force_pN = f;
     const Positions x_start = x;
-    if (have_secant && previous != f_before) {
-      const Positions guess = x + ((f - previous) / (previous - f_before)) * (x - x_before);
-      if (std::isfinite(continuum_energy(model, guess, f))) x = guess;
-    }
     int substeps = 0;
-    const NewtonResult r = solve_with_bisection(model, newton, previous, f, x, lambda, options, 0,
-                                                substeps, p.iterations, progress);
+    NewtonResult r;
+    bool solved = false;
+    ForceBudget budget = make_budget(options);
+    if (!warm.empty()) {
+      Positions xw = warm.x[k];
+      ConstraintMultipliers lw = warm.multipliers[k];
+      r = solve_once(model, newton, f, xw, lw, options, budget, progress);
+      p.iterations += r.iterations;
+      ++substeps;
+      p.warm = true;
+      solved = r.converged();
+      if (solved) {
+        x = xw;
+        lambda = lw;
+      } else {
+        report(progress, "  warm start at " + std::to_string(f) + " pN: " + to_string(r.status) +
+                             "; continuing from the previous force's equilibrium");
+      }
+    }
+    if (!solved) {
+      if (have_secant && previous != f_before) {
+        const Positions guess = x + ((f - previous) / (previous - f_before)) * (x - x_before);
+        if (std::isfinite(continuum_energy(model, guess, f))) x = guess;
+      }
+      r = solve_with_bisection(model, newton, previous, f, x, lambda, options, 0, substeps,
+                               p.iterations, budget, progress);
+    }
     p.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     p.substeps = substeps;
     p.converged = r.converged();

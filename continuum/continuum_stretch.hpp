@@ -11,6 +11,7 @@
 #include "continuum/newton_solver.hpp"
 #include "core/lbfgs.hpp"
 #include "core/progress.hpp"
+#include "discrete/stretch_state.hpp"
 
 namespace rbc {
 
@@ -23,6 +24,14 @@ struct ContinuumOptions {
   ContinuumSolver solver = ContinuumSolver::newton;
   NewtonOptions newton;
   int max_bisections = 6;  ///< halvings of a failing force increment
+  /// Newton iterations one requested force may use over all its sub-steps (bisection and a
+  /// failed warm start included); the force is then reported as not converged.
+  int max_iterations_per_force = 400;
+  /// Wall-clock budget of one requested force (s), sub-steps included; 0 = none.
+  double time_budget_s = 0.0;
+  /// Polled once per force and sub-step (and by Newton once per iteration when
+  /// newton.cancel is empty); returning true stops the run by throwing Cancelled.
+  CancelCheck cancel;
   /// L-BFGS only: per-vertex force tolerance (pN), iterations per multiplier update, and
   /// augmented-Lagrangian penalty stiffnesses (pN/um^3, pN/um^5), multiplier updates.
   LbfgsOptions lbfgs;
@@ -52,6 +61,7 @@ struct ContinuumStretchPoint {
   ConstraintMultipliers multipliers;  ///< tension-like lambda_A, pressure-like lambda_V
   Positions x;                        ///< equilibrium positions (um)
   ElementFields fields;               ///< per-element I1, I2, principal tensions
+  bool warm = false;                  ///< solved from a given StretchState entry
 };
 
 /// Continuation over the forces (pN, in the given order) from the rest shape.
@@ -59,6 +69,20 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
                                                          const std::vector<double>& forces_pN,
                                                          const ContinuumOptions& options,
                                                          const ProgressSink& progress = {});
+
+/// Warm re-solve: each force is solved by Newton from its entry in `warm` (same mesh, same
+/// forces in the same order; std::invalid_argument otherwise), e.g. the equilibria of a
+/// run whose law parameters differed slightly. A force whose warm solve fails is reached
+/// from the previous force's equilibrium of this run by the cold continuation (with
+/// bisection). An empty `warm` is the cold run.
+std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
+                                                         const std::vector<double>& forces_pN,
+                                                         const ContinuumOptions& options,
+                                                         const ProgressSink& progress,
+                                                         const StretchState& warm);
+
+/// The equilibria of a run, to warm-start the next one.
+StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points);
 
 /// One equilibrium at force F from x (updated) and lambda (updated) with the L-BFGS
 /// augmented-Lagrangian method; returns the same summary as Newton's.

@@ -1,5 +1,7 @@
 #include "continuum/newton_solver.hpp"
 
+#include "core/blas_threads.hpp"
+
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -20,6 +22,12 @@ void NewtonOptions::validate() const {
   if (!(max_step_um > 0))
     throw std::invalid_argument("Newton max step must be > 0 um, got " +
                                 std::to_string(max_step_um));
+  if (blas_threads < 0)
+    throw std::invalid_argument("Newton BLAS threads must be >= 0, got " +
+                                std::to_string(blas_threads));
+  if (supernodal_min_unknowns < 0)
+    throw std::invalid_argument("Newton supernodal threshold must be >= 0 unknowns, got " +
+                                std::to_string(supernodal_min_unknowns));
   if (!(penalty_pNum >= 0)) throw std::invalid_argument("Newton merit penalty must be >= 0 pN um");
 }
 
@@ -33,6 +41,8 @@ std::string to_string(NewtonStatus s) {
       return "line search failed";
     case NewtonStatus::infeasible_start:
       return "infeasible start";
+    case NewtonStatus::time_budget:
+      return "time budget exhausted";
   }
   return "unknown";
 }
@@ -77,13 +87,19 @@ bool any_face_flipped(const Positions& x, const Topology& topo, const Eigen::Mat
 NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& options)
     : model_(model), options_(options), hessian_(model.topo) {
   options_.validate();
+  ldlt_.setMode(3 * model.topo.num_vertices >= options_.supernodal_min_unknowns
+                    ? Eigen::CholmodSupernodalLLt
+                    : Eigen::CholmodSimplicialLLt);
   ldlt_.cholmod().print = 0;  // library code does not print: a failed (indefinite) trial is
                               // expected and handled by the shift loop
   ldlt_.analyzePattern(hessian_.matrix());
 }
 
 NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
-                                 const ProgressSink& progress) {
+                                 const ProgressSink& progress, const NewtonLimits& limits) {
+  const int max_iterations =
+      limits.max_iterations >= 0 ? limits.max_iterations : options_.max_iterations;
+  const ScopedBlasThreads blas_threads(options_.blas_threads);
   NewtonResult res;
   const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
   Iterate cur, trial;
@@ -110,6 +126,7 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
     return res;
   };
   for (int iter = 0;; ++iter) {
+    throw_if_cancelled(options_.cancel);
     r = cur.grad + lambda.area_pN_per_um * cur.cons.grad_area +
         lambda.volume_pN_per_um2 * cur.cons.grad_volume;
     const double resid = largest_vertex_norm(r);
@@ -126,7 +143,9 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
     if (resid < options_.force_tolerance_pN &&
         chat.cwiseAbs().maxCoeff() < options_.constraint_tolerance)
       return finish(NewtonStatus::converged);
-    if (iter >= options_.max_iterations) return finish(NewtonStatus::max_iterations);
+    if (iter >= max_iterations) return finish(NewtonStatus::max_iterations);
+    if (std::chrono::steady_clock::now() > limits.deadline)
+      return finish(NewtonStatus::time_budget);
 
     // Assemble K = d2E + lambda_A d2A + lambda_V d2V and factorise with a shift, unless the
     // previous factorisation is still doing well (chord step: the last full step cut the

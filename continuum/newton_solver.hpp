@@ -17,6 +17,7 @@
 // normal turning by more than 90 degrees within one step) is infeasible and halved,
 // so no NaN ever enters the iterate.
 #include <Eigen/CholmodSupport>
+#include <chrono>
 #include <string>
 
 #include "continuum/block_hessian.hpp"
@@ -38,12 +39,33 @@ struct NewtonOptions {
   int max_factor_reuse = 4;
   /// A factorisation is reused only while each step cuts the net force by this factor.
   double reuse_contraction = 0.25;
+  /// Factorise K by CHOLMOD's simplicial LL' (no BLAS) below this many unknowns (3N),
+  /// supernodal LL' (BLAS dgemm) from it on. 0 = always supernodal: measured (note_speed.md)
+  /// twice as fast as simplicial already at 1,500 unknowns once BLAS runs on one thread.
+  int supernodal_min_unknowns = 0;
+  /// BLAS threads of the factorisation and solves (core/blas_threads.hpp); 0 = the caller's.
+  /// One by default: CHOLMOD's many small BLAS calls scale poorly (thread wake-ups) and one
+  /// thread keeps the rounding independent of the core count.
+  int blas_threads = 1;
   /// Polled once per Newton iteration; returning true stops the solve by throwing Cancelled.
   CancelCheck cancel;
   void validate() const;  ///< positive tolerances and counts
 };
 
-enum class NewtonStatus { converged, max_iterations, line_search_failed, infeasible_start };
+enum class NewtonStatus {
+  converged,
+  max_iterations,
+  line_search_failed,
+  infeasible_start,
+  time_budget,  ///< the caller's deadline passed before convergence
+};
+
+/// Per-call limits tighter than the options (a continuation's remaining budget).
+struct NewtonLimits {
+  int max_iterations = -1;  ///< < 0: options.max_iterations
+  /// Stop with NewtonStatus::time_budget once this time has passed (checked per iteration).
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+};
 std::string to_string(NewtonStatus s);
 
 struct NewtonResult {
@@ -65,13 +87,13 @@ class NewtonSolver {
   /// Solves for the equilibrium at bead force F (pN) from x (3 x N, updated in place) and
   /// the multipliers (updated). Never leaves x at an infeasible or NaN state.
   NewtonResult solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
-                     const ProgressSink& progress = {});
+                     const ProgressSink& progress = {}, const NewtonLimits& limits = {});
 
  private:
   const ContinuumModel& model_;
   NewtonOptions options_;
   BlockHessian hessian_;
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>> ldlt_;
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>> ldlt_;
 };
 
 /// Largest Euclidean norm over the columns of a 3 x N field (pN for forces).

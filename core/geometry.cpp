@@ -3,26 +3,23 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/parallel.hpp"
+
 namespace rbc {
 
+// Deterministic chunked sums (core/parallel.hpp): the same bits with any thread count.
 double total_area(const Positions& x, const Topology& topo) {
-  double area = 0.0;
-#pragma omp parallel for reduction(+ : area) schedule(static)
-  for (int f = 0; f < topo.num_faces(); ++f) {
+  return sum_parallel(topo.num_faces(), [&](int f) {
     const auto& t = topo.faces.col(f);
-    area += triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
-  }
-  return area;
+    return triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
+  });
 }
 
 double enclosed_volume(const Positions& x, const Topology& topo) {
-  double volume = 0.0;
-#pragma omp parallel for reduction(+ : volume) schedule(static)
-  for (int f = 0; f < topo.num_faces(); ++f) {
+  return sum_parallel(topo.num_faces(), [&](int f) {
     const auto& t = topo.faces.col(f);
-    volume += tetra_volume(x.col(t(0)), x.col(t(1)), x.col(t(2)));
-  }
-  return volume;
+    return tetra_volume(x.col(t(0)), x.col(t(1)), x.col(t(2)));
+  });
 }
 
 Eigen::VectorXd face_areas(const Positions& x, const Topology& topo) {

@@ -49,6 +49,7 @@ MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const Lbf
   std::vector<double> alpha(opt.memory);
   double residual = max_block_norm(g, opt.block);
   for (int it = 0;; ++it) {
+    throw_if_cancelled(opt.cancel);
     res.iterations = it;
     res.energy = fx;
     res.residual = residual;

@@ -3,7 +3,9 @@
 #include <omp.h>
 
 #include <Eigen/CholmodSupport>
+
 #include <chrono>
+#include "core/blas_threads.hpp"
 
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
@@ -30,23 +32,8 @@ int cholmod_ordering(FillOrdering o) {
   return -1;
 }
 
-/// Limits the OpenMP threads of the calling thread (which OpenBLAS's OpenMP build, and so
-/// CHOLMOD's supernodal BLAS calls, use) for the guard's lifetime. CHOLMOD issues thousands
-/// of small BLAS calls; each opens a parallel region, and on a loaded machine every region's
-/// fork-join costs a scheduler time slice (measured: 2 threads made N = 2,000 factorise in
-/// 2.4 s instead of 0.2 s).
-class BlasThreads {
- public:
-  explicit BlasThreads(int threads) : saved_(omp_get_max_threads()) {
-    if (threads > 0) omp_set_num_threads(threads);
-  }
-  ~BlasThreads() { omp_set_num_threads(saved_); }
-  BlasThreads(const BlasThreads&) = delete;
-  BlasThreads& operator=(const BlasThreads&) = delete;
-
- private:
-  int saved_;
-};
+/// The factorisation's and solves' BLAS threads (core/blas_threads.hpp): one by default.
+using BlasThreads = ScopedBlasThreads;
 
 }  // namespace
 
@@ -56,7 +43,7 @@ struct NewtonPreconditioner::Impl {
   FillOrdering ordering;
   HessianChoice choice;
   int blas_threads;
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> factor;
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> factor;
   bool analysed = false, factored = false;
   Eigen::MatrixXd u, z;  ///< 3N x 2: constraint gradients and P^{-1} U
   Eigen::Matrix2d utz = Eigen::Matrix2d::Zero(), m_inv = Eigen::Matrix2d::Zero();
@@ -68,6 +55,9 @@ struct NewtonPreconditioner::Impl {
         ordering(o.ordering),
         choice(o.choice),
         blas_threads(o.blas_threads) {
+    factor.setMode(3 * n.topo.num_vertices >= o.supernodal_min_unknowns
+                       ? Eigen::CholmodSupernodalLLt
+                       : Eigen::CholmodSimplicialLLt);
     factor.cholmod().print = 0;  // a failed (indefinite) attempt is expected, not news
   }
 };

@@ -31,9 +31,15 @@ struct NewtonPreconditionerOptions {
   NetworkHessianOptions hessian;
   HessianChoice choice = HessianChoice::exact_when_definite;
   FillOrdering ordering = FillOrdering::metis;
-  /// OpenMP threads of the factorisation and solves (BLAS); 0 = the caller's. One is the
-  /// default: CHOLMOD's many small BLAS calls scale poorly and collapse on a loaded machine.
+  /// BLAS (OpenBLAS and OpenMP) threads of the factorisation and solves
+  /// (core/blas_threads.hpp); 0 = the caller's. One is the default: CHOLMOD's many small
+  /// BLAS calls scale poorly and collapse on a loaded machine, and one thread keeps the
+  /// rounding independent of the core count.
   int blas_threads = 1;
+  /// CHOLMOD's simplicial LL' (no BLAS) below this many unknowns (3N), supernodal from it
+  /// on (0 = always supernodal: measured faster from 750 unknowns on, once BLAS runs on one
+  /// thread).
+  int supernodal_min_unknowns = 0;
 };
 
 class NewtonPreconditioner {

@@ -69,16 +69,29 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   };
   // One minimisation at fixed multipliers; with a preconditioner it is restarted from a
   // fresh factorisation whenever refresh_interval iterations cut the residual < 10x.
+  // Budgets of the whole force: minimiser.max_iterations over all updates and segments,
+  // and the optional wall-clock budget (checked once per iteration).
+  int used = 0;
+  const bool timed = opt.time_budget_s > 0;
+  const auto deadline = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                    std::chrono::duration<double>(timed ? opt.time_budget_s : 0.0));
+  bool out_of_time = false;
   auto minimise = [&]() {
     MinimiserResult total;
-    int used = 0;
+    const int used_before = used;
     double reference = std::numeric_limits<double>::quiet_NaN();
     for (;;) {
       bool stalled = false;
       int since = 0;
+      const bool refreshing = pre && opt.refresh_interval > 0;
       IterationMonitor monitor;
-      if (pre && opt.refresh_interval > 0)
+      if (refreshing || timed)
         monitor = [&](int, double, double residual) {
+          if (timed && std::chrono::steady_clock::now() > deadline) {
+            out_of_time = true;
+            return false;
+          }
+          if (!refreshing) return true;
           if (std::isnan(reference)) reference = residual;
           if (++since >= opt.refresh_interval && residual > 0.1 * reference) {
             stalled = true;
@@ -90,7 +103,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
       seg.max_iterations = std::max(lo.max_iterations - used, 0);
       total = minimise_lbfgs(f, u, seg, monitor);
       used += total.iterations;
-      if (!stalled) break;
+      if (!stalled || out_of_time) break;
       reference = total.residual;
       std::ostringstream msg;
       msg << "  refactorising after " << used << " iterations, residual " << total.residual
@@ -98,7 +111,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
       report(progress, msg.str());
       refresh();
     }
-    total.iterations = used;
+    total.iterations = used - used_before;
     return total;
   };
 
@@ -119,6 +132,8 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
         << ", dV/V = " << pt.volume_drift;
     report(progress, msg.str());
     if (!r.converged() && r.status != MinimiserStatus::max_iterations) break;
+    if (out_of_time || used >= lo.max_iterations) break;  // the force's budget is spent
+    throw_if_cancelled(lo.cancel);
     const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&
                       std::abs(pt.volume_drift) < net.constraints.tolerance;
     if (held && r.converged()) break;
@@ -139,9 +154,10 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
                     std::abs(pt.volume_drift) < net.constraints.tolerance;
   pt.converged = r.converged() && held;
   pt.residual_pN = r.residual;
-  pt.status = !r.converged() ? to_string(r.status)
-              : held         ? "converged"
-                             : "constraints not held after multiplier updates";
+  pt.status = out_of_time      ? "time budget exhausted"
+              : !r.converged() ? to_string(r.status)
+              : held           ? "converged"
+                               : "constraints not held after multiplier updates";
   if (pre) {
     const auto& s = pre->statistics();
     pt.factorisations = s.factorisations - factorisations_before;
@@ -160,27 +176,69 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   pt.axial_um = d.axial_um;
   pt.transverse_um = d.transverse_um;
   pt.x = x;
+  pt.multipliers = lambda;
   pt.wall_s = seconds_since(start);
   return pt;
 }
 
 std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces,
                                       const StretchOptions& opt, const ProgressSink& progress) {
+  return run_stretch(net, forces, opt, progress, StretchState{});
+}
+
+std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces,
+                                      const StretchOptions& opt, const ProgressSink& progress,
+                                      const StretchState& warm) {
+  if (!warm.empty()) warm.check_matches(net.topo.num_vertices, forces);
   std::vector<StretchPoint> out;
   Positions x = net.rest;
   ConstraintMultipliers lambda;
   std::unique_ptr<NewtonPreconditioner> pre;
   if (net.topo.num_vertices >= opt.precondition_min_vertices)
     pre = std::make_unique<NewtonPreconditioner>(net, opt.preconditioner);
-  for (double f : forces) {
-    out.push_back(solve_equilibrium(net, f, x, lambda, opt, progress, pre.get()));
+  for (size_t k = 0; k < forces.size(); ++k) {
+    throw_if_cancelled(opt.minimiser.cancel);
+    const double f = forces[k];
+    StretchPoint p;
+    bool solved = false;
+    if (!warm.empty()) {
+      Positions xw = warm.x[k];
+      ConstraintMultipliers lw = warm.multipliers[k];
+      p = solve_equilibrium(net, f, xw, lw, opt, progress, pre.get());
+      p.warm = true;
+      solved = p.converged;
+      if (solved) {
+        x = xw;
+        lambda = lw;
+      } else {
+        report(progress, "  warm start did not converge (" + p.status +
+                             "); solving from the previous force's equilibrium");
+      }
+    }
+    if (!solved) {
+      const int warm_iterations = p.iterations;
+      const double warm_s = p.wall_s;
+      p = solve_equilibrium(net, f, x, lambda, opt, progress, pre.get());
+      p.iterations += warm_iterations;
+      p.wall_s += warm_s;
+    }
     std::ostringstream msg;
-    const auto& p = out.back();
     msg << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um << " um, "
         << p.iterations << " iterations, " << p.wall_s << " s, " << p.status;
     report(progress, msg.str());
+    out.push_back(std::move(p));
   }
   return out;
+}
+
+StretchState stretch_state(const std::vector<StretchPoint>& points) {
+  StretchState s;
+  for (const auto& p : points) {
+    s.forces_pN.push_back(p.force_pN);
+    s.x.push_back(p.x);
+    s.multipliers.push_back(p.multipliers);
+  }
+  return s;
 }
 
 }  // namespace rbc

@@ -8,6 +8,7 @@
 #include "core/progress.hpp"
 #include "discrete/network.hpp"
 #include "discrete/newton_preconditioner.hpp"
+#include "discrete/stretch_state.hpp"
 
 namespace rbc {
 
@@ -17,8 +18,9 @@ struct StretchOptions {
   /// Precondition L-BFGS with a sparse Cholesky factorisation (CHOLMOD) of the projected
   /// Newton Hessian (discrete/newton_preconditioner.hpp: network_hessian.hpp + the
   /// area/volume penalties by Woodbury) for networks with at least this many vertices.
-  /// 0 = always, INT_MAX = never (plain L-BFGS).
-  int precondition_min_vertices = 1500;
+  /// 0 = always (the default: at N = 250 it cuts a 13-force sweep from ~2,900 L-BFGS
+  /// iterations to ~380 and the CPU time by ~2x), INT_MAX = never (plain L-BFGS).
+  int precondition_min_vertices = 0;
   NewtonPreconditionerOptions preconditioner;
   /// Refactorise at the current point when this many L-BFGS iterations since the last
   /// factorisation have not reduced the largest vertex force tenfold (0 = factorise once
@@ -29,6 +31,9 @@ struct StretchOptions {
   /// are poorly scaled); Newton-like preconditioned steps at 4 (measured at N = 27,000,
   /// 88 pN: 32 iterations instead of 76 with a cap of 1).
   double plain_max_step_links = 0.25, preconditioned_max_step_links = 4.0;
+  /// Wall-clock budget of one force (s), all multiplier updates included; 0 = none. The
+  /// iteration budget of one force is minimiser.max_iterations, summed over the updates.
+  double time_budget_s = 0.0;
   StretchOptions() {
     minimiser.force_tolerance = 1e-3;
     minimiser.max_iterations = 50000;
@@ -47,8 +52,10 @@ struct StretchPoint {
   double area_drift = 0, volume_drift = 0;  ///< relative (A - A0)/A0, (V - V0)/V0
   double wall_s = 0;
   int vertices = 0;
-  std::string status;  ///< minimiser status in words
-  Positions x;         ///< equilibrium positions (um)
+  std::string status;                 ///< minimiser status in words
+  Positions x;                        ///< equilibrium positions (um)
+  ConstraintMultipliers multipliers;  ///< lambda_A (pN/um), lambda_V (pN/um^2) at the end
+  bool warm = false;                  ///< solved from a given StretchState entry
 };
 
 /// Solves one force from x (updated in place) carrying the multipliers along.
@@ -66,5 +73,17 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
 std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces_pN,
                                       const StretchOptions& options,
                                       const ProgressSink& progress = {});
+
+/// Warm re-solve: each force is solved from its entry in `warm` (same network topology,
+/// same forces in the same order; std::invalid_argument otherwise), e.g. the equilibria
+/// of a run whose parameters differed slightly. A force whose warm solve does not converge
+/// is solved again from the previous force's equilibrium of this run (from the rest shape
+/// for the first), as the cold continuation would. An empty `warm` is the cold run.
+std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces_pN,
+                                      const StretchOptions& options, const ProgressSink& progress,
+                                      const StretchState& warm);
+
+/// The equilibria of a run, to warm-start the next one.
+StretchState stretch_state(const std::vector<StretchPoint>& points);
 
 }  // namespace rbc

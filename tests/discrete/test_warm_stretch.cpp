@@ -1,0 +1,60 @@
+// Warm re-solve of the discrete stretch (issue 11): after a 1 % change of the persistence
+// length, solving each force from the previous parameters' equilibria reaches the same
+// equilibrium as the cold continuation from the rest shape, within the solver tolerance,
+// in fewer minimiser iterations; a state of another mesh or other forces is refused.
+#include <gtest/gtest.h>
+
+#include "core/rest_shape.hpp"
+#include "discrete/stretch.hpp"
+
+namespace rbc {
+namespace {
+
+Network cell(int n, double persistence_factor) {
+  RestShapeOptions o;
+  o.target_vertices = n;
+  NetworkParameters p;
+  p.wlc.persistence_um *= persistence_factor;
+  return build_network(make_rest_shape(o), p);
+}
+
+TEST(WarmStretch, DiscreteWarmReSolveEqualsColdSolve) {
+  const std::vector<double> forces{0.0, 38.0, 88.0, 193.0};
+  StretchOptions so;
+  so.minimiser.force_tolerance = 1e-4;
+  const auto before = run_stretch(cell(250, 1.0), forces, so);
+  const Network changed = cell(250, 1.01);
+  const auto cold = run_stretch(changed, forces, so);
+  const auto warm = run_stretch(changed, forces, so, {}, stretch_state(before));
+  int cold_iterations = 0, warm_iterations = 0;
+  for (size_t k = 0; k < forces.size(); ++k) {
+    ASSERT_TRUE(cold[k].converged) << cold[k].status;
+    ASSERT_TRUE(warm[k].converged) << warm[k].status;
+    EXPECT_TRUE(warm[k].warm);
+    // Both are equilibria to 1e-4 pN per vertex; the diameters of two such states agree to
+    // far better than 1e-5 relative (the stiffness is >= 1 pN/um per vertex).
+    EXPECT_NEAR(warm[k].axial_um, cold[k].axial_um, 1e-5 * cold[k].axial_um);
+    EXPECT_NEAR(warm[k].transverse_um, cold[k].transverse_um, 1e-5 * cold[k].transverse_um);
+    // The change of persistence length moves the equilibrium: the check can fail.
+    EXPECT_GT(std::abs(before[k].axial_um - cold[k].axial_um) +
+                  std::abs(before[k].transverse_um - cold[k].transverse_um),
+              1e-4);
+    cold_iterations += cold[k].iterations;
+    warm_iterations += warm[k].iterations;
+  }
+  EXPECT_LT(warm_iterations, cold_iterations);
+}
+
+TEST(WarmStretch, DiscreteRefusesAStateOfAnotherMeshOrOtherForces) {
+  const Network net = cell(250, 1.0);
+  StretchState s;
+  s.forces_pN = {16.0};
+  s.x = {net.rest};
+  s.multipliers = {{}};
+  EXPECT_THROW(run_stretch(net, {38.0}, StretchOptions{}, {}, s), std::invalid_argument);
+  s.x = {Positions::Zero(3, 10)};
+  EXPECT_THROW(run_stretch(net, {16.0}, StretchOptions{}, {}, s), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rbc
