@@ -7,7 +7,12 @@ cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake pkg-config libeigen3-dev libcgal-dev libgsl-dev libhdf5-dev
           libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
-          libsuitesparse-dev libopenblas0-openmp gnuplot-nox)
+          libsuitesparse-dev libopenblas0-openmp gnuplot-nox
+          # MPI (rbc infer over many machines), the Python package and its tests
+          libopenmpi-dev openmpi-bin pybind11-dev python3-dev python3-numpy python3-scipy
+          python3-pytest python3-matplotlib python3-meshio python3-emcee python3-h5py
+          # fuzz targets (.ci/fuzz.sh): clang with libFuzzer and its sanitizer runtimes
+          clang libfuzzer-14-dev libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -21,7 +26,9 @@ if ((${#missing[@]})); then
 fi
 
 jobs=$(nproc 2>/dev/null || echo 2)
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >&2
+launcher=()  # ccache when present (not required)
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "${launcher[@]}" >&2
 if (($#)); then
   for t in "$@"; do cmake --build build --target "$t" -j "$jobs" >&2; done
 else

@@ -11,8 +11,12 @@ namespace rbc::app {
 std::vector<double> parse_number_list(const std::string& text, const std::string& what,
                                       const std::string& example, bool allow_negative) {
   std::vector<double> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) {
+  if (text.find_first_not_of(" \t") == std::string::npos)
+    throw std::invalid_argument("the " + what + " list is empty (expected e.g. " + example + ")");
+  // Every comma separates two items: "16," and "16,,38" name the empty item.
+  for (std::size_t begin = 0, end = 0; end != std::string::npos; begin = end + 1) {
+    end = text.find(',', begin);
+    const std::string item = text.substr(begin, end == std::string::npos ? end : end - begin);
     size_t used = 0;
     double v = 0;
     try {
@@ -29,8 +33,6 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
                                   ", e.g. " + example);
     out.push_back(v);
   }
-  if (out.empty())
-    throw std::invalid_argument("the " + what + " list is empty (expected e.g. " + example + ")");
   return out;
 }
 

@@ -2,25 +2,55 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <stdexcept>
 
 #include "core/io.hpp"
 
 namespace rbc {
 
-std::vector<ExperimentPoint> load_experiment(const std::string& path) {
-  const CsvTable t = read_csv(path);
+namespace {
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+}  // namespace
+
+std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::string& path) {
+  const CsvTable t = parse_csv(in, path);
   const std::vector<std::string> expected = {"force_pN", "axial_um", "axial_err_um",
                                              "transverse_um", "transverse_err_um"};
+  auto bad = [&](const std::string& what) {
+    return std::runtime_error("experiment file '" + path + "' " + what);
+  };
   if (t.header != expected)
-    throw std::runtime_error("experiment file '" + path +
-                             "' must have columns force_pN,axial_um,axial_err_um,transverse_um,"
-                             "transverse_err_um");
+    throw bad("must have columns force_pN,axial_um,axial_err_um,transverse_um,transverse_err_um");
   std::vector<ExperimentPoint> out;
-  for (const auto& r : t.rows) out.push_back({r[0], r[1], r[2], r[3], r[4]});
-  if (out.empty()) throw std::runtime_error("experiment file '" + path + "' has no data rows");
+  for (const auto& r : t.rows) {
+    const std::string row = "data row " + std::to_string(out.size() + 1) + ": ";
+    auto require = [&](std::size_t column, bool ok, const std::string& expectation) {
+      if (!ok || !std::isfinite(r[column]))
+        throw bad(row + expected[column] + " " + number(r[column]) + " is not " + expectation);
+    };
+    require(0, r[0] >= 0, "finite and >= 0");
+    for (std::size_t c = 1; c < expected.size(); ++c) require(c, r[c] > 0, "finite and > 0");
+    if (!out.empty())
+      require(
+          0, r[0] > out.back().force_pN,
+          "above the previous row's " + number(out.back().force_pN) + " (forces must increase)");
+    out.push_back({r[0], r[1], r[2], r[3], r[4]});
+  }
+  if (out.empty()) throw bad("has no data rows");
   return out;
+}
+
+std::vector<ExperimentPoint> load_experiment(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open CSV file '" + path + "'");
+  return parse_experiment(in, path);
 }
 
 std::string default_data_directory() {

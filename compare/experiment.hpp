@@ -1,5 +1,6 @@
 #pragma once
 // The Mills et al. 2004 optical-tweezers measurements (data/README.md) and goodness of fit.
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -14,8 +15,11 @@ struct ExperimentPoint {
 
 /// Reads a Mills-format CSV (force_pN, axial_um, axial_err_um, transverse_um,
 /// transverse_err_um); throws std::runtime_error naming the file for a missing file, a
-/// wrong header or a malformed value.
+/// wrong header, a malformed or non-finite value, a negative force, a diameter or error bar
+/// <= 0 or forces that do not increase from row to row.
 std::vector<ExperimentPoint> load_experiment(const std::string& path);
+/// The same on a stream (`path` names the source in the messages; fuzz/ feeds it directly).
+std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::string& path);
 
 /// Directory holding the project's data files: $RBC_DATA_DIR if set, else the source tree's data/.
 std::string default_data_directory();

@@ -73,48 +73,7 @@ void write_csv(const std::string& path, const CsvTable& t) {
 CsvTable read_csv(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open CSV file '" + path + "'");
-  CsvTable t;
-  std::string line;
-  int lineno = 0;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    if (line[0] == '#') {
-      t.comments.push_back(line.substr(line.find_first_not_of("# ") == std::string::npos
-                                           ? line.size()
-                                           : line.find_first_not_of("# ")));
-      continue;
-    }
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
-    if (t.header.empty()) {
-      t.header = cells;
-      continue;
-    }
-    if (cells.size() != t.header.size())
-      throw std::runtime_error("CSV file '" + path + "' line " + std::to_string(lineno) + ": " +
-                               std::to_string(cells.size()) + " values, expected " +
-                               std::to_string(t.header.size()));
-    std::vector<double> row;
-    for (const auto& c : cells) {
-      size_t used = 0;
-      double v = 0;
-      try {
-        v = std::stod(c, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || c.find_first_not_of(" \t", used) != std::string::npos)
-        throw std::runtime_error("CSV file '" + path + "' line " + std::to_string(lineno) + ": '" +
-                                 c + "' is not a number");
-      row.push_back(v);
-    }
-    t.rows.push_back(std::move(row));
-  }
-  if (t.header.empty()) throw std::runtime_error("CSV file '" + path + "' has no header line");
-  return t;
+  return parse_csv(in, path);
 }
 
 void write_mesh_snapshot(const std::string& base, const MeshSnapshot& snap) {

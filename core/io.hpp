@@ -3,6 +3,7 @@
 // (ParaView reads the .xdmf). Every writer is atomic: it writes a temporary file in the
 // target directory and renames it into place, so an interrupted run leaves no half file.
 #include <Eigen/Core>
+#include <iosfwd>
 #include <string>
 #include <utility>
 #include <vector>
@@ -32,6 +33,8 @@ void write_csv(const std::string& path, const CsvTable& table);
 /// Reads a numeric CSV with '#' comment lines and one header line; throws
 /// std::runtime_error naming the file and line for missing files or malformed values.
 CsvTable read_csv(const std::string& path);
+/// The same reader on a stream; `path` names the source in the messages (core/csv.cpp).
+CsvTable parse_csv(std::istream& in, const std::string& path);
 
 /// Named per-vertex or per-face scalar fields for a mesh snapshot.
 using MeshField = std::pair<std::string, Eigen::VectorXd>;

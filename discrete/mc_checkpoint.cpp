@@ -7,13 +7,17 @@
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "core/h5file.hpp"
 #include "core/io.hpp"
+#include "discrete/mc_checkpoint_arrays.hpp"
 
 namespace rbc {
 
 namespace {
+
+static_assert(kMcCheckpointSeriesColumns == kMcSampleColumns);
 
 constexpr long long kFormat = 2;  // 2: penalty_scale; bending model in the fingerprint
 
@@ -143,29 +147,34 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
                                 std::to_string(net.topo.num_vertices) + " vertices, " +
                                 std::to_string(net.topo.num_faces()) + " faces, fingerprint " +
                                 hex(network_fingerprint(net)) + ")");
-  McCheckpoint cp;
-  std::vector<double> pos;
-  auto shape = h.read("/positions_um", pos);
-  if (shape.first != hsize_t(nv) || shape.second != 3)
-    throw corrupt("positions have the wrong shape");
-  cp.chain.x = Eigen::Map<const Eigen::Matrix3Xd>(pos.data(), 3, nv);
-  if (!cp.chain.x.allFinite()) throw corrupt("positions are not finite");
+  // Every array is read, then checked as a whole (discrete/mc_checkpoint_arrays.hpp), then used.
+  McCheckpointArrays a;
+  a.vertices = nv;
+  std::tie(a.positions_rows, a.positions_cols) = h.read("/positions_um", a.positions_um);
+  std::tie(a.rng_rows, a.rng_cols) = h.read("/rng_state", a.rng_state);
+  a.rng_bytes = h.read_attribute_int("rng_bytes");
+  a.streams = h.read_attribute_int("streams");
+  std::tie(a.series_rows, a.series_cols) = h.read("/series", a.series);
+  a.series_count = h.read_attribute_int("series_rows");
+  a.sweep = h.read_attribute_int("sweep");
+  h.read("/mobile", a.mobile);
   if (h.read_attribute_string("rng_type") != gsl_rng_mt19937->name)
     throw corrupt("RNG type is not " + std::string(gsl_rng_mt19937->name));
-  const long long bytes = h.read_attribute_int("rng_bytes");
-  if (bytes != static_cast<long long>(gsl_rng_mt19937->size))
-    throw corrupt("RNG state has " + std::to_string(bytes) + " bytes, mt19937 needs " +
+  if (a.rng_bytes != static_cast<long long>(gsl_rng_mt19937->size))
+    throw corrupt("RNG state has " + std::to_string(a.rng_bytes) + " bytes, mt19937 needs " +
                   std::to_string(gsl_rng_mt19937->size));
-  std::vector<unsigned long long> packed;
-  shape = h.read("/rng_state", packed);
-  const std::size_t words = (std::size_t(bytes) + 7) / 8;
-  if (shape.second != words || shape.first < 1) throw corrupt("RNG state has the wrong shape");
-  for (hsize_t s = 0; s < shape.first; ++s) {
-    std::vector<unsigned char> b(std::size_t(bytes), 0);
-    std::memcpy(b.data(), packed.data() + s * words, std::size_t(bytes));
-    cp.chain.rng_state.push_back(std::move(b));
+  try {
+    check_mc_checkpoint_arrays(a);
+  } catch (const std::runtime_error& e) {
+    throw corrupt(e.what());
   }
-  cp.chain.sweep = h.read_attribute_int("sweep");
+  McCheckpoint cp;
+  cp.chain.x = Eigen::Map<const Eigen::Matrix3Xd>(a.positions_um.data(), 3, nv);
+  for (std::size_t s = 0; s < a.rng_rows; ++s) {
+    const auto* first = reinterpret_cast<const unsigned char*>(a.rng_state.data() + s * a.rng_cols);
+    cp.chain.rng_state.emplace_back(first, first + a.rng_bytes);
+  }
+  cp.chain.sweep = a.sweep;
   cp.chain.step_um = h.read_attribute_double("step_um");
   McRunSetup& u = cp.setup;
   u.sampler.temperature_K = h.read_attribute_double("temperature_K");
@@ -186,11 +195,7 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   u.penalty_scale = h.read_attribute_double("penalty_scale");
   u.reference_axial_um = h.read_attribute_double("reference_axial_um");
   u.reference_transverse_um = h.read_attribute_double("reference_transverse_um");
-  std::vector<int> mobile;
-  h.read("/mobile", mobile);
-  if (!(mobile.size() == 1 && mobile[0] == -1)) u.sampler.mobile = mobile;
-  if (shape.first != hsize_t(u.sampler.streams))
-    throw corrupt("RNG stream count differs from streams");
+  if (!(a.mobile.size() == 1 && a.mobile[0] == -1)) u.sampler.mobile = a.mobile;
   try {
     u.validate();
   } catch (const std::invalid_argument& e) {
@@ -198,14 +203,8 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   }
   if (!(cp.chain.step_um > 0) || !std::isfinite(cp.chain.step_um) || cp.chain.sweep < 0)
     throw corrupt("step or sweep count out of range");
-  std::vector<double> rows;
-  shape = h.read("/series", rows);
-  const long long nrows = h.read_attribute_int("series_rows");
-  if (shape.second != hsize_t(kMcSampleColumns) || nrows < 0 ||
-      (nrows > 0 && shape.first != hsize_t(nrows)))
-    throw corrupt("time series has the wrong shape");
-  for (long long i = 0; i < nrows; ++i)
-    cp.series.push_back(sample_from_row(rows.data() + i * kMcSampleColumns));
+  for (long long i = 0; i < a.series_count; ++i)
+    cp.series.push_back(sample_from_row(a.series.data() + i * kMcSampleColumns));
   return cp;
 }
 
