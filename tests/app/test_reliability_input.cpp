@@ -114,6 +114,18 @@ TEST(ReliabilityInput, Case06ContinuumStretchRefusesNonEmptyOut) {
                       {"--out out", "not empty"});
 }
 
+// --out may hold the run being resumed (and only that, without --force-overwrite).
+TEST(ReliabilityInput, McResumeMayWriteIntoItsOwnOut) {
+  Case c("mc_resume_out");
+  const Result first = c.run("mc -n 150 --sweeps 10 -q --json --checkpoint o/c.h5 --out o");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const Result resumed = c.run("mc --sweeps 20 -q --json --resume o/c.h5 --out o");
+  EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+  const Result fresh = c.run("mc -n 150 --sweeps 10 -q --out o");
+  EXPECT_EQ(fresh.exit_code, 2) << fresh.err;
+  EXPECT_NE(fresh.err.find("--out o"), std::string::npos) << fresh.err;
+}
+
 // Cases 7-10: forces above each model's documented maximum (discrete 500 pN, continuum 400 pN).
 TEST(ReliabilityInput, Case07HugeForceIsRefused) {
   Case("case07").expect_refused("stretch --vertices 300 --force 1e308 --json",
