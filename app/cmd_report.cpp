@@ -1,4 +1,5 @@
 // `rbc stability` and `rbc report` (issue 5).
+#include <cmath>
 #include <iostream>
 
 #include "app/cli_util.hpp"
@@ -31,9 +32,14 @@ void add_stability_command(CLI::App& app, Action& action) {
       o->s.include_continuum = !o->no_continuum;
       const StabilityResult r = run_stability(o->s, nullptr, stderr_progress(o->quiet));
       write_stability(r, o->out);
-      for (const auto& row : r.rows)
+      for (const auto& row : r.rows) {
         std::cout << row.study << " | " << row.method << " | " << row.parameter << " "
-                  << row.parameter_value << " | " << row.metric << " = " << row.value << "\n";
+                  << row.parameter_value << " | " << row.metric << " = ";
+        if (std::isfinite(row.value))
+          std::cout << row.value << "\n";
+        else
+          std::cout << "not reached\n";
+      }
       std::cout << "outputs: " << o->out
                 << "/stability.csv, stability.json, stability_orders.png\n";
       return 0;

@@ -78,7 +78,7 @@ void order_sweep(const StabilityOptions& o, StabilityResult& res, const Progress
       res.rows.push_back({"taylor_order", method, "tolerance", tol, "departure_force_pN",
                           departure_force(c, full, tol),
                           "first force where D_A departs from the full WLC law by this fraction "
-                          "(NaN: not within the ladder)"});
+                          "(not reached: not within the ladder)"});
     // Unphysical: a link direction stretched beyond the contour length (L > Lmax), which
     // the full WLC forbids, or a non-converged solve.
     double unphysical = std::nan("");
@@ -263,20 +263,28 @@ StabilityResult run_stability(const StabilityOptions& o, const TradeoffResult* t
 void write_stability(const StabilityResult& r, const std::string& dir) {
   ensure_output_directory(dir);
   std::ostringstream csv;
-  csv << "# where each method stops working (rbc stability); NaN = not reached in the sweep\n"
+  csv << "# where each method stops working (rbc stability); 'not reached' = not within the "
+         "sweep\n"
       << "study,method,parameter,parameter_value,metric,value,note\n";
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& row : r.rows) {
+    // A value the sweep never reached (NaN inside the study) is written in words, never as
+    // nan/inf or JSON null.
     csv << row.study << "," << row.method << "," << row.parameter << "," << row.parameter_value
-        << "," << row.metric << "," << row.value << ",\"" << row.note << "\"\n";
-    rows.push_back(
-        {{"study", row.study},
-         {"method", row.method},
-         {"parameter", row.parameter},
-         {"parameter_value", row.parameter_value},
-         {"metric", row.metric},
-         {"value", std::isfinite(row.value) ? nlohmann::json(row.value) : nlohmann::json()},
-         {"note", row.note}});
+        << "," << row.metric << ",";
+    if (std::isfinite(row.value))
+      csv << row.value;
+    else
+      csv << "not reached";
+    csv << ",\"" << row.note << "\"\n";
+    rows.push_back({{"study", row.study},
+                    {"method", row.method},
+                    {"parameter", row.parameter},
+                    {"parameter_value", row.parameter_value},
+                    {"metric", row.metric},
+                    {"value", std::isfinite(row.value) ? nlohmann::json(row.value)
+                                                       : nlohmann::json("not reached")},
+                    {"note", row.note}});
   }
   write_text_atomic(dir + "/stability.csv", csv.str());
   write_text_atomic(dir + "/stability.json", rows.dump(2) + "\n");
