@@ -163,6 +163,8 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   if (o.start != "equilibrium" && o.start != "rest")
     throw std::invalid_argument("--start " + o.start + ": expected one of equilibrium, rest");
   to_setup(o);  // every number up front (on --resume too: a given option must be valid)
+  if (std::error_code ec; !o.resume.empty() && !std::filesystem::is_regular_file(o.resume, ec))
+    throw std::invalid_argument("--resume " + o.resume + ": no such checkpoint file");
   if (!o.checkpoint.empty()) check_output_file(o.checkpoint, "--checkpoint");
   if (!o.out.empty())
     prepare_output_directory(o.out, o.overwrite, !o.resume.empty() && holds_mc_run(o.out));
