@@ -1,6 +1,10 @@
 #pragma once
-// Small helpers shared by the sub-commands: list parsing, progress to stderr, JSON output.
+// Small helpers shared by the sub-commands: list parsing, progress to stderr, option checks
+// that name the option, output-directory checks, file-name tags.
+#include <CLI/CLI.hpp>
+#include <functional>
 #include <iostream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -9,15 +13,55 @@
 namespace rbc::app {
 
 /// Parses a comma-separated list of finite numbers; throws std::invalid_argument naming the
-/// bad item and `what` (e.g. "force"), with `example` as the expected form. Negative values
-/// are refused unless allow_negative.
-std::vector<double> parse_number_list(const std::string& text, const std::string& what,
+/// option, the bad item and the expectation, e.g. "--force abc: expected a comma-separated
+/// list of finite numbers >= 0 (e.g. 0,16,88 in pN)". Negative values are refused unless
+/// allow_negative. -0 is read as 0.
+std::vector<double> parse_number_list(const std::string& text, const std::string& option,
                                       const std::string& example, bool allow_negative);
 
-/// Parses "0,16,38.5" into forces in pN (finite, >= 0).
+/// Parses "--force 0,16,38.5" into forces in pN (finite, >= 0).
 std::vector<double> parse_force_list(const std::string& text);
 
-/// Progress sink writing "[elapsed s] message" lines to stderr (quiet = discard).
+/// Progress sink writing "[elapsed s] message" lines to stderr (quiet = discard). It formats
+/// each line in its own stream, so it never changes std::cerr's number format.
 ProgressSink stderr_progress(bool quiet);
+
+/// A library quantity (rbc::InvalidParameter::quantity()) -> the command's option for it,
+/// e.g. {"persistence length", "--persistence"}.
+using OptionNames = std::map<std::string, std::string>;
+
+/// Runs body; an rbc::InvalidParameter about a quantity in `names` is rethrown as
+/// std::invalid_argument("<option> <value>: <quantity> must be <expectation>"), so the error
+/// line names the option the user typed. Other exceptions pass unchanged.
+int naming_options(const OptionNames& names, const std::function<int()>& body);
+
+/// CLI11 check for an integer option: the whole text is a decimal integer in [lo, hi] (no
+/// wrap-around, no clamping, no trailing characters); otherwise the parse fails with
+/// "<option> <text>: expected an integer in [lo, hi]" (exit 2).
+CLI::Validator integer_in(long long lo, long long hi);
+/// As integer_in for an unsigned 64-bit option (a seed): [0, 18446744073709551615].
+CLI::Validator unsigned_integer();
+
+/// Checks an output directory up front, before any work, and creates it: `option` ('--out')
+/// must name a directory (or a path whose nearest existing ancestor is a directory) that can be
+/// created and written (a probe file is created and removed), and that is empty unless
+/// `overwrite` or `allow_nonempty` (e.g. it holds the run being resumed). Throws
+/// std::invalid_argument "--out DIR: ..." naming the problem.
+void prepare_output_directory(const std::string& dir, bool overwrite, bool allow_nonempty = false,
+                              const std::string& option = "--out");
+
+/// Checks up front that FILE can be written (its directory exists or can be created and is
+/// writable, FILE itself is not a directory); throws "<option> FILE: ...".
+void check_output_file(const std::string& path, const std::string& option);
+
+/// A number for file names: fixed notation with at least min_decimals decimals and as many
+/// more as needed for the tag to read back as the same double, so distinct values never share
+/// a name (16.01 -> "16.01", 16 -> "16.0" with min_decimals 1).
+std::string number_tag(double value, int min_decimals);
+
+/// Throws "<option> <list>: values must be distinct, <a> and <b> would write the same files"
+/// when two values of the list are equal (their tags would collide).
+void require_distinct(const std::vector<double>& values, const std::string& option,
+                      const std::string& text);
 
 }  // namespace rbc::app

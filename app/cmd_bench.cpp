@@ -392,11 +392,18 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->UseRealTime()
             ->MinTime(2.0);
       } else {
-        throw std::invalid_argument("unknown benchmark suite '" + suite +
-                                    "' (expected stretch, sweep or mc)");
+        throw std::invalid_argument("bench " + suite +
+                                    ": unknown benchmark suite (expected stretch, sweep or mc)");
       }
-      std::vector<char*> argv{const_cast<char*>("rbc-bench")};
       std::vector<std::string> rest(args->begin() + (args->empty() ? 0 : 1), args->end());
+      // Google Benchmark's own flags only (--benchmark_filter=..., ...); anything else is refused
+      // here, before any benchmark runs, with the one error format of every command.
+      for (const auto& s : rest)
+        if (s.rfind("--benchmark_", 0) != 0 && s.rfind("--v=", 0) != 0)
+          throw std::invalid_argument("bench " + suite + " " + s +
+                                      ": not a Google Benchmark option (expected "
+                                      "--benchmark_...=VALUE, see --benchmark_list_tests)");
+      std::vector<char*> argv{const_cast<char*>("rbc")};  // its messages then start "rbc: "
       for (auto& s : rest) argv.push_back(s.data());
       int argc = static_cast<int>(argv.size());
       benchmark::Initialize(&argc, argv.data());

@@ -1,21 +1,31 @@
 // `rbc fig7`: the paper's Fig. 7 against Mills 2004, with goodness of fit per method.
-#include <filesystem>
 #include <iomanip>
 #include <iostream>
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "compare/fig7.hpp"
+#include "continuum/continuum_stretch.hpp"
+#include "discrete/stretch.hpp"
 
 namespace rbc::app {
 
+/// --out of the study commands, checked (writable, empty unless --force-overwrite) and created
+/// before any computation.
 void check_output_directory(const std::string& dir, bool overwrite) {
-  namespace fs = std::filesystem;
-  if (fs::exists(dir) && !fs::is_directory(dir))
-    throw std::invalid_argument("--out '" + dir + "' exists and is not a directory");
-  if (fs::is_directory(dir) && !fs::is_empty(dir) && !overwrite)
-    throw std::invalid_argument(
-        "--out '" + dir + "' is not empty; choose another directory or pass --force-overwrite");
+  prepare_output_directory(dir, overwrite);
+}
+
+/// Every force within the documented range of every method that will run (names --force).
+void check_method_forces(const std::vector<Method>& methods, const std::vector<double>& forces_pN) {
+  naming_options({{"force (discrete model)", "--force"}, {"force (continuum model)", "--force"}},
+                 [&] {
+                   for (const Method& m : methods)
+                     for (double f : forces_pN)
+                       m.kind == MethodKind::discrete ? validate_discrete_force(f)
+                                                      : validate_continuum_force(f);
+                   return 0;
+                 });
 }
 
 void add_fig7_command(CLI::App& app, Action& action) {
@@ -46,6 +56,7 @@ void add_fig7_command(CLI::App& app, Action& action) {
       check_increasing_forces(fo.forces_pN);
       for (const auto& m : o->methods) fo.methods.push_back(parse_method(m));
       fo.data_dir = o->data_dir;
+      check_method_forces(fo.methods.empty() ? default_fig7_methods() : fo.methods, fo.forces_pN);
       check_output_directory(o->out, o->overwrite);
       const Fig7Result r = run_fig7(fo, stderr_progress(o->quiet));
       write_fig7(r, o->out);

@@ -11,8 +11,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -23,6 +25,7 @@
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 #include "discrete/mc_checkpoint.hpp"
 #include "discrete/mc_run.hpp"
 #include "discrete/stretch.hpp"
@@ -44,8 +47,29 @@ struct McCli {
   std::string checkpoint, resume, out, start = "equilibrium", bending = "juelicher";
   long long checkpoint_every = 100;
   long long snapshot_every = 0;
-  bool json = false, quiet = false;
+  bool json = false, quiet = false, overwrite = false;
 };
+
+/// Largest --sweeps accepted: 1e12 sweeps (about 30 years at 1,000 sweeps/s).
+constexpr long long kMaxSweeps = 1000000000000LL;
+
+/// Library quantities -> this command's options.
+const OptionNames kMcOptionNames = {
+    {"force (discrete model)", "--force"},
+    {"sampling temperature", "--temperature"},
+    {"RNG streams", "--streams"},
+    {"penalty scale", "--penalty-scale"},
+    {"sample interval (sweeps)", "--sample-every"},
+    {"adaptive fraction", "--adapt-fraction"},
+};
+
+/// Whether DIR holds the outputs of an `rbc mc` run (so a resumed run may write into it).
+bool holds_mc_run(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  return fs::exists(fs::path(dir) / "mc_summary.json", ec) ||
+         fs::exists(fs::path(dir) / "mc_series.csv", ec);
+}
 
 /// Runs its scope on one OpenMP thread. The parallel reductions in make_rest_shape and
 /// network_energy (hence L-BFGS) sum in thread-arrival order, so their last bits vary from run
@@ -118,23 +142,32 @@ struct GivenOptions {
        bending = false;
 };
 
+/// The run's setup from the command line (multipliers and reference filled in later),
+/// validated: every bad number is refused here, before any work.
+McRunSetup to_setup(const McCli& o) {
+  require_finite_in_range("adaptive fraction", "", o.adapt_fraction, 0.0, 1.0, Ends::closed_open);
+  McRunSetup setup;
+  setup.force_pN = o.force_pN;
+  setup.sampler.temperature_K = o.temperature_K;
+  setup.sampler.seed = o.seed;
+  setup.sampler.streams = o.streams > 0 ? o.streams : omp_get_max_threads();
+  setup.sampler.adapt_sweeps = static_cast<int>(std::min<double>(
+      std::llround(o.adapt_fraction * double(o.sweeps)), std::numeric_limits<int>::max()));
+  setup.sample_every = o.sample_every;
+  setup.penalty_scale = o.penalty_scale;
+  setup.validate();
+  return setup;
+}
+
 int run_mc(const McCli& o, const GivenOptions& given) {
-  if (!(o.temperature_K >= 0) || !std::isfinite(o.temperature_K))
-    throw std::invalid_argument("--temperature must be >= 0 K, got " +
-                                std::to_string(o.temperature_K));
-  if (o.sweeps < 0)
-    throw std::invalid_argument("--sweeps must be >= 0, got " + std::to_string(o.sweeps));
-  if (!(o.force_pN >= 0) || !std::isfinite(o.force_pN))
-    throw std::invalid_argument("--force must be finite and >= 0 pN, got " +
-                                std::to_string(o.force_pN));
-  if (!(o.adapt_fraction >= 0 && o.adapt_fraction < 1))
-    throw std::invalid_argument("--adapt-fraction must lie in [0, 1), got " +
-                                std::to_string(o.adapt_fraction));
-  if (o.checkpoint_every < 1) throw std::invalid_argument("--checkpoint-every must be >= 1 sweep");
-  if (o.snapshot_every < 0) throw std::invalid_argument("--snapshot-every must be >= 0");
   if (o.start != "equilibrium" && o.start != "rest")
-    throw std::invalid_argument("--start '" + o.start + "' is not one of equilibrium, rest");
-  if (!o.out.empty()) ensure_output_directory(o.out);
+    throw std::invalid_argument("--start " + o.start + ": expected one of equilibrium, rest");
+  to_setup(o);  // every number up front (on --resume too: a given option must be valid)
+  if (std::error_code ec; !o.resume.empty() && !std::filesystem::is_regular_file(o.resume, ec))
+    throw std::invalid_argument("--resume " + o.resume + ": no such checkpoint file");
+  if (!o.checkpoint.empty()) check_output_file(o.checkpoint, "--checkpoint");
+  if (!o.out.empty())
+    prepare_output_directory(o.out, o.overwrite, !o.resume.empty() && holds_mc_run(o.out));
   const ProgressSink progress = stderr_progress(o.quiet);
 
   RestShapeOptions ro;
@@ -179,16 +212,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     report(progress, "resuming at sweep " + std::to_string(cp.chain.sweep) + " from " + o.resume);
     run = std::make_unique<McRun>(net, cp.setup, cp.chain, cp.series);
   } else {
-    McRunSetup setup;
-    setup.force_pN = o.force_pN;
-    setup.sampler.temperature_K = o.temperature_K;
-    setup.sampler.seed = o.seed;
-    setup.sampler.streams = o.streams > 0 ? o.streams : omp_get_max_threads();
-    setup.sampler.adapt_sweeps =
-        static_cast<int>(std::llround(o.adapt_fraction * double(o.sweeps)));
-    setup.sample_every = o.sample_every;
-    setup.penalty_scale = o.penalty_scale;
-    setup.validate();
+    McRunSetup setup = to_setup(o);
     // Zero-temperature equilibrium by continuation: start state, multipliers and reference.
     Positions x = net.rest;
     ConstraintMultipliers lambda;
@@ -199,9 +223,9 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     for (int k = 1; k <= steps; ++k) {
       eq = solve_equilibrium(net, o.force_pN * k / steps, x, lambda, StretchOptions{});
       if (!eq.converged) {
-        std::cerr << "rbc: zero-temperature equilibrium at " << eq.force_pN
-                  << " pN did not converge: " << eq.status << ", residual " << eq.residual_pN
-                  << " pN\n";
+        std::cerr << "rbc: error: zero-temperature equilibrium at " + format_number(eq.force_pN) +
+                         " pN did not converge: " + eq.status + ", residual " +
+                         format_scientific(eq.residual_pN) + " pN\n";
         return 1;
       }
     }
@@ -337,22 +361,32 @@ void add_mc_command(CLI::App& app, Action& action) {
       app.add_subcommand("mc", "Metropolis Monte Carlo of the spectrin network at temperature T");
   auto* vertices = cmd->add_option("--vertices,-n", o->vertices,
                                    "vertex count N (100 to 40,000; --resume: the checkpoint's)")
+                       ->check(integer_in(100, 40000))
                        ->capture_default_str();
-  auto* force =
-      cmd->add_option("--force,-f", o->force_pN, "total bead force F (pN)")->capture_default_str();
-  auto* temp = cmd->add_option("--temperature,-T", o->temperature_K, "sampling temperature (K)")
+  auto* force = cmd->add_option("--force,-f", o->force_pN,
+                                "total bead force F (pN), in [0, " +
+                                    format_number(kMaxDiscreteForce_pN) + "]")
+                    ->capture_default_str();
+  auto* temp = cmd->add_option("--temperature,-T", o->temperature_K,
+                               "sampling temperature (K), in [0, 100000]")
                    ->capture_default_str();
   cmd->add_option("--sweeps,-s", o->sweeps, "total sweeps (one move per vertex each)")
+      ->check(integer_in(0, kMaxSweeps))
       ->capture_default_str();
   auto* seed =
-      cmd->add_option("--seed", o->seed, "seed of the mt19937 streams")->capture_default_str();
+      cmd->add_option("--seed", o->seed, "seed of the mt19937 streams, an integer in [0, 2^64 - 1]")
+          ->check(unsigned_integer())
+          ->capture_default_str();
   cmd->add_option("--streams", o->streams,
-                  "RNG streams = parallel chunks (0: one per thread); the chain depends on it")
+                  "RNG streams = parallel chunks (0: one per thread; at most 1024); the chain "
+                  "depends on it")
+      ->check(integer_in(0, kMaxMcStreams))
       ->capture_default_str();
   cmd->add_option("--adapt-fraction", o->adapt_fraction,
-                  "fraction of the sweeps with adaptive step (equilibration)")
+                  "fraction of the sweeps with adaptive step (equilibration), in [0, 1)")
       ->capture_default_str();
   cmd->add_option("--sample-every", o->sample_every, "sweeps between recorded samples")
+      ->check(integer_in(1, std::numeric_limits<int>::max()))
       ->capture_default_str();
   cmd->add_option("--start", o->start, "equilibrium | rest")->capture_default_str();
   auto* bending =
@@ -365,19 +399,26 @@ void add_mc_command(CLI::App& app, Action& action) {
           ->capture_default_str();
   cmd->add_option("--checkpoint", o->checkpoint, "write the chain state to FILE (HDF5, atomic)");
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "sweeps between checkpoints")
+      ->check(integer_in(1, kMaxSweeps))
       ->capture_default_str();
   cmd->add_option("--resume", o->resume, "continue the chain stored in FILE");
   cmd->add_option("--out", o->out,
                   "write DIR/mc_series.csv/.h5, mc_summary.json, snapshots (.h5/.xdmf)");
   cmd->add_option("--snapshot-every", o->snapshot_every,
                   "sweeps between snapshots (0: start and end)")
+      ->check(integer_in(0, kMaxSweeps))
       ->capture_default_str();
+  cmd->add_flag("--force-overwrite", o->overwrite,
+                "allow a non-empty --out (with --resume, a directory holding an mc run is "
+                "accepted without it)");
   cmd->add_flag("--json", o->json, "print the summary as JSON");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, force, temp, seed, penalty, vertices, bending, &action] {
     const GivenOptions given{force->count() > 0,   temp->count() > 0,     seed->count() > 0,
                              penalty->count() > 0, vertices->count() > 0, bending->count() > 0};
-    action = [o, given] { return run_mc(*o, given); };
+    action = [o, given] {
+      return naming_options(kMcOptionNames, [&] { return run_mc(*o, given); });
+    };
   });
 }
 

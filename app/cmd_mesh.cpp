@@ -3,6 +3,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
@@ -33,23 +34,27 @@ void add_mesh_command(CLI::App& app, Action& action) {
     int vertices = 2000;
     std::string quality = "phi-minimised";
     std::string out;
-    bool json = false;
+    bool json = false, overwrite = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd =
       app.add_subcommand("mesh", "Triangulate the Evans-Fung rest shape and report its quality");
   cmd->add_option("--vertices,-n", o->vertices, "vertex count N (100 to 40,000; hit within 10 %)")
+      ->check(integer_in(100, 40000))
       ->capture_default_str();
   cmd->add_option("--quality", o->quality, "phi-minimised | projected | equal-area")
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "write DIR/rest_shape.h5/.xdmf and DIR/mesh_quality.json");
+  cmd->add_option("--out", o->out,
+                  "write DIR/rest_shape.h5/.xdmf and DIR/mesh_quality.json (must be empty "
+                  "unless --force-overwrite)");
+  cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print the report as JSON");
   cmd->callback([o, &action] {
     action = [o] {
       RestShapeOptions ro;
       ro.target_vertices = o->vertices;
       ro.quality = rest_mesh_quality_from_string(o->quality);
-      if (!o->out.empty()) ensure_output_directory(o->out);
+      if (!o->out.empty()) prepare_output_directory(o->out, o->overwrite);
       MeshQualityReport r;
       const TriMesh m = make_rest_shape(ro, &r);
       const nlohmann::json j = mesh_report_json(r);

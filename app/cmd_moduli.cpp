@@ -12,6 +12,7 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "core/validation.hpp"
 #include "homogenise/disordered_network.hpp"
 #include "homogenise/lattice_density.hpp"
 #include "homogenise/membrane_inputs.hpp"
@@ -22,15 +23,31 @@ namespace rbc::app {
 
 /// Registers --lbar --lmax --persistence --temperature --q --eta (used by cmd_psi.cpp too).
 void add_membrane_options(CLI::App* cmd, MembraneInputs& m) {
-  cmd->add_option("--lbar", m.lbar_nm, "spectrin rest length Lbar (nm)")->capture_default_str();
-  cmd->add_option("--lmax", m.lmax_nm, "spectrin contour length Lmax (nm), > Lbar")
+  cmd->add_option("--lbar", m.lbar_nm, "spectrin rest length Lbar (nm), in (0, 10000]")
       ->capture_default_str();
-  cmd->add_option("--persistence", m.persistence_nm, "persistence length p (nm), > 0")
+  cmd->add_option("--lmax", m.lmax_nm, "spectrin contour length Lmax (nm), in (Lbar, 10000]")
       ->capture_default_str();
-  cmd->add_option("--temperature", m.temperature_K, "temperature T (K), > 0")
+  cmd->add_option("--persistence", m.persistence_nm, "persistence length p (nm), in (0, 10000]")
       ->capture_default_str();
-  cmd->add_option("--q", m.q, "steric exponent q in (0, 10]")->capture_default_str();
-  cmd->add_option("--eta", m.eta, "steric regularisation eta > 0")->capture_default_str();
+  cmd->add_option("--temperature", m.temperature_K, "temperature T (K), in (0, 1000]")
+      ->capture_default_str();
+  cmd->add_option("--q", m.q, "steric exponent q, in (0, 10]")->capture_default_str();
+  cmd->add_option("--eta", m.eta, "steric regularisation eta, in (0, 1]")->capture_default_str();
+}
+
+/// The membrane quantities -> their options (shared with cmd_psi.cpp).
+const OptionNames& membrane_option_names() {
+  static const OptionNames names = {
+      {"Lbar (rest length)", "--lbar"},
+      {"Lmax (contour length, > Lbar)", "--lmax"},
+      {"persistence length", "--persistence"},
+      {"temperature", "--temperature"},
+      {"steric exponent q", "--q"},
+      {"steric regularisation eta", "--eta"},
+      {"disorder X", "--disorder"},
+      {"disordered network cells", "--cells"},
+  };
+  return names;
 }
 
 namespace {
@@ -52,10 +69,7 @@ int run_moduli(const ModuliCli& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const WlcParameters wlc = o.membrane.wlc();
   const StericParameters steric = o.membrane.steric();
-  if (!(o.disorder >= 0.0 && o.disorder <= 1.0))
-    throw std::invalid_argument("--disorder must lie in [0, 1], got " + std::to_string(o.disorder));
-  if (o.cells < 0)
-    throw std::invalid_argument("--cells must be positive, got " + std::to_string(o.cells));
+  require_finite_in_range("disorder X", "", o.disorder, 0.0, 1.0, Ends::closed_closed);
   const NetworkMaterial m = make_network_material(wlc, steric);
   const LinearModuli closed = closed_form_moduli(m.w, steric);
   const LinearModuli explicit_forms = paper_explicit_moduli(wlc, steric);
@@ -75,7 +89,6 @@ int run_moduli(const ModuliCli& o) {
   int status = 0;
   if (o.network == "hex") {
     const int n = o.cells > 0 ? o.cells : 4;
-    if (n > 200) throw std::invalid_argument("--cells must be <= 200, got " + std::to_string(n));
     const PeriodicNetwork net = make_hexagonal_patch(n, wlc.lbar_um);
     const HomogenisedState h = homogenise_patch(net, m, Eigen::Matrix2d::Identity());
     const LinearModuli num = moduli_from_tangent(h.relaxed_tangent);
@@ -117,8 +130,8 @@ int run_moduli(const ModuliCli& o) {
          << " Newton iterations, Psi_patch/Psi_lattice - 1 = " << psi_patch / psi_lattice - 1.0
          << "\n";
     if (!r.converged() || !h.relax.converged()) {
-      std::cerr << "rbc: cell problem did not converge: " << to_string(r.status) << ", residual "
-                << r.residual_pN << " pN\n";
+      std::cerr << "rbc: error: cell problem did not converge: " + to_string(r.status) +
+                       ", residual " + format_scientific(r.residual_pN) + " pN\n";
       status = 1;
     }
   } else {
@@ -127,8 +140,6 @@ int run_moduli(const ModuliCli& o) {
     d.disorder = o.disorder;
     d.spacing_um = wlc.lbar_um;
     d.validate();
-    if (o.seeds < 1)
-      throw std::invalid_argument("--seeds must be >= 1, got " + std::to_string(o.seeds));
     const auto ts = std::chrono::steady_clock::now();
     const std::vector<DisorderedSample> samples =
         disordered_study(d, m, o.seeds, 1, {}, stderr_progress(o.quiet));
@@ -194,8 +205,8 @@ int run_moduli(const ModuliCli& o) {
          << pre.std << " uN/m\n"
          << "  " << per_seed << " s per seed\n";
     if (!converged) {
-      std::cerr << "rbc: relaxation did not converge for every seed, worst residual "
-                << worst_residual << " pN\n";
+      std::cerr << "rbc: error: relaxation did not converge for every seed, worst residual " +
+                       format_scientific(worst_residual) + " pN\n";
       status = 1;
     }
   }
@@ -221,14 +232,22 @@ void add_moduli_command(CLI::App& app, Action& action) {
   cmd->add_option("--disorder", o->disorder,
                   "disorder X in [0, 1]: jitter radius X * 0.4 * spacing (disordered only)")
       ->capture_default_str();
-  cmd->add_option("--cells", o->cells, "patch size n (default 4 for hex, 12 for disordered)");
-  cmd->add_option("--seeds", o->seeds, "number of random networks (disordered only)")
+  cmd->add_option("--cells", o->cells,
+                  "patch size n, at most 200 (default 4 for hex, 12 for disordered, which needs "
+                  ">= 4)")
+      ->check(integer_in(0, 200));
+  cmd->add_option("--seeds", o->seeds, "number of random networks (disordered only), 1 to 1000")
+      ->check(integer_in(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--json", o->json,
                 "print JSON (mu_closed, K_closed, mu_numeric, K_numeric, young, poisson; uN/m; "
                 "young/poisson from the numerical moduli)");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress lines on stderr");
-  cmd->callback([o, &action] { action = [o] { return run_moduli(*o); }; });
+  cmd->callback([o, &action] {
+    action = [o] {
+      return naming_options(membrane_option_names(), [&] { return run_moduli(*o); });
+    };
+  });
 }
 
 }  // namespace rbc::app

@@ -1,14 +1,17 @@
 // `rbc psi`: tabulates the homogenised density Psi and its stress along a deformation path,
 // so the Taylor orders and the full WLC can be compared where they part (MODEL.md
 // section 3; Hartmann 2008 Sec. 3.4, Appendix A), or evaluates Psi at one deformation.
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <memory>
 #include <sstream>
 
+#include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "core/io.hpp"
+#include "core/validation.hpp"
 #include "homogenise/invariant_laws.hpp"
 #include "homogenise/lattice_density.hpp"
 #include "homogenise/membrane_inputs.hpp"
@@ -16,6 +19,7 @@
 namespace rbc::app {
 
 void add_membrane_options(CLI::App* cmd, MembraneInputs& m);  // cmd_moduli.cpp
+const OptionNames& membrane_option_names();                   // cmd_moduli.cpp
 
 namespace {
 
@@ -85,22 +89,33 @@ int run_psi(const PsiCli& o) {
   const IsotropicMembraneLaw law = make_membrane_law(p, s, e);
   const WlcDensity w = make_wlc_density(p, e);
   const double C = steric_constant(w, s);
+  if (o.deformation.empty() && o.out.empty())
+    throw std::invalid_argument("--out FILE.csv is required (or give --deformation)");
+  if (!o.out.empty()) check_output_file(o.out, "--out");
   if (!o.deformation.empty()) {
     const Eigen::Matrix2d F = parse_deformation(o.deformation);
     const Invariants I = invariants(F);
     const InvariantDerivatives d = law.evaluate(I.i1, I.i2);
     const Eigen::Matrix2d P = first_piola(F, d);
+    const double psi_lattice = lattice_density(w, C, s, F);
+    if (!std::isfinite(d.psi) || !P.allFinite() || !std::isfinite(psi_lattice)) {
+      // Outside the law's domain (the full WLC diverges where a link direction reaches Lmax).
+      const double stretch =
+          std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(F.transpose() * F)
+                        .eigenvalues()
+                        .maxCoeff());
+      throw std::invalid_argument(
+          "--deformation " + o.deformation + ": outside the domain of " + law.name +
+          ": the largest principal stretch " + format_number(stretch) +
+          " must be < Lmax/Lbar = " + format_number(1.0 / w.x0) + " (Psi is infinite there)");
+    }
     std::cout << std::setprecision(10) << "law: " << law.name << "\nI1 = " << I.i1
               << ", I2 = " << I.i2 << "\nPsi = " << d.psi
-              << " pN/um (lattice at phi = 0: " << lattice_density(w, C, s, F) << ")\nP = [["
-              << P(0, 0) << ", " << P(0, 1) << "], [" << P(1, 0) << ", " << P(1, 1) << "]] pN/um\n";
+              << " pN/um (lattice at phi = 0: " << psi_lattice << ")\nP = [[" << P(0, 0) << ", "
+              << P(0, 1) << "], [" << P(1, 0) << ", " << P(1, 1) << "]] pN/um\n";
     if (o.out.empty()) return 0;
   }
-  if (o.out.empty())
-    throw std::invalid_argument("--out FILE.csv is required (or give --deformation)");
-  if (o.points < 2 || o.points > 100000)
-    throw std::invalid_argument("--points must lie in [2, 100000], got " +
-                                std::to_string(o.points));
+
   // Path end: where the full WLC diverges, largest principal stretch 1/x0.
   const double lmax_stretch = 1.0 / w.x0;
   const double s0 = o.curve == "shear" ? 0.0 : 1.0;
@@ -149,10 +164,15 @@ void add_psi_command(CLI::App& app, Action& action) {
       ->check(CLI::IsMember({"uniaxial", "equibiaxial", "shear"}))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "CSV file to write (atomically)");
-  cmd->add_option("--points", o->points, "rows along the path")->capture_default_str();
+  cmd->add_option("--points", o->points, "rows along the path, 2 to 100,000")
+      ->check(integer_in(2, 100000))
+      ->capture_default_str();
   cmd->add_option("--deformation", o->deformation,
-                  "evaluate at one F given as F11,F12,F21,F22 (det F > 0) and print");
-  cmd->callback([o, &action] { action = [o] { return run_psi(*o); }; });
+                  "evaluate at one F given as F11,F12,F21,F22 (det F > 0, inside the law's "
+                  "domain) and print");
+  cmd->callback([o, &action] {
+    action = [o] { return naming_options(membrane_option_names(), [&] { return run_psi(*o); }); };
+  });
 }
 
 }  // namespace rbc::app

@@ -8,9 +8,12 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "continuum/continuum_model.hpp"
 #include "continuum/relax.hpp"
 #include "core/io.hpp"
+#include "core/lbfgs.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 #include "homogenise/invariant_laws.hpp"
 
 namespace rbc::app {
@@ -25,25 +28,37 @@ struct RelaxCli {
   double tolerance_pN = 1e-6;
   int max_iterations = 200;
   std::string out;
-  bool json = false, quiet = false;
+  bool json = false, quiet = false, overwrite = false;
+};
+
+/// Library quantities -> this command's options.
+const OptionNames kRelaxOptionNames = {
+    {"spontaneous curvature H0", "--h0"},
+    {"bending rigidity kappa", "--kappa"},
+    {"regulariser (fraction of the p=2 law)", "--regulariser"},
+    {"force tolerance", "--tolerance"},
+    {"max iterations", "--max-iterations"},
 };
 
 /// Parses "0,0.1" (1/um); negative values are allowed (H0 has a sign).
 std::vector<double> parse_h0_list(const std::string& text) {
-  return parse_number_list(text, "H0", "0,0.1 in 1/um", true);
+  return parse_number_list(text, "--h0", "0,0.1 in 1/um", true);
 }
 
 int run_relax(const RelaxCli& o) {
   const std::vector<double> h0s = parse_h0_list(o.h0_list);
-  if (!(o.kappa_J > 0)) throw std::invalid_argument("--kappa must be > 0 J");
-  if (!(o.regulariser > 0 && o.regulariser <= 1))
-    throw std::invalid_argument("--regulariser must lie in (0, 1], got " +
-                                std::to_string(o.regulariser));
+  for (double h0 : h0s) BendingParameters{units::joule_to_pNum(o.kappa_J), h0}.validate();
+  // Helfrich bending is the only physics here: kappa = 0 leaves nothing to relax.
+  require_finite_in_range("bending rigidity kappa", "J", o.kappa_J, 0.0, kMaxKappa_J);
+  require_finite_in_range("regulariser (fraction of the p=2 law)", "", o.regulariser, 0.0, 1.0);
   NewtonOptions no;
   no.force_tolerance_pN = o.tolerance_pN;
   no.max_iterations = o.max_iterations;
   no.validate();
-  if (!o.out.empty()) ensure_output_directory(o.out);
+  if (!o.out.empty()) {
+    require_distinct(h0s, "--h0", o.h0_list);
+    prepare_output_directory(o.out, o.overwrite);
+  }
   const ProgressSink progress = stderr_progress(o.quiet);
   MeshQualityReport mr;
   const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mr);
@@ -102,16 +117,18 @@ int run_relax(const RelaxCli& o) {
                         static_cast<double>(r.solve.iterations), r.solve.converged() ? 1.0 : 0.0,
                         r.solve.residual_pN, r.wall_s});
     if (!o.out.empty()) {
-      std::ostringstream tag;
-      tag << std::fixed << std::setprecision(3) << h0;
+      const std::string tag = number_tag(h0, 3);  // 0.100, or more digits to tell two apart
       const Eigen::VectorXd u = (r.x - mesh.x).colwise().norm().transpose();
       MeshSnapshot s{r.x, mesh.topo.faces, {{"displacement_um", u}}, {}, {{"h0_per_um", h0}}};
-      write_mesh_snapshot(o.out + "/relaxed_h0_" + tag.str(), s);
+      write_mesh_snapshot(o.out + "/relaxed_h0_" + tag, s);
     }
     if (!r.solve.converged()) {
-      std::cerr << "rbc: error: relaxation with H0 = " << h0 << " per um did not converge ("
-                << to_string(r.solve.status) << "): largest vertex force residual "
-                << r.solve.residual_pN << " pN\n";
+      std::cerr << "rbc: error: relaxation with H0 = " + format_number(h0) +
+                       " per um did not converge (" + to_string(r.solve.status) +
+                       "): largest vertex force residual " +
+                       format_scientific(r.solve.residual_pN) + " pN, area drift " +
+                       format_scientific(r.solve.area_drift) + ", volume drift " +
+                       format_scientific(r.solve.volume_drift) + "\n";
       status = 1;
     }
   }
@@ -153,21 +170,33 @@ void add_relax_command(CLI::App& app, Action& action) {
   auto* cmd = app.add_subcommand(
       "relax", "Helfrich relaxation of the Evans-Fung shape at fixed area and volume (Fig. 5)");
   cmd->add_option("--elements", o->elements, "continuum triangles (200 to 79,996)")
+      ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();
-  cmd->add_option("--h0", o->h0_list, "comma-separated spontaneous curvatures H0 (1/um)")
+  cmd->add_option("--h0", o->h0_list,
+                  "comma-separated spontaneous curvatures H0 (1/um), each in [-100, 100]")
       ->capture_default_str();
-  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J)")->capture_default_str();
+  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J), in (0, 1e-16]")
+      ->capture_default_str();
   cmd->add_option("--regulariser", o->regulariser,
                   "in-plane mesh regulariser: fraction of the p=2 membrane law (0, 1]")
       ->capture_default_str();
-  cmd->add_option("--tolerance", o->tolerance_pN, "largest net vertex force at convergence (pN)")
+  cmd->add_option("--tolerance", o->tolerance_pN,
+                  "largest net vertex force at convergence (pN), in (0, 10]")
       ->capture_default_str();
-  cmd->add_option("--max-iterations", o->max_iterations, "Newton iterations")
+  cmd->add_option("--max-iterations", o->max_iterations, "Newton iterations, in [1, 10000000]")
+      ->check(integer_in(1, kMaxIterations))
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "write relaxed shapes (HDF5/XDMF), relax.csv and relax.json");
+  cmd->add_option("--out", o->out,
+                  "write relaxed shapes (HDF5/XDMF), relax.csv and relax.json (must be empty "
+                  "unless --force-overwrite)");
+  cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print a JSON array on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, &action] { action = [o]() -> int { return run_relax(*o); }; });
+  cmd->callback([o, &action] {
+    action = [o]() -> int {
+      return naming_options(kRelaxOptionNames, [&] { return run_relax(*o); });
+    };
+  });
 }
 
 }  // namespace rbc::app

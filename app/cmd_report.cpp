@@ -1,9 +1,11 @@
 // `rbc stability` and `rbc report` (issue 5).
+#include <cmath>
 #include <iostream>
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "compare/report.hpp"
+#include "continuum/continuum_model.hpp"
 
 namespace rbc::app {
 
@@ -17,9 +19,13 @@ void add_stability_command(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("stability", "Where each method stops working (sweeps)");
-  cmd->add_option("--vertices", o->s.discrete_vertices, "discrete network for the sweeps")
+  cmd->add_option("--vertices", o->s.discrete_vertices,
+                  "discrete network for the sweeps (100 to 40,000)")
+      ->check(integer_in(100, 40000))
       ->capture_default_str();
-  cmd->add_option("--elements", o->s.continuum_elements, "continuum mesh for the sweeps")
+  cmd->add_option("--elements", o->s.continuum_elements,
+                  "continuum mesh for the sweeps (200 to 79,996)")
+      ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();
   cmd->add_flag("--no-continuum", o->no_continuum, "discrete sweeps only");
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();

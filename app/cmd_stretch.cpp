@@ -13,6 +13,7 @@
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
 
@@ -41,7 +42,24 @@ struct StretchCli {
   std::string order = "2";
   int elements = 4000;
   std::string out;
-  bool json = false, quiet = false;
+  bool json = false, quiet = false, overwrite = false;
+};
+
+/// Library quantities -> this command's options (errors name the option the user typed).
+const OptionNames kStretchOptionNames = {
+    {"force (discrete model)", "--force"},
+    {"force (continuum model)", "--force"},
+    {"Lbar (rest length)", "--lbar"},
+    {"Lmax (contour length, > Lbar)", "--lmax"},
+    {"persistence length", "--persistence"},
+    {"temperature", "--temperature"},
+    {"bending rigidity kappa", "--kappa"},
+    {"spontaneous curvature H0", "--h0"},
+    {"steric exponent q", "--q"},
+    {"steric regularisation eta", "--eta"},
+    {"bead contact fraction", "--contact-fraction"},
+    {"force tolerance", "--tolerance"},
+    {"max iterations", "--max-iterations"},
 };
 
 NetworkParameters to_network_parameters(const StretchCli& o) {
@@ -65,13 +83,32 @@ NetworkParameters to_network_parameters(const StretchCli& o) {
   p.tweezers.rule = patch_rule_from_string(o.contact);
   p.tweezers.contact_fraction = o.contact_fraction;
   p.validate();
+  // Without bending the closed network has no definite shape to stretch (the library allows
+  // kappa = 0 for flat test patches; a cell needs kappa > 0).
+  require_finite_in_range("bending rigidity kappa", "J", o.kappa_J, 0.0, kMaxKappa_J);
   return p;
 }
 
+/// Stretch options from the command line, validated (tolerance, iteration budget).
+StretchOptions to_stretch_options(const StretchCli& o) {
+  StretchOptions so;
+  so.minimiser.force_tolerance = o.tolerance_pN;
+  so.minimiser.max_iterations = o.max_iterations;
+  so.validate();
+  return so;
+}
+
+/// Checks --out last, once every other input is known good: no two forces may write the same
+/// shape file, and the directory must be writable and empty (unless --force-overwrite).
+void prepare_stretch_output(const StretchCli& o, const std::vector<double>& forces) {
+  if (o.out.empty()) return;
+  require_distinct(forces, "--force", o.forces);
+  prepare_output_directory(o.out, o.overwrite);
+}
+
+/// Shape file tag: one decimal (shape_16.0pN) or as many as tell two forces apart.
 std::string force_tag(double f) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(1) << f;
-  return s.str();
+  return number_tag(f, 1);
 }
 
 /// One equilibrium as both models report it (elements = 0 for the discrete network).
@@ -156,9 +193,12 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
   int status = 0;
   for (const auto& p : pts)
     if (!p.converged) {
-      std::cerr << "rbc: error: force " << p.force_pN << " pN did not converge (" << p.status
-                << "): largest vertex force residual " << p.residual_pN << " pN, area drift "
-                << p.area_drift << ", volume drift " << p.volume_drift << "\n";
+      // Formatted on their own (scientific), whatever the table left in std::cout's state.
+      std::cerr << "rbc: error: force " + format_number(p.force_pN) + " pN did not converge (" +
+                       p.status + "): largest vertex force residual " +
+                       format_scientific(p.residual_pN) + " pN, area drift " +
+                       format_scientific(p.area_drift) + ", volume drift " +
+                       format_scientific(p.volume_drift) + "\n";
       status = 1;
     }
   return status;
@@ -166,11 +206,10 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
 
 int run_discrete(const StretchCli& o) {
   const std::vector<double> forces = parse_force_list(o.forces);
+  for (double f : forces) validate_discrete_force(f);
   const NetworkParameters params = to_network_parameters(o);
-  if (!(o.tolerance_pN > 0))
-    throw std::invalid_argument("--tolerance must be positive, got " +
-                                std::to_string(o.tolerance_pN));
-  if (!o.out.empty()) ensure_output_directory(o.out);
+  const StretchOptions so = to_stretch_options(o);
+  prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
@@ -187,9 +226,6 @@ int run_discrete(const StretchCli& o) {
       << net.patch.area_plus_um2 << " / " << net.patch.area_minus_um2 << " um^2";
     report(progress, m.str());
   }
-  StretchOptions so;
-  so.minimiser.force_tolerance = o.tolerance_pN;
-  so.minimiser.max_iterations = o.max_iterations;
   const std::vector<StretchPoint> pts = run_stretch(net, forces, so, progress);
   if (!o.out.empty())
     for (const auto& p : pts) {
@@ -214,21 +250,16 @@ int run_discrete(const StretchCli& o) {
 // Continuum branch (issue 4): surface FEM with the homogenised law of the given order.
 int run_continuum(const StretchCli& o) {
   const std::vector<double> forces = parse_force_list(o.forces);
+  for (double f : forces) validate_continuum_force(f);
   const NetworkParameters params = to_network_parameters(o);  // WLC, steric, bending, tweezers
   const WlcExpansion order = wlc_expansion_from_string(o.order);
-  if (o.elements < kMinContinuumElements || o.elements > kMaxContinuumElements)
-    throw std::invalid_argument(
-        "--elements " + std::to_string(o.elements) + " is out of range; expected " +
-        std::to_string(kMinContinuumElements) + " to " + std::to_string(kMaxContinuumElements));
-  if (!(o.tolerance_pN > 0))
-    throw std::invalid_argument("--tolerance must be positive, got " +
-                                std::to_string(o.tolerance_pN));
+  to_stretch_options(o);  // the same --tolerance and --max-iterations checks as the network's
   ContinuumOptions co;
   co.newton.max_iterations = std::min(o.max_iterations, 1000);
   co.max_iterations_per_force = std::min(o.max_iterations, co.max_iterations_per_force);
   if (o.tolerance_given) co.newton.force_tolerance_pN = o.tolerance_pN;
   co.validate();
-  if (!o.out.empty()) ensure_output_directory(o.out);
+  prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
   MeshQualityReport mesh_report;
   const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mesh_report);
@@ -273,9 +304,13 @@ void add_stretch_command(CLI::App& app, Action& action) {
   auto* cmd = app.add_subcommand("stretch", "Optical-tweezers stretch: diameters against force");
   cmd->add_option("--model", o->model, "discrete (spectrin network) | continuum (surface FEM)")
       ->capture_default_str();
-  cmd->add_option("--force", o->forces, "comma-separated total bead forces in pN")
+  cmd->add_option("--force", o->forces,
+                  "comma-separated total bead forces in pN, each in [0, " +
+                      format_number(kMaxDiscreteForce_pN) + "] (discrete) or [0, " +
+                      format_number(kMaxContinuumForce_pN) + "] (continuum)")
       ->capture_default_str();
   cmd->add_option("--vertices,-n", o->vertices, "discrete: network vertices N (100 to 40,000)")
+      ->check(integer_in(100, 40000))
       ->capture_default_str();
   cmd->add_option("--bending", o->bending, "discrete: juelicher | dihedral")->capture_default_str();
   cmd->add_option("--dihedral-mapping", o->dihedral_mapping,
@@ -285,34 +320,50 @@ void add_stretch_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")
       ->capture_default_str();
-  cmd->add_option("--contact-fraction", o->contact_fraction, "contact patch fraction per bead")
+  cmd->add_option("--contact-fraction", o->contact_fraction,
+                  "contact patch fraction per bead, in (0, 0.5)")
       ->capture_default_str();
-  cmd->add_option("--lbar", o->lbar_nm, "spectrin rest link length (nm)")->capture_default_str();
-  cmd->add_option("--lmax", o->lmax_nm, "spectrin contour length Lmax (nm)")->capture_default_str();
-  cmd->add_option("--persistence", o->persistence_nm, "persistence length (nm)")
+  cmd->add_option("--lbar", o->lbar_nm, "spectrin rest link length (nm), in (0, 10000]")
       ->capture_default_str();
-  cmd->add_option("--temperature", o->temperature_K, "temperature (K)")->capture_default_str();
-  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J)")->capture_default_str();
-  cmd->add_option("--h0", o->h0_per_um, "spontaneous curvature H0 (1/um)")->capture_default_str();
-  cmd->add_option("--q", o->q, "steric exponent q")->capture_default_str();
-  cmd->add_option("--eta", o->eta, "steric regularisation eta")->capture_default_str();
-  auto* tolerance =
-      cmd->add_option("--tolerance", o->tolerance_pN,
-                      "largest net vertex force at convergence (pN; continuum default 1e-6)")
-          ->capture_default_str();
-  cmd->add_option("--max-iterations", o->max_iterations, "minimiser iterations per force")
+  cmd->add_option("--lmax", o->lmax_nm, "spectrin contour length Lmax (nm), in (Lbar, 10000]")
+      ->capture_default_str();
+  cmd->add_option("--persistence", o->persistence_nm, "persistence length (nm), in (0, 10000]")
+      ->capture_default_str();
+  cmd->add_option("--temperature", o->temperature_K, "temperature (K), in (0, 1000]")
+      ->capture_default_str();
+  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J), in (0, 1e-16]")
+      ->capture_default_str();
+  cmd->add_option("--h0", o->h0_per_um, "spontaneous curvature H0 (1/um), in [-100, 100]")
+      ->capture_default_str();
+  cmd->add_option("--q", o->q, "steric exponent q, in (0, 10]")->capture_default_str();
+  cmd->add_option("--eta", o->eta, "steric regularisation eta, in (0, 1]")->capture_default_str();
+  auto* tolerance = cmd->add_option("--tolerance", o->tolerance_pN,
+                                    "largest net vertex force at convergence (pN; continuum "
+                                    "default 1e-6), in (0, 10]")
+                        ->capture_default_str();
+  cmd->add_option("--max-iterations", o->max_iterations,
+                  "minimiser iterations per force, in [1, 10000000]")
+      ->check(integer_in(1, kMaxIterations))
       ->capture_default_str();
   cmd->add_option("--order", o->order, "continuum: 2 | 3 | 4 | full")->capture_default_str();
-  cmd->add_option("--elements", o->elements, "continuum: triangles")->capture_default_str();
-  cmd->add_option("--out", o->out, "write per-force HDF5/XDMF shapes, stretch.csv and run.json");
+  cmd->add_option("--elements", o->elements, "continuum: triangles (200 to 79,996)")
+      ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
+      ->capture_default_str();
+  cmd->add_option("--out", o->out,
+                  "write per-force HDF5/XDMF shapes, stretch.csv and run.json (must be empty "
+                  "unless --force-overwrite)");
+  cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print a JSON array of points on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action, tolerance] {
     o->tolerance_given = tolerance->count() > 0;
     action = [o]() -> int {
-      if (o->model == "discrete") return run_discrete(*o);
-      if (o->model == "continuum") return run_continuum(*o);
-      throw std::invalid_argument("model '" + o->model + "' is not one of discrete, continuum");
+      return naming_options(kStretchOptionNames, [&]() -> int {
+        if (o->model == "discrete") return run_discrete(*o);
+        if (o->model == "continuum") return run_continuum(*o);
+        throw std::invalid_argument("--model " + o->model +
+                                    ": expected one of discrete, continuum");
+      });
     };
   });
 }

@@ -8,10 +8,13 @@
 #include "app/commands.hpp"
 #include "compare/mc_convergence.hpp"
 #include "compare/tradeoff.hpp"
+#include "continuum/continuum_model.hpp"
 
 namespace rbc::app {
 
 void check_output_directory(const std::string& dir, bool overwrite);  // cmd_fig7.cpp
+void check_method_forces(const std::vector<Method>& methods,
+                         const std::vector<double>& forces_pN);  // cmd_fig7.cpp
 
 namespace {
 
@@ -60,21 +63,28 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   auto* cmd = app.add_subcommand("tradeoff", "Accuracy against wall time, with the Pareto front");
   cmd->add_option("--force", o->force, "total bead force (pN)")->capture_default_str();
   cmd->add_option("--vertices", o->vertices,
-                  "discrete network sizes (default 250 500 1000 2000 4000 8000 16000 27500)")
+                  "discrete network sizes, 100 to 40,000 (default 250 500 1000 2000 4000 8000 "
+                  "16000 27500)")
+      ->check(integer_in(100, 40000))
       ->delimiter(',');
   cmd->add_option("--elements", o->elements,
-                  "continuum mesh sizes (default 500 1000 2000 4000 8000 16000)")
+                  "continuum mesh sizes, 200 to 79,996 (default 500 1000 2000 4000 8000 16000)")
+      ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->delimiter(',');
   cmd->add_option("--orders", o->orders, "continuum orders (default 2,full)")->delimiter(',');
   cmd->add_flag("--no-continuum", o->no_continuum, "discrete networks only");
   cmd->add_option("--mc-vertices", o->mc_vertices,
-                  "network for the time-to-accuracy study, Monte Carlo against the minimiser")
+                  "network for the time-to-accuracy study, Monte Carlo against the minimiser "
+                  "(100 to 40,000)")
+      ->check(integer_in(100, 40000))
       ->capture_default_str();
   cmd->add_option("--mc-budget", o->mc_budget,
-                  "wall-clock budget of that study's Monte Carlo chain (s; 0 = skip the study)")
+                  "wall-clock budget of that study's Monte Carlo chain (s, at most 86400; 0 = "
+                  "skip the study)")
       ->capture_default_str();
   cmd->add_option("--mc-acceptance", o->mc_acceptance,
-                  "acceptance the quench's trial step adapts to (at most 0.5 at 0 K)")
+                  "acceptance the quench's trial step adapts to, in (0, 0.5): at 0 K it cannot "
+                  "exceed 0.5")
       ->capture_default_str();
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
@@ -95,7 +105,22 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       mo.vertices = o->mc_vertices;
       mo.mc_budget_s = o->mc_budget;
       mo.mc_target_acceptance = o->mc_acceptance;
-      if (o->mc_budget != 0) mo.validate();  // bad input fails before the long runs
+      // Bad input fails before the long runs: forces within every method's range, the study.
+      std::vector<Method> methods;
+      for (int n : to.discrete_vertices) methods.push_back({MethodKind::discrete, n});
+      if (to.include_continuum && !to.continuum_elements.empty())
+        for (WlcExpansion order : to.continuum_orders)
+          methods.push_back({MethodKind::continuum, to.continuum_elements.front(), order});
+      check_method_forces(methods, {o->force});
+      if (o->mc_budget != 0)
+        naming_options({{"force (discrete model)", "--force"},
+                        {"Monte Carlo study vertices", "--mc-vertices"},
+                        {"Monte Carlo budget", "--mc-budget"},
+                        {"Monte Carlo target acceptance at 0 K", "--mc-acceptance"}},
+                       [&] {
+                         mo.validate();
+                         return 0;
+                       });
       check_output_directory(o->out, o->overwrite);
       const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet));
       write_tradeoff(r, o->out);

@@ -2,6 +2,7 @@
 // sub-command per job; see app/commands.hpp for the exit-code contract.
 #include <iostream>
 #include <stdexcept>
+#include <string>
 
 #include "app/commands.hpp"
 
@@ -29,6 +30,13 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::ValidationError& e) {
+    // CLI11 writes "--option: TEXT: expectation"; the contract is "--option TEXT: expectation".
+    std::string m = e.what();
+    if (const auto colon = m.find(": "); colon != std::string::npos && m.rfind("-", 0) == 0)
+      m.replace(colon, 2, " ");
+    std::cerr << "rbc: error: " << m << " (see rbc --help)\n";
+    return 2;
   } catch (const CLI::ParseError& e) {
     std::cerr << "rbc: error: " << e.what() << " (see rbc --help)\n";
     return 2;

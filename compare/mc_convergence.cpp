@@ -12,39 +12,37 @@
 #include "compare/plot.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
+#include "core/validation.hpp"
 #include "discrete/mc_sampler.hpp"
 #include "discrete/stretch.hpp"
 
 namespace rbc {
 
 void McConvergenceOptions::validate() const {
-  auto fail = [](const std::string& what, double got, const std::string& expected) {
-    std::ostringstream s;
-    s << what << " must be " << expected << ", got " << got;
-    throw std::invalid_argument(s.str());
-  };
-  if (vertices < 100) fail("Monte Carlo study vertices", vertices, ">= 100");
-  if (!std::isfinite(force_pN) || force_pN < 0)
-    fail("Monte Carlo study force (pN)", force_pN, "finite and >= 0");
-  if (!std::isfinite(mc_budget_s) || !(mc_budget_s > 0))
-    fail("Monte Carlo budget (s)", mc_budget_s, "finite and > 0");
-  if (!std::isfinite(mc_temperature_K) || mc_temperature_K < 0)
-    fail("Monte Carlo temperature (K)", mc_temperature_K, "finite and >= 0");
-  if (!(mc_target_acceptance > 0 && mc_target_acceptance < 1))
-    fail("Monte Carlo target acceptance", mc_target_acceptance, "in (0, 1)");
-  if (mc_sweeps < 0)
-    fail("Monte Carlo sweep count", static_cast<double>(mc_sweeps), ">= 0 (0 = budget)");
-  if (sample_every_sweeps < 0)
-    fail("Monte Carlo sample interval (sweeps)", sample_every_sweeps, ">= 0 (0 = log-spaced)");
+  require_integer_in_range("Monte Carlo study vertices", vertices, 100, 40000);
+  validate_discrete_force(force_pN);
+  require_finite_in_range("Monte Carlo budget", "s", mc_budget_s, 0.0, kMaxMcBudget_s);
+  require_finite_in_range("Monte Carlo temperature", "K", mc_temperature_K, 0.0, kMaxTemperature_K,
+                          Ends::closed_closed);
+  // At T = 0 only downhill moves are accepted: acceptance cannot exceed 1/2 (see the field).
+  if (mc_temperature_K == 0)
+    require_finite_in_range("Monte Carlo target acceptance at 0 K", "", mc_target_acceptance, 0.0,
+                            0.5, Ends::open_open);
+  else
+    require_finite_in_range("Monte Carlo target acceptance", "", mc_target_acceptance, 0.0, 1.0,
+                            Ends::open_open);
+  require_integer_in_range("Monte Carlo sample interval (sweeps; 0 = log-spaced)",
+                           sample_every_sweeps, 0, std::numeric_limits<int>::max());
+  require_integer_in_range("Monte Carlo sweep count (0 = budget)", mc_sweeps, 0,
+                           std::numeric_limits<int>::max());
   if (force_tolerances_pN.empty())
     throw std::invalid_argument("minimiser force tolerances: expected at least one, got none");
   for (double t : force_tolerances_pN)
-    if (!std::isfinite(t) || !(t > 0)) fail("minimiser force tolerance (pN)", t, "finite and > 0");
+    require_finite_in_range("minimiser force tolerance", "pN", t, 0.0, kMaxForceTolerance_pN);
   if (relative_accuracies.empty())
     throw std::invalid_argument("accuracy levels: expected at least one, got none");
   for (double a : relative_accuracies)
-    if (!std::isfinite(a) || !(a > 0))
-      fail("accuracy level (fraction of D_A)", a, "finite and > 0");
+    require_finite_in_range("accuracy level (fraction of D_A)", "", a, 0.0, 1.0);
 }
 
 std::optional<double> TimeToAccuracy::ratio() const {
@@ -337,7 +335,10 @@ void write_mc_convergence(const McConvergenceResult& r, const std::string& dir) 
   }
   write_csv(dir + "/mc_convergence.csv", all);
 
-  auto optional_json = [](const auto& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+  // A level not reached says so in words (never null, which JSON readers take for a number).
+  auto optional_json = [](const auto& v) {
+    return v ? nlohmann::json(*v) : nlohmann::json("not reached");
+  };
   nlohmann::json table = nlohmann::json::array();
   for (const auto& t : r.time_to_accuracy)
     table.push_back({{"relative_accuracy", t.relative},

@@ -41,11 +41,16 @@ struct McConvergenceOptions {
   std::vector<double> force_tolerances_pN = {3.0, 1.0, 0.3, 0.1, 1e-2, 1e-3};
   /// Accuracy levels of the time-to-accuracy table, as fractions of the reference D_A.
   std::vector<double> relative_accuracies = {0.1, 0.03, 0.01, 0.003};
-  /// Throws std::invalid_argument naming the value: vertices >= 100, force finite and >= 0,
-  /// budget finite and > 0, temperature finite and >= 0, target acceptance in (0, 1), sample
-  /// interval >= 0, sweep count >= 0, tolerances and accuracy levels non-empty, finite and > 0.
+  /// Throws std::invalid_argument (rbc::InvalidParameter) naming the value, every number
+  /// finite: vertices in [100, 40000], force in [0, kMaxDiscreteForce_pN] pN, budget in
+  /// (0, kMaxMcBudget_s] s, temperature in [0, 1000] K, target acceptance in (0, 1) and at 0 K
+  /// in (0, 0.5), sample interval >= 0, sweep count >= 0 (0 = budget), tolerances in (0, 10] pN
+  /// and accuracy levels in (0, 1], both non-empty.
   void validate() const;
 };
+
+/// Largest wall-clock budget of the study's Monte Carlo chain (s): one day.
+inline constexpr double kMaxMcBudget_s = 86400.0;
 
 enum class ConvergenceKind { minimiser, monte_carlo };
 

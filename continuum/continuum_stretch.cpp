@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/geometry.hpp"
+#include "core/validation.hpp"
 #include "discrete/constraint_energy.hpp"
 
 namespace rbc {
@@ -17,19 +18,17 @@ std::string to_string(ContinuumSolver s) {
 
 void ContinuumOptions::validate() const {
   newton.validate();
-  if (max_iterations_per_force < 1)
-    throw std::invalid_argument("Newton iterations per force must be >= 1, got " +
-                                std::to_string(max_iterations_per_force));
-  if (!(time_budget_s >= 0) || !std::isfinite(time_budget_s))
-    throw std::invalid_argument("time budget per force must be finite and >= 0 s, got " +
-                                std::to_string(time_budget_s));
-  if (max_bisections < 0)
-    throw std::invalid_argument("max_bisections must be >= 0, got " +
-                                std::to_string(max_bisections));
-  if (!(lbfgs.force_tolerance > 0) || lbfgs.max_iterations < 1 || lbfgs_outer_iterations < 1)
-    throw std::invalid_argument("L-BFGS tolerance and iteration counts must be positive");
-  if (!(lbfgs_area_stiffness > 0) || !(lbfgs_volume_stiffness > 0))
-    throw std::invalid_argument("L-BFGS penalty stiffnesses must be > 0");
+  require_integer_in_range("Newton iterations per force", max_iterations_per_force, 1,
+                           kMaxIterations);
+  require_finite_in_range("time budget per force (0 = none)", "s", time_budget_s, 0.0, kUnbounded,
+                          Ends::closed_open);
+  require_integer_in_range("force-increment bisections", max_bisections, 0, 30);
+  lbfgs.validate();
+  require_integer_in_range("L-BFGS multiplier updates", lbfgs_outer_iterations, 1, 10000);
+  require_finite_in_range("L-BFGS area penalty stiffness", "pN/um^3", lbfgs_area_stiffness, 0.0,
+                          kUnbounded);
+  require_finite_in_range("L-BFGS volume penalty stiffness", "pN/um^5", lbfgs_volume_stiffness, 0.0,
+                          kUnbounded);
 }
 
 NewtonResult solve_equilibrium_lbfgs(const ContinuumModel& model, double force_pN, Positions& x,

@@ -11,6 +11,7 @@
 #include "continuum/newton_solver.hpp"
 #include "core/lbfgs.hpp"
 #include "core/progress.hpp"
+#include "core/validation.hpp"
 #include "discrete/stretch_state.hpp"
 
 namespace rbc {
@@ -42,8 +43,26 @@ struct ContinuumOptions {
     lbfgs.max_iterations = 20000;
     lbfgs.max_step = 0.1;
   }
+  /// Throws rbc::InvalidParameter naming the value: newton.validate(), bisections in [0, 30],
+  /// lbfgs.validate(), L-BFGS updates in [1, 10000], penalty stiffnesses finite and > 0.
   void validate() const;
 };
+
+/// Largest total bead force (pN) the continuum stretch is documented to handle, for every
+/// order of the law, checked up front by the front ends (validate_continuum_force). Measured
+/// (rbc stretch --model continuum --elements 500, Release, 1 thread): by continuation
+/// 0, 100, ..., 400 pN every order (2, 4, full) converges in <= 26 Newton iterations per force
+/// and from the rest shape straight to 400 pN in 28-34; from 500 pN each force needs 130-240
+/// iterations (12-30 s at 500 elements, 10-25x more), the p = 2 law stretches links past Lmax
+/// (README, `rbc stability`), and 2,000 pN took 378 s and 7,752 iterations before failing.
+inline constexpr double kMaxContinuumForce_pN = 400.0;
+
+/// Throws rbc::InvalidParameter ("force (continuum model) must be finite and in [0, 400] pN,
+/// got ...") unless the force is finite and in [0, kMaxContinuumForce_pN].
+inline void validate_continuum_force(double force_pN) {
+  require_finite_in_range("force (continuum model)", "pN", force_pN, 0.0, kMaxContinuumForce_pN,
+                          Ends::closed_closed);
+}
 
 /// One equilibrium of the stretch.
 struct ContinuumStretchPoint {

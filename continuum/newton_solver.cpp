@@ -3,32 +3,32 @@
 #include "core/blas_threads.hpp"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
 
+#include "core/lbfgs.hpp"
+#include "core/validation.hpp"
+
 namespace rbc {
 
 void NewtonOptions::validate() const {
-  if (!(force_tolerance_pN > 0))
-    throw std::invalid_argument("Newton force tolerance must be > 0 pN, got " +
-                                std::to_string(force_tolerance_pN));
-  if (!(constraint_tolerance > 0))
-    throw std::invalid_argument("Newton constraint tolerance must be > 0, got " +
-                                std::to_string(constraint_tolerance));
-  if (max_iterations < 1 || max_line_search < 1 || max_factor_reuse < 0 ||
-      !(reuse_contraction > 0 && reuse_contraction < 1))
-    throw std::invalid_argument("Newton iteration and line-search counts must be >= 1, reuse >= 0");
-  if (!(max_step_um > 0))
-    throw std::invalid_argument("Newton max step must be > 0 um, got " +
-                                std::to_string(max_step_um));
-  if (blas_threads < 0)
-    throw std::invalid_argument("Newton BLAS threads must be >= 0, got " +
-                                std::to_string(blas_threads));
-  if (supernodal_min_unknowns < 0)
-    throw std::invalid_argument("Newton supernodal threshold must be >= 0 unknowns, got " +
-                                std::to_string(supernodal_min_unknowns));
-  if (!(penalty_pNum >= 0)) throw std::invalid_argument("Newton merit penalty must be >= 0 pN um");
+  // Above 10 pN a force tolerance no longer resolves the smallest Mills force (16 pN).
+  require_finite_in_range("force tolerance", "pN", force_tolerance_pN, 0.0, 10.0);
+  require_finite_in_range("relative area/volume tolerance", "", constraint_tolerance, 0.0, 1.0,
+                          Ends::open_open);
+  require_integer_in_range("max iterations", max_iterations, 1, kMaxIterations);
+  require_integer_in_range("line-search halvings", max_line_search, 1, 1000);
+  require_integer_in_range("factorisation reuse", max_factor_reuse, 0, 1000);
+  require_finite_in_range("reuse contraction", "", reuse_contraction, 0.0, 1.0, Ends::open_open);
+  // A step larger than 10 um (the cell's size) is no cap at all.
+  require_finite_in_range("Newton largest step", "um", max_step_um, 0.0, 10.0);
+  require_finite_in_range("merit penalty", "pN um", penalty_pNum, 0.0, kUnbounded,
+                          Ends::closed_open);
+  require_integer_in_range("Newton BLAS threads (0 = OpenBLAS default)", blas_threads, 0, 1024);
+  require_integer_in_range("Newton supernodal threshold (unknowns)", supernodal_min_unknowns, 0,
+                           std::numeric_limits<int>::max());
 }
 
 std::string to_string(NewtonStatus s) {

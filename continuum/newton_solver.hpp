@@ -49,7 +49,10 @@ struct NewtonOptions {
   int blas_threads = 1;
   /// Polled once per Newton iteration; returning true stops the solve by throwing Cancelled.
   CancelCheck cancel;
-  void validate() const;  ///< positive tolerances and counts
+  /// Throws rbc::InvalidParameter: force tolerance finite in (0, 10] pN, constraint tolerance in
+  /// (0, 1), max_iterations in [1, kMaxIterations], line search in [1, 1000], reuse in
+  /// [0, 1000], contraction in (0, 1), step in (0, 10] um, penalty finite and >= 0.
+  void validate() const;
 };
 
 enum class NewtonStatus {

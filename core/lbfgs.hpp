@@ -11,8 +11,12 @@
 #include <string>
 
 #include "core/progress.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
+
+/// Largest iteration budget accepted by any solver's options (per solve).
+inline constexpr int kMaxIterations = 10000000;
 
 /// Objective: returns the energy at x and writes its gradient into grad (same size as x).
 /// Returns +infinity (grad untouched) when x is outside the physical domain.
@@ -36,6 +40,18 @@ struct LbfgsOptions {
   std::function<void(Eigen::VectorXd& v)> precondition;
   /// Polled once per iteration; returning true stops the minimiser by throwing Cancelled.
   CancelCheck cancel;
+  /// Throws rbc::InvalidParameter: memory in [1, 1000], max_iterations in [1, kMaxIterations],
+  /// force_tolerance finite and > 0, block >= 1, max_step finite, armijo in (0, 1),
+  /// max_line_search in [1, 1000].
+  void validate() const {
+    require_integer_in_range("L-BFGS memory", memory, 1, 1000);
+    require_integer_in_range("max iterations", max_iterations, 1, kMaxIterations);
+    require_finite_in_range("force tolerance", "", force_tolerance, 0.0, kUnbounded);
+    require_integer_in_range("L-BFGS block size", block, 1, 1000);
+    require_finite_in_range("L-BFGS largest step", "", max_step, -kUnbounded, kUnbounded);
+    require_finite_in_range("Armijo constant", "", armijo, 0.0, 1.0, Ends::open_open);
+    require_integer_in_range("line-search trials", max_line_search, 1, 1000);
+  }
 };
 
 enum class MinimiserStatus { converged, max_iterations, line_search_failed, infeasible_start };

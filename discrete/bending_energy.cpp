@@ -8,16 +8,17 @@
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 #include "discrete/element_hessian.hpp"
 
 namespace rbc {
 
 void BendingParameters::validate() const {
-  if (!(kappa_pNum >= 0) || !std::isfinite(kappa_pNum))
-    throw std::invalid_argument("bending rigidity kappa must be >= 0, got " +
-                                std::to_string(kappa_pNum) + " pN*um");
-  if (!std::isfinite(h0_per_um))
-    throw std::invalid_argument("spontaneous curvature H0 must be finite");
+  require_finite_in_range("bending rigidity kappa", "J", kappa_pNum / units::pNum_per_J, 0.0,
+                          kMaxKappa_J, Ends::closed_closed);
+  require_finite_in_range("spontaneous curvature H0", "1/um", h0_per_um,
+                          -kMaxSpontaneousCurvature_per_um, kMaxSpontaneousCurvature_per_um,
+                          Ends::closed_closed);
 }
 
 std::string to_string(BendingModel m) {

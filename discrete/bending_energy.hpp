@@ -15,8 +15,17 @@ namespace rbc {
 struct BendingParameters {
   double kappa_pNum = 0.2;
   double h0_per_um = 0.0;
-  void validate() const;  ///< kappa >= 0, H0 finite
+  /// Throws std::invalid_argument (rbc::InvalidParameter): kappa in [0, kMaxKappa_J] J (the
+  /// message in J), |H0| <= kMaxSpontaneousCurvature_per_um, both finite.
+  void validate() const;
 };
+
+/// Largest bending rigidity accepted, J (= 1e2 pN um): 500x the RBC's 2e-19 J (paper Table 2),
+/// beyond any lipid bilayer (1e-20 to 1e-18 J).
+inline constexpr double kMaxKappa_J = 1e-16;
+/// Largest |H0| accepted, 1/um: a radius of curvature of 10 nm, a couple of bilayer thicknesses
+/// (the cell's own curvatures are ~1/um); larger values have no meaning for a membrane.
+inline constexpr double kMaxSpontaneousCurvature_per_um = 100.0;
 
 enum class BendingModel {
   /// Juelicher's edge-based discretisation (default): converges to Canham-Helfrich.

@@ -5,13 +5,17 @@
 
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
 void ConstraintParameters::validate() const {
-  if (!(area_stiffness_pN_per_um3 > 0) || !(volume_stiffness_pN_per_um5 > 0))
-    throw std::invalid_argument("area and volume stiffnesses must be positive");
-  if (!(tolerance > 0)) throw std::invalid_argument("constraint tolerance must be positive");
+  require_finite_in_range("area penalty stiffness", "pN/um^3", area_stiffness_pN_per_um3, 0.0,
+                          kUnbounded);
+  require_finite_in_range("volume penalty stiffness", "pN/um^5", volume_stiffness_pN_per_um5, 0.0,
+                          kUnbounded);
+  require_finite_in_range("relative area/volume tolerance", "", tolerance, 0.0, 1.0,
+                          Ends::open_open);
 }
 
 double constraint_energy_of_totals(double area, double volume, double area0, double volume0,

@@ -12,6 +12,7 @@ struct ConstraintParameters {
   double area_stiffness_pN_per_um3 = 100.0;
   double volume_stiffness_pN_per_um5 = 100.0;
   double tolerance = 1e-6;  ///< relative drift |G - G0|/G0 at which the outer loop stops
+  /// Stiffnesses finite and > 0, tolerance finite in (0, 1) (rbc::InvalidParameter).
   void validate() const;
 };
 

@@ -1,9 +1,12 @@
 #include "discrete/mc_run.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "core/geometry.hpp"
+#include "core/validation.hpp"
+#include "discrete/stretch.hpp"
 
 namespace rbc {
 
@@ -34,14 +37,11 @@ McSample sample_from_row(const double* r) {
 
 void McRunSetup::validate() const {
   sampler.validate();
-  if (!std::isfinite(force_pN))
-    throw std::invalid_argument("force must be finite, got " + std::to_string(force_pN) + " pN");
-  if (!(penalty_scale > 0) || !std::isfinite(penalty_scale))
-    throw std::invalid_argument("penalty scale must be > 0 and finite, got " +
-                                std::to_string(penalty_scale));
-  if (sample_every < 1)
-    throw std::invalid_argument("sample interval must be >= 1 sweep, got " +
-                                std::to_string(sample_every));
+  validate_discrete_force(force_pN);
+  // 1e4 x the network's own stiffness already pins A and V to ~1e-6 at 300 K.
+  require_finite_in_range("penalty scale", "", penalty_scale, 0.0, 1e4);
+  require_integer_in_range("sample interval (sweeps)", sample_every, 1,
+                           std::numeric_limits<int>::max());
 }
 
 namespace {

@@ -43,7 +43,9 @@ struct McRunSetup {
   /// Polled once per sweep; returning true stops the run by throwing Cancelled (the chain is
   /// left at the last completed sweep, so a checkpoint can still be written).
   CancelCheck cancel;
-  /// sampler.validate(), force finite, sample_every >= 1, penalty_scale > 0 and finite.
+  /// sampler.validate(); force finite in [0, kMaxDiscreteForce_pN] pN (the start is the
+  /// zero-temperature equilibrium, discrete/stretch.hpp), sample_every >= 1, penalty_scale
+  /// finite in (0, 1e4]. Throws rbc::InvalidParameter.
   void validate() const;
 };
 

@@ -12,6 +12,7 @@
 
 #include "core/geometry.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 #include "discrete/bending_energy.hpp"
 #include "discrete/link_energy.hpp"
 #include "discrete/steric_energy.hpp"
@@ -34,23 +35,15 @@ std::uint64_t splitmix64(std::uint64_t z) {
 }  // namespace
 
 void McOptions::validate() const {
-  if (!(temperature_K >= 0) || !std::isfinite(temperature_K))
-    throw std::invalid_argument("temperature must be >= 0 K and finite, got " +
-                                std::to_string(temperature_K) + " K");
-  if (streams < 1 || streams > 1024)
-    throw std::invalid_argument("RNG streams must lie in [1, 1024], got " +
-                                std::to_string(streams));
-  if (!(initial_step_um >= 0) || !std::isfinite(initial_step_um))
-    throw std::invalid_argument("initial MC step must be >= 0 um, got " +
-                                std::to_string(initial_step_um));
-  if (adapt_sweeps < 0)
-    throw std::invalid_argument("adaptive sweeps must be >= 0, got " +
-                                std::to_string(adapt_sweeps));
-  if (!(target_acceptance > 0 && target_acceptance < 1))
-    throw std::invalid_argument("target acceptance must lie in (0, 1), got " +
-                                std::to_string(target_acceptance));
-  if (!(adapt_gain >= 0) || !std::isfinite(adapt_gain))
-    throw std::invalid_argument("adaptation gain must be >= 0, got " + std::to_string(adapt_gain));
+  require_finite_in_range("sampling temperature", "K", temperature_K, 0.0,
+                          kMaxSamplingTemperature_K, Ends::closed_closed);
+  require_integer_in_range("RNG streams", streams, 1, kMaxMcStreams);
+  // A trial step beyond 1 um (a quarter of the cell's radius) can only be rejected.
+  require_finite_in_range("initial Monte Carlo step", "um", initial_step_um, 0.0, 1.0,
+                          Ends::closed_closed);
+  require_integer_in_range("adaptive sweeps", adapt_sweeps, 0, std::numeric_limits<int>::max());
+  require_finite_in_range("target acceptance", "", target_acceptance, 0.0, 1.0, Ends::open_open);
+  require_finite_in_range("step adaptation gain", "", adapt_gain, 0.0, 10.0, Ends::closed_closed);
 }
 
 double constraint_energy_of_totals(const Network& net, const LoadState& load, double area,

@@ -63,10 +63,18 @@ struct McOptions {
       0.5;  ///< log-step change per unit acceptance error, per sweep of >> 200 moves
   /// Vertices that move (empty = all). Others stay fixed (used by the detailed-balance test).
   std::vector<int> mobile;
-  /// Throws std::invalid_argument naming the value: T >= 0 finite, streams in [1, 1024],
-  /// step >= 0, adapt_sweeps >= 0, target in (0, 1), gain >= 0.
+  /// Throws std::invalid_argument (rbc::InvalidParameter) naming the value, every number finite:
+  /// T in [0, kMaxSamplingTemperature_K] K, streams in [1, kMaxMcStreams], step in [0, 1] um,
+  /// adapt_sweeps >= 0, target in (0, 1), gain in [0, 10].
   void validate() const;
 };
+
+/// Largest sampling temperature (K). Far above any physical temperature of the cell: `rbc
+/// stability` samples up to 30,000 K to show where the area/volume penalties stop holding.
+inline constexpr double kMaxSamplingTemperature_K = 1e5;
+
+/// Largest number of RNG streams (parallel chunks per colour).
+inline constexpr int kMaxMcStreams = 1024;
 
 /// Everything that defines the chain at a sweep boundary (what a checkpoint holds).
 struct McChainState {

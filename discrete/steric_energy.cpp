@@ -3,14 +3,13 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/validation.hpp"
+
 namespace rbc {
 
 void StericParameters::validate() const {
-  if (!(q > 0 && q <= 10))
-    throw std::invalid_argument("steric exponent q must lie in (0, 10], got " + std::to_string(q));
-  if (!(eta > 0))
-    throw std::invalid_argument("steric regularisation eta must be positive, got " +
-                                std::to_string(eta));
+  require_finite_in_range("steric exponent q", "", q, 0.0, 10.0);
+  require_finite_in_range("steric regularisation eta", "", eta, 0.0, 1.0);
 }
 
 double steric_constant(const WlcDensity& w, const StericParameters& s) {

@@ -14,7 +14,8 @@ namespace rbc {
 struct StericParameters {
   double q = 1.0;
   double eta = 0.005;
-  /// Throws std::invalid_argument unless q in (0, 10] and eta > 0.
+  /// Throws std::invalid_argument (rbc::InvalidParameter) unless q in (0, 10] and eta in
+  /// (0, 1] (a regularisation of J^q ~ 1, so small), both finite.
   void validate() const;
 };
 

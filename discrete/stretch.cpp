@@ -11,6 +11,22 @@
 
 namespace rbc {
 
+void StretchOptions::validate() const {
+  require_finite_in_range("force tolerance", "pN", minimiser.force_tolerance, 0.0,
+                          kMaxForceTolerance_pN);
+  minimiser.validate();
+  require_integer_in_range("augmented-Lagrangian updates per force", max_outer_iterations, 1,
+                           10000);
+  require_integer_in_range("preconditioner threshold (vertices)", precondition_min_vertices, 0,
+                           std::numeric_limits<int>::max());
+  require_integer_in_range("preconditioner refresh interval", refresh_interval, 0,
+                           std::numeric_limits<int>::max());
+  require_finite_in_range("plain L-BFGS step cap (shortest links)", "", plain_max_step_links, 0.0,
+                          kUnbounded);
+  require_finite_in_range("preconditioned step cap (shortest links)", "",
+                          preconditioned_max_step_links, 0.0, kUnbounded);
+}
+
 namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point start) {

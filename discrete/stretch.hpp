@@ -6,6 +6,7 @@
 
 #include "core/lbfgs.hpp"
 #include "core/progress.hpp"
+#include "core/validation.hpp"
 #include "discrete/network.hpp"
 #include "discrete/newton_preconditioner.hpp"
 #include "discrete/stretch_state.hpp"
@@ -38,7 +39,31 @@ struct StretchOptions {
     minimiser.force_tolerance = 1e-3;
     minimiser.max_iterations = 50000;
   }
+  /// Throws rbc::InvalidParameter naming the value: minimiser.validate(), the force tolerance
+  /// (largest net vertex force, pN) in (0, kMaxForceTolerance_pN], max_outer_iterations in
+  /// [1, 10000], precondition_min_vertices and refresh_interval >= 0, step caps finite > 0.
+  void validate() const;
 };
+
+/// Largest force tolerance accepted (pN): beyond 10 pN an "equilibrium" may be no closer to
+/// the answer than the rest shape is at the smallest Mills force (16 pN).
+inline constexpr double kMaxForceTolerance_pN = 10.0;
+
+/// Largest total bead force (pN) the discrete stretch is documented to handle, checked up front
+/// by the front ends (validate_discrete_force). Measured (rbc stretch --force F, one force from
+/// the rest shape, Release, 1 thread, loaded machine): 500 pN converges at N = 300 in 433 L-BFGS
+/// iterations (1.5 s) and at N = 2,000 (preconditioned) in 47 (6.7 s); 1,000 pN converges at
+/// N = 300 (3.2 s) but did not finish at N = 2,000 in 400 s, and 1e6 pN not at N = 300 in 600 s.
+/// At 500 pN the cell is stretched to D_A ~ 21 um, 2.7x its diameter, as links approach Lmax
+/// (Lmax/Lbar = 3.17): 2.6x the Mills range (0-193 pN), past Fig. 7's 300 pN.
+inline constexpr double kMaxDiscreteForce_pN = 500.0;
+
+/// Throws rbc::InvalidParameter ("force (discrete model) must be finite and in [0, 500] pN, got
+/// ...") unless the force is finite and in [0, kMaxDiscreteForce_pN].
+inline void validate_discrete_force(double force_pN) {
+  require_finite_in_range("force (discrete model)", "pN", force_pN, 0.0, kMaxDiscreteForce_pN,
+                          Ends::closed_closed);
+}
 
 /// One equilibrium of the stretch.
 struct StretchPoint {

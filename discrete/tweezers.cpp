@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/geometry.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
@@ -19,9 +20,7 @@ PatchRule patch_rule_from_string(const std::string& name) {
 }
 
 void TweezersParameters::validate() const {
-  if (!(contact_fraction > 0 && contact_fraction < 0.5))
-    throw std::invalid_argument("contact fraction must lie in (0, 0.5), got " +
-                                std::to_string(contact_fraction));
+  require_finite_in_range("bead contact fraction", "", contact_fraction, 0.0, 0.5, Ends::open_open);
 }
 
 TweezerPatch select_tweezer_patch(const Positions& rest, const Topology& topo,

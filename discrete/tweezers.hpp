@@ -21,7 +21,7 @@ PatchRule patch_rule_from_string(const std::string& name);
 struct TweezersParameters {
   double contact_fraction = 0.05;  ///< of the surface area (or vertices) at each bead
   PatchRule rule = PatchRule::by_area;
-  void validate() const;  ///< contact_fraction in (0, 0.5)
+  void validate() const;  ///< contact_fraction finite in (0, 0.5) (rbc::InvalidParameter)
 };
 
 /// Bound vertices and their signed shares of the total force F along +x:

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/units.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 namespace {
@@ -53,16 +54,13 @@ std::array<double, 5> taylor_at_rest(double prefactor, double x0) {
 }  // namespace
 
 void WlcParameters::validate() const {
-  auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
-  if (!(lbar_um > 0)) fail("Lbar must be positive, got " + std::to_string(lbar_um * 1e3) + " nm");
-  if (!(lmax_um > lbar_um))
-    fail("Lmax must exceed Lbar: got Lmax = " + std::to_string(lmax_um * 1e3) +
-         " nm <= Lbar = " + std::to_string(lbar_um * 1e3) + " nm");
-  if (!(persistence_um > 0))
-    fail("persistence length must be positive, got " + std::to_string(persistence_um * 1e3) +
-         " nm");
-  if (!(temperature_K > 0))
-    fail("temperature must be positive, got " + std::to_string(temperature_K) + " K");
+  const double nm_per_um = 1.0 / units::um_per_nm;  // messages in the user's units
+  require_finite_in_range("Lbar (rest length)", "nm", lbar_um * nm_per_um, 0.0, kMaxWlcLength_nm);
+  require_finite_in_range("Lmax (contour length, > Lbar)", "nm", lmax_um * nm_per_um,
+                          lbar_um * nm_per_um, kMaxWlcLength_nm);
+  require_finite_in_range("persistence length", "nm", persistence_um * nm_per_um, 0.0,
+                          kMaxWlcLength_nm);
+  require_finite_in_range("temperature", "K", temperature_K, 0.0, kMaxTemperature_K);
 }
 
 std::string to_string(WlcExpansion e) {

@@ -13,9 +13,18 @@ struct WlcParameters {
   double lmax_um = 0.23775;        ///< contour (maximum) length
   double persistence_um = 0.0075;  ///< persistence length p
   double temperature_K = 300.0;
-  /// Throws std::invalid_argument naming the value if non-physical (Lmax <= Lbar, p <= 0, T <= 0).
+  /// Throws std::invalid_argument (rbc::InvalidParameter) naming the quantity, the value and the
+  /// documented range, with lengths in nm: Lbar in (0, kMaxWlcLength_nm], Lmax in
+  /// (Lbar, kMaxWlcLength_nm], p in (0, kMaxWlcLength_nm], T in (0, kMaxTemperature_K]; all finite.
   void validate() const;
 };
+
+/// Largest spectrin-level length (Lbar, Lmax, p) accepted, nm: 10 um, beyond any spectrin
+/// tetramer (contour length ~200 nm, Li et al. 2005) yet far from overflow.
+inline constexpr double kMaxWlcLength_nm = 1e4;
+/// Largest temperature accepted (K): well above where the membrane exists (~330 K), below
+/// where kB T would swamp every energy scale of the model.
+inline constexpr double kMaxTemperature_K = 1000.0;
 
 /// Which form of V: the full WLC, or its Taylor expansion about z = 1 of order 2, 3 or 4.
 enum class WlcExpansion { full, order2, order3, order4 };

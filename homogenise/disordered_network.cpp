@@ -9,24 +9,17 @@
 #include <tuple>
 
 #include "core/units.hpp"
+#include "core/validation.hpp"
 #include "homogenise/periodic_delaunay.hpp"
 
 namespace rbc {
 
 void DisorderOptions::validate() const {
-  if (cells < 4)
-    throw std::invalid_argument("disordered network: --cells must be >= 4, got " +
-                                std::to_string(cells));
-  if (cells > 200)
-    throw std::invalid_argument("disordered network: --cells must be <= 200, got " +
-                                std::to_string(cells));
-  if (!(disorder >= 0.0 && disorder <= 1.0))
-    throw std::invalid_argument("disorder X must lie in [0, 1], got " + std::to_string(disorder));
-  if (!(spacing_um > 0.0))
-    throw std::invalid_argument("disordered network: spacing must be positive");
-  if (!(jitter_fraction >= 0.0 && jitter_fraction < 0.5))
-    throw std::invalid_argument("disordered network: jitter fraction must lie in [0, 0.5), got " +
-                                std::to_string(jitter_fraction));
+  require_integer_in_range("disordered network cells", cells, 4, 200);
+  require_finite_in_range("disorder X", "", disorder, 0.0, 1.0, Ends::closed_closed);
+  require_finite_in_range("disordered network spacing", "um", spacing_um, 0.0, 1.0);
+  require_finite_in_range("disordered network jitter fraction", "", jitter_fraction, 0.0, 0.5,
+                          Ends::closed_open);
 }
 
 int disordered_rows(int cells) {

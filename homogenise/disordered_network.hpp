@@ -26,7 +26,8 @@ struct DisorderOptions {
   double disorder = 0.5;         ///< X in [0, 1]
   double spacing_um = 0.075;     ///< lattice spacing a (um); moduli do not depend on it
   double jitter_fraction = 0.4;  ///< largest displacement at X = 1, in units of a (< 0.5)
-  /// Throws std::invalid_argument naming the value (cells < 4, X outside [0, 1], ...).
+  /// Throws rbc::InvalidParameter naming the value: cells in [4, 200], X in [0, 1], spacing in
+  /// (0, 1] um, jitter in [0, 0.5), all finite.
   void validate() const;
 };
 

@@ -134,6 +134,13 @@ TEST(Compare, TinyReportWritesEveryFileWithSensibleNumbers) {
   }
   ASSERT_EQ(acceptance.size(), 2u);
   EXPECT_GT(acceptance[0.003], acceptance[0.1]);
+  // A limit the sweep never reached says so in words: no nan, inf or null in the files.
+  for (const char* f : {"/stability/stability.csv", "/stability/stability.json"}) {
+    std::ifstream in(dir + f);
+    const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (const char* bad : {",nan,", ",-nan,", ",inf,", ",-inf,", "null"})
+      EXPECT_EQ(body.find(bad), std::string::npos) << f << " holds " << bad;
+  }
   std::ifstream md(dir + "/report.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("The paper's claims"), std::string::npos);

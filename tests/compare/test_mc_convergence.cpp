@@ -111,6 +111,14 @@ TEST(McConvergence, InvalidOptionsThrowNamingTheValue) {
   o = {};
   o.mc_target_acceptance = 1.0;
   throws_with(o, "acceptance");
+  o.mc_target_acceptance = 0.9;  // at 0 K acceptance cannot exceed 1/2 (issue 15, case 30)
+  throws_with(o, "(0, 0.5)");
+  o.mc_temperature_K = 300;  // at a finite temperature it can
+  o.mc_budget_s = 1e9;       // ... but the budget is bounded (one day)
+  throws_with(o, "budget");
+  o = {};
+  o.force_pN = 1e6;  // above the discrete model's documented maximum
+  throws_with(o, "[0, 500] pN");
   o = {};
   o.force_tolerances_pN = {1e-2, 0.0};
   throws_with(o, "tolerance");
@@ -173,6 +181,11 @@ TEST(McConvergence, TinyStudyConvergesAndWritesItsFiles) {
   EXPECT_DOUBLE_EQ(j["reference"]["axial_um"].get<double>(), r.reference.axial_um);
   EXPECT_EQ(j["time_to_accuracy"].size(), o.relative_accuracies.size());
   EXPECT_EQ(j["monte_carlo"].size(), r.mc.size());
+  // No null anywhere (JSON's stand-in for nan and inf): a level not reached says so in words.
+  EXPECT_EQ(j.dump().find("null"), std::string::npos) << j.dump(2);
+  for (const auto& t : j["time_to_accuracy"])
+    for (const char* key : {"minimiser_s", "mc_s", "mc_sweeps", "mc_over_minimiser"})
+      EXPECT_TRUE(t[key].is_number() || t[key] == "not reached") << t.dump();
 }
 
 }  // namespace

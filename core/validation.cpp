@@ -1,0 +1,77 @@
+#include "core/validation.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+namespace rbc {
+
+namespace {
+std::string value_with_unit(const std::string& value, const std::string& unit) {
+  const bool number = value != "inf" && value != "-inf" && value != "nan";
+  return unit.empty() || !number ? value : value + " " + unit;
+}
+}  // namespace
+
+InvalidParameter::InvalidParameter(const std::string& quantity, const std::string& value,
+                                   const std::string& expectation, const std::string& unit)
+    : std::invalid_argument(quantity + " must be " + expectation + ", got " +
+                            value_with_unit(value, unit)),
+      quantity_(quantity),
+      value_(value),
+      expectation_(expectation) {}
+
+namespace {
+std::string printf_number(const char* format, double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, value);
+  return buf;
+}
+}  // namespace
+
+std::string format_number(double value) {
+  return printf_number("%.6g", value);
+}
+
+std::string format_scientific(double value) {
+  return printf_number("%.3e", value);
+}
+
+std::string range_expectation(double lo, double hi, Ends ends, const std::string& unit) {
+  const bool lo_open = ends == Ends::open_closed || ends == Ends::open_open;
+  const bool hi_open = ends == Ends::open_open || ends == Ends::closed_open;
+  std::string text = "finite and ";
+  if (std::isinf(hi) && std::isinf(lo))
+    text = "finite";
+  else if (std::isinf(hi))
+    text += (lo_open ? "> " : ">= ") + format_number(lo);
+  else if (std::isinf(lo))
+    text += (hi_open ? "< " : "<= ") + format_number(hi);
+  else
+    text += std::string("in ") + (lo_open ? "(" : "[") + format_number(lo) + ", " +
+            format_number(hi) + (hi_open ? ")" : "]");
+  if (!unit.empty()) text += " " + unit;
+  return text;
+}
+
+void require_finite_in_range(const std::string& quantity, const std::string& unit, double value,
+                             double lo, double hi, Ends ends) {
+  const bool lo_open = ends == Ends::open_closed || ends == Ends::open_open;
+  const bool hi_open = ends == Ends::open_open || ends == Ends::closed_open;
+  const bool above = lo_open ? value > lo : value >= lo;
+  const bool below = hi_open ? value < hi : value <= hi;
+  if (!(std::isfinite(value) && above && below))
+    throw InvalidParameter(quantity, format_number(value), range_expectation(lo, hi, ends, unit),
+                           unit);
+}
+
+void require_integer_in_range(const std::string& quantity, long long value, long long lo,
+                              long long hi) {
+  if (value < lo || value > hi)
+    throw InvalidParameter(
+        quantity, std::to_string(value),
+        "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+}
+
+}  // namespace rbc

@@ -1,0 +1,90 @@
+// core/validation.hpp: the one shared check every options struct's validate() uses.
+#include "core/validation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace {
+using rbc::Ends;
+using rbc::InvalidParameter;
+constexpr double inf = std::numeric_limits<double>::infinity();
+const double nan = std::nan("");
+
+/// The message of the InvalidParameter thrown by f (fails the test when none is thrown).
+template <class F>
+std::string message_of(F f) {
+  try {
+    f();
+  } catch (const InvalidParameter& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no InvalidParameter thrown";
+  return {};
+}
+
+TEST(Validation, FormatsNumbersIndependentlyOfStreams) {
+  EXPECT_EQ(rbc::format_number(75.0), "75");
+  EXPECT_EQ(rbc::format_number(0.005), "0.005");
+  EXPECT_EQ(rbc::format_number(1e308), "1e+308");
+  EXPECT_EQ(rbc::format_number(inf), "inf");
+  EXPECT_EQ(rbc::format_number(-inf), "-inf");
+  EXPECT_EQ(rbc::format_number(nan), "nan");
+  EXPECT_EQ(rbc::format_scientific(6.0123e-5), "6.012e-05");
+  EXPECT_EQ(rbc::format_scientific(-3.7e-4), "-3.700e-04");
+}
+
+TEST(Validation, MessageNamesQuantityExpectationAndValue) {
+  EXPECT_EQ(message_of(
+                [] { rbc::require_finite_in_range("persistence length", "nm", inf, 0.0, 1000.0); }),
+            "persistence length must be finite and in (0, 1000] nm, got inf");
+  EXPECT_EQ(message_of([] { rbc::require_finite_in_range("Lbar", "nm", 0.0, 0.0, 1000.0); }),
+            "Lbar must be finite and in (0, 1000] nm, got 0 nm");
+  EXPECT_EQ(message_of([] {
+              rbc::require_finite_in_range("stiffness", "pN/um^3", -1.0, 0.0, rbc::kUnbounded);
+            }),
+            "stiffness must be finite and > 0 pN/um^3, got -1 pN/um^3");
+  EXPECT_EQ(message_of([] { rbc::require_integer_in_range("max iterations", -5, 1, 100); }),
+            "max iterations must be an integer in [1, 100], got -5");
+  // The parts are kept apart for front ends that name their own option.
+  try {
+    rbc::require_finite_in_range("temperature", "K", 2000.0, 0.0, 1000.0);
+    FAIL();
+  } catch (const InvalidParameter& e) {
+    EXPECT_EQ(e.quantity(), "temperature");
+    EXPECT_EQ(e.value(), "2000");
+    EXPECT_EQ(e.expectation(), "finite and in (0, 1000] K");
+  }
+}
+
+TEST(Validation, EveryEndOfTheIntervalAsDocumented) {
+  auto ok = [](double v, double lo, double hi, Ends ends) {
+    try {
+      rbc::require_finite_in_range("x", "", v, lo, hi, ends);
+      return true;
+    } catch (const InvalidParameter&) {
+      return false;
+    }
+  };
+  EXPECT_FALSE(ok(0.0, 0.0, 1.0, Ends::open_closed));
+  EXPECT_TRUE(ok(1.0, 0.0, 1.0, Ends::open_closed));
+  EXPECT_TRUE(ok(0.0, 0.0, 1.0, Ends::closed_closed));
+  EXPECT_FALSE(ok(1.0, 0.0, 1.0, Ends::closed_open));
+  EXPECT_FALSE(ok(0.0, 0.0, 1.0, Ends::open_open));
+  EXPECT_TRUE(ok(0.5, 0.0, 1.0, Ends::open_open));
+  // Non-finite values fail every check, even an unbounded one.
+  for (double bad : {inf, -inf, nan}) {
+    EXPECT_FALSE(ok(bad, 0.0, 1.0, Ends::closed_closed));
+    EXPECT_FALSE(ok(bad, -rbc::kUnbounded, rbc::kUnbounded, Ends::open_open));
+  }
+  EXPECT_EQ(rbc::range_expectation(-rbc::kUnbounded, rbc::kUnbounded, Ends::open_open, ""),
+            "finite");
+  EXPECT_EQ(rbc::range_expectation(0.0, rbc::kUnbounded, Ends::closed_open, "pN um"),
+            "finite and >= 0 pN um");
+  // An InvalidParameter is a std::invalid_argument: existing callers keep catching it.
+  EXPECT_THROW(rbc::require_finite_in_range("x", "", nan, 0, 1), std::invalid_argument);
+}
+
+}  // namespace
