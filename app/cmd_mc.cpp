@@ -388,9 +388,12 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_option("--sample-every", o->sample_every, "sweeps between recorded samples")
       ->check(integer_in(1, std::numeric_limits<int>::max()))
       ->capture_default_str();
-  cmd->add_option("--start", o->start, "equilibrium | rest")->capture_default_str();
+  cmd->add_option("--start", o->start, "equilibrium | rest")
+      ->check(CLI::IsMember({"equilibrium", "rest"}))
+      ->capture_default_str();
   auto* bending =
       cmd->add_option("--bending", o->bending, "juelicher | dihedral (--resume: the checkpoint's)")
+          ->check(CLI::IsMember({"juelicher", "dihedral"}))
           ->capture_default_str();
   auto* penalty =
       cmd->add_option("--penalty-scale", o->penalty_scale,

@@ -43,6 +43,7 @@ void add_mesh_command(CLI::App& app, Action& action) {
       ->check(integer_in(100, 40000))
       ->capture_default_str();
   cmd->add_option("--quality", o->quality, "phi-minimised | projected | equal-area")
+      ->check(CLI::IsMember({"phi-minimised", "projected", "equal-area"}))
       ->capture_default_str();
   cmd->add_option("--out", o->out,
                   "write DIR/rest_shape.h5/.xdmf and DIR/mesh_quality.json (must be empty "

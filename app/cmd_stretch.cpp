@@ -303,6 +303,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<StretchCli>();
   auto* cmd = app.add_subcommand("stretch", "Optical-tweezers stretch: diameters against force");
   cmd->add_option("--model", o->model, "discrete (spectrin network) | continuum (surface FEM)")
+      ->check(CLI::IsMember({"discrete", "continuum"}))
       ->capture_default_str();
   cmd->add_option("--force", o->forces,
                   "comma-separated total bead forces in pN, each in [0, " +
@@ -312,13 +313,18 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--vertices,-n", o->vertices, "discrete: network vertices N (100 to 40,000)")
       ->check(integer_in(100, 40000))
       ->capture_default_str();
-  cmd->add_option("--bending", o->bending, "discrete: juelicher | dihedral")->capture_default_str();
+  cmd->add_option("--bending", o->bending, "discrete: juelicher | dihedral")
+      ->check(CLI::IsMember({"juelicher", "dihedral"}))
+      ->capture_default_str();
   cmd->add_option("--dihedral-mapping", o->dihedral_mapping,
                   "dihedral k_b(kappa): sphere (2 sqrt3 kappa) | li (2 kappa/sqrt3)")
+      ->check(CLI::IsMember({"sphere", "li"}))
       ->capture_default_str();
   cmd->add_option("--mesh-quality", o->mesh_quality, "phi-minimised | projected | equal-area")
+      ->check(CLI::IsMember({"phi-minimised", "projected", "equal-area"}))
       ->capture_default_str();
   cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")
+      ->check(CLI::IsMember({"area", "vertices"}))
       ->capture_default_str();
   cmd->add_option("--contact-fraction", o->contact_fraction,
                   "contact patch fraction per bead, in (0, 0.5)")
@@ -345,7 +351,9 @@ void add_stretch_command(CLI::App& app, Action& action) {
                   "minimiser iterations per force, in [1, 10000000]")
       ->check(integer_in(1, kMaxIterations))
       ->capture_default_str();
-  cmd->add_option("--order", o->order, "continuum: 2 | 3 | 4 | full")->capture_default_str();
+  cmd->add_option("--order", o->order, "continuum: 2 | 3 | 4 | full")
+      ->check(CLI::IsMember({"2", "3", "4", "full"}))
+      ->capture_default_str();
   cmd->add_option("--elements", o->elements, "continuum: triangles (200 to 79,996)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();

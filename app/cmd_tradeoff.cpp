@@ -71,7 +71,9 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "continuum mesh sizes, 200 to 79,996 (default 500 1000 2000 4000 8000 16000)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->delimiter(',');
-  cmd->add_option("--orders", o->orders, "continuum orders (default 2,full)")->delimiter(',');
+  cmd->add_option("--orders", o->orders, "continuum orders 2, 3, 4, full (default 2,full)")
+      ->check(CLI::IsMember({"2", "3", "4", "full"}))
+      ->delimiter(',');
   cmd->add_flag("--no-continuum", o->no_continuum, "discrete networks only");
   cmd->add_option("--mc-vertices", o->mc_vertices,
                   "network for the time-to-accuracy study, Monte Carlo against the minimiser "

@@ -284,6 +284,15 @@ TEST(ReliabilityInput, Case35UnwritableOutFailsBeforeComputing) {
                    {"--out /proc/x"});
 }
 
+// Choices are checked as such: the message names the option and the value.
+TEST(ReliabilityInput, ChoicesNameOptionAndValue) {
+  Case c("choices");
+  c.expect_refused("stretch --contact nope", {"--contact nope", "area"});
+  c.expect_refused("stretch --model continuum --order 7", {"--order 7", "full"});
+  c.expect_refused("mc --start nowhere", {"--start nowhere", "equilibrium"});
+  c.expect_refused("mesh --quality nope", {"--quality nope", "projected"});
+}
+
 // Case 38: the message names the option and the value.
 TEST(ReliabilityInput, Case38MessagesNameOptionAndValue) {
   Case c("case38");
