@@ -271,8 +271,10 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
   // its ordering and symbolic factorisation are computed once, only the numbers per attempt.
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   Eigen::Index analysed_nonzeros = -1;  // pattern the analysis was done for
-  double best = kInf;                   // smallest residual so far
+  double best = kInf;                   // smallest residual so far, at U_best (E_best, g_best)
   int stalled = 0;                      // iterations since the best residual last halved
+  Eigen::Matrix2Xd U_best, g_best;
+  double E_best = E;
   for (r.iterations = 0;; ++r.iterations) {
     throw_if_cancelled(options.cancel);
     r.residual_pN = nu > 0 ? max_block_norm2(g.rightCols(N - 1)) : 0.0;
@@ -280,11 +282,20 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
       r.status = MinimiserStatus::converged;
       break;
     }
-    if (r.residual_pN <= 0.5 * best) {
+    if (r.residual_pN < best) {
+      if (r.residual_pN <= 0.5 * best) stalled = -1;
       best = r.residual_pN;
-      stalled = 0;
-    } else if (++stalled >= options.stall_iterations &&
-               best <= options.floor_factor * options.force_tolerance_pN) {
+      U_best = r.U;
+      g_best = g;
+      E_best = E;
+    }
+    if (++stalled >= options.stall_iterations &&
+        best <= options.floor_factor * options.force_tolerance_pN) {
+      // At the floor: return the best iterate seen (later steps only wander within round-off).
+      r.U = U_best;
+      g = g_best;
+      E = E_best;
+      r.residual_pN = best;
       r.status = MinimiserStatus::converged;
       r.at_roundoff_floor = true;
       break;

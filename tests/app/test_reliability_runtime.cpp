@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
@@ -215,14 +216,15 @@ TEST(ReliabilityRuntime, HundredRandomInterruptsLeaveOnlyCompleteOutputs) {
     return build_network(make_rest_shape(ro), NetworkParameters{});
   }();
   std::mt19937 rng(2026);
-  std::uniform_real_distribution<double> delay_s(0.01, 1.2);
-  int interrupted = 0, finished = 0, resumed = 0;
+  // stretch: 0.8 s at full speed; mc: its first sweep comes after ~0.5-1 s of set-up.
+  std::uniform_real_distribution<double> stretch_delay_s(0.01, 1.0), mc_delay_s(0.2, 1.8);
+  int interrupted = 0, finished = 0, resumed = 0, partial_stretch = 0, chains_checkpointed = 0;
   for (int pair = 0; pair < 50; ++pair) {
     const std::string tag = std::to_string(pair);
     const fs::path sdir = root / ("stretch_" + tag), mdir = root / ("mc_" + tag);
     const fs::path ckpt = root / ("mc_" + tag + ".h5");
     const int ssig = rng() % 2 ? SIGINT : SIGTERM, msig = rng() % 2 ? SIGINT : SIGTERM;
-    const double sdelay = delay_s(rng), mdelay = delay_s(rng);
+    const double sdelay = stretch_delay_s(rng), mdelay = mc_delay_s(rng);
     const pid_t s =
         spawn({"stretch", "--vertices", "300", "--force", "0,16,38", "--out", sdir.string(), "-q"},
               (root / ("stretch_" + tag + ".log")).string());
@@ -255,6 +257,8 @@ TEST(ReliabilityRuntime, HundredRandomInterruptsLeaveOnlyCompleteOutputs) {
     check_stretch_outputs(sdir, scode, ssig, strial);
     const long long sweeps = check_mc_outputs(mdir, ckpt, net, mcode, msig, mtrial);
     interrupted += (scode != 0) + (mcode != 0);
+    partial_stretch += scode != 0 && count_files(sdir, "shape_", ".h5") > 0;
+    chains_checkpointed += sweeps > 0;
     finished += scode == 0;
     // Every checkpoint resumes (read back above); the first few also through the CLI.
     if (sweeps >= 0 && resumed < 4) {
@@ -275,8 +279,14 @@ TEST(ReliabilityRuntime, HundredRandomInterruptsLeaveOnlyCompleteOutputs) {
   }
   EXPECT_EQ(temporaries_in(root), std::vector<std::string>{});
   EXPECT_GT(resumed, 0);
+  // What the random delays covered (not asserted: it depends on the machine's speed).
   RecordProperty("interrupted", interrupted);
   RecordProperty("finished_first", finished);
+  RecordProperty("stretch_interrupted_with_some_shapes", partial_stretch);
+  RecordProperty("mc_interrupted_after_sweeps", chains_checkpointed);
+  std::cout << "interrupted " << interrupted << ", stretch finished first " << finished
+            << ", stretch interrupted with some shapes " << partial_stretch
+            << ", mc interrupted after >= 1 sweep " << chains_checkpointed << "\n";
 }
 
 TEST(ReliabilityRuntime, ExtendingAFinishedMonteCarloRunMatchesTheStraightRun) {
