@@ -388,5 +388,14 @@ TEST(ReliabilityRuntime, MonteCarloStartupContinuationScalesWithTheForce) {
   }
 }
 
+TEST(ReliabilityRuntime, ModuliPatchSizeIsCappedAtWhatTheCellProblemSolvesInSeconds) {
+  // Case 31: --cells 200 (the former maximum) did not finish; the maximum is now the size the
+  // cell problem is measured to solve in seconds (kMaxHexagonalPatchCells = 100, 3.4 s CPU).
+  const CommandRun r = rbc("moduli --cells 200 --json");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--cells must be <= 100"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("200"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace rbc
