@@ -2,7 +2,7 @@
 // means and blocking errors of D_A, D_T and the energy, checkpoint/restart and time series.
 //
 // Start: the zero-temperature equilibrium at the requested force (discrete/stretch.hpp
-// solve_equilibrium, by continuation in steps of at most 40 pN); its area/volume multipliers are
+// solve_equilibrium, by continuation: mc_startup_forces()); its area/volume multipliers are
 // then held fixed while sampling, so the chain at T -> 0 collapses onto that equilibrium and the
 // reported thermal shift is <D> - D(T = 0). --start rest starts from the rest shape instead
 // (same multipliers). The WLC links keep their own temperature (300 K, spectrin level);
@@ -20,6 +20,7 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/interrupt.hpp"
 #include "core/geometry.hpp"
 #include "core/h5file.hpp"
 #include "core/io.hpp"
@@ -42,6 +43,7 @@ struct McCli {
   unsigned long seed = 1;
   int streams = 0;  // 0: one per OpenMP thread
   double adapt_fraction = 0.2;
+  long long adapt_sweeps = -1;  // -1: adapt_fraction x sweeps
   int sample_every = 1;
   double penalty_scale = McRunSetup{}.penalty_scale;
   std::string checkpoint, resume, out, start = "equilibrium", bending = "juelicher";
@@ -98,9 +100,9 @@ void write_series(const std::string& dir, const McRun& run) {
   }
   write_csv(dir + "/mc_series.csv", t);
   const std::string path = dir + "/mc_series.h5";
-  const std::string tmp = temporary_path_for(path);
+  TempFile tmp(path);
   {
-    H5File h = H5File::create(tmp);
+    H5File h = H5File::create(tmp.path(), path);
     if (!flat_rows.empty())
       h.write("/series", flat_rows.data(), hsize_t(run.series().size()), kMcSampleColumns);
     std::string cols;
@@ -108,8 +110,9 @@ void write_series(const std::string& dir, const McRun& run) {
     h.write_attribute("columns", cols);
     h.write_attribute("force_pN", run.setup().force_pN);
     h.write_attribute("temperature_K", run.setup().sampler.temperature_K);
+    h.close();
   }
-  commit_file(tmp, path);
+  tmp.commit();
 }
 
 void write_snapshot(const std::string& dir, const Network& net, const McRun& run) {
@@ -127,6 +130,26 @@ void write_snapshot(const std::string& dir, const Network& net, const McRun& run
   write_mesh_snapshot(name.str(), s);
 }
 
+/// DIR/run.json of `mc --out`: whether the outputs are those of a finished run ("complete"),
+/// the status (running | interrupted | finished), the reason, the sweeps done and requested
+/// and the checkpoint written on the way out. Rewritten atomically at each change.
+void write_mc_manifest(const std::string& dir, bool complete, const std::string& status,
+                       const std::string& reason, long long sweeps_done, long long sweeps,
+                       const std::string& checkpoint) {
+  if (dir.empty()) return;
+  nlohmann::json j = {{"command", "mc"},
+                      {"complete", complete},
+                      {"status", status},
+                      {"sweeps_done", sweeps_done},
+                      {"sweeps_requested", sweeps}};
+  if (!reason.empty()) j["reason"] = reason;
+  if (!checkpoint.empty()) j["checkpoint"] = checkpoint;
+  if (complete) {
+    j["files"] = {"mc_series.csv", "mc_series.h5", "mc_summary.json"};
+  }
+  write_text_atomic(dir + "/run.json", j.dump(2) + "\n");
+}
+
 nlohmann::json stat_json(const BlockingResult& b) {
   return {{"mean", b.mean},
           {"error", b.error},
@@ -139,7 +162,7 @@ nlohmann::json stat_json(const BlockingResult& b) {
 /// checkpoint, which otherwise supplies them).
 struct GivenOptions {
   bool force = false, temperature = false, seed = false, penalty_scale = false, vertices = false,
-       bending = false;
+       bending = false, adapt_fraction = false;
 };
 
 /// The run's setup from the command line (multipliers and reference filled in later),
@@ -160,6 +183,10 @@ McRunSetup to_setup(const McCli& o) {
 }
 
 int run_mc(const McCli& o, const GivenOptions& given) {
+  if (o.adapt_sweeps < -1 || o.adapt_sweeps > o.sweeps)
+    throw std::invalid_argument(
+        "--adapt-sweeps " + std::to_string(o.adapt_sweeps) +
+        ": expected an integer in [0, --sweeps = " + std::to_string(o.sweeps) + "]");
   if (o.start != "equilibrium" && o.start != "rest")
     throw std::invalid_argument("--start " + o.start + ": expected one of equilibrium, rest");
   to_setup(o);  // every number up front (on --resume too: a given option must be valid)
@@ -169,6 +196,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   if (!o.out.empty())
     prepare_output_directory(o.out, o.overwrite, !o.resume.empty() && holds_mc_run(o.out));
   const ProgressSink progress = stderr_progress(o.quiet);
+  const CancelCheck cancel = interrupt_check();
 
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
@@ -191,6 +219,8 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   report(progress, "network: " + std::to_string(net.topo.num_vertices) + " vertices");
 
   std::unique_ptr<McRun> run;
+  McSchedule schedule;
+  std::string resume_note;  // what differs from a straight run, when extending a checkpoint
   if (!o.resume.empty()) {
     McCheckpoint cp = read_mc_checkpoint(o.resume, net);
     auto differs = [](double a, double b) { return std::abs(a - b) > 1e-12 * (1 + std::abs(b)); };
@@ -209,19 +239,54 @@ int run_mc(const McCli& o, const GivenOptions& given) {
       throw std::invalid_argument("checkpoint '" + o.resume + "' was run with penalty scale " +
                                   std::to_string(cp.setup.penalty_scale) + ", not " +
                                   std::to_string(o.penalty_scale));
+    if (o.adapt_sweeps >= 0 && o.adapt_sweeps != cp.setup.sampler.adapt_sweeps)
+      throw std::invalid_argument("checkpoint '" + o.resume + "' adapts the step for " +
+                                  std::to_string(cp.setup.sampler.adapt_sweeps) +
+                                  " sweeps, not --adapt-sweeps " + std::to_string(o.adapt_sweeps));
+    schedule = cp.schedule;
+    // The adaptive phase is stored in absolute sweeps and kept: a resumed chain continues
+    // exactly as the run that wrote the checkpoint would have. Extending a run whose phase was
+    // a fraction of its length is the one case where a straight run of the new length differs.
+    const long long a = cp.setup.sampler.adapt_sweeps;
+    if (schedule.adapt_fraction >= 0) {
+      const double fraction = given.adapt_fraction ? o.adapt_fraction : schedule.adapt_fraction;
+      const long long straight = std::llround(fraction * double(o.sweeps));
+      if (straight != a) {
+        std::ostringstream m;
+        m << "the checkpoint's adaptive phase is kept: sweeps 1-" << a << " (--adapt-fraction "
+          << fraction << " of its " << schedule.planned_sweeps << " sweeps); a straight "
+          << o.sweeps << "-sweep run adapts sweeps 1-" << straight << ", so this chain matches it"
+          << " up to sweep " << std::min(a, straight) << " only (statistics use the sweeps after "
+          << a << "); run both with --adapt-sweeps N for identical chains";
+        resume_note = m.str();
+        report(progress, "note: " + resume_note);
+      }
+    }
     report(progress, "resuming at sweep " + std::to_string(cp.chain.sweep) + " from " + o.resume);
+    cp.setup.cancel = cancel;
     run = std::make_unique<McRun>(net, cp.setup, cp.chain, cp.series);
   } else {
     McRunSetup setup = to_setup(o);
+    if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
+    schedule.planned_sweeps = o.sweeps;
+    schedule.adapt_fraction = o.adapt_sweeps >= 0 ? -1.0 : o.adapt_fraction;
+    setup.cancel = cancel;
     // Zero-temperature equilibrium by continuation: start state, multipliers and reference.
     Positions x = net.rest;
     ConstraintMultipliers lambda;
     StretchPoint eq;
     // One thread (see SerialScope) for a bit-reproducible start state.
     SerialScope serial;
-    const int steps = std::max(1, static_cast<int>(std::ceil(o.force_pN / 40.0)));
-    for (int k = 1; k <= steps; ++k) {
-      eq = solve_equilibrium(net, o.force_pN * k / steps, x, lambda, StretchOptions{});
+    StretchOptions so;
+    so.minimiser.cancel = cancel;
+    const std::vector<double> forces = mc_startup_forces(o.force_pN);
+    for (std::size_t k = 0; k < forces.size(); ++k) {
+      throw_if_cancelled(cancel);
+      if (forces.size() > 1)
+        report(progress, "zero-temperature start-up: step " + std::to_string(k + 1) + "/" +
+                             std::to_string(forces.size()) + " at " + std::to_string(forces[k]) +
+                             " pN");
+      eq = solve_equilibrium(net, forces[k], x, lambda, so);
       if (!eq.converged) {
         std::cerr << "rbc: error: zero-temperature equilibrium at " + format_number(eq.force_pN) +
                          " pN did not converge: " + eq.status + ", residual " +
@@ -240,28 +305,44 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   const long long first_sweep = run->sampler().sweeps_done();
   auto write_checkpoint = [&](const McRun& r) {
     if (!o.checkpoint.empty())
-      write_mc_checkpoint(o.checkpoint, net, McCheckpoint{r.setup(), r.state(), r.series()});
+      write_mc_checkpoint(o.checkpoint, net,
+                          McCheckpoint{r.setup(), r.state(), r.series(), schedule});
   };
+  write_mc_manifest(o.out, false, "running", "the run has not finished", first_sweep, o.sweeps, "");
   if (!o.out.empty()) write_snapshot(o.out, net, *run);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_report = t0;
-  run->advance(o.sweeps, [&](const McRun& r) {
-    const long long s = r.sampler().sweeps_done();
-    if (s % o.checkpoint_every == 0) write_checkpoint(r);
-    if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
-      write_snapshot(o.out, net, r);
-    const auto now = std::chrono::steady_clock::now();
-    if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
-      last_report = now;
-      std::ostringstream m;
-      m << "sweep " << s << "/" << o.sweeps << ", step " << r.sampler().step_um() << " um";
-      if (!r.series().empty())
-        m << ", acceptance " << r.series().back().acceptance << ", D_A "
-          << r.series().back().axial_um << " um";
-      report(progress, m.str());
-    }
-    return true;
-  });
+  try {
+    run->advance(o.sweeps, [&](const McRun& r) {
+      const long long s = r.sampler().sweeps_done();
+      if (s % o.checkpoint_every == 0) write_checkpoint(r);
+      if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
+        write_snapshot(o.out, net, r);
+      const auto now = std::chrono::steady_clock::now();
+      if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
+        last_report = now;
+        std::ostringstream m;
+        m << "sweep " << s << "/" << o.sweeps << ", step " << r.sampler().step_um() << " um";
+        if (!r.series().empty())
+          m << ", acceptance " << r.series().back().acceptance << ", D_A "
+            << r.series().back().axial_um << " um";
+        report(progress, m.str());
+      }
+      return true;
+    });
+  } catch (const Cancelled&) {
+    // The chain stands at its last completed sweep: a final checkpoint and the series so far
+    // are written on the way out (complete files); the manifest says the run is incomplete.
+    const long long s = run->sampler().sweeps_done();
+    write_checkpoint(*run);
+    if (!o.out.empty()) write_series(o.out, *run);
+    write_mc_manifest(o.out, false, "interrupted",
+                      "interrupted by " + interrupt_name() + " after sweep " + std::to_string(s) +
+                          " of " + std::to_string(o.sweeps) +
+                          (o.checkpoint.empty() ? "" : "; resume with --resume " + o.checkpoint),
+                      s, o.sweeps, o.checkpoint);
+    throw;
+  }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_checkpoint(*run);
   if (!o.out.empty()) {
@@ -318,7 +399,10 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     j["max_area_drift"] = s.max_area_drift;
     j["max_volume_drift"] = s.max_volume_drift;
   }
+  if (!resume_note.empty()) j["resume_note"] = resume_note;
   if (!o.out.empty()) write_text_atomic(o.out + "/mc_summary.json", j.dump(2) + "\n");
+  write_mc_manifest(o.out, true, "finished", "", run->sampler().sweeps_done(), o.sweeps,
+                    o.checkpoint);
   if (o.json) {
     std::cout << j.dump(2) << "\n";
     return 0;
@@ -382,9 +466,13 @@ void add_mc_command(CLI::App& app, Action& action) {
                   "depends on it")
       ->check(integer_in(0, kMaxMcStreams))
       ->capture_default_str();
-  cmd->add_option("--adapt-fraction", o->adapt_fraction,
-                  "fraction of the sweeps with adaptive step (equilibration), in [0, 1)")
-      ->capture_default_str();
+  auto* adapt_fraction =
+      cmd->add_option("--adapt-fraction", o->adapt_fraction,
+                      "fraction of the sweeps with adaptive step (equilibration), in [0, 1)")
+          ->capture_default_str();
+  cmd->add_option("--adapt-sweeps", o->adapt_sweeps,
+                  "sweeps with adaptive step, absolute (overrides --adapt-fraction; a run extended "
+                  "by --resume then matches a straight run of the new length bit for bit)");
   cmd->add_option("--sample-every", o->sample_every, "sweeps between recorded samples")
       ->check(integer_in(1, std::numeric_limits<int>::max()))
       ->capture_default_str();
@@ -416,10 +504,13 @@ void add_mc_command(CLI::App& app, Action& action) {
                 "accepted without it)");
   cmd->add_flag("--json", o->json, "print the summary as JSON");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, force, temp, seed, penalty, vertices, bending, &action] {
-    const GivenOptions given{force->count() > 0,   temp->count() > 0,     seed->count() > 0,
-                             penalty->count() > 0, vertices->count() > 0, bending->count() > 0};
+  cmd->callback([o, force, temp, seed, penalty, vertices, bending, adapt_fraction, &action] {
+    const GivenOptions given{force->count() > 0,         temp->count() > 0,
+                             seed->count() > 0,          penalty->count() > 0,
+                             vertices->count() > 0,      bending->count() > 0,
+                             adapt_fraction->count() > 0};
     action = [o, given] {
+      make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(kMcOptionNames, [&] { return run_mc(*o, given); });
     };
   });

@@ -89,6 +89,9 @@ int run_moduli(const ModuliCli& o) {
   int status = 0;
   if (o.network == "hex") {
     const int n = o.cells > 0 ? o.cells : 4;
+    if (n > kMaxHexagonalPatchCells)
+      throw std::invalid_argument("--cells must be <= " + std::to_string(kMaxHexagonalPatchCells) +
+                                  " for the hexagonal patch, got " + std::to_string(n));
     const PeriodicNetwork net = make_hexagonal_patch(n, wlc.lbar_um);
     const HomogenisedState h = homogenise_patch(net, m, Eigen::Matrix2d::Identity());
     const LinearModuli num = moduli_from_tangent(h.relaxed_tangent);

@@ -1,6 +1,7 @@
 // `rbc stretch`: the optical-tweezers stretch (Mills et al. 2004) of one model over a list
 // of forces, by continuation: each force starts from the previous equilibrium.
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -8,6 +9,7 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/interrupt.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
@@ -129,10 +131,74 @@ StretchRow to_row(const Point& p, int elements) {
           p.area_drift, p.volume_drift, p.status};
 }
 
+/// DIR/run.json, the manifest of `stretch --out`: rewritten (atomically) when the run starts,
+/// after every force whose shape files are in place, when the run is interrupted and at the end,
+/// so at any moment it says which results are complete. Fields: "complete" (true only when every
+/// requested force was solved and stretch.csv written), "status" (running | interrupted |
+/// failed | finished), "reason" (why it is incomplete), "forces_requested_pN", "forces_complete"
+/// (force and shape files of each solved force), and at the end "points" as in --json.
+class StretchManifest {
+ public:
+  StretchManifest(std::string dir, nlohmann::json run, const std::vector<double>& forces)
+      : dir_(std::move(dir)), run_(std::move(run)) {
+    run_["forces_requested_pN"] = forces;
+    run_["forces_complete"] = nlohmann::json::array();
+  }
+  void running() { write(false, "running", "the run has not finished"); }
+  void force_done(double force_pN, const std::string& shape_base) {
+    const std::string name = std::filesystem::path(shape_base).filename().string();
+    run_["forces_complete"].push_back(
+        {{"force_pN", force_pN}, {"shape_h5", name + ".h5"}, {"shape_xdmf", name + ".xdmf"}});
+    running();
+  }
+  void interrupted(const std::string& signal) {
+    const std::size_t done = run_["forces_complete"].size(),
+                      all = run_["forces_requested_pN"].size();
+    write(false, "interrupted",
+          "interrupted by " + signal + " after " + std::to_string(done) + " of " +
+              std::to_string(all) + " forces; stretch.csv not written");
+  }
+  void failed(const std::string& what) { write(false, "failed", what); }
+  void finished(const nlohmann::json& points) {
+    run_["points"] = points;
+    run_.erase("reason");
+    run_["stretch_csv"] = "stretch.csv";
+    write(true, "finished", "");
+  }
+  bool active() const { return !dir_.empty(); }
+
+ private:
+  void write(bool complete, const std::string& status, const std::string& reason) {
+    if (dir_.empty()) return;
+    run_["complete"] = complete;
+    run_["status"] = status;
+    if (!reason.empty()) run_["reason"] = reason;
+    write_text_atomic(dir_ + "/run.json", run_.dump(2) + "\n");
+  }
+  std::string dir_;
+  nlohmann::json run_;
+};
+
+/// Runs `solve` (which calls manifest.force_done as shapes are written); on Cancelled the
+/// manifest records the interruption before the exception goes on to main() (exit 130/143).
+template <class Solve>
+auto with_manifest(StretchManifest& manifest, Solve&& solve) {
+  manifest.running();
+  try {
+    return solve();
+  } catch (const Cancelled&) {
+    manifest.interrupted(interrupt_name());
+    throw;
+  } catch (const std::exception& e) {
+    manifest.failed(e.what());
+    throw;
+  }
+}
+
 /// Prints the table (or JSON), writes stretch.csv and run.json under --out, and reports
 /// every non-converged force with its residual. Returns the exit code (1 if any failed).
 int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
-                 const std::vector<std::string>& comments, nlohmann::json run) {
+                 const std::vector<std::string>& comments, StretchManifest& manifest) {
   const bool continuum = o.model == "continuum";
   nlohmann::json rows = nlohmann::json::array();
   CsvTable csv;
@@ -171,8 +237,7 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
   }
   if (!o.out.empty()) {
     write_csv(o.out + "/stretch.csv", csv);
-    run["points"] = rows;
-    write_text_atomic(o.out + "/run.json", run.dump(2) + "\n");
+    manifest.finished(rows);  // last: the manifest is the commit record of the set
   }
   if (o.json) {
     std::cout << rows.dump(2) << "\n";
@@ -208,7 +273,7 @@ int run_discrete(const StretchCli& o) {
   const std::vector<double> forces = parse_force_list(o.forces);
   for (double f : forces) validate_discrete_force(f);
   const NetworkParameters params = to_network_parameters(o);
-  const StretchOptions so = to_stretch_options(o);
+  StretchOptions so = to_stretch_options(o);
   prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
   RestShapeOptions ro;
@@ -226,25 +291,36 @@ int run_discrete(const StretchCli& o) {
       << net.patch.area_plus_um2 << " / " << net.patch.area_minus_um2 << " um^2";
     report(progress, m.str());
   }
-  const std::vector<StretchPoint> pts = run_stretch(net, forces, so, progress);
-  if (!o.out.empty())
-    for (const auto& p : pts) {
-      const Eigen::VectorXd u = (p.x - net.rest).colwise().norm().transpose();
-      MeshSnapshot s{p.x, net.topo.faces, {{"displacement_um", u}}, {}, {{"force_pN", p.force_pN}}};
-      write_mesh_snapshot(o.out + "/shape_" + force_tag(p.force_pN) + "pN", s);
-    }
-  std::vector<StretchRow> rows;
-  for (const auto& p : pts) rows.push_back(to_row(p, 0));
-  return emit_stretch(
-      o, rows,
-      {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
-       "units: force pN, diameters um, energy pN*um, wall time s",
-       "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
-           std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
-           std::to_string(rest_force) + " pN"},
-      {{"model", "discrete"},
-       {"mesh", mesh_report_json(mesh_report)},
-       {"largest_rest_inplane_force_pN", rest_force}});
+  so.minimiser.cancel = interrupt_check();
+  StretchManifest manifest(o.out,
+                           {{"model", "discrete"},
+                            {"mesh", mesh_report_json(mesh_report)},
+                            {"largest_rest_inplane_force_pN", rest_force}},
+                           forces);
+  // Each shape is written (and the manifest updated) as soon as its force is solved.
+  so.on_point = [&](const StretchPoint& p) {
+    if (o.out.empty()) return;
+    const Eigen::VectorXd u = (p.x - net.rest).colwise().norm().transpose();
+    MeshSnapshot s{p.x, net.topo.faces, {{"displacement_um", u}}, {}, {{"force_pN", p.force_pN}}};
+    const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
+    write_mesh_snapshot(base, s);
+    manifest.force_done(p.force_pN, base);
+  };
+  const std::vector<StretchPoint> pts =
+      with_manifest(manifest, [&] { return run_stretch(net, forces, so, progress); });
+}
+return out;
+});
+std::vector<StretchRow> rows;
+for (const auto& p : pts) rows.push_back(to_row(p, 0));
+return emit_stretch(
+    o, rows,
+    {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
+     "units: force pN, diameters um, energy pN*um, wall time s",
+     "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
+         std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
+         std::to_string(rest_force) + " pN"},
+    manifest);
 }
 
 // Continuum branch (issue 4): surface FEM with the homogenised law of the given order.
@@ -270,7 +346,17 @@ int run_continuum(const StretchCli& o) {
       build_continuum_model(mesh, make_membrane_law(params.wlc, params.steric, order), cp);
   report(progress, "continuum mesh: " + std::to_string(mesh_report.vertices) + " vertices, " +
                        std::to_string(model.num_elements()) + " elements, law " + model.law.name);
-  const std::vector<ContinuumStretchPoint> pts = run_continuum_stretch(model, forces, co, progress);
+  co.newton.cancel = interrupt_check();
+  co.lbfgs.cancel = co.newton.cancel;
+  StretchManifest manifest(o.out,
+                           {{"model", "continuum"},
+                            {"order", to_string(order)},
+                            {"mesh", mesh_report_json(mesh_report)}},
+                           forces);
+  // The continuation (with its secant predictor and bisection) runs in the library, so the
+  // shapes are written after the last force; an interrupted run records none as complete.
+  const std::vector<ContinuumStretchPoint> pts =
+      with_manifest(manifest, [&] { return run_continuum_stretch(model, forces, co, progress); });
   if (!o.out.empty())
     for (const auto& p : pts) {
       const Eigen::VectorXd u = (p.x - model.rest).colwise().norm().transpose();
@@ -282,7 +368,9 @@ int run_continuum(const StretchCli& o) {
                       {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
                       {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}},
                      {{"force_pN", p.force_pN}}};
-      write_mesh_snapshot(o.out + "/shape_" + force_tag(p.force_pN) + "pN", s);
+      const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
+      write_mesh_snapshot(base, s);
+      manifest.force_done(p.force_pN, base);
     }
   std::vector<StretchRow> rows;
   for (const auto& p : pts) rows.push_back(to_row(p, p.elements));
@@ -292,9 +380,7 @@ int run_continuum(const StretchCli& o) {
        "units: force pN, diameters um, energy pN*um, wall time s",
        "order " + to_string(order) + ", elements " + std::to_string(model.num_elements()) +
            ", vertices " + std::to_string(mesh_report.vertices)},
-      {{"model", "continuum"},
-       {"order", to_string(order)},
-       {"mesh", mesh_report_json(mesh_report)}});
+      manifest);
 }
 
 }  // namespace
@@ -366,6 +452,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->callback([o, &action, tolerance] {
     o->tolerance_given = tolerance->count() > 0;
     action = [o]() -> int {
+      make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(kStretchOptionNames, [&]() -> int {
         if (o->model == "discrete") return run_discrete(*o);
         if (o->model == "continuum") return run_continuum(*o);

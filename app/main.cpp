@@ -5,8 +5,11 @@
 #include <string>
 
 #include "app/commands.hpp"
+#include "app/interrupt.hpp"
+#include "core/progress.hpp"
 
 int main(int argc, char** argv) {
+  rbc::app::install_interrupt_handlers();
   CLI::App app{"rbc - multiscale red blood cell membrane mechanics (Hartmann 2008 model)"};
   app.require_subcommand(1, 1);
   app.fallthrough(false);
@@ -41,12 +44,23 @@ int main(int argc, char** argv) {
     std::cerr << "rbc: error: " << e.what() << " (see rbc --help)\n";
     return 2;
   }
+  // A signal during the work: exit 130 (SIGINT) / 143 (SIGTERM) once the command has unwound
+  // (temporaries removed, completed outputs and manifest written); see app/interrupt.hpp.
+  auto interrupted = [](const std::string& what) {
+    std::cerr << "rbc: interrupted by " << rbc::app::interrupt_name() << (what.empty() ? "" : ": ")
+              << what << "\n";
+    return rbc::app::interrupt_exit_code();
+  };
   try {
     return action ? action() : 2;
+  } catch (const rbc::Cancelled&) {
+    return interrupted("");
   } catch (const std::invalid_argument& e) {
+    if (rbc::app::interrupt_signal() != 0) return interrupted(e.what());
     std::cerr << "rbc: error: " << e.what() << "\n";
     return 2;
   } catch (const std::runtime_error& e) {
+    if (rbc::app::interrupt_signal() != 0) return interrupted(e.what());
     std::cerr << "rbc: error: " << e.what() << "\n";
     return 2;
   }

@@ -13,7 +13,8 @@ namespace rbc {
 void render_plot(const PlotSpec& spec, const std::string& dir, const std::string& name) {
   namespace fs = std::filesystem;
   const std::string png = (fs::path(dir) / (name + ".png")).string();
-  const std::string tmp_png = temporary_path_for(png);
+  TempFile tmp(png);  // removed if gnuplot fails or the run is interrupted
+  const std::string& tmp_png = tmp.path();
   std::ostringstream g;
   g << "set terminal pngcairo size " << spec.width_px << "," << spec.height_px
     << " enhanced font 'DejaVu Sans,12'\n"
@@ -47,13 +48,10 @@ void render_plot(const PlotSpec& spec, const std::string& dir, const std::string
   std::array<char, 256> buf{};
   while (fgets(buf.data(), buf.size(), pipe)) output += buf.data();
   const int status = pclose(pipe);
-  if (status != 0 || !fs::exists(tmp_png)) {
-    std::error_code ec;
-    fs::remove(tmp_png, ec);
+  if (status != 0 || !fs::exists(tmp_png))
     throw std::runtime_error("gnuplot failed on " + script + ": " + output);
-  }
-  // gnuplot was run in `dir`, so the temporary file sits there; move it into place.
-  commit_file((fs::path(dir) / fs::path(tmp_png).filename()).string(), png);
+  // gnuplot was run in `dir` and wrote the temporary's file name there: tmp's own path.
+  tmp.commit();
 }
 
 }  // namespace rbc

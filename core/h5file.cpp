@@ -17,13 +17,32 @@ const Silence& silence() {
   return s;
 }
 
+/// Owns one HDF5 object identifier (dataset, dataspace, attribute, datatype, group) and closes
+/// it with its own H5?close on every path out of a scope, error paths included.
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  hid_t get() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
 }  // namespace
 
-H5File H5File::create(const std::string& path) {
+H5File H5File::create(const std::string& path, const std::string& name_in_errors) {
   silence();
+  const std::string shown = name_in_errors.empty() ? path : name_in_errors;
   const hid_t id = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (id < 0) fail(path, "cannot be created (is the directory writable?)");
-  return H5File(id, path);
+  if (id < 0) fail(shown, "cannot be created (is the directory writable?)");
+  return H5File(id, shown);
 }
 
 H5File H5File::open_read(const std::string& path) {
@@ -38,20 +57,21 @@ H5File::H5File(H5File&& o) noexcept : id_(o.id_), path_(std::move(o.path_)) {
   o.id_ = -1;
 }
 H5File::~H5File() {
-  close();
+  if (id_ >= 0) H5Fclose(id_);
 }
 void H5File::close() {
-  if (id_ >= 0) H5Fclose(id_);
+  if (id_ < 0) return;
+  const herr_t status = H5Fclose(id_);
   id_ = -1;
+  if (status < 0) fail(path_, "cannot be flushed and closed");
 }
 
 void H5File::ensure_parent_groups(const std::string& name) {
   for (size_t pos = name.find('/', 1); pos != std::string::npos; pos = name.find('/', pos + 1)) {
     const std::string group = name.substr(0, pos);
     if (H5Lexists(id_, group.c_str(), H5P_DEFAULT) > 0) continue;
-    const hid_t g = H5Gcreate2(id_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    if (g < 0) fail(path_, "cannot create group " + group);
-    H5Gclose(g);
+    const Handle g(H5Gcreate2(id_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    if (!g.ok()) fail(path_, "cannot create group " + group);
   }
 }
 
@@ -59,13 +79,13 @@ void H5File::write_raw(const std::string& name, hid_t type, const void* data, hs
                        hsize_t cols) {
   ensure_parent_groups(name);
   const hsize_t dims[2] = {rows, cols};
-  const hid_t space = H5Screate_simple(2, dims, nullptr);
-  const hid_t set =
-      H5Dcreate2(id_, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  const herr_t status = set >= 0 ? H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) : -1;
-  if (set >= 0) H5Dclose(set);
-  H5Sclose(space);
-  if (status < 0) fail(path_, "cannot write dataset " + name);
+  const Handle space(H5Screate_simple(2, dims, nullptr), H5Sclose);
+  if (!space.ok()) fail(path_, "cannot create a dataspace for " + name);
+  const Handle set(
+      H5Dcreate2(id_, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose);
+  if (!set.ok() || H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    fail(path_, "cannot write dataset " + name);
 }
 
 void H5File::write(const std::string& n, const double* d, hsize_t r, hsize_t c) {
@@ -78,33 +98,30 @@ void H5File::write(const std::string& n, const unsigned long long* d, hsize_t r,
   write_raw(n, H5T_NATIVE_ULLONG, d, r, c);
 }
 
+namespace {
+void write_scalar_attribute(hid_t file, const std::string& path, const std::string& name,
+                            hid_t type, const void* value) {
+  const Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  const Handle a(
+      space.ok() ? H5Acreate2(file, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT) : -1,
+      H5Aclose);
+  if (!a.ok() || H5Awrite(a.get(), type, value) < 0) fail(path, "cannot write attribute " + name);
+}
+}  // namespace
+
 void H5File::write_attribute(const std::string& name, double value) {
-  const hid_t space = H5Screate(H5S_SCALAR);
-  const hid_t a = H5Acreate2(id_, name.c_str(), H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT);
-  if (a < 0 || H5Awrite(a, H5T_NATIVE_DOUBLE, &value) < 0)
-    fail(path_, "cannot write attribute " + name);
-  H5Aclose(a);
-  H5Sclose(space);
+  write_scalar_attribute(id_, path_, name, H5T_NATIVE_DOUBLE, &value);
 }
 
 void H5File::write_attribute(const std::string& name, long long value) {
-  const hid_t space = H5Screate(H5S_SCALAR);
-  const hid_t a = H5Acreate2(id_, name.c_str(), H5T_NATIVE_LLONG, space, H5P_DEFAULT, H5P_DEFAULT);
-  if (a < 0 || H5Awrite(a, H5T_NATIVE_LLONG, &value) < 0)
-    fail(path_, "cannot write attribute " + name);
-  H5Aclose(a);
-  H5Sclose(space);
+  write_scalar_attribute(id_, path_, name, H5T_NATIVE_LLONG, &value);
 }
 
 void H5File::write_attribute(const std::string& name, const std::string& value) {
-  const hid_t type = H5Tcopy(H5T_C_S1);
-  H5Tset_size(type, value.size() + 1);
-  const hid_t space = H5Screate(H5S_SCALAR);
-  const hid_t a = H5Acreate2(id_, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
-  if (a < 0 || H5Awrite(a, type, value.c_str()) < 0) fail(path_, "cannot write attribute " + name);
-  H5Aclose(a);
-  H5Sclose(space);
-  H5Tclose(type);
+  const Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  if (!type.ok() || H5Tset_size(type.get(), value.size() + 1) < 0)
+    fail(path_, "cannot write attribute " + name);
+  write_scalar_attribute(id_, path_, name, type.get(), value.c_str());
 }
 
 bool H5File::has(const std::string& name) const {
@@ -114,22 +131,18 @@ bool H5File::has(const std::string& name) const {
 std::pair<hsize_t, hsize_t> H5File::read_raw(const std::string& name, hid_t type,
                                              std::function<void*(size_t)> alloc) const {
   if (!has(name)) fail(path_, "has no dataset " + name);
-  const hid_t set = H5Dopen2(id_, name.c_str(), H5P_DEFAULT);
-  if (set < 0) fail(path_, "cannot open dataset " + name);
-  const hid_t space = H5Dget_space(set);
+  const Handle set(H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!set.ok()) fail(path_, "cannot open dataset " + name);
+  const Handle space(H5Dget_space(set.get()), H5Sclose);
+  if (!space.ok()) fail(path_, "cannot read the shape of dataset " + name);
   hsize_t dims[2] = {0, 1};
-  const int rank = H5Sget_simple_extent_ndims(space);
-  if (rank < 1 || rank > 2) {
-    H5Sclose(space);
-    H5Dclose(set);
-    fail(path_, "dataset " + name + " is not 1-D or 2-D");
-  }
-  H5Sget_simple_extent_dims(space, dims, nullptr);
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 1 || rank > 2) fail(path_, "dataset " + name + " is not 1-D or 2-D");
+  if (H5Sget_simple_extent_dims(space.get(), dims, nullptr) < 0)
+    fail(path_, "cannot read the shape of dataset " + name);
   void* buffer = alloc(dims[0] * dims[1]);
-  const herr_t status = H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer);
-  H5Sclose(space);
-  H5Dclose(set);
-  if (status < 0) fail(path_, "cannot read dataset " + name);
+  if (H5Dread(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer) < 0)
+    fail(path_, "cannot read dataset " + name);
   return {dims[0], dims[1]};
 }
 
@@ -155,33 +168,33 @@ std::pair<hsize_t, hsize_t> H5File::read(const std::string& n,
 
 double H5File::read_attribute_double(const std::string& name) const {
   double v = 0;
-  const hid_t a = H5Aopen(id_, name.c_str(), H5P_DEFAULT);
-  if (a < 0 || H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0) fail(path_, "has no attribute " + name);
-  H5Aclose(a);
+  const Handle a(H5Aopen(id_, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!a.ok() || H5Aread(a.get(), H5T_NATIVE_DOUBLE, &v) < 0)
+    fail(path_, "has no attribute " + name);
   return v;
 }
 
 long long H5File::read_attribute_int(const std::string& name) const {
   long long v = 0;
-  const hid_t a = H5Aopen(id_, name.c_str(), H5P_DEFAULT);
-  if (a < 0 || H5Aread(a, H5T_NATIVE_LLONG, &v) < 0) fail(path_, "has no attribute " + name);
-  H5Aclose(a);
+  const Handle a(H5Aopen(id_, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!a.ok() || H5Aread(a.get(), H5T_NATIVE_LLONG, &v) < 0)
+    fail(path_, "has no attribute " + name);
   return v;
 }
 
 std::string H5File::read_attribute_string(const std::string& name) const {
-  const hid_t a = H5Aopen(id_, name.c_str(), H5P_DEFAULT);
-  if (a < 0) fail(path_, "has no attribute " + name);
-  const hid_t type = H5Aget_type(a);
-  const size_t size = H5Tget_size(type);
+  const Handle a(H5Aopen(id_, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!a.ok()) fail(path_, "has no attribute " + name);
+  const Handle type(H5Aget_type(a.get()), H5Tclose);
+  if (!type.ok() || H5Tget_class(type.get()) != H5T_STRING)
+    fail(path_, "attribute " + name + " is not a string");
+  const size_t size = H5Tget_size(type.get());
+  if (size == 0 || size > (std::size_t(1) << 20))
+    fail(path_, "attribute " + name + " has an implausible size");
   std::string s(size, '\0');
-  const hid_t mem = H5Tcopy(H5T_C_S1);
-  H5Tset_size(mem, size);
-  const herr_t status = H5Aread(a, mem, s.data());
-  H5Tclose(mem);
-  H5Tclose(type);
-  H5Aclose(a);
-  if (status < 0) fail(path_, "cannot read attribute " + name);
+  const Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+  if (!mem.ok() || H5Tset_size(mem.get(), size) < 0 || H5Aread(a.get(), mem.get(), s.data()) < 0)
+    fail(path_, "cannot read attribute " + name);
   s.resize(s.find('\0') == std::string::npos ? s.size() : s.find('\0'));
   return s;
 }

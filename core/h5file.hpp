@@ -1,5 +1,7 @@
 #pragma once
-// Minimal RAII access to HDF5 files: 2-D double/int datasets and scalar attributes.
+// Minimal RAII access to HDF5 files: 2-D double/int datasets and scalar attributes. Every HDF5
+// identifier (file, dataset, dataspace, attribute, datatype, group) is owned by an object that
+// closes it, on error paths too.
 // All errors (missing file, not HDF5, missing dataset) throw std::runtime_error with the
 // file and object named; HDF5's own error printing is silenced.
 #include <hdf5.h>
@@ -14,14 +16,16 @@ namespace rbc {
 /// An open HDF5 file. Owns the handle; closes on destruction.
 class H5File {
  public:
-  /// Creates (truncating) a file for writing.
-  static H5File create(const std::string& path);
+  /// Creates (truncating) a file for writing. Errors name `name_in_errors` if given (the
+  /// user's file name when `path` is the temporary an atomic writer fills).
+  static H5File create(const std::string& path, const std::string& name_in_errors = "");
   /// Opens an existing file read-only; throws if missing or not HDF5.
   static H5File open_read(const std::string& path);
   H5File(H5File&& other) noexcept;
   H5File& operator=(H5File&&) = delete;
   H5File(const H5File&) = delete;
-  ~H5File();
+  ~H5File();  ///< closes quietly; call close() to see a failed flush
+  /// Flushes and closes; throws std::runtime_error naming the file if HDF5 reports a failure.
   void close();
 
   /// Row-major 2-D dataset of shape rows x cols from `data` (rows*cols values). Parent

@@ -16,10 +16,41 @@ namespace rbc {
 /// std::invalid_argument naming the path otherwise.
 void ensure_output_directory(const std::string& dir);
 
-/// Temporary sibling path used by the atomic writers (same directory, hidden name).
+/// Temporary sibling path used by the atomic writers (same directory, hidden name
+/// ".NAME.partial-PID").
 std::string temporary_path_for(const std::string& path);
-/// Renames tmp onto path (atomic on POSIX within one file system); throws on failure.
+/// Renames tmp onto path (atomic on POSIX within one file system); throws on failure (and
+/// removes tmp).
 void commit_file(const std::string& tmp, const std::string& path);
+
+/// Owns the temporary sibling of `target` an atomic writer fills: the temporary is removed when
+/// the guard dies uncommitted (an exception, a cancelled run), so no ".partial" file survives
+/// unwinding. While alive it is also listed in a process-wide registry of live temporaries that
+/// remove_live_temporaries() empties, for a process that must stop without unwinding (a second
+/// SIGINT/SIGTERM: see app/interrupt.hpp).
+class TempFile {
+ public:
+  explicit TempFile(std::string target);
+  ~TempFile();
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  const std::string& path() const { return tmp_; }       ///< the temporary to write
+  const std::string& target() const { return target_; }  ///< where commit() puts it
+  /// Renames the temporary onto the target; throws std::runtime_error naming the target.
+  void commit();
+
+ private:
+  std::string target_, tmp_;
+  int slot_ = -1;  ///< registry slot, -1 when not registered (path too long, registry full)
+  bool committed_ = false;
+};
+
+/// Unlinks every temporary listed by a live TempFile. Async-signal-safe (lock-free atomics and
+/// unlink(2) only), so a signal handler that must _exit may call it; a file being renamed at
+/// that moment is either already in place (the unlink finds nothing) or removed.
+void remove_live_temporaries() noexcept;
+/// Number of temporaries currently registered (for tests).
+int live_temporary_count() noexcept;
 
 void write_text_atomic(const std::string& path, const std::string& text);
 

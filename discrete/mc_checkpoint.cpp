@@ -19,7 +19,21 @@ namespace {
 
 static_assert(kMcCheckpointSeriesColumns == kMcSampleColumns);
 
-constexpr long long kFormat = 2;  // 2: penalty_scale; bending model in the fingerprint
+// 2: penalty_scale; bending model in the fingerprint. 3: the adaptation schedule's origin
+// (planned_sweeps, adapt_fraction) next to its absolute length adapt_sweeps.
+constexpr long long kFormat = 3;
+
+void check_format(const H5File& h, const std::string& path) {
+  const long long f = h.read_attribute_int("format");
+  if (f == kFormat) return;
+  if (f >= 1 && f < kFormat)
+    throw std::runtime_error("checkpoint '" + path + "' has format version " + std::to_string(f) +
+                             ", written by an older rbc; this rbc reads version " +
+                             std::to_string(kFormat) + " only (rerun the chain to resume it)");
+  throw std::runtime_error("checkpoint '" + path + "' is corrupt: unknown format version " +
+                           std::to_string(f) + " (this rbc reads version " +
+                           std::to_string(kFormat) + ")");
+}
 
 struct Fnv1a {
   std::uint64_t h = 0xcbf29ce484222325ull;
@@ -56,9 +70,9 @@ std::uint64_t network_fingerprint(const Network& net) {
 }
 
 void write_mc_checkpoint(const std::string& path, const Network& net, const McCheckpoint& cp) {
-  const std::string tmp = temporary_path_for(path);
-  try {
-    H5File h = H5File::create(tmp);
+  TempFile tmp(path);  // removed on every path that does not commit it
+  {
+    H5File h = H5File::create(tmp.path(), path);
     const McChainState& c = cp.chain;
     h.write("/positions_um", c.x.data(), hsize_t(c.x.cols()), 3);
     const std::size_t bytes = c.rng_state.empty() ? 0 : c.rng_state[0].size();
@@ -103,23 +117,19 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     h.write_attribute("penalty_scale", u.penalty_scale);
     h.write_attribute("reference_axial_um", u.reference_axial_um);
     h.write_attribute("reference_transverse_um", u.reference_transverse_um);
+    h.write_attribute("planned_sweeps", cp.schedule.planned_sweeps);
+    h.write_attribute("adapt_fraction", cp.schedule.adapt_fraction);
     std::vector<int> mobile = u.sampler.mobile;
     if (mobile.empty()) mobile.push_back(-1);  // -1: every vertex moves
     h.write("/mobile", mobile.data(), hsize_t(mobile.size()), 1);
     h.close();
-    commit_file(tmp, path);
-  } catch (...) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw;
   }
+  tmp.commit();
 }
 
 McCheckpointNetwork peek_mc_checkpoint_network(const std::string& path) {
   const H5File h = H5File::open_read(path);
-  if (h.read_attribute_int("format") != kFormat)
-    throw std::runtime_error("checkpoint '" + path + "' is corrupt: unknown format version " +
-                             std::to_string(h.read_attribute_int("format")));
+  check_format(h, path);
   McCheckpointNetwork n;
   n.vertices = static_cast<int>(h.read_attribute_int("vertices"));
   try {
@@ -135,8 +145,7 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   auto corrupt = [&](const std::string& what) {
     return std::runtime_error("checkpoint '" + path + "' is corrupt: " + what);
   };
-  if (h.read_attribute_int("format") != kFormat)
-    throw corrupt("unknown format version " + std::to_string(h.read_attribute_int("format")));
+  check_format(h, path);
   const long long nv = h.read_attribute_int("vertices"), nf = h.read_attribute_int("faces");
   const std::string fp = h.read_attribute_string("fingerprint");
   if (nv != net.topo.num_vertices || nf != net.topo.num_faces() ||
@@ -195,6 +204,12 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   u.penalty_scale = h.read_attribute_double("penalty_scale");
   u.reference_axial_um = h.read_attribute_double("reference_axial_um");
   u.reference_transverse_um = h.read_attribute_double("reference_transverse_um");
+  cp.schedule.planned_sweeps = h.read_attribute_int("planned_sweeps");
+  cp.schedule.adapt_fraction = h.read_attribute_double("adapt_fraction");
+  if (cp.schedule.planned_sweeps < 0 ||
+      !(cp.schedule.adapt_fraction == -1.0 ||
+        (cp.schedule.adapt_fraction >= 0 && cp.schedule.adapt_fraction < 1)))
+    throw corrupt("adaptation schedule out of range");
   if (!(a.mobile.size() == 1 && a.mobile[0] == -1)) u.sampler.mobile = a.mobile;
   try {
     u.validate();

@@ -12,9 +12,11 @@
 // format, fingerprint, vertices, bending_model, faces, sweep, step_um, rng_type, rng_bytes,
 // temperature_K, force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams,
 // adapt_sweeps, sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,
-// reference_transverse_um.
+// reference_transverse_um, planned_sweeps, adapt_fraction (format 3; older formats are refused
+// with a message naming the version).
 #include <cstdint>
 #include <string>
+#include <utility>
 
 #include "discrete/mc_run.hpp"
 
@@ -24,10 +26,21 @@ namespace rbc {
 /// the network a chain runs on.
 std::uint64_t network_fingerprint(const Network& net);
 
+/// Where the absolute adaptation length (McOptions::adapt_sweeps) came from, so that a resumed
+/// run that extends the chain can say whether it still matches a straight run of the new length.
+struct McSchedule {
+  long long planned_sweeps = 0;  ///< total sweeps of the run that fixed adapt_sweeps
+  double adapt_fraction = -1.0;  ///< adapt_sweeps = round(fraction x planned); -1: given absolute
+};
+
 struct McCheckpoint {
   McRunSetup setup;
   McChainState chain;
   std::vector<McSample> series;
+  McSchedule schedule;
+  McCheckpoint() = default;
+  McCheckpoint(McRunSetup s, McChainState c, std::vector<McSample> t, McSchedule sch = {})
+      : setup(std::move(s)), chain(std::move(c)), series(std::move(t)), schedule(sch) {}
 };
 
 /// Writes the checkpoint atomically; throws std::runtime_error naming the path on failure

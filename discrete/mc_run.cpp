@@ -44,6 +44,25 @@ void McRunSetup::validate() const {
                            std::numeric_limits<int>::max());
 }
 
+std::vector<double> mc_startup_forces(double force_pN) {
+  if (!(force_pN >= 0) || !std::isfinite(force_pN))
+    throw std::invalid_argument("start-up force must be finite and >= 0 pN, got " +
+                                std::to_string(force_pN) + " pN");
+  constexpr double kLinearUpTo_pN = 200.0, kLinearStep_pN = 40.0, kRatio = 1.2;
+  std::vector<double> f;
+  const double linear_end = std::min(force_pN, kLinearUpTo_pN);
+  const int linear = std::max(1, static_cast<int>(std::ceil(linear_end / kLinearStep_pN)));
+  for (int k = 1; k <= linear; ++k) f.push_back(linear_end * k / linear);
+  if (force_pN > kLinearUpTo_pN) {
+    const int geometric =
+        static_cast<int>(std::ceil(std::log(force_pN / kLinearUpTo_pN) / std::log(kRatio)));
+    for (int k = 1; k <= geometric; ++k)
+      f.push_back(kLinearUpTo_pN * std::pow(force_pN / kLinearUpTo_pN, double(k) / geometric));
+    f.back() = force_pN;  // (up to 200 pN the last entry is F k/k, exactly as issue 6 computed it)
+  }
+  return f;
+}
+
 namespace {
 LoadState load_of(const McRunSetup& s) {
   LoadState l;
@@ -87,6 +106,8 @@ McSample McRun::measure(const McSweepStats& st, double step) const {
 
 bool McRun::advance(long long total_sweeps, const std::function<bool(const McRun&)>& after_sweep) {
   while (sampler_->sweeps_done() < total_sweeps) {
+    // Between sweeps: a cancelled run stops at the last completed sweep (checkpointable).
+    throw_if_cancelled(setup_.cancel);
     const double step = sampler_->step_um();
     const McSweepStats st = sampler_->sweep();
     if (sampler_->sweeps_done() % setup_.sample_every == 0) series_.push_back(measure(st, step));

@@ -58,6 +58,15 @@ struct McSummary {
   double max_area_drift = 0, max_volume_drift = 0;  ///< largest |G - G0|/G0 in the samples
 };
 
+/// The forces (pN) of the zero-temperature start-up continuation from the rest shape to
+/// `force_pN` (>= 0, finite), each solved from the previous equilibrium: steps of at most 40 pN
+/// up to 200 pN (so every run up to 200 pN starts exactly as before: ceil(F/40) equal steps),
+/// then increments of at most 20 % of the force reached, where the WLC links are stiff and a
+/// relative step is what the minimiser can take. The count grows with log F, not F: 1,000 pN
+/// takes 5 + 9 = 14 solves and 1e6 pN 5 + 47 = 52 (the 40 pN rule needed 25,000). The last
+/// entry is force_pN (up to 200 pN computed as F n / n, as before).
+std::vector<double> mc_startup_forces(double force_pN);
+
 class McRun {
  public:
   /// Fresh run from `start`.
@@ -67,7 +76,9 @@ class McRun {
         std::vector<McSample> series);
 
   /// Runs sweeps until `total_sweeps` are done; after_sweep (if given) is called after each.
-  /// Stops early (returns false) when after_sweep returns false.
+  /// Stops early (returns false) when after_sweep returns false. Polls setup().cancel before
+  /// every sweep and throws Cancelled when it returns true; the run then stands at the last
+  /// completed sweep (state() and series() are consistent and can be checkpointed).
   bool advance(long long total_sweeps, const std::function<bool(const McRun&)>& after_sweep = {});
 
   const McSampler& sampler() const { return *sampler_; }

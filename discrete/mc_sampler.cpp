@@ -177,9 +177,9 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
     tweezer_single_.push_back(one);
   }
   for (int s = 0; s < opt_.streams; ++s) {
-    gsl_rng* r = gsl_rng_alloc(gsl_rng_mt19937);
+    rng_.emplace_back(gsl_rng_alloc(gsl_rng_mt19937));
+    gsl_rng* r = rng_.back().get();
     if (!r) throw std::runtime_error("cannot allocate a GSL random number generator");
-    rng_.push_back(r);
     gsl_rng_set(r, static_cast<unsigned long>(
                        splitmix64(std::uint64_t(opt_.seed) * 1024u + std::uint64_t(s)) >> 32) |
                        1ul);
@@ -188,9 +188,9 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
   s.x = start;
   s.step_um = step_;
   s.sweep = 0;
-  for (gsl_rng* r : rng_) {
-    const auto* p = static_cast<const unsigned char*>(gsl_rng_state(r));
-    s.rng_state.emplace_back(p, p + gsl_rng_size(r));
+  for (const auto& r : rng_) {
+    const auto* p = static_cast<const unsigned char*>(gsl_rng_state(r.get()));
+    s.rng_state.emplace_back(p, p + gsl_rng_size(r.get()));
   }
   restore(s);
 }
@@ -206,18 +206,14 @@ double McSampler::energy() const {
   return e + constraint_energy_of_totals(net_, load_, area_, volume_);
 }
 
-McSampler::~McSampler() {
-  for (gsl_rng* r : rng_) gsl_rng_free(r);
-}
-
 McChainState McSampler::state() const {
   McChainState s;
   s.x = x_;
   s.step_um = step_;
   s.sweep = sweep_;
-  for (gsl_rng* r : rng_) {
-    const auto* p = static_cast<const unsigned char*>(gsl_rng_state(r));
-    s.rng_state.emplace_back(p, p + gsl_rng_size(r));
+  for (const auto& r : rng_) {
+    const auto* p = static_cast<const unsigned char*>(gsl_rng_state(r.get()));
+    s.rng_state.emplace_back(p, p + gsl_rng_size(r.get()));
   }
   return s;
 }
@@ -230,10 +226,10 @@ void McSampler::restore(const McChainState& s) {
     throw std::invalid_argument("chain state has " + std::to_string(s.rng_state.size()) +
                                 " RNG streams, the sampler " + std::to_string(rng_.size()));
   for (size_t k = 0; k < rng_.size(); ++k)
-    if (s.rng_state[k].size() != gsl_rng_size(rng_[k]))
+    if (s.rng_state[k].size() != gsl_rng_size(rng_[k].get()))
       throw std::invalid_argument("RNG state " + std::to_string(k) + " has " +
                                   std::to_string(s.rng_state[k].size()) + " bytes, mt19937 needs " +
-                                  std::to_string(gsl_rng_size(rng_[k])));
+                                  std::to_string(gsl_rng_size(rng_[k].get())));
   if (!(s.step_um > 0) || !std::isfinite(s.step_um) || s.sweep < 0)
     throw std::invalid_argument("chain state has an invalid step or sweep count");
   LoadState load = load_;
@@ -244,7 +240,7 @@ void McSampler::restore(const McChainState& s) {
   step_ = s.step_um;
   sweep_ = s.sweep;
   for (size_t k = 0; k < rng_.size(); ++k)
-    std::memcpy(gsl_rng_state(rng_[k]), s.rng_state[k].data(), s.rng_state[k].size());
+    std::memcpy(gsl_rng_state(rng_[k].get()), s.rng_state[k].data(), s.rng_state[k].size());
   // Caches of every local term at x_, each exactly the value its kernel gives (so sums of
   // cached and fresh values agree with a from-scratch evaluation to the last bit).
   const Topology& t = net_.topo;
@@ -447,7 +443,7 @@ McSweepStats McSampler::sweep() {
     // Phase 1: proposals in parallel, stream s owns the contiguous chunk s of the colour.
 #pragma omp for schedule(static)
     for (int s = 0; s < streams; ++s) {
-      gsl_rng* r = rng_[s];
+      gsl_rng* r = rng_[s].get();
       const int lo = static_cast<int>(static_cast<long long>(m) * s / streams);
       const int hi = static_cast<int>(static_cast<long long>(m) * (s + 1) / streams);
       for (int i = lo; i < hi; ++i) {

@@ -134,7 +134,6 @@ class McSampler {
   /// volume penalties are those of network_energy() at `load` (stiffness_scale included).
   McSampler(const Network& net, const LoadState& load, const Positions& start,
             const McOptions& options);
-  ~McSampler();
   McSampler(const McSampler&) = delete;
   McSampler& operator=(const McSampler&) = delete;
 
@@ -191,7 +190,12 @@ class McSampler {
   double area_ = 0, volume_ = 0;
   double max_area_drift_ = 0, max_volume_drift_ = 0;
   std::vector<std::vector<int>> colours_;
-  std::vector<gsl_rng*> rng_;
+  struct RngFree {
+    void operator()(gsl_rng* r) const noexcept { gsl_rng_free(r); }
+  };
+  /// One owned mt19937 per stream: freed on every path (a constructor that throws after
+  /// allocating them, e.g. restore() refusing a corrupt state, leaks nothing).
+  std::vector<std::unique_ptr<gsl_rng, RngFree>> rng_;
   // Caches of the local terms at x_ (exact kernel values, refreshed on every accepted move)
   // and, aligned with each vertex's stencil slots, the values of its pending proposal.
   BendingTerms bend_terms_;          ///< bending terms a move changes (bending_terms())

@@ -242,6 +242,7 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
     msg << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um << " um, "
         << p.iterations << " iterations, " << p.wall_s << " s, " << p.status;
     report(progress, msg.str());
+    if (opt.on_point) opt.on_point(p);
     out.push_back(std::move(p));
   }
   return out;

@@ -2,6 +2,7 @@
 // Zero-temperature optical-tweezers stretch of the discrete network: for each force, the
 // free energy is minimised (L-BFGS) from the previous equilibrium (continuation in force),
 // with area and volume held by augmented-Lagrangian outer updates.
+#include <functional>
 #include <vector>
 
 #include "core/lbfgs.hpp"
@@ -12,6 +13,8 @@
 #include "discrete/stretch_state.hpp"
 
 namespace rbc {
+
+struct StretchPoint;
 
 struct StretchOptions {
   LbfgsOptions minimiser;         ///< force_tolerance in pN per vertex
@@ -42,6 +45,9 @@ struct StretchOptions {
   /// Throws rbc::InvalidParameter naming the value: minimiser.validate(), the force tolerance
   /// (largest net vertex force, pN) in (0, kMaxForceTolerance_pN], max_outer_iterations in
   /// [1, 10000], precondition_min_vertices and refresh_interval >= 0, step caps finite > 0.
+  /// Called by run_stretch after each force is solved, before the next starts (e.g. to write
+  /// that force's shape as soon as it exists). Empty = nothing.
+  std::function<void(const StretchPoint&)> on_point;
   void validate() const;
 };
 

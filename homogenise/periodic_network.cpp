@@ -266,11 +266,37 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
   auto reduced = [&](const Eigen::Matrix2Xd& full) {
     return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(full.data() + 2, nu));
   };
+  // The Hessian's sparsity pattern (links and faces) is the same at every iterate and shift:
+  // its ordering and symbolic factorisation are computed once, only the numbers per attempt.
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  Eigen::Index analysed_nonzeros = -1;  // pattern the analysis was done for
+  double best = kInf;                   // smallest residual so far, at U_best (E_best, g_best)
+  int stalled = 0;                      // iterations since the best residual last halved
+  Eigen::Matrix2Xd U_best, g_best;
+  double E_best = E;
   for (r.iterations = 0;; ++r.iterations) {
+    throw_if_cancelled(options.cancel);
     r.residual_pN = nu > 0 ? max_block_norm2(g.rightCols(N - 1)) : 0.0;
     if (r.residual_pN <= options.force_tolerance_pN) {
       r.status = MinimiserStatus::converged;
+      break;
+    }
+    if (r.residual_pN < best) {
+      if (r.residual_pN <= 0.5 * best) stalled = -1;
+      best = r.residual_pN;
+      U_best = r.U;
+      g_best = g;
+      E_best = E;
+    }
+    if (++stalled >= options.stall_iterations &&
+        best <= options.floor_factor * options.force_tolerance_pN) {
+      // At the floor: return the best iterate seen (later steps only wander within round-off).
+      r.U = U_best;
+      g = g_best;
+      E = E_best;
+      r.residual_pN = best;
+      r.status = MinimiserStatus::converged;
+      r.at_roundoff_floor = true;
       break;
     }
     if (r.iterations >= options.max_iterations) {
@@ -288,7 +314,11 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
       if (shift > 0) {
         for (int i = 0; i < nu; ++i) Hs.coeffRef(i, i) += shift;
       }
-      ldlt.compute(Hs);
+      if (Hs.nonZeros() != analysed_nonzeros) {
+        ldlt.analyzePattern(Hs);
+        analysed_nonzeros = Hs.nonZeros();
+      }
+      ldlt.factorize(Hs);
       if (ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() > 0) {
         step = -ldlt.solve(gr);
         break;
