@@ -8,6 +8,8 @@
 
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/dynamics.hpp"
+#include <Eigen/Dense>
+
 #include "core/lbfgs.hpp"
 #include "fixtures.hpp"
 #include "homogenise/invariant_laws.hpp"
@@ -28,9 +30,10 @@ struct SmallContinuumCell {
 };
 
 TrajectoryResult release(const SmallContinuumCell& c, const ContinuumStretchPoint& start,
-                         double force, double dt, double duration, double eta = 0.7) {
+                         double force, double dt, double duration, double tol_pN_per_s = 1.0) {
   ContinuumDynamicsOptions o;
-  o.shear_viscosity_pN_s_per_um = eta;
+  o.shear_viscosity_pN_s_per_um = 0.7;
+  o.tolerance_pN_per_s = tol_pN_per_s;
   ContinuumDynamics dyn(c.model, o);
   TrajectoryOptions to;
   to.dt_s = dt;
@@ -78,8 +81,9 @@ TEST(ContinuumDynamics, StretchEndsAtTheStaticEquilibrium) {
   const ContinuumStretchPoint rest = c.equilibrium(0.0);
   const ContinuumStretchPoint eq = c.equilibrium(60.0);
   ASSERT_TRUE(rest.converged && eq.converged);
-  // Backward Euler is unconditionally stable: long steps reach the end state quickly.
-  const TrajectoryResult r = release(c, rest, 60.0, 0.05, 4.0);
+  // Backward Euler is unconditionally stable: long steps reach the end state quickly; the
+  // step tolerance 1e-4 pN/s x dt = 5e-6 pN is that of a static solve.
+  const TrajectoryResult r = release(c, rest, 60.0, 0.05, 4.0, 1e-4);
   ASSERT_TRUE(r.converged) << r.status;
   EXPECT_NEAR(r.samples.back().axial_um / eq.axial_um, 1.0, 1e-4);
   EXPECT_NEAR(r.samples.back().transverse_um / eq.transverse_um, 1.0, 1e-4);
@@ -100,7 +104,7 @@ double flat_patch_relaxation_time(const Eigen::Matrix2d& mode, const MembraneVis
   std::vector<MembraneReference> ref;
   for (const auto& t : tris) ref.push_back(make_membrane_reference(t[0], t[1], t[2]));
   MembraneViscosity visc = visc0;
-  visc.dt_s = tc_expected / 400;
+  visc.dt_s = tc_expected / 200;  // backward-Euler rate bias dt/(2 t_c) = 0.25 %
   auto place = [](const Eigen::Matrix2d& F, const Vec3& X) {
     return Vec3(F(0, 0) * X(0) + F(0, 1) * X(1), F(1, 0) * X(0) + F(1, 1) * X(1), 0.0);
   };
@@ -111,7 +115,7 @@ double flat_patch_relaxation_time(const Eigen::Matrix2d& mode, const MembraneVis
   };
   ts.push_back(0);
   ys.push_back(std::log(strain()));
-  for (int k = 1; k <= 800; ++k) {
+  for (int k = 1; k <= 400; ++k) {
     std::vector<MembraneReference> prev;
     for (const auto& t : tris)
       prev.push_back(make_membrane_reference(place(F, t[0]), place(F, t[1]), place(F, t[2])));
@@ -131,12 +135,27 @@ double flat_patch_relaxation_time(const Eigen::Matrix2d& mode, const MembraneVis
       g = Eigen::Vector3d(gf(0, 0), gf(0, 1) + gf(1, 0), gf(1, 1));
       return e;
     };
+    // Newton on the stationarity condition (3 unknowns, Jacobian by central differences of
+    // the analytic gradient): energy differences at this tolerance are below E's round-off.
     Eigen::VectorXd v = Eigen::Vector3d(F(0, 0), F(0, 1), F(1, 1));
-    LbfgsOptions lo;
-    lo.block = 1;
-    lo.force_tolerance = 1e-15;
-    const MinimiserResult r = minimise_lbfgs(f, v, lo);
-    EXPECT_TRUE(r.converged() || r.residual < 1e-13) << r.residual;
+    auto grad = [&](const Eigen::VectorXd& y) {
+      Eigen::VectorXd g;
+      f(y, g);
+      return g;
+    };
+    Eigen::VectorXd g = grad(v);
+    for (int it = 0; it < 20 && g.cwiseAbs().maxCoeff() > 1e-10; ++it) {
+      Eigen::Matrix3d jac;
+      for (int c = 0; c < 3; ++c) {
+        Eigen::VectorXd vp = v, vm = v;
+        vp(c) += 1e-6;
+        vm(c) -= 1e-6;
+        jac.col(c) = (grad(vp) - grad(vm)) / 2e-6;
+      }
+      v -= jac.ldlt().solve(g);
+      g = grad(v);
+    }
+    EXPECT_LT(g.cwiseAbs().maxCoeff(), 1e-10);
     F << v(0), v(1), v(1), v(2);
     ts.push_back(k * visc.dt_s);
     ys.push_back(std::log(strain()));
