@@ -6,9 +6,9 @@
 #include <cmath>
 #include <vector>
 
+#include <Eigen/Dense>
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/dynamics.hpp"
-#include <Eigen/Dense>
 
 #include "core/lbfgs.hpp"
 #include "fixtures.hpp"
