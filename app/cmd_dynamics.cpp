@@ -1,0 +1,465 @@
+// `rbc dynamics`: overdamped dynamics of either model (MODEL.md section 6) by backward Euler
+// minimising movements: shape recovery after release (Hochmuth, Worthy & Evans 1979), the
+// time course of a stretch (paper Fig. 6), and the Helfrich relaxation (paper Fig. 5,
+// continuum only). Time series as CSV/JSON, shapes as one HDF5 + XDMF time series, and a
+// PNG of the diameters against time.
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "app/cli_util.hpp"
+#include "app/commands.hpp"
+#include "compare/experiment.hpp"
+#include "compare/plot.hpp"
+#include "continuum/continuum_stretch.hpp"
+#include "continuum/dynamics.hpp"
+#include "continuum/relax.hpp"
+#include "core/h5file.hpp"
+#include "core/io.hpp"
+#include "core/rest_shape.hpp"
+#include "discrete/dynamics.hpp"
+#include "discrete/stretch.hpp"
+#include "homogenise/invariant_laws.hpp"
+#include "homogenise/moduli.hpp"
+
+namespace rbc::app {
+
+namespace {
+
+enum class Scene { release, stretch, relax };
+
+struct DynamicsCli {
+  std::string model = "continuum";
+  std::string scene = "release";
+  double force_pN = 88.0;
+  double eta_pN_s_per_um = 0.7;  // Hochmuth 1979 range 0.6-0.8 with mu ~ 6 uN/m
+  double dilatational_ratio = 2.0;
+  double duration_s = 0.5, dt_s = 1e-3;
+  double tolerance_pN_per_s = 1.0;
+  double normal_drag = 3.5e-3;  // pN s/um^3, relax scene only (see continuum/dynamics.hpp)
+  int vertices = 500, elements = 1000;
+  std::string order = "2";
+  int frames = 100;
+  int max_halvings = 4;
+  std::string out;
+  bool json = false, quiet = false;
+};
+
+Scene scene_from(const std::string& s) {
+  if (s == "release") return Scene::release;
+  if (s == "stretch") return Scene::stretch;
+  if (s == "relax") return Scene::relax;
+  throw std::invalid_argument("--scene '" + s + "' is not one of release, stretch, relax");
+}
+
+void validate(const DynamicsCli& o) {
+  if (o.model != "discrete" && o.model != "continuum")
+    throw std::invalid_argument("--model '" + o.model + "' is not one of discrete, continuum");
+  const Scene sc = scene_from(o.scene);
+  if (sc == Scene::relax && o.model == "discrete")
+    throw std::invalid_argument(
+        "--scene relax is the Helfrich relaxation of the continuum model; use --model continuum");
+  if (!(o.dt_s > 0) || !std::isfinite(o.dt_s))
+    throw std::invalid_argument("--dt must be finite and > 0 s, got " + std::to_string(o.dt_s));
+  if (!(o.duration_s > 0) || !std::isfinite(o.duration_s))
+    throw std::invalid_argument("--duration must be finite and > 0 s, got " +
+                                std::to_string(o.duration_s));
+  if (o.dt_s > o.duration_s)
+    throw std::invalid_argument("--dt " + std::to_string(o.dt_s) +
+                                " s must not exceed --duration " + std::to_string(o.duration_s) +
+                                " s");
+  if (!(o.eta_pN_s_per_um > 0) || !std::isfinite(o.eta_pN_s_per_um))
+    throw std::invalid_argument("--membrane-viscosity must be finite and > 0 pN s/um, got " +
+                                std::to_string(o.eta_pN_s_per_um));
+  if (!(o.dilatational_ratio >= 0) || !std::isfinite(o.dilatational_ratio))
+    throw std::invalid_argument("--dilatational-ratio must be >= 0, got " +
+                                std::to_string(o.dilatational_ratio));
+  if (!(o.force_pN >= 0) || !std::isfinite(o.force_pN))
+    throw std::invalid_argument("--force must be finite and >= 0 pN, got " +
+                                std::to_string(o.force_pN));
+  if ((sc == Scene::release || sc == Scene::stretch) && !(o.force_pN > 0))
+    throw std::invalid_argument("--force must be > 0 pN for --scene " + o.scene + ", got " +
+                                std::to_string(o.force_pN));
+  if (!(o.tolerance_pN_per_s > 0))
+    throw std::invalid_argument("--tolerance must be > 0 pN/s, got " +
+                                std::to_string(o.tolerance_pN_per_s));
+  if (!(o.normal_drag > 0))
+    throw std::invalid_argument("--normal-drag must be > 0 pN s/um^3, got " +
+                                std::to_string(o.normal_drag));
+  if (o.vertices < 100 || o.vertices > 40000)
+    throw std::invalid_argument("--vertices " + std::to_string(o.vertices) +
+                                " is out of range; expected 100 to 40000");
+  if (o.elements < kMinContinuumElements || o.elements > kMaxContinuumElements)
+    throw std::invalid_argument(
+        "--elements " + std::to_string(o.elements) + " is out of range; expected " +
+        std::to_string(kMinContinuumElements) + " to " + std::to_string(kMaxContinuumElements));
+  if (o.frames < 1)
+    throw std::invalid_argument("--frames must be >= 1, got " + std::to_string(o.frames));
+  if (o.max_halvings < 0 || o.max_halvings > 20)
+    throw std::invalid_argument("--max-halvings must be in [0, 20], got " +
+                                std::to_string(o.max_halvings));
+  wlc_expansion_from_string(o.order);
+}
+
+/// Everything a scene produces, independent of the model.
+struct SceneRun {
+  TrajectoryResult traj;
+  Faces faces;
+  double lambda_inf = 1.0;                               ///< D_A/D_T at the zero-force equilibrium
+  double static_axial_um = 0, static_transverse_um = 0;  ///< static end state (stretch/release)
+  double force_dynamics_pN = 0;
+  bool static_converged = true;
+  std::string static_status;
+  double static_residual_pN = 0;
+  int vertices = 0, elements = 0;
+  double relax_disc_before_um = 0, relax_disc_after_um = 0;
+};
+
+SceneRun run_discrete(const DynamicsCli& o, Scene sc, const ProgressSink& progress,
+                      int sample_every) {
+  SceneRun out;
+  RestShapeOptions ro;
+  ro.target_vertices = o.vertices;
+  report(progress, "building the rest network (N ~ " + std::to_string(o.vertices) + ")");
+  const TriMesh mesh = make_rest_shape(ro);
+  const Network net = build_network(mesh, NetworkParameters{});
+  out.faces = net.topo.faces;
+  out.vertices = net.topo.num_vertices;
+  StretchOptions so;
+  so.minimiser.force_tolerance = 1e-5;
+  Positions x0 = net.rest;
+  ConstraintMultipliers l0;
+  const StretchPoint rest = solve_equilibrium(net, 0.0, x0, l0, so, progress);
+  Positions xf = x0;
+  ConstraintMultipliers lf = l0;
+  const StretchPoint loaded = solve_equilibrium(net, o.force_pN, xf, lf, so, progress);
+  out.static_converged = rest.converged && loaded.converged;
+  out.static_status = rest.converged ? loaded.status : rest.status;
+  out.static_residual_pN = std::max(rest.residual_pN, loaded.residual_pN);
+  out.lambda_inf = rest.axial_um / rest.transverse_um;
+  const StretchPoint& end = sc == Scene::release ? rest : loaded;
+  out.static_axial_um = end.axial_um;
+  out.static_transverse_um = end.transverse_um;
+  if (!out.static_converged) return out;
+  DynamicsState start = sc == Scene::release ? DynamicsState{xf, lf} : DynamicsState{x0, l0};
+  out.force_dynamics_pN = sc == Scene::release ? 0.0 : o.force_pN;
+  DiscreteDynamicsOptions dop;
+  dop.shear_viscosity_pN_s_per_um = o.eta_pN_s_per_um;
+  dop.tolerance_pN_per_s = o.tolerance_pN_per_s;
+  dop.validate();
+  TrajectoryOptions to;
+  to.duration_s = o.duration_s;
+  to.dt_s = o.dt_s;
+  to.max_halvings = o.max_halvings;
+  to.sample_every = sample_every;
+  const double f = out.force_dynamics_pN;
+  out.traj = run_trajectory(
+      [&](double h, DynamicsState& s) { return discrete_dynamics_step(net, f, h, s, dop); },
+      [&](const DynamicsState& s) { return measure_discrete(net, f, s); }, start, to, progress);
+  return out;
+}
+
+SceneRun run_continuum(const DynamicsCli& o, Scene sc, const ProgressSink& progress,
+                       int sample_every) {
+  SceneRun out;
+  const TriMesh mesh = make_continuum_mesh(o.elements);
+  const NetworkParameters np;
+  ContinuumParameters cp;
+  cp.bending = np.bending;
+  cp.tweezers = np.tweezers;
+  const bool relax = sc == Scene::relax;
+  // Relax: Helfrich only, with the in-plane law scaled by 1e-3 as the static `rbc relax`
+  // regulariser (continuum/relax.hpp) to keep the mesh from sliding tangentially.
+  const IsotropicMembraneLaw law =
+      make_membrane_law(np.wlc, np.steric, wlc_expansion_from_string(o.order));
+  const ContinuumModel model = build_continuum_model(mesh, relax ? scaled_law(law, 1e-3) : law, cp);
+  out.faces = model.topo.faces;
+  out.vertices = static_cast<int>(model.rest.cols());
+  out.elements = model.num_elements();
+  report(progress, "continuum mesh: " + std::to_string(out.vertices) + " vertices, " +
+                       std::to_string(out.elements) + " elements, law " + model.law.name);
+  ContinuumOptions co;
+  DynamicsState start{model.rest, {}};
+  if (!relax) {
+    const auto pts = run_continuum_stretch(model, {0.0, o.force_pN}, co, progress);
+    out.static_converged = pts[0].converged && pts[1].converged;
+    out.static_status = pts[0].converged ? pts[1].status : pts[0].status;
+    out.static_residual_pN = std::max(pts[0].residual_pN, pts[1].residual_pN);
+    out.lambda_inf = pts[0].axial_um / pts[0].transverse_um;
+    const auto& end = sc == Scene::release ? pts[0] : pts[1];
+    out.static_axial_um = end.axial_um;
+    out.static_transverse_um = end.transverse_um;
+    if (!out.static_converged) return out;
+    start = sc == Scene::release ? DynamicsState{pts[1].x, pts[1].multipliers}
+                                 : DynamicsState{pts[0].x, pts[0].multipliers};
+    out.force_dynamics_pN = sc == Scene::release ? 0.0 : o.force_pN;
+  }
+  ContinuumDynamicsOptions dop;
+  dop.shear_viscosity_pN_s_per_um = o.eta_pN_s_per_um;
+  dop.dilatational_ratio = o.dilatational_ratio;
+  dop.tolerance_pN_per_s = o.tolerance_pN_per_s;
+  if (relax) dop.normal_drag_pN_s_per_um3 = o.normal_drag;
+  ContinuumDynamics dyn(model, dop);
+  TrajectoryOptions to;
+  to.duration_s = o.duration_s;
+  to.dt_s = o.dt_s;
+  to.max_halvings = o.max_halvings;
+  to.sample_every = sample_every;
+  const double f = out.force_dynamics_pN;
+  out.traj = run_trajectory([&](double h, DynamicsState& s) { return dyn.step(f, h, s); },
+                            [&](const DynamicsState& s) { return dyn.measure(f, s); }, start, to,
+                            progress);
+  if (relax && !out.traj.snapshots.empty()) {
+    out.relax_disc_before_um = measure_disc(out.traj.snapshots.front()).diameter_um;
+    out.relax_disc_after_um = measure_disc(out.traj.snapshots.back()).diameter_um;
+  }
+  return out;
+}
+
+/// One HDF5 file with every frame and an XDMF temporal collection over it.
+void write_time_series(const std::string& dir, const SceneRun& r, int frame_every) {
+  const std::string h5_path = dir + "/dynamics.h5";
+  const std::string tmp = temporary_path_for(h5_path);
+  std::vector<size_t> frames;
+  for (size_t k = 0; k < r.traj.snapshots.size(); ++k)
+    if (k % frame_every == 0 || k + 1 == r.traj.snapshots.size()) frames.push_back(k);
+  const auto nf = static_cast<hsize_t>(r.faces.cols());
+  const auto nv = static_cast<hsize_t>(r.traj.snapshots.front().cols());
+  {
+    H5File f = H5File::create(tmp);
+    f.write("/mesh/faces", r.faces.data(), nf, 3);
+    std::vector<double> times;
+    for (size_t k : frames) {
+      std::ostringstream name;
+      name << "/frames/" << std::setw(6) << std::setfill('0') << k << "/positions_um";
+      f.write(name.str(), r.traj.snapshots[k].data(), nv, 3);
+      times.push_back(r.traj.samples[k].t_s);
+    }
+    f.write("/time_s", times.data(), times.size(), 1);
+  }
+  commit_file(tmp, h5_path);
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+    << "  <Grid Name=\"membrane\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (size_t k : frames) {
+    std::ostringstream id;
+    id << std::setw(6) << std::setfill('0') << k;
+    x << "   <Grid Name=\"t" << id.str() << "\" GridType=\"Uniform\">\n"
+      << "    <Time Value=\"" << std::setprecision(10) << r.traj.samples[k].t_s << "\"/>\n"
+      << "    <Topology TopologyType=\"Triangle\" NumberOfElements=\"" << nf << "\">\n"
+      << "     <DataItem Dimensions=\"" << nf
+      << " 3\" NumberType=\"Int\" Format=\"HDF\">dynamics.h5:/mesh/faces</DataItem>\n"
+      << "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n"
+      << "     <DataItem Dimensions=\"" << nv
+      << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">dynamics.h5:/frames/" << id.str()
+      << "/positions_um</DataItem>\n    </Geometry>\n   </Grid>\n";
+  }
+  x << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  write_text_atomic(dir + "/dynamics.xdmf", x.str());
+}
+
+int run(const DynamicsCli& o) {
+  validate(o);
+  const Scene sc = scene_from(o.scene);
+  if (!o.out.empty()) ensure_output_directory(o.out);
+  const ProgressSink progress = stderr_progress(o.quiet);
+  const long steps = std::lround(std::ceil(o.duration_s / o.dt_s - 1e-9));
+  const int sample_every = static_cast<int>(std::max<long>(1, steps / 1000));
+  SceneRun r = o.model == "discrete" ? run_discrete(o, sc, progress, sample_every)
+                                     : run_continuum(o, sc, progress, sample_every);
+  if (!r.static_converged) {
+    std::cerr << "rbc: error: the static equilibrium did not converge (" << r.static_status
+              << "): largest vertex force residual " << std::scientific << r.static_residual_pN
+              << " pN\n";
+    return 1;
+  }
+  const LinearModuli mod = closed_form_moduli(WlcParameters{}, StericParameters{});
+  const double tc_kv = o.eta_pN_s_per_um / mod.mu_pN_per_um;
+  // Hochmuth measure and fit (release).
+  std::vector<double> t, lam;
+  for (const auto& s : r.traj.samples) {
+    t.push_back(s.t_s);
+    lam.push_back(s.axial_um / s.transverse_um);
+  }
+  nlohmann::json j = {
+      {"model", o.model},
+      {"scene", o.scene},
+      {"force_pN", o.force_pN},
+      {"membrane_viscosity_pN_s_per_um", o.eta_pN_s_per_um},
+      {"dilatational_viscosity_pN_s_per_um",
+       o.model == "discrete" ? 2.0 * o.eta_pN_s_per_um : o.dilatational_ratio * o.eta_pN_s_per_um},
+      {"dt_s", o.dt_s},
+      {"duration_s", o.duration_s},
+      {"vertices", r.vertices},
+      {"shear_modulus_pN_per_um", mod.mu_pN_per_um},
+      {"kelvin_voigt_time_s", tc_kv},
+      {"converged", r.traj.converged},
+      {"status", r.traj.status},
+      {"halved_steps", r.traj.halved_steps},
+      {"wall_s", r.traj.wall_s},
+      {"fluids",
+       "not modelled in-plane: cytosol ~4 %, outer medium ~1 % of the membrane's "
+       "dissipation; bead Stokes drag ~2e-8 pN s/um (negligible)"}};
+  if (o.model == "continuum") j["elements"] = r.elements;
+  if (sc == Scene::release) {
+    const RecoveryFit fit = fit_recovery(t, lam, r.lambda_inf);
+    j["lambda_inf"] = r.lambda_inf;
+    j["recovery_time_s"] = fit.recovery_time_s;
+    j["recovery_time_err_s"] = fit.recovery_time_err_s;
+    j["fit_window_s"] = {fit.window_start_s, fit.window_end_s};
+    j["fit_window_rule"] = "t = 0 until m(t) first falls below 0.1 m(0)";
+    j["fit_points"] = fit.points;
+    j["geometry_factor"] = fit.recovery_time_s / tc_kv;
+    // Hochmuth's curve (his geometry was a pipette extension, not the tweezers').
+    try {
+      const CsvTable h = read_csv(default_data_directory() + "/hochmuth1979_recovery.csv");
+      std::vector<double> ht, hl;
+      for (const auto& row : h.rows) {
+        ht.push_back(row[0]);
+        hl.push_back(row[1]);
+      }
+      const RecoveryFit hf = fit_recovery_free_limit(ht, hl);
+      j["hochmuth_recovery_time_s"] = hf.recovery_time_s;
+      j["hochmuth_lambda_inf"] = hf.lambda_inf;
+      // Without fluids the only time scale is eta/mu: t_c is proportional to eta_m.
+      if (fit.valid && fit.recovery_time_s > 0)
+        j["eta_matching_hochmuth_pN_s_per_um"] =
+            o.eta_pN_s_per_um * hf.recovery_time_s / fit.recovery_time_s;
+    } catch (const std::runtime_error& e) {
+      report(progress, std::string("Hochmuth data not read: ") + e.what());
+    }
+  } else if (sc == Scene::stretch) {
+    j["static_axial_um"] = r.static_axial_um;
+    j["static_transverse_um"] = r.static_transverse_um;
+    j["final_axial_relative_to_static"] = r.traj.samples.back().axial_um / r.static_axial_um - 1;
+    j["final_transverse_relative_to_static"] =
+        r.traj.samples.back().transverse_um / r.static_transverse_um - 1;
+  } else {
+    j["normal_drag_pN_s_per_um3"] = o.normal_drag;
+    j["normal_drag_note"] =
+        "qualitative: zeta ~ 2 (eta_cytosol + eta_outer) q, q ~ 2 pi / 25 um; the in-plane "
+        "viscosity does not act on normal motion";
+    j["disc_diameter_before_um"] = r.relax_disc_before_um;
+    j["disc_diameter_after_um"] = r.relax_disc_after_um;
+  }
+  CsvTable csv;
+  csv.comments = {"rbc dynamics --model " + o.model + " --scene " + o.scene,
+                  "units: time s, diameters um, energy pN*um; lambda = D_A/D_T"};
+  csv.header = {"t_s",         "axial_um",   "transverse_um", "lambda",
+                "energy_pNum", "area_drift", "volume_drift",  "iterations"};
+  nlohmann::json series = nlohmann::json::array();
+  for (size_t k = 0; k < r.traj.samples.size(); ++k) {
+    const auto& s = r.traj.samples[k];
+    csv.rows.push_back({s.t_s, s.axial_um, s.transverse_um, lam[k], s.energy_pNum, s.area_drift,
+                        s.volume_drift, static_cast<double>(s.iterations)});
+  }
+  const size_t stride = std::max<size_t>(1, r.traj.samples.size() / 200);
+  for (size_t k = 0; k < r.traj.samples.size(); k += stride) {
+    const auto& s = r.traj.samples[k];
+    series.push_back({{"t_s", s.t_s},
+                      {"axial_um", s.axial_um},
+                      {"transverse_um", s.transverse_um},
+                      {"energy_pNum", s.energy_pNum}});
+  }
+  j["samples"] = series;
+  if (!o.out.empty()) {
+    write_csv(o.out + "/dynamics.csv", csv);
+    write_text_atomic(o.out + "/dynamics.json", j.dump(2) + "\n");
+    write_time_series(o.out, r, std::max(1, static_cast<int>(r.traj.snapshots.size()) / o.frames));
+    PlotSpec p;
+    p.title = "rbc dynamics: " + o.model + ", " + o.scene;
+    p.xlabel = "time (s)";
+    p.ylabel = "diameter (um)";
+    p.series.push_back({"D_A", "dynamics.csv", "1:2", "lines", "#1f77b4"});
+    p.series.push_back({"D_T", "dynamics.csv", "1:3", "lines", "#d62728"});
+    if (sc == Scene::release && j.contains("recovery_time_s")) {
+      // Fitted exponential for lambda, drawn on the right axis.
+      const RecoveryFit fit = fit_recovery(t, lam, r.lambda_inf);
+      std::ostringstream fn;
+      fn << "m(x) = " << fit.m0 << "*exp(-x/" << fit.recovery_time_s << ")";
+      p.extra_commands.push_back(fn.str());
+      p.extra_commands.push_back("set y2label 'lambda = D_A/D_T'");
+      p.extra_commands.push_back("set y2tics");
+      std::ostringstream plot2;
+      plot2 << "linf = " << r.lambda_inf;
+      p.extra_commands.push_back(plot2.str());
+      p.series.push_back({"lambda (axis 2)", "dynamics.csv", "1:4 axes x1y2", "lines", "#2ca02c"});
+      std::ostringstream title;
+      title << "fit t_c = " << std::setprecision(3) << fit.recovery_time_s << " s";
+      p.series.push_back({title.str(), "dynamics.csv", "1:(linf*(1+m($1))/(1-m($1))) axes x1y2",
+                          "lines", "#000000", 7, 2});
+    }
+    try {
+      render_plot(p, o.out, "dynamics");
+    } catch (const std::runtime_error& e) {
+      report(progress, std::string("plot not rendered: ") + e.what());
+    }
+  }
+  if (o.json) {
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::cout << "# rbc dynamics: " << o.model << ", scene " << o.scene << ", eta_m "
+              << o.eta_pN_s_per_um << " pN s/um, dt " << o.dt_s << " s, " << r.traj.samples.size()
+              << " samples, wall " << std::setprecision(3) << r.traj.wall_s << " s\n";
+    for (const char* k :
+         {"recovery_time_s", "recovery_time_err_s", "geometry_factor", "kelvin_voigt_time_s",
+          "hochmuth_recovery_time_s", "eta_matching_hochmuth_pN_s_per_um",
+          "final_axial_relative_to_static", "disc_diameter_before_um", "disc_diameter_after_um"})
+      if (j.contains(k))
+        std::cout << k << " = " << std::setprecision(6) << j[k].get<double>() << "\n";
+    const auto& last = r.traj.samples.back();
+    std::cout << "final t = " << last.t_s << " s: D_A = " << last.axial_um
+              << " um, D_T = " << last.transverse_um << " um\n";
+  }
+  if (!r.traj.converged) {
+    std::cerr << "rbc: error: " << r.traj.status << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_dynamics_command(CLI::App& app, Action& action) {
+  auto o = std::make_shared<DynamicsCli>();
+  auto* cmd = app.add_subcommand(
+      "dynamics", "Overdamped dynamics: recovery after release, time course of a stretch");
+  cmd->add_option("--model", o->model, "discrete | continuum")->capture_default_str();
+  cmd->add_option("--scene", o->scene,
+                  "release (equilibrium at F, then F = 0) | stretch (F from t = 0) | relax "
+                  "(Helfrich, continuum only)")
+      ->capture_default_str();
+  cmd->add_option("--force", o->force_pN, "total bead force F (pN)")->capture_default_str();
+  cmd->add_option("--membrane-viscosity", o->eta_pN_s_per_um,
+                  "membrane shear viscosity eta_m (pN s/um = Pa s um)")
+      ->capture_default_str();
+  cmd->add_option("--dilatational-ratio", o->dilatational_ratio,
+                  "continuum: eta_d / eta_m (the network's value is 2)")
+      ->capture_default_str();
+  cmd->add_option("--duration", o->duration_s, "simulated time T (s)")->capture_default_str();
+  cmd->add_option("--dt", o->dt_s, "time step (s)")->capture_default_str();
+  cmd->add_option("--tolerance", o->tolerance_pN_per_s,
+                  "step force tolerance per unit dt (pN/s): tolerance = this x dt")
+      ->capture_default_str();
+  cmd->add_option("--normal-drag", o->normal_drag,
+                  "relax: normal drag of the fluids per area (pN s/um^3, qualitative)")
+      ->capture_default_str();
+  cmd->add_option("--vertices,-n", o->vertices, "discrete: network vertices")
+      ->capture_default_str();
+  cmd->add_option("--elements", o->elements, "continuum: triangles")->capture_default_str();
+  cmd->add_option("--order", o->order, "continuum law: 2 | 3 | 4 | full")->capture_default_str();
+  cmd->add_option("--frames", o->frames, "largest number of HDF5/XDMF frames")
+      ->capture_default_str();
+  cmd->add_option("--max-halvings", o->max_halvings, "halvings of a failing step's dt")
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "write dynamics.{csv,json,h5,xdmf,png}");
+  cmd->add_flag("--json", o->json, "print the JSON summary on stdout");
+  cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  cmd->callback([o, &action] { action = [o]() -> int { return run(*o); }; });
+}
+
+}  // namespace rbc::app
