@@ -49,6 +49,10 @@ struct StretchPoint {
   int vertices = 0;
   std::string status;  ///< minimiser status in words
   Positions x;         ///< equilibrium positions (um)
+  /// Area/volume multipliers and penalty stiffness scale of the last minimisation: x is a
+  /// stationary point of network_energy at LoadState{force_pN, multipliers, stiffness_scale}.
+  ConstraintMultipliers multipliers;
+  double stiffness_scale = 1.0;
 };
 
 /// Solves one force from x (updated in place) carrying the multipliers along.
