@@ -28,6 +28,46 @@ py::dict quality_dict(const MeshQualityReport& r) {  // the keys of `rbc mesh --
   return d;
 }
 
+MeshQualityReport quality_from_dict(const py::dict& d) {
+  MeshQualityReport r;
+  r.vertices = d["vertices"].cast<int>();
+  r.edges = d["edges"].cast<int>();
+  r.faces = d["faces"].cast<int>();
+  r.area_um2 = d["area_um2"].cast<double>();
+  r.volume_um3 = d["volume_um3"].cast<double>();
+  r.diameter_um = d["diameter_um"].cast<double>();
+  r.thickness_um = d["thickness_um"].cast<double>();
+  r.phi_over_area = d["phi_over_area"].cast<double>();
+  r.edge_min_um = d["edge_min_um"].cast<double>();
+  r.edge_mean_um = d["edge_mean_um"].cast<double>();
+  r.edge_max_um = d["edge_max_um"].cast<double>();
+  r.worst_aspect_ratio = d["worst_aspect_ratio"].cast<double>();
+  r.degree_histogram = d["degree_histogram"].cast<std::vector<int>>();
+  r.phi_iterations = d["phi_iterations"].cast<int>();
+  r.volume_scale = d["volume_scale"].cast<double>();
+  return r;
+}
+
+/// A mesh from arrays: checks indices and builds the topology (ValueError unless closed).
+std::shared_ptr<PyMesh> mesh_from_arrays(const py::handle& positions, const py::handle& faces) {
+  Positions x = positions_from_array(positions, -1, "positions");
+  const auto f = py::array_t<int, py::array::c_style | py::array::forcecast>::ensure(faces);
+  if (!f || f.ndim() != 2 || f.shape(1) != 3)
+    throw py::value_error("faces must be an integer array of shape (F, 3)");
+  Faces faces_lib(3, f.shape(0));
+  std::copy(f.data(), f.data() + f.size(), faces_lib.data());
+  for (py::ssize_t k = 0; k < f.size(); ++k)
+    if (faces_lib.data()[k] < 0 || faces_lib.data()[k] >= x.cols())
+      throw py::value_error("faces index " + std::to_string(faces_lib.data()[k]) +
+                            " is out of range: expected 0 to " + std::to_string(x.cols() - 1));
+  auto mesh = std::make_shared<PyMesh>();
+  const int n = static_cast<int>(x.cols());
+  mesh->mesh.topo = build_topology(faces_lib, n);
+  mesh->mesh.x = std::move(x);
+  mesh->quality = assess_mesh(mesh->mesh);
+  return mesh;
+}
+
 }  // namespace
 
 void bind_mesh(py::module_& m) {
@@ -51,6 +91,8 @@ void bind_mesh(py::module_& m) {
       .def_readonly("phi_iterations", &MeshQualityReport::phi_iterations)
       .def_readonly("volume_scale", &MeshQualityReport::volume_scale)
       .def("to_dict", &quality_dict, "The fields as `rbc mesh --json` prints them.")
+      .def(py::pickle([](const MeshQualityReport& r) { return quality_dict(r); },
+                      [](const py::dict& d) { return quality_from_dict(d); }))
       .def("__repr__", [](const MeshQualityReport& r) {
         return "MeshQualityReport(vertices=" + std::to_string(r.vertices) +
                ", area_um2=" + num(r.area_um2) + ", volume_um3=" + num(r.volume_um3) +
@@ -62,27 +104,7 @@ void bind_mesh(py::module_& m) {
       "A closed, consistently oriented triangle mesh. positions: (N, 3) float64 um, faces: (F, 3) "
       "int32 (counter-clockwise seen from outside); both are read-only views of the library's "
       "storage (no copy).")
-      .def(py::init([](const py::handle& positions, const py::handle& faces) {
-             Positions x = positions_from_array(positions, -1, "positions");
-             const auto f =
-                 py::array_t<int, py::array::c_style | py::array::forcecast>::ensure(faces);
-             if (!f || f.ndim() != 2 || f.shape(1) != 3)
-               throw py::value_error("faces must be an integer array of shape (F, 3)");
-             Faces faces_lib(3, f.shape(0));
-             std::copy(f.data(), f.data() + f.size(), faces_lib.data());
-             for (py::ssize_t k = 0; k < f.size(); ++k)
-               if (faces_lib.data()[k] < 0 || faces_lib.data()[k] >= x.cols())
-                 throw py::value_error("faces index " + std::to_string(faces_lib.data()[k]) +
-                                       " is out of range: expected 0 to " +
-                                       std::to_string(x.cols() - 1));
-             auto mesh = std::make_shared<PyMesh>();
-             const int n = static_cast<int>(x.cols());
-             mesh->mesh.topo = build_topology(faces_lib, n);  // ValueError if not closed
-             mesh->mesh.x = std::move(x);
-             mesh->quality = assess_mesh(mesh->mesh);
-             return mesh;
-           }),
-           py::arg("positions"), py::arg("faces"),
+      .def(py::init(&mesh_from_arrays), py::arg("positions"), py::arg("faces"),
            "A mesh from arrays; raises ValueError unless it is a closed oriented manifold.")
       .def_property_readonly(
           "positions", [](py::object self) { return rows_view(self.cast<PyMesh&>().mesh.x, self); },
@@ -104,6 +126,18 @@ void bind_mesh(py::module_& m) {
           "vertex_areas_um2",
           [](const PyMesh& s) { return owning_vector(vertex_areas(s.mesh.x, s.mesh.topo)); },
           "(N,) barycentric vertex areas in um^2")
+      .def(py::pickle(
+          [](py::object self) {
+            const PyMesh& s = self.cast<PyMesh&>();
+            return py::make_tuple(py::array(rows_view(s.mesh.x, self)).attr("copy")(),
+                                  py::array(rows_view(s.mesh.topo.faces, self)).attr("copy")(),
+                                  s.quality);
+          },
+          [](const py::tuple& t) {
+            auto mesh = mesh_from_arrays(t[0], t[1]);
+            mesh->quality = t[2].cast<MeshQualityReport>();  // e.g. the rest shape's own report
+            return mesh;
+          }))
       .def("__repr__", [](const PyMesh& s) {
         return "Mesh(vertices=" + std::to_string(s.mesh.topo.num_vertices) +
                ", faces=" + std::to_string(s.mesh.topo.num_faces()) + ")";

@@ -33,6 +33,24 @@ py::array shaped_like(Positions&& g, const py::handle& positions) {
   return out;
 }
 
+std::shared_ptr<PyNetwork> make_network(std::shared_ptr<PyMesh> mesh, const py::object& wlc,
+                                        const py::object& bending, const py::object& steric,
+                                        const py::object& contact, const py::object& constraints,
+                                        const py::object& expansion) {
+  auto n = std::make_shared<PyNetwork>();
+  n->mesh = mesh;
+  n->wlc = wlc_or_default(wlc);
+  n->bending = bending_or_default(bending);
+  n->steric = steric_or_default(steric);
+  n->contact = contact_or_default(contact);
+  n->constraints = constraints_or_default(constraints);
+  n->expansion = order_arg(expansion);
+  const NetworkParameters p = n->params();
+  n->net = run_released(
+      nullptr, [&] { return std::make_shared<const Network>(build_network(mesh->mesh, p)); });
+  return n;
+}
+
 }  // namespace
 
 void bind_network(py::module_& m) {
@@ -41,25 +59,7 @@ void bind_network(py::module_& m) {
       "The spectrin network on a rest mesh (MODEL.md section 2): per-link rest lengths and "
       "per-face rest areas taken from the mesh (every element stress-free at its own reference), "
       "material constants, bead patches. Immutable; share it between threads freely.")
-      .def(py::init([](std::shared_ptr<PyMesh> mesh, const py::object& wlc,
-                       const py::object& bending, const py::object& steric,
-                       const py::object& contact, const py::object& constraints,
-                       const py::object& expansion) {
-             auto n = std::make_shared<PyNetwork>();
-             n->mesh = mesh;
-             n->wlc = wlc_or_default(wlc);
-             n->bending = bending_or_default(bending);
-             n->steric = steric_or_default(steric);
-             n->contact = contact_or_default(contact);
-             n->constraints = constraints_or_default(constraints);
-             n->expansion = order_arg(expansion);
-             const NetworkParameters p = n->params();
-             n->net = run_released(nullptr, [&] {
-               return std::make_shared<const Network>(build_network(mesh->mesh, p));
-             });
-             return n;
-           }),
-           py::arg("mesh"), py::kw_only(), py::arg("wlc") = py::none(),
+      .def(py::init(&make_network), py::arg("mesh"), py::kw_only(), py::arg("wlc") = py::none(),
            py::arg("bending") = py::none(), py::arg("steric") = py::none(),
            py::arg("contact") = py::none(), py::arg("constraints") = py::none(),
            py::arg("expansion") = "full",
@@ -127,6 +127,15 @@ void bind_network(py::module_& m) {
           "largest_rest_inplane_force_pN",
           [](const PyNetwork& n) { return largest_rest_inplane_force_pN(*n.net); },
           "Largest in-plane (links + steric) vertex force at the rest shape (pN)")
+      .def(py::pickle(
+          [](const PyNetwork& n) {
+            return py::make_tuple(n.mesh, n.wlc, n.bending, n.steric, n.contact, n.constraints,
+                                  n.expansion);
+          },
+          [](const py::tuple& t) {  // rebuilt from the mesh and parameters (deterministic)
+            return make_network(t[0].cast<std::shared_ptr<PyMesh>>(), t[1], t[2], t[3], t[4], t[5],
+                                t[6]);
+          }))
       .def("__repr__", [](const PyNetwork& n) {
         return "Network(vertices=" + std::to_string(n.net->topo.num_vertices) + ", " +
                n.wlc.repr() + ", " + n.bending.repr() + ", " + n.steric.repr() + ", " +

@@ -149,3 +149,22 @@ def test_psi_matches_the_closed_form_moduli():
     K = (psi((1 + s) * np.eye(2)) - 2 * p0 + psi((1 - s) * np.eye(2))) / s**2 / 4
     assert mu == pytest.approx(d["mu_closed"], rel=1e-5)
     assert K == pytest.approx(d["K_closed"], rel=1e-5)
+
+
+def test_meshes_networks_and_results_pickle(small_network, perturbed):
+    """For process pools: a Network is rebuilt from its mesh and parameters, identically."""
+    net = pickle.loads(pickle.dumps(small_network))
+    assert repr(net) == repr(small_network)
+    assert np.array_equal(net.lbar_um, small_network.lbar_um)
+    assert net.mesh.quality.to_dict() == small_network.mesh.quality.to_dict()
+    assert rbc.network_energy(net, perturbed)[0] == rbc.network_energy(small_network, perturbed)[0]
+    res = rbc.stretch("discrete", [0, 20], network=small_network)
+    back = pickle.loads(pickle.dumps(res))
+    assert back.to_records() == res.to_records()
+    assert np.array_equal(back[1].positions, res[1].positions)
+
+
+def test_progress_lines_reach_the_callback():
+    lines = []
+    rbc.stretch("discrete", [0, 20], vertices=150, progress=lines.append)
+    assert any(line.startswith("F = 20 pN") for line in lines), lines
