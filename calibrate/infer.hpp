@@ -13,7 +13,7 @@
 //   (calibrate/prior_spec.hpp); the parameters not inferred keep the paper's values
 //   (p = 7.5 nm, Lmax = 237.75 nm, kappa = 2e-19 J, contact fraction 0.05, sigma scale 1);
 // - sampler: TMCMC (calibrate/tmcmc.hpp) with 500 samples per stage, target coefficient of
-//   variation 1, proposal scale 0.2, 2 Metropolis steps per sample and stage, seed 1;
+//   variation 1, proposal scale 0.2, 3 Metropolis steps per sample and stage, 4 islands, seed 1;
 // - the posterior-predictive band is that of the model curve (median and 5-95 % of
 //   D_A(F), D_T(F) over the posterior samples), without the measurement noise.
 #include <Eigen/Core>
@@ -51,7 +51,7 @@ struct InferOptions {
   static TmcmcOptions default_sampler() {
     TmcmcOptions t;
     t.samples = 500;
-    t.chain_length = 2;
+    t.chain_length = 3;
     return t;
   }
   /// The data file actually used.

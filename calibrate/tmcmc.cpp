@@ -58,6 +58,10 @@ void TmcmcOptions::validate() const {
                                 std::to_string(proposal_scale));
   if (chain_length < 1)
     throw std::invalid_argument("chain length must be >= 1, got " + std::to_string(chain_length));
+  if (islands < 1 || samples < 5 * islands)
+    throw std::invalid_argument("islands must be >= 1 with >= 5 samples each, got " +
+                                std::to_string(islands) + " islands for " +
+                                std::to_string(samples) + " samples");
   if (max_stages < 1)
     throw std::invalid_argument("max stages must be >= 1, got " + std::to_string(max_stages));
   if (!(max_failure_fraction >= 0 && max_failure_fraction <= 1))
@@ -158,13 +162,19 @@ Executor omp_executor(const PriorBox& prior, const Likelihood& likelihood, int t
     const int n = static_cast<int>(tasks.size());
     const int nt = threads > 0 ? threads : omp_get_max_threads();
     std::exception_ptr error;
-#pragma omp parallel for schedule(dynamic) num_threads(nt)
-    for (int i = 0; i < n; ++i) {
-      try {
-        run_chain(setup, prior, likelihood, tasks[i]);
-      } catch (...) {
+#pragma omp parallel num_threads(nt)
+    {
+      // Inner parallel regions (the likelihood's assembly loops) at one thread, also when
+      // nt = 1: the forward model's sums must not depend on the thread count.
+      omp_set_num_threads(1);
+#pragma omp for schedule(dynamic)
+      for (int i = 0; i < n; ++i) {
+        try {
+          run_chain(setup, prior, likelihood, tasks[i]);
+        } catch (...) {
 #pragma omp critical(rbc_tmcmc_error)
-        if (!error) error = std::current_exception();
+          if (!error) error = std::current_exception();
+        }
       }
     }
     if (error) std::rethrow_exception(error);
@@ -229,6 +239,11 @@ TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
   setup.seed = options.seed;
   executor(setup, tasks);
   double beta = 0, var_log_z = 0;
+  const int islands = options.islands;
+  const auto island_begin = [n, islands](int b) {
+    return static_cast<int>(static_cast<long long>(b) * n / islands);
+  };
+  std::vector<double> log_z_island(islands, 0.0);
   int stage = 0;
   auto collect = [&](StageInfo& info) {
     long long proposed = 0, accepted = 0;
@@ -272,13 +287,22 @@ TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
     if (!(lmax > -kInf)) throw std::runtime_error("TMCMC: every sample has zero likelihood");
     Eigen::VectorXd w(n);
     for (int i = 0; i < n; ++i) w(i) = l(i) > -kInf ? std::exp(db * (l(i) - lmax)) : 0.0;
-    const double wsum = w.sum();
     StageInfo info;
     info.cov = weight_cov(l, db);
-    info.log_mean_weight = std::log(wsum / n) + db * lmax;
-    result.log_evidence += info.log_mean_weight;
+    info.log_mean_weight = std::log(w.sum() / n) + db * lmax;
+    // Per island: its evidence increment and its normalised weights (each island carries
+    // mass 1/B in the moments, so all islands count alike).
+    Eigen::VectorXd p(n);
+    std::vector<double> island_sum(islands, 0.0);
+    for (int b = 0; b < islands; ++b) {
+      for (int i = island_begin(b); i < island_begin(b + 1); ++i) island_sum[b] += w(i);
+      const int nb = island_begin(b + 1) - island_begin(b);
+      log_z_island[b] += island_sum[b] > 0 ? std::log(island_sum[b] / nb) + db * lmax : -kInf;
+      for (int i = island_begin(b); i < island_begin(b + 1); ++i)
+        p(i) = island_sum[b] > 0 ? w(i) / (island_sum[b] * islands) : 0.0;
+    }
     var_log_z += info.cov * info.cov / n;
-    const Eigen::VectorXd p = w / wsum;
+    p /= p.sum();  // a dead island (all weights zero) gives its mass to the others
     Eigen::VectorXd mean = Eigen::VectorXd::Zero(d);
     for (int i = 0; i < n; ++i)
       for (int k = 0; k < d; ++k) mean(k) += p(i) * tasks[i].theta[k];
@@ -297,24 +321,35 @@ TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
     setup.proposal_chol =
         Eigen::LLT<Eigen::MatrixXd>(options.proposal_scale * options.proposal_scale * cov)
             .matrixL();
-    // Multinomial resampling: sorted uniforms walked along the cumulative weights.
-    NormalStream rng(stream_seed(options.seed, stage, 0, kResample));
-    std::vector<double> u(n);
-    for (auto& x : u) x = rng.uniform();
-    std::sort(u.begin(), u.end());
+    // Multinomial resampling within each island (a dead island draws from all samples):
+    // sorted uniforms walked along the cumulative weights.
     std::vector<ChainTask> next_tasks(n);
-    double cum = 0;
-    int parent = 0, unique = 0, last_parent = -1;
-    for (int k = 0; k < n; ++k) {
-      while (parent < n - 1 && cum + p(parent) < u[k]) cum += p(parent++);
-      while (p(parent) == 0 && parent < n - 1) ++parent;  // never a zero-weight parent
-      while (p(parent) == 0 && parent > 0) --parent;
-      next_tasks[k].index = k;
-      next_tasks[k].theta = tasks[parent].theta;
-      next_tasks[k].log_likelihood = tasks[parent].log_likelihood;
-      next_tasks[k].state = tasks[parent].state;
-      unique += parent != last_parent;
-      last_parent = parent;
+    int unique = 0;
+    for (int b = 0; b < islands; ++b) {
+      const bool dead = !(island_sum[b] > 0);
+      const int from = dead ? 0 : island_begin(b), to = dead ? n : island_begin(b + 1);
+      const int slots = island_begin(b + 1) - island_begin(b);
+      NormalStream rng(stream_seed(options.seed, stage, b, kResample));
+      std::vector<double> u(slots);
+      for (auto& x : u) x = rng.uniform();
+      std::sort(u.begin(), u.end());
+      double mass = 0;
+      for (int i = from; i < to; ++i) mass += p(i);
+      double cum = 0;
+      int parent = from, last_parent = -1;
+      for (int s = 0; s < slots; ++s) {
+        const double target = u[s] * mass;
+        while (parent < to - 1 && cum + p(parent) < target) cum += p(parent++);
+        while (p(parent) == 0 && parent < to - 1) ++parent;  // never a zero-weight parent
+        while (p(parent) == 0 && parent > from) --parent;
+        const int k = island_begin(b) + s;
+        next_tasks[k].index = k;
+        next_tasks[k].theta = tasks[parent].theta;
+        next_tasks[k].log_likelihood = tasks[parent].log_likelihood;
+        next_tasks[k].state = tasks[parent].state;
+        unique += parent != last_parent;
+        last_parent = parent;
+      }
     }
     tasks = std::move(next_tasks);
     executor(setup, tasks);
@@ -328,7 +363,21 @@ TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
   }
   if (result.status == TmcmcStatus::converged && failed_too_often())
     result.status = TmcmcStatus::failed_runs;
-  result.log_evidence_sd = std::sqrt(var_log_z);
+  if (islands == 1) {
+    result.log_evidence = log_z_island[0];
+    result.log_evidence_sd = std::sqrt(var_log_z);
+  } else {
+    // log Z = log mean_b Z_b; sd from the islands' scatter: sd_b(log Z_b) / sqrt(B).
+    const double top = *std::max_element(log_z_island.begin(), log_z_island.end());
+    double sum = 0, m = 0, m2 = 0;
+    for (double z : log_z_island) {
+      sum += std::exp(z - top);
+      m += z / islands;
+    }
+    for (double z : log_z_island) m2 += (z - m) * (z - m);
+    result.log_evidence = top + std::log(sum / islands);
+    result.log_evidence_sd = std::sqrt(m2 / (islands - 1) / islands);
+  }
   result.samples.resize(n, d);
   result.log_likelihood.resize(n);
   result.states.resize(n);

@@ -6,6 +6,7 @@
 // absolute terms (a sampler with a large scatter must not pass by being noisy).
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
 #include <functional>
 #include <numeric>
@@ -101,7 +102,8 @@ TEST(Tmcmc, BananaShapedDensity) {
   expect_pooled(st[0], 0.0, 0.1, "E theta0");
   expect_pooled(st[1], 1.0, 0.1, "E theta0^2");
   expect_pooled(st[2], b, 0.1 * b, "E theta1");
-  expect_pooled(st[3], s * s + 2 * b * b, 0.15 * (s * s + 2 * b * b), "var theta1");
+  // A fourth-moment statistic of theta0 (heavy-tailed): a wider absolute band.
+  expect_pooled(st[3], s * s + 2 * b * b, 0.2 * (s * s + 2 * b * b), "var theta1");
 }
 
 TEST(Tmcmc, TwoModeMixtureKeepsBothModesWithTheirWeights) {
@@ -160,22 +162,18 @@ TEST(Tmcmc, LogEvidenceOfAGaussianLikelihoodUnderAUniformPrior) {
     log_z += std::log(
         (normal_cdf((box.upper[k] - m[k]) / s[k]) - normal_cdf((box.lower[k] - m[k]) / s[k])) /
         (box.upper[k] - box.lower[k]));
-  std::vector<double> est, z_own;
   const auto st = per_seed(like, box, 1000, [&](const TmcmcResult& r) {
-    return std::vector<double>{r.log_evidence, (r.log_evidence - log_z) / r.log_evidence_sd};
+    return std::vector<double>{r.log_evidence, r.log_evidence_sd * r.log_evidence_sd};
   });
   expect_pooled(st[0], log_z, 0.1, "log evidence");
-  // The delta-method error estimate is of the right size: every seed within 4 estimated sd
-  // (and the estimate is not inflated: the scatter is at least a quarter of it).
+  // The error estimate (scatter of the 8 islands) is of the right size: the observed
+  // variance over the seeds against the mean estimated variance, a chi^2_9/9 variable if
+  // the estimate is right: inside [0.15, 4] but with probability 1e-3.
   const Pooled p = pool(st[0]);
-  for (double z : st[1]) EXPECT_LT(std::abs(z), 4.0);
-  std::vector<double> sds;
-  for (int sd_seed = 0; sd_seed < 1; ++sd_seed) {
-    TmcmcOptions o;
-    o.seed = 1000;
-    sds.push_back(run_tmcmc(like, box, o).log_evidence_sd);
-  }
-  EXPECT_GT(p.se * std::sqrt(double(kSeeds)), 0.25 * sds[0]);
+  const double observed = p.se * p.se * kSeeds;
+  const double estimated = std::accumulate(st[1].begin(), st[1].end(), 0.0) / kSeeds;
+  EXPECT_GT(observed / estimated, 0.15) << observed << " vs " << estimated;
+  EXPECT_LT(observed / estimated, 4.0) << observed << " vs " << estimated;
 }
 
 TEST(Tmcmc, TemperingExponentHitsTheTargetCoefficientOfVariation) {
