@@ -24,5 +24,6 @@ void add_report_command(CLI::App& app, Action& action);
 void add_mc_command(CLI::App& app, Action& action);
 void add_moduli_command(CLI::App& app, Action& action);
 void add_psi_command(CLI::App& app, Action& action);
+void add_infer_command(CLI::App& app, Action& action);
 
 }  // namespace rbc::app

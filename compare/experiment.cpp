@@ -2,25 +2,107 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <stdexcept>
-
-#include "core/io.hpp"
 
 namespace rbc {
 
-std::vector<ExperimentPoint> load_experiment(const std::string& path) {
-  const CsvTable t = read_csv(path);
-  const std::vector<std::string> expected = {"force_pN", "axial_um", "axial_err_um",
-                                             "transverse_um", "transverse_err_um"};
-  if (t.header != expected)
-    throw std::runtime_error("experiment file '" + path +
-                             "' must have columns force_pN,axial_um,axial_err_um,transverse_um,"
-                             "transverse_err_um");
+namespace {
+const char* const kExperimentColumns[] = {"force_pN", "axial_um", "axial_err_um", "transverse_um",
+                                          "transverse_err_um"};
+constexpr int kExperimentColumnCount = 5;
+
+std::vector<std::string> split_commas(const std::string& line) {
+  std::vector<std::string> cells;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    std::string c =
+        line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    const size_t a = c.find_first_not_of(" \t"), b = c.find_last_not_of(" \t");
+    cells.push_back(a == std::string::npos ? std::string() : c.substr(a, b - a + 1));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return cells;
+}
+}  // namespace
+
+std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::string& name) {
+  const auto fail = [&](int lineno, const std::string& what) {
+    throw std::runtime_error("experiment file '" + name + "'" +
+                             (lineno > 0 ? " line " + std::to_string(lineno) : std::string()) +
+                             ": " + what);
+  };
   std::vector<ExperimentPoint> out;
-  for (const auto& r : t.rows) out.push_back({r[0], r[1], r[2], r[3], r[4]});
-  if (out.empty()) throw std::runtime_error("experiment file '" + path + "' has no data rows");
+  std::string line;
+  bool header = false;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find_first_not_of(" \t") == std::string::npos || line[0] == '#') continue;
+    const std::vector<std::string> cells = split_commas(line);
+    if (!header) {
+      for (const char* col : kExperimentColumns) {
+        bool found = false;
+        for (const auto& c : cells) found = found || c == col;
+        if (!found) fail(lineno, std::string("missing column '") + col + "'");
+      }
+      for (int k = 0; k < static_cast<int>(cells.size()); ++k)
+        if (k >= kExperimentColumnCount || cells[k] != kExperimentColumns[k])
+          fail(lineno, "unexpected column '" + cells[k] +
+                           "' (expected force_pN,axial_um,axial_err_um,transverse_um,"
+                           "transverse_err_um in this order)");
+      header = true;
+      continue;
+    }
+    if (static_cast<int>(cells.size()) != kExperimentColumnCount)
+      fail(lineno, std::to_string(cells.size()) + " values, expected " +
+                       std::to_string(kExperimentColumnCount));
+    double v[kExperimentColumnCount];
+    for (int k = 0; k < kExperimentColumnCount; ++k) {
+      size_t used = 0;
+      try {
+        v[k] = std::stod(cells[k], &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (cells[k].empty() || used != cells[k].size() || !std::isfinite(v[k]))
+        fail(lineno,
+             std::string(kExperimentColumns[k]) + " '" + cells[k] + "' is not a finite number");
+    }
+    const ExperimentPoint p{v[0], v[1], v[2], v[3], v[4]};
+    const auto value = [](double x) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%g", x);
+      return std::string(buf);
+    };
+    if (p.force_pN < 0) fail(lineno, "force_pN " + value(p.force_pN) + " is negative");
+    if (p.axial_um <= 0 || p.transverse_um <= 0)
+      fail(lineno, "diameter " + value(p.axial_um <= 0 ? p.axial_um : p.transverse_um) +
+                       " um is not positive");
+    if (!(p.axial_err_um > 0))
+      fail(lineno, "axial_err_um " + value(p.axial_err_um) + " is not a positive error bar");
+    if (!(p.transverse_err_um > 0))
+      fail(lineno,
+           "transverse_err_um " + value(p.transverse_err_um) + " is not a positive error bar");
+    if (!out.empty() && !(p.force_pN > out.back().force_pN))
+      fail(lineno, "force_pN " + value(p.force_pN) + " does not increase (previous " +
+                       value(out.back().force_pN) + ")");
+    out.push_back(p);
+  }
+  if (!header) fail(0, "has no header line");
+  if (out.empty()) fail(0, "has no data rows");
   return out;
+}
+
+std::vector<ExperimentPoint> load_experiment(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open experiment file '" + path + "'");
+  return parse_experiment(in, path);
 }
 
 std::string default_data_directory() {

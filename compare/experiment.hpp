@@ -1,5 +1,6 @@
 #pragma once
 // The Mills et al. 2004 optical-tweezers measurements (data/README.md) and goodness of fit.
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -12,9 +13,16 @@ struct ExperimentPoint {
   double transverse_um = 0, transverse_err_um = 0;
 };
 
-/// Reads a Mills-format CSV (force_pN, axial_um, axial_err_um, transverse_um,
-/// transverse_err_um); throws std::runtime_error naming the file for a missing file, a
-/// wrong header or a malformed value.
+/// Parses a Mills-format CSV (header force_pN,axial_um,axial_err_um,transverse_um,
+/// transverse_err_um; '#' comment lines; blank lines skipped) from a stream. `name` names the
+/// source in messages. Throws std::runtime_error naming the source, the line and the
+/// offending value for: a missing or unexpected column, a row with the wrong number of
+/// values, a non-numeric or non-finite value, a negative force or diameter, a non-positive
+/// error bar, forces that do not increase, no data rows. Small and allocation-light, so a
+/// fuzz target can call it on arbitrary bytes.
+std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::string& name);
+
+/// Reads a Mills-format CSV file through parse_experiment; a missing file is named too.
 std::vector<ExperimentPoint> load_experiment(const std::string& path);
 
 /// Directory holding the project's data files: $RBC_DATA_DIR if set, else the source tree's data/.
