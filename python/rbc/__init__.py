@@ -37,6 +37,7 @@ from ._rbc import (  # noqa: F401  (re-exported API)
     ContactParameters,
     ConvergenceError,
     DihedralMapping,
+    InferenceProblem,
     Mesh,
     MeshQuality,
     MeshQualityReport,
@@ -325,6 +326,26 @@ def network_hessian_operator(network: Network, positions, *, area_multiplier_pN_
         return h @ x + wa * a * (a @ x) + wv * v * (v @ x)
 
     return LinearOperator((n, n), matvec=matvec, rmatvec=matvec, dtype=float)
+
+
+def infer(problem: Optional[InferenceProblem] = None, *,
+          cancel: Optional[Callable[[], bool]] = None,
+          progress: Optional[Callable[[str], None]] = None, **options) -> dict:
+    """Bayesian calibration by TMCMC, as ``rbc infer``: the posterior of the inferred parameters
+    given force-diameter data (MODEL.md section 7).
+
+    Pass an rbc.InferenceProblem, or its keyword arguments (parameters=['persistence', 'lmax',
+    'sigma-scale'], priors={name: (lower, upper)}, method='continuum:2:1000', data_file,
+    samples=500, seed=1, ...; the CLI's defaults). Returns the fields of ``rbc infer --json``
+    plus 'samples' (S, P) in natural units, 'log_likelihood_samples', the derived
+    'mu_uN_per_m_samples' and 'K_uN_per_m_samples', and 'stage_info'. The GIL is released;
+    Ctrl-C or cancel() returning True stops between stages with KeyboardInterrupt.
+    """
+    if problem is None:
+        problem = InferenceProblem(**options)
+    elif options:
+        raise ValueError("give either an InferenceProblem or its options, not both")
+    return _rbc._infer(problem, cancel, progress)
 
 
 def _mesh_to_meshio(self):

@@ -23,4 +23,5 @@ PYBIND11_MODULE(_rbc, m) {
   bind_stretch(m);
   bind_homogenise(m);
   bind_mc(m);
+  bind_infer(m);
 }
