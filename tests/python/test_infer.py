@@ -25,15 +25,15 @@ def small_data(tmp_path_factory):
 
 
 def test_infer_equals_rbc_infer(small_data):
-    args = dict(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=60,
+    args = dict(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=30,
                 seed=4)
     cli = run_cli_json("infer", "--params", "sigma-scale", "--method", METHOD, "--data-file",
-                       small_data, "--samples", "60", "--seed", "4", "--json", "-q")
+                       small_data, "--samples", "30", "--seed", "4", "--json", "-q")
     py = rbc.infer(**args)
     for key in ("parameters", "derived", "log_evidence", "log_evidence_sd", "stages", "status",
                 "method", "elements", "vertices", "seed"):
         assert py[key] == cli[key], key
-    assert py["samples"].shape == (60, 1)
+    assert py["samples"].shape == (30, 1)
     summary = py["parameters"]
     summary = summary[0] if isinstance(summary, list) else summary["sigma-scale"]
     assert py["samples"].mean() == pytest.approx(summary["mean"], rel=1e-12)
