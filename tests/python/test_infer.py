@@ -69,3 +69,11 @@ def test_tmcmc_and_emcee_agree_within_four_standard_errors(small_data):
                              samples=200, seed=2, walkers=8, steps=500, burn=100)
     assert r["emcee_tau"][0] < 500 / 20  # the chain is long against its correlation time
     assert r["agree"], r
+
+
+def test_cancel_stops_the_inference_between_stages(small_data):
+    polls = []
+    with pytest.raises(KeyboardInterrupt):
+        rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=20,
+                  cancel=lambda: polls.append(1) or True)
+    assert len(polls) == 1  # the first poll (between stages) stopped it
