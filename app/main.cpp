@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   rbc::app::add_moduli_command(app, action);
   rbc::app::add_psi_command(app, action);
   rbc::app::add_dynamics_command(app, action);
+  rbc::app::add_infer_command(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

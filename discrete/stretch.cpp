@@ -166,6 +166,8 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
     previous_violation = violation;
   }
   x = Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n);
+  pt.multipliers = load.multipliers;
+  pt.stiffness_scale = load.stiffness_scale;
   const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&
                     std::abs(pt.volume_drift) < net.constraints.tolerance;
   pt.converged = r.converged() && held;

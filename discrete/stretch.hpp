@@ -83,10 +83,14 @@ struct StretchPoint {
   double area_drift = 0, volume_drift = 0;  ///< relative (A - A0)/A0, (V - V0)/V0
   double wall_s = 0;
   int vertices = 0;
-  std::string status;                 ///< minimiser status in words
-  Positions x;                        ///< equilibrium positions (um)
-  ConstraintMultipliers multipliers;  ///< lambda_A (pN/um), lambda_V (pN/um^2) at the end
-  bool warm = false;                  ///< solved from a given StretchState entry
+  std::string status;  ///< minimiser status in words
+  Positions x;         ///< equilibrium positions (um)
+  /// Area/volume multipliers (lambda_A pN/um, lambda_V pN/um^2) and penalty stiffness scale of
+  /// the last minimisation: x is a stationary point of network_energy at
+  /// LoadState{force_pN, multipliers, stiffness_scale}.
+  ConstraintMultipliers multipliers;
+  double stiffness_scale = 1.0;
+  bool warm = false;  ///< solved from a given StretchState entry
 };
 
 /// Solves one force from x (updated in place) carrying the multipliers along.

@@ -1,0 +1,166 @@
+// `rbc infer`: Bayesian calibration of the spectrin parameters from force-diameter data
+// (MODEL.md section 7; calibrate/infer.hpp). Under mpirun every rank runs this command; rank 0
+// samples and writes, the others serve forward runs (calibrate/mpi_executor.hpp).
+#include <cstdlib>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+
+#include "app/cli_util.hpp"
+#include "app/commands.hpp"
+#include "calibrate/infer.hpp"
+#include "calibrate/mpi_executor.hpp"
+
+namespace rbc::app {
+
+void check_output_directory(const std::string& dir, bool overwrite);  // cmd_fig7.cpp
+
+namespace {
+struct InferCli {
+  std::string data_file, method = "continuum:2:1000", params = "persistence,lmax,sigma-scale";
+  std::vector<std::string> priors;
+  double reading_uncertainty_um = kMillsReadingUncertaintyUm;
+  int samples = InferOptions::default_sampler().samples;
+  int chain_length = InferOptions::default_sampler().chain_length;
+  double target_cov = 1.0, proposal_scale = 0.2;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  std::string out;
+  bool json = false, overwrite = false, quiet = false;
+};
+
+InferOptions to_options(const InferCli& c) {
+  InferOptions o;
+  o.data_file = c.data_file;
+  o.method = parse_method(c.method);
+  o.parameters = parse_parameter_list(c.params);
+  for (const auto& p : c.priors) o.priors.push_back(parse_prior(p));
+  o.reading_uncertainty_um = c.reading_uncertainty_um;
+  o.sampler.samples = c.samples;
+  o.sampler.chain_length = c.chain_length;
+  o.sampler.target_cov = c.target_cov;
+  o.sampler.proposal_scale = c.proposal_scale;
+  o.sampler.seed = c.seed;
+  o.threads = c.threads;
+  o.validate();
+  return o;
+}
+
+void print_summary(const InferenceResult& r) {
+  std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
+            << r.stages.size() - 1 << " stages, seed " << r.seed << "):\n";
+  auto line = [](const Summary& s) {
+    std::cout << "  " << std::left << std::setw(18) << s.name + (s.unit == "1" ? "" : " (" + s.unit + ")")
+              << std::right << std::setprecision(4) << " mean " << std::setw(10) << s.mean
+              << "  sd " << std::setw(10) << s.sd << "  90 % [" << s.q05 << ", " << s.q95
+              << "]  median " << s.q50 << "\n";
+  };
+  for (const auto& s : r.parameters) line(s);
+  line(r.mu);
+  line(r.K);
+  std::cout << "  log evidence " << std::setprecision(6) << r.log_evidence << " +- "
+            << std::setprecision(2) << r.log_evidence_sd << "\n  forward runs " << r.counts.runs
+            << " (retried " << r.counts.retried << ", failed " << r.counts.failed << "), "
+            << std::setprecision(1) << std::fixed << r.wall_s << " s\n";
+}
+}  // namespace
+
+void add_infer_command(CLI::App& app, Action& action) {
+  auto c = std::make_shared<InferCli>();
+  auto* cmd = app.add_subcommand(
+      "infer", "Bayesian calibration (TMCMC) of the spectrin parameters from force-diameter data");
+  cmd->add_option("--data-file", c->data_file,
+                  "Mills-format CSV (default: data/mills2004_optical_tweezers.csv)");
+  cmd->add_option("--method", c->method, "forward model: discrete:N or continuum:ORDER:ELEMENTS")
+      ->capture_default_str();
+  cmd->add_option("--params", c->params,
+                  "inferred parameters from persistence (nm), lmax (nm), kappa (J), "
+                  "contact-fraction, sigma-scale")
+      ->capture_default_str();
+  cmd->add_option("--prior", c->priors,
+                  "uniform prior NAME=LOWER:UPPER, repeatable (defaults: persistence=2:40, "
+                  "lmax=110:600, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
+                  "sigma-scale=0.2:3)");
+  cmd->add_option("--reading-uncertainty", c->reading_uncertainty_um,
+                  "figure-reading uncertainty (um) added in quadrature to every error bar "
+                  "(default: rms difference of the two Mills readings / sqrt2)")
+      ->capture_default_str();
+  cmd->add_option("--samples", c->samples, "TMCMC samples per stage")->capture_default_str();
+  cmd->add_option("--chain-length", c->chain_length, "Metropolis steps per sample and stage")
+      ->capture_default_str();
+  cmd->add_option("--target-cov", c->target_cov,
+                  "target coefficient of variation of the stage weights")
+      ->capture_default_str();
+  cmd->add_option("--proposal-scale", c->proposal_scale,
+                  "proposal sd in units of the weighted sample sd (beta)")
+      ->capture_default_str();
+  cmd->add_option("--seed", c->seed, "random seed (the posterior depends on it only)")
+      ->capture_default_str();
+  cmd->add_option("--threads", c->threads, "OpenMP threads for forward runs (0: OMP_NUM_THREADS)")
+      ->capture_default_str();
+  cmd->add_option("--out", c->out, "output directory (summary, samples, corner and predictive plots)");
+  cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
+  cmd->add_flag("--force-overwrite", c->overwrite, "allow a non-empty --out");
+  cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
+  cmd->callback([c, &action] {
+    action = [c]() -> int {
+      const bool mpi = launched_by_mpirun();
+      const char* rank_env = std::getenv("OMPI_COMM_WORLD_RANK");
+      const bool master = !rank_env || std::string(rank_env) == "0";
+      // Everything that can be wrong with the input is found here, on every rank, before MPI
+      // starts and before any forward run.
+      InferOptions o;
+      std::unique_ptr<InferenceProblem> problem;
+      try {
+        o = to_options(*c);
+        if (!c->out.empty()) check_output_directory(c->out, c->overwrite);
+        problem = std::make_unique<InferenceProblem>(o);
+      } catch (const std::exception&) {
+        if (!master) return 2;  // rank 0 names the error
+        throw;
+      }
+      const ProgressSink progress = stderr_progress(c->quiet || !master);
+      InferenceResult r;
+      if (mpi) {
+        MpiSession session;
+        if (session.rank() != 0) {
+          try {
+            mpi_worker_loop(problem->prior(), problem->likelihood());
+          } catch (const std::exception& e) {
+            std::cerr << "rbc: error: MPI rank " << session.rank() << ": " << e.what() << "\n";
+            session.abort(1);
+          }
+          return 0;
+        }
+        report(progress, "MPI: " + std::to_string(session.size()) +
+                             " ranks (master computes too), one chain per rank at a time");
+        struct Stop {
+          ~Stop() { mpi_stop_workers(); }
+        } stop;
+        r = run_inference(*problem, progress, [](const InferenceProblem& p) {
+          return mpi_master_executor(p.prior(), p.likelihood());
+        });
+        r.ranks = session.size();
+      } else {
+        r = run_inference(*problem, progress);
+      }
+      if (r.status != TmcmcStatus::converged) {
+        std::cerr << "rbc: error: inference stopped (" << to_string(r.status) << "): "
+                  << r.counts.failed << " of " << r.counts.runs
+                  << " forward runs failed (limit 1 %); worst case not converged\n";
+        return 1;
+      }
+      if (!c->out.empty()) write_inference(r, c->out);
+      if (c->json)
+        std::cout << inference_json(r) << "\n";
+      else
+        print_summary(r);
+      if (!c->out.empty() && !c->json)
+        std::cout << "outputs: " << c->out
+                  << "/summary.json, posterior_samples.{csv,h5}, corner.png, predictive.png\n";
+      return 0;
+    };
+  });
+}
+
+}  // namespace rbc::app

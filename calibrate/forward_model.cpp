@@ -1,0 +1,236 @@
+#include "calibrate/forward_model.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "calibrate/smooth_patch.hpp"
+#include "continuum/continuum_stretch.hpp"
+#include "core/geometry.hpp"
+#include "core/units.hpp"
+#include "discrete/stretch.hpp"
+#include "homogenise/invariant_laws.hpp"
+
+namespace rbc {
+
+void ForwardParameters::validate() const {
+  if (!(persistence_nm > 0) || !std::isfinite(persistence_nm))
+    throw std::invalid_argument("persistence length must be finite and > 0 nm, got " +
+                                std::to_string(persistence_nm));
+  if (!(lmax_nm > 75.0) || !std::isfinite(lmax_nm))
+    throw std::invalid_argument("Lmax must be finite and > Lbar = 75 nm, got " +
+                                std::to_string(lmax_nm));
+  if (!(kappa_J > 0) || !std::isfinite(kappa_J))
+    throw std::invalid_argument("bending rigidity must be finite and > 0 J, got " +
+                                std::to_string(kappa_J));
+  if (!(contact_fraction > 0 && contact_fraction < 0.5))
+    throw std::invalid_argument("contact fraction must lie in (0, 0.5), got " +
+                                std::to_string(contact_fraction));
+}
+
+void ForwardOptions::validate() const {
+  if (forces_pN.empty()) throw std::invalid_argument("forward model needs at least one force");
+  for (size_t k = 0; k < forces_pN.size(); ++k) {
+    if (!std::isfinite(forces_pN[k]) || forces_pN[k] < 0)
+      throw std::invalid_argument("force must be finite and >= 0 pN, got " +
+                                  std::to_string(forces_pN[k]));
+    if (k > 0 && !(forces_pN[k] > forces_pN[k - 1]))
+      throw std::invalid_argument("forces must increase, got " + std::to_string(forces_pN[k]) +
+                                  " after " + std::to_string(forces_pN[k - 1]));
+  }
+  if (method.resolution <= 0)
+    throw std::invalid_argument("method resolution must be > 0, got " +
+                                std::to_string(method.resolution));
+  if (retry_bisections < 0)
+    throw std::invalid_argument("retry bisections must be >= 0, got " +
+                                std::to_string(retry_bisections));
+}
+
+namespace {
+WlcParameters wlc_parameters(const ForwardParameters& p) {
+  WlcParameters w;  // Lbar = 75 nm, T = 300 K
+  w.persistence_um = units::nm_to_um(p.persistence_nm);
+  w.lmax_um = units::nm_to_um(p.lmax_nm);
+  return w;
+}
+}  // namespace
+
+/// Immutable state shared by all workspaces.
+struct ForwardModel::Shared {
+  // discrete
+  Network network;
+  // continuum
+  ContinuumModel continuum;
+  int vertices = 0, elements = 0;
+};
+
+/// Mutable per-call state: the model with this call's parameters and its solver.
+struct ForwardModel::Workspace {
+  Network network;
+  ContinuumModel continuum;
+  std::unique_ptr<NewtonSolver> newton;
+  /// Equilibrium at force F from x, lambda (updated in place; left at the start on failure).
+  std::function<bool(double, Positions&, ConstraintMultipliers&, double&)> solve;
+};
+
+ForwardModel::ForwardModel(const ForwardOptions& options)
+    : options_(options), shared_(std::make_unique<Shared>()) {
+  options_.validate();
+  if (options_.method.kind == MethodKind::discrete) {
+    shared_->network = make_discrete_network(options_.method.resolution);
+    shared_->vertices = shared_->network.topo.num_vertices;
+    shared_->elements = shared_->network.topo.num_faces();
+  } else {
+    const TriMesh mesh = make_continuum_mesh(options_.method.resolution);
+    const NetworkParameters defaults;
+    shared_->continuum = build_continuum_model(
+        mesh, make_membrane_law(defaults.wlc, defaults.steric, options_.method.order),
+        ContinuumParameters{});
+    shared_->vertices = shared_->continuum.topo.num_vertices;
+    shared_->elements = shared_->continuum.num_elements();
+  }
+}
+
+ForwardModel::~ForwardModel() = default;
+int ForwardModel::vertices() const {
+  return shared_->vertices;
+}
+int ForwardModel::elements() const {
+  return shared_->elements;
+}
+
+std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
+  {
+    std::lock_guard<std::mutex> lock(pool_mutex_);
+    if (!pool_.empty()) {
+      auto ws = std::move(pool_.back());
+      pool_.pop_back();
+      return ws;
+    }
+  }
+  auto ws = std::make_unique<Workspace>();
+  if (options_.method.kind == MethodKind::discrete) {
+    ws->network = shared_->network;
+    Workspace* w = ws.get();
+    ws->solve = [w](double f, Positions& x, ConstraintMultipliers& l, double& residual) {
+      const Positions x0 = x;
+      const ConstraintMultipliers l0 = l;
+      StretchOptions so;
+      so.precondition_min_vertices = std::numeric_limits<int>::max();  // no per-call factorisation
+      const StretchPoint p = solve_equilibrium(w->network, f, x, l, so);
+      residual = p.residual_pN;
+      if (!p.converged) {
+        x = x0;
+        l = l0;
+      }
+      return p.converged;
+    };
+  } else {
+    ws->continuum = shared_->continuum;
+    ws->newton = std::make_unique<NewtonSolver>(ws->continuum, NewtonOptions{});
+    Workspace* w = ws.get();
+    ws->solve = [w](double f, Positions& x, ConstraintMultipliers& l, double& residual) {
+      const Positions x0 = x;
+      const ConstraintMultipliers l0 = l;
+      const NewtonResult r = w->newton->solve(f, x, l);
+      residual = r.residual_pN;
+      if (!r.converged()) {
+        x = x0;
+        l = l0;
+      }
+      return r.converged();
+    };
+  }
+  return ws;
+}
+
+void ForwardModel::give_back(std::unique_ptr<Workspace> ws) const {
+  std::lock_guard<std::mutex> lock(pool_mutex_);
+  pool_.push_back(std::move(ws));
+}
+
+ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm) const {
+  p.validate();
+  auto ws = borrow();
+  struct Return {  // hands the workspace back on every path, exceptions included
+    const ForwardModel* m;
+    std::unique_ptr<Workspace>& w;
+    ~Return() { m->give_back(std::move(w)); }
+  } give{this, ws};
+  const WlcParameters wlc = wlc_parameters(p);
+  const double kappa = units::joule_to_pNum(p.kappa_J);
+  const Positions* rest = nullptr;
+  if (options_.method.kind == MethodKind::discrete) {
+    Network& net = ws->network;
+    net.wlc = make_wlc_density(wlc, WlcExpansion::full);
+    net.steric_C_pN_per_um = steric_constant(net.wlc, net.steric);
+    net.bending.kappa_pNum = kappa;
+    net.dihedral_kb_pNum = dihedral_stiffness_pNum(kappa, DihedralMapping::sphere_matched);
+    net.patch = smooth_tweezer_patch(net.rest, net.topo, p.contact_fraction);
+    rest = &net.rest;
+  } else {
+    ContinuumModel& m = ws->continuum;
+    m.law = make_membrane_law(wlc, StericParameters{}, options_.method.order);
+    m.bending.kappa_pNum = kappa;
+    m.patch = smooth_tweezer_patch(m.rest, m.topo, p.contact_fraction);
+    rest = &m.rest;
+  }
+  const int n = static_cast<int>(rest->cols());
+  const int per_force = 3 * n + 2;
+  const int nf = static_cast<int>(options_.forces_pN.size());
+  const bool have_warm = static_cast<int>(warm.size()) == nf * per_force;
+  if (!warm.empty() && !have_warm)
+    throw std::invalid_argument("warm state of " + std::to_string(warm.size()) +
+                                " values does not fit this forward model");
+  ForwardRun out;
+  out.state.resize(static_cast<size_t>(nf) * per_force);
+  Positions x_prev = *rest;
+  ConstraintMultipliers l_prev;
+  double f_prev = 0;
+  out.converged = true;
+  for (int k = 0; k < nf; ++k) {
+    const double f = options_.forces_pN[k];
+    Positions x = x_prev;
+    ConstraintMultipliers l = l_prev;
+    if (have_warm) {
+      const double* w = warm.data() + static_cast<size_t>(k) * per_force;
+      x = Eigen::Map<const Positions>(w, 3, n);
+      l.area_pN_per_um = w[3 * n];
+      l.volume_pN_per_um2 = w[3 * n + 1];
+    }
+    double residual = 0;
+    bool ok = ws->solve(f, x, l, residual);
+    if (!ok) {
+      // Retry: from this run's previous equilibrium through 2^b equal increments.
+      out.retried = true;
+      for (int b = 1; b <= options_.retry_bisections && !ok; ++b) {
+        x = x_prev;
+        l = l_prev;
+        const int steps = 1 << b;
+        ok = true;
+        for (int s = 1; s <= steps && ok; ++s)
+          ok = ws->solve(f_prev + (f - f_prev) * s / steps, x, l, residual);
+      }
+    }
+    out.residual_pN = std::max(out.residual_pN, residual);
+    if (!ok) {
+      out.converged = false;
+      out.state.clear();
+      return out;
+    }
+    const Diameters d = measure_diameters(x);
+    out.diameters.axial_um.push_back(d.axial_um);
+    out.diameters.transverse_um.push_back(d.transverse_um);
+    double* w = out.state.data() + static_cast<size_t>(k) * per_force;
+    Eigen::Map<Positions>(w, 3, n) = x;
+    w[3 * n] = l.area_pN_per_um;
+    w[3 * n + 1] = l.volume_pN_per_um2;
+    x_prev = std::move(x);
+    l_prev = l;
+    f_prev = f;
+  }
+  return out;
+}
+
+}  // namespace rbc

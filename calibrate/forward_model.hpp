@@ -1,0 +1,81 @@
+#pragma once
+// The forward model of the calibration: optical-tweezers diameters D_A(F), D_T(F) at the
+// data's forces for one set of physical parameters, by the discrete network or the
+// continuum model (compare/methods.hpp's Method), warm-started from a parent's equilibria.
+//
+// A run solves the forces in increasing order. Force k starts from the warm state's
+// equilibrium at force k (the parent sample's, when given) and otherwise from this run's
+// equilibrium at force k-1 (continuation in force; the rest shape for the first). A failed
+// solve (not converged, infeasible) is retried from this run's previous equilibrium through
+// intermediate forces, the increment halved up to `retry_bisections` times; if that fails
+// too the run fails (the sampler counts it as zero likelihood).
+//
+// Thread safety: run() may be called from many threads at once; each call borrows a private
+// workspace (a copy of the model and its solver) from a pool. The result depends only on
+// (parameters, warm state): solvers keep no state between calls and their inner parallel
+// regions must run on one thread (calibrate/tmcmc.hpp's executors see to it), since
+// OpenMP reductions over a different thread count sum in a different order.
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "calibrate/likelihood.hpp"
+#include "calibrate/tmcmc.hpp"
+#include "compare/methods.hpp"
+
+namespace rbc {
+
+/// Physical parameters of a forward run, natural units. Defaults: paper Tables 1-2
+/// (Lbar = 75 nm fixed, T = 300 K, q = 1, eta = 0.005, H0 = 0).
+struct ForwardParameters {
+  double persistence_nm = 7.5;
+  double lmax_nm = 237.75;
+  double kappa_J = 2e-19;
+  double contact_fraction = 0.05;
+  void validate() const;  ///< p > 0, Lmax > 75 nm, kappa > 0, fraction in (0, 0.5)
+};
+
+struct ForwardOptions {
+  /// Default continuum:2:1000 (calibrate/infer.hpp documents why).
+  Method method{MethodKind::continuum, 1000, WlcExpansion::order2};
+  std::vector<double> forces_pN;  ///< increasing, >= 0
+  int retry_bisections = 5;       ///< halvings of the force increment on a retry
+  void validate() const;
+};
+
+/// One forward run.
+struct ForwardRun {
+  ModelDiameters diameters;  ///< at options.forces_pN
+  bool converged = false;    ///< every force converged
+  bool retried = false;      ///< some force needed the retry
+  double residual_pN = 0;    ///< largest final residual over the forces
+  WarmState state;           ///< per force: 3N positions (um) and two multipliers
+};
+
+class ForwardModel {
+ public:
+  explicit ForwardModel(const ForwardOptions& options);
+  ~ForwardModel();
+  ForwardModel(const ForwardModel&) = delete;
+  ForwardModel& operator=(const ForwardModel&) = delete;
+
+  /// Diameters at the forces for the parameters, from the warm state (empty = cold start
+  /// from the rest shape; otherwise it must come from this model).
+  ForwardRun run(const ForwardParameters& parameters, const WarmState& warm = {}) const;
+
+  const ForwardOptions& options() const { return options_; }
+  int vertices() const;
+  int elements() const;
+
+ private:
+  struct Workspace;
+  struct Shared;
+  std::unique_ptr<Workspace> borrow() const;
+  void give_back(std::unique_ptr<Workspace> ws) const;
+  ForwardOptions options_;
+  std::unique_ptr<Shared> shared_;
+  mutable std::mutex pool_mutex_;
+  mutable std::vector<std::unique_ptr<Workspace>> pool_;
+};
+
+}  // namespace rbc

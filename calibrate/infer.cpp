@@ -1,0 +1,307 @@
+#include "calibrate/infer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "compare/experiment.hpp"
+#include "core/geometry.hpp"
+#include "core/units.hpp"
+
+namespace rbc {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// The likelihood of the data under the forward model at a sample.
+class DiameterLikelihood final : public Likelihood {
+ public:
+  DiameterLikelihood(const InferenceProblem& problem) : problem_(problem) {}
+  int dimension() const override {
+    return static_cast<int>(problem_.options().parameters.size());
+  }
+  LikelihoodValue evaluate(std::span<const double> theta, const WarmState& warm,
+                           WarmState* state_out) const override {
+    const ForwardRun run = problem_.forward().run(problem_.physical(theta), warm);
+    LikelihoodValue v;
+    v.retried = run.retried;
+    if (!run.converged) {
+      v.failed = true;
+      v.log_likelihood = -kInf;
+      return v;
+    }
+    v.log_likelihood =
+        gaussian_log_likelihood(problem_.data(), run.diameters, problem_.sigma_scale(theta));
+    if (state_out) *state_out = run.state;
+    return v;
+  }
+
+ private:
+  const InferenceProblem& problem_;
+};
+
+double quantile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  const double h = q * (v.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(h));
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (h - lo) * (v[hi] - v[lo]);
+}
+}  // namespace
+
+void InferOptions::validate() const {
+  if (parameters.empty()) throw std::invalid_argument("--params: at least one parameter");
+  for (size_t i = 0; i < parameters.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (parameters[i] == parameters[j])
+        throw std::invalid_argument("--params: '" + to_string(parameters[i]) +
+                                    "' is given twice");
+  for (size_t i = 0; i < priors.size(); ++i) {
+    priors[i].validate();
+    if (std::find(parameters.begin(), parameters.end(), priors[i].parameter) == parameters.end())
+      throw std::invalid_argument("--prior " + to_string(priors[i].parameter) +
+                                  ": the parameter is not inferred (add it to --params)");
+    for (size_t j = 0; j < i; ++j)
+      if (priors[j].parameter == priors[i].parameter)
+        throw std::invalid_argument("--prior " + to_string(priors[i].parameter) +
+                                    " is given twice");
+  }
+  if (!(reading_uncertainty_um >= 0) || !std::isfinite(reading_uncertainty_um))
+    throw std::invalid_argument("--reading-uncertainty must be finite and >= 0 um, got " +
+                                std::to_string(reading_uncertainty_um));
+  if (!(fixed_sigma_scale > 0) || !std::isfinite(fixed_sigma_scale))
+    throw std::invalid_argument("sigma scale must be finite and > 0, got " +
+                                std::to_string(fixed_sigma_scale));
+  if (threads < 0)
+    throw std::invalid_argument("--threads must be >= 0, got " + std::to_string(threads));
+  fixed.validate();
+  sampler.validate();
+  if (method.resolution <= 0)
+    throw std::invalid_argument("--method resolution must be > 0, got " +
+                                std::to_string(method.resolution));
+}
+
+std::string InferOptions::data_path() const {
+  return data_file.empty() ? default_data_directory() + "/mills2004_optical_tweezers.csv"
+                           : data_file;
+}
+
+std::vector<PriorRange> InferOptions::prior_ranges() const {
+  std::vector<PriorRange> out;
+  for (Parameter p : parameters) {
+    PriorRange r = default_prior(p);
+    for (const auto& o : priors)
+      if (o.parameter == p) r = o;
+    out.push_back(r);
+  }
+  return out;
+}
+
+InferenceProblem::InferenceProblem(const InferOptions& options) : options_(options) {
+  options_.validate();
+  data_ = make_diameter_data(load_experiment(options_.data_path()),
+                             options_.reading_uncertainty_um);
+  std::vector<std::string> names;
+  for (const auto& r : options_.prior_ranges()) {
+    prior_.lower.push_back(r.lower);
+    prior_.upper.push_back(r.upper);
+    names.push_back(to_string(r.parameter));
+  }
+  prior_.validate(names);
+  ForwardOptions fo;
+  fo.method = options_.method;
+  fo.forces_pN = data_.force_pN;
+  forward_ = std::make_unique<ForwardModel>(fo);
+  likelihood_ = std::make_unique<DiameterLikelihood>(*this);
+}
+
+InferenceProblem::~InferenceProblem() = default;
+
+ForwardParameters InferenceProblem::physical(std::span<const double> theta) const {
+  ForwardParameters p = options_.fixed;
+  for (size_t k = 0; k < options_.parameters.size(); ++k) {
+    switch (options_.parameters[k]) {
+      case Parameter::persistence:
+        p.persistence_nm = theta[k];
+        break;
+      case Parameter::lmax:
+        p.lmax_nm = theta[k];
+        break;
+      case Parameter::kappa:
+        p.kappa_J = theta[k];
+        break;
+      case Parameter::contact_fraction:
+        p.contact_fraction = theta[k];
+        break;
+      case Parameter::sigma_scale:
+        break;
+    }
+  }
+  return p;
+}
+
+double InferenceProblem::sigma_scale(std::span<const double> theta) const {
+  for (size_t k = 0; k < options_.parameters.size(); ++k)
+    if (options_.parameters[k] == Parameter::sigma_scale) return theta[k];
+  return options_.fixed_sigma_scale;
+}
+
+ModelDiameters InferenceProblem::diameters_from_state(const WarmState& state) const {
+  const int nf = data_.size();
+  ModelDiameters d;
+  if (state.empty()) return d;
+  const int per_force = static_cast<int>(state.size()) / nf;
+  const int n = (per_force - 2) / 3;
+  for (int k = 0; k < nf; ++k) {
+    const Positions x =
+        Eigen::Map<const Positions>(state.data() + static_cast<size_t>(k) * per_force, 3, n);
+    const Diameters m = measure_diameters(x);
+    d.axial_um.push_back(m.axial_um);
+    d.transverse_um.push_back(m.transverse_um);
+  }
+  return d;
+}
+
+Summary summarise(const std::string& name, const std::string& unit, const Eigen::VectorXd& v) {
+  Summary s;
+  s.name = name;
+  s.unit = unit;
+  s.mean = v.mean();
+  s.sd = std::sqrt((v.array() - s.mean).square().sum() / std::max<Eigen::Index>(1, v.size() - 1));
+  const std::vector<double> x(v.data(), v.data() + v.size());
+  s.q05 = quantile(x, 0.05);
+  s.q50 = quantile(x, 0.50);
+  s.q95 = quantile(x, 0.95);
+  return s;
+}
+
+LinearModuli sample_moduli(const ForwardParameters& p) {
+  WlcParameters w;
+  w.persistence_um = units::nm_to_um(p.persistence_nm);
+  w.lmax_um = units::nm_to_um(p.lmax_nm);
+  return closed_form_moduli(w, StericParameters{});
+}
+
+InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress,
+                              const ExecutorFactory& factory) {
+  const InferOptions& o = problem.options();
+  const Executor executor = factory ? factory(problem)
+                                    : omp_executor(problem.prior(), problem.likelihood(), o.threads);
+  const auto on_stage = [&](const StageInfo& s) {
+    std::ostringstream m;
+    m << "stage " << s.stage << ": beta = " << std::setprecision(4) << s.beta
+      << ", acceptance " << std::fixed << std::setprecision(2) << s.acceptance
+      << ", distinct parents " << s.unique_fraction << ", forward runs " << s.forward_runs
+      << ", elapsed " << std::setprecision(1) << s.elapsed_s << " s";
+    report(progress, m.str());
+  };
+  const TmcmcResult t =
+      run_tmcmc(problem.likelihood(), problem.prior(), o.sampler, executor, on_stage);
+  InferenceResult r;
+  r.status = t.status;
+  for (Parameter p : o.parameters) {
+    r.names.push_back(to_string(p));
+    r.units.push_back(unit_of(p));
+  }
+  r.samples = t.samples;
+  r.log_likelihood = t.log_likelihood;
+  const int n = static_cast<int>(t.samples.rows()), d = static_cast<int>(t.samples.cols());
+  r.mu_uN_per_m.resize(n);
+  r.K_uN_per_m.resize(n);
+  std::vector<std::vector<double>> da(problem.data().size()), dt(problem.data().size());
+  for (int i = 0; i < n; ++i) {
+    std::vector<double> theta(d);
+    for (int k = 0; k < d; ++k) theta[k] = t.samples(i, k);
+    const LinearModuli m = sample_moduli(problem.physical(theta));
+    r.mu_uN_per_m(i) = m.mu_pN_per_um * units::uN_per_m_per_pN_per_um;
+    r.K_uN_per_m(i) = m.K_pN_per_um * units::uN_per_m_per_pN_per_um;
+    const ModelDiameters md = problem.diameters_from_state(t.states[i]);
+    for (int k = 0; k < static_cast<int>(md.axial_um.size()); ++k) {
+      da[k].push_back(md.axial_um[k]);
+      dt[k].push_back(md.transverse_um[k]);
+    }
+  }
+  for (int k = 0; k < d; ++k) r.parameters.push_back(summarise(r.names[k], r.units[k], t.samples.col(k)));
+  r.mu = summarise("mu", "uN/m", r.mu_uN_per_m);
+  r.K = summarise("K", "uN/m", r.K_uN_per_m);
+  r.log_evidence = t.log_evidence;
+  r.log_evidence_sd = t.log_evidence_sd;
+  r.counts = t.counts;
+  r.stages = t.stages;
+  r.wall_s = t.wall_s;
+  r.data = problem.data();
+  for (int k = 0; k < problem.data().size(); ++k) {
+    if (da[k].empty()) continue;
+    r.axial_q05.push_back(quantile(da[k], 0.05));
+    r.axial_q50.push_back(quantile(da[k], 0.50));
+    r.axial_q95.push_back(quantile(da[k], 0.95));
+    r.transverse_q05.push_back(quantile(dt[k], 0.05));
+    r.transverse_q50.push_back(quantile(dt[k], 0.50));
+    r.transverse_q95.push_back(quantile(dt[k], 0.95));
+  }
+  r.method = o.method.name();
+  r.data_file = o.data_path();
+  r.vertices = problem.forward().vertices();
+  r.elements = problem.forward().elements();
+  r.samples_per_stage = o.sampler.samples;
+  r.seed = o.sampler.seed;
+  r.threads = o.threads;
+  return r;
+}
+
+InferenceResult run_inference(const InferOptions& options, const ProgressSink& progress) {
+  const InferenceProblem problem(options);
+  return run_inference(problem, progress);
+}
+
+std::string inference_json(const InferenceResult& r) {
+  using nlohmann::json;
+  auto summary = [](const Summary& s) {
+    return json{{"unit", s.unit}, {"mean", s.mean}, {"sd", s.sd},
+                {"q05", s.q05},   {"q50", s.q50},   {"q95", s.q95}};
+  };
+  json j;
+  j["status"] = to_string(r.status);
+  j["method"] = r.method;
+  j["data_file"] = r.data_file;
+  j["vertices"] = r.vertices;
+  j["elements"] = r.elements;
+  j["samples_per_stage"] = r.samples_per_stage;
+  j["seed"] = r.seed;
+  json params = json::object();
+  for (const auto& s : r.parameters) params[s.name] = summary(s);
+  j["parameters"] = params;
+  j["derived"] = {{"mu", summary(r.mu)}, {"K", summary(r.K)}};
+  j["log_evidence"] = r.log_evidence;
+  j["log_evidence_sd"] = r.log_evidence_sd;
+  j["log_evidence_error_estimate"] =
+      "delta method per stage, sqrt(sum_j cov_j^2 / samples); independent samples assumed";
+  j["stages"] = static_cast<int>(r.stages.size()) - 1;
+  json stages = json::array();
+  for (const auto& s : r.stages)
+    stages.push_back({{"stage", s.stage},
+                      {"beta", s.beta},
+                      {"cov", s.cov},
+                      {"acceptance", s.acceptance},
+                      {"distinct_parents", s.unique_fraction},
+                      {"forward_runs", s.forward_runs}});
+  j["stage_log"] = stages;
+  j["forward_runs"] = {{"made", r.counts.runs},
+                       {"retried", r.counts.retried},
+                       {"failed", r.counts.failed}};
+  json pred = json::array();
+  for (size_t k = 0; k < r.axial_q50.size(); ++k)
+    pred.push_back({{"force_pN", r.data.force_pN[k]},
+                    {"axial_um", {r.axial_q05[k], r.axial_q50[k], r.axial_q95[k]}},
+                    {"transverse_um", {r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k]}}});
+  j["predictive_q05_q50_q95"] = pred;
+  j["timing"] = {{"wall_s", r.wall_s}, {"threads", r.threads}, {"ranks", r.ranks}};
+  return j.dump(2);
+}
+
+}  // namespace rbc

@@ -1,0 +1,142 @@
+#pragma once
+// Bayesian calibration of the spectrin parameters from force-diameter data (MODEL.md
+// section 7): the library behind `rbc infer` (and the Python binding rbc.infer).
+//
+// Defaults and why:
+// - data: data/mills2004_optical_tweezers.csv (Mills et al. 2004, main reading), error bars
+//   = half the bar extent as the file gives them, plus the reading uncertainty 0.399 um in
+//   quadrature (calibrate/likelihood.hpp derives it from the two readings in data/);
+// - method continuum:2:1000 (p = 2 law, 1,000 elements): its model error against a finer
+//   mesh (continuum:2:4000) is below 0.1 x the smallest error bar of the data (0.048 um)
+//   over the data's forces (see the README's measured figures), at a fraction of the cost;
+// - parameters persistence, lmax, sigma-scale; uniform priors of default_prior()
+//   (calibrate/prior_spec.hpp); the parameters not inferred keep the paper's values
+//   (p = 7.5 nm, Lmax = 237.75 nm, kappa = 2e-19 J, contact fraction 0.05, sigma scale 1);
+// - sampler: TMCMC (calibrate/tmcmc.hpp) with 500 samples per stage, target coefficient of
+//   variation 1, proposal scale 0.2, 3 Metropolis steps per sample and stage, 4 islands, seed 1;
+// - the posterior-predictive band is that of the model curve (median and 5-95 % of
+//   D_A(F), D_T(F) over the posterior samples), without the measurement noise.
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "calibrate/forward_model.hpp"
+#include "calibrate/likelihood.hpp"
+#include "calibrate/prior_spec.hpp"
+#include "calibrate/tmcmc.hpp"
+#include "compare/methods.hpp"
+#include "homogenise/moduli.hpp"
+
+namespace rbc {
+
+struct InferOptions {
+  std::string data_file;  ///< Mills-format CSV; empty =
+                          ///< default_data_directory()/mills2004_optical_tweezers.csv
+  Method method{MethodKind::continuum, 1000, WlcExpansion::order2};
+  std::vector<Parameter> parameters = {Parameter::persistence, Parameter::lmax,
+                                       Parameter::sigma_scale};
+  std::vector<PriorRange> priors;  ///< overrides of default_prior(), one per parameter at most
+  double reading_uncertainty_um = kMillsReadingUncertaintyUm;  ///< added in quadrature (um)
+  ForwardParameters fixed;       ///< values of the physical parameters not inferred
+  double fixed_sigma_scale = 1;  ///< when sigma-scale is not inferred
+  TmcmcOptions sampler = default_sampler();
+  int threads = 0;  ///< OpenMP threads for the forward runs (0: OpenMP's default)
+  /// Throws std::invalid_argument naming the value: repeated parameters, a prior for a
+  /// parameter not inferred or given twice, an invalid prior box, reading uncertainty < 0,
+  /// invalid sampler options or fixed parameters. Does not read the data file.
+  void validate() const;
+  static TmcmcOptions default_sampler() {
+    TmcmcOptions t;
+    t.samples = 500;
+    t.chain_length = 3;
+    return t;
+  }
+  /// The data file actually used.
+  std::string data_path() const;
+  /// The prior box of each inferred parameter (overrides applied), in parameter order.
+  std::vector<PriorRange> prior_ranges() const;
+};
+
+/// A prepared problem: data loaded and checked, forward model built, prior box. Every MPI
+/// rank builds the same one from the same options.
+class InferenceProblem {
+ public:
+  /// Throws std::invalid_argument / std::runtime_error naming the value for bad options or
+  /// a bad data file, before any forward run.
+  explicit InferenceProblem(const InferOptions& options);
+  ~InferenceProblem();
+  const InferOptions& options() const { return options_; }
+  const DiameterData& data() const { return data_; }
+  const PriorBox& prior() const { return prior_; }
+  const Likelihood& likelihood() const { return *likelihood_; }
+  const ForwardModel& forward() const { return *forward_; }
+  /// Parameters of a sample theta (natural units; parameter order of the options).
+  ForwardParameters physical(std::span<const double> theta) const;
+  double sigma_scale(std::span<const double> theta) const;
+  /// Model diameters from a sample's warm state (the forward run's equilibria).
+  ModelDiameters diameters_from_state(const WarmState& state) const;
+
+ private:
+  InferOptions options_;
+  DiameterData data_;
+  PriorBox prior_;
+  std::unique_ptr<ForwardModel> forward_;
+  std::unique_ptr<Likelihood> likelihood_;
+};
+
+/// mean, sd, 5/50/95 % quantiles (linear interpolation between order statistics).
+struct Summary {
+  std::string name, unit;
+  double mean = 0, sd = 0, q05 = 0, q50 = 0, q95 = 0;
+};
+Summary summarise(const std::string& name, const std::string& unit, const Eigen::VectorXd& v);
+
+/// Shear and area moduli (uN/m) in closed form (homogenise/moduli.hpp) at a sample's
+/// persistence length and Lmax.
+LinearModuli sample_moduli(const ForwardParameters& p);
+
+struct InferenceResult {
+  TmcmcStatus status = TmcmcStatus::converged;
+  std::vector<std::string> names, units;    ///< inferred parameters
+  Eigen::MatrixXd samples;                  ///< samples x parameters, natural units
+  Eigen::VectorXd log_likelihood;           ///< per sample
+  Eigen::VectorXd mu_uN_per_m, K_uN_per_m;  ///< derived, per sample
+  std::vector<Summary> parameters;          ///< per inferred parameter
+  Summary mu, K;                            ///< derived moduli
+  double log_evidence = 0, log_evidence_sd = 0;
+  ForwardCounts counts;
+  std::vector<StageInfo> stages;
+  double wall_s = 0;
+  // Posterior predictive (model curve, no noise) at the data's forces.
+  DiameterData data;
+  std::vector<double> axial_q05, axial_q50, axial_q95, transverse_q05, transverse_q50,
+      transverse_q95;
+  std::string method, data_file;
+  int vertices = 0, elements = 0, samples_per_stage = 0, threads = 0, ranks = 1;
+  std::uint64_t seed = 0;
+};
+
+/// Makes the executor for a problem (e.g. calibrate/mpi_executor.hpp's master); empty =
+/// omp_executor with options.threads.
+using ExecutorFactory = std::function<Executor(const InferenceProblem&)>;
+
+/// Runs the inference. Progress (stage, exponent, acceptance, forward runs, elapsed) goes
+/// to `progress`. Returns the result with status failed_runs when more than 1 % of the
+/// forward runs failed (the caller exits 1).
+InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress = {},
+                              const ExecutorFactory& executor = {});
+/// Convenience: builds the problem and runs it.
+InferenceResult run_inference(const InferOptions& options, const ProgressSink& progress = {});
+
+/// JSON summary (the fields of `rbc infer --json`).
+std::string inference_json(const InferenceResult& r);
+
+/// Writes DIR/summary.json, posterior_samples.{csv,h5}, corner.{png,gp} with its CSVs,
+/// predictive.{png,gp} (Fig. 7: median and 90 % band against the data) with its CSV.
+/// Every file is written atomically (temporary name, then rename).
+void write_inference(const InferenceResult& r, const std::string& dir);
+
+}  // namespace rbc

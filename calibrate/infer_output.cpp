@@ -1,0 +1,168 @@
+// Files of `rbc infer --out DIR`: summary, posterior samples, corner plot, predictive Fig. 7.
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "calibrate/infer.hpp"
+#include "compare/plot.hpp"
+#include "core/h5file.hpp"
+#include "core/io.hpp"
+
+namespace rbc {
+
+namespace {
+namespace fs = std::filesystem;
+
+/// Renders DIR/NAME.gp (already written, output to a temporary PNG name) into DIR/NAME.png.
+void run_gnuplot_script(const std::string& dir, const std::string& name,
+                        const std::string& tmp_png) {
+  const std::string cmd = "cd '" + dir + "' && gnuplot '" + name + ".gp' 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) throw std::runtime_error("cannot run gnuplot (apt-get install gnuplot-nox)");
+  std::string output;
+  std::array<char, 256> buf{};
+  while (fgets(buf.data(), buf.size(), pipe)) output += buf.data();
+  const int status = pclose(pipe);
+  const std::string tmp = (fs::path(dir) / tmp_png).string();
+  if (status != 0 || !fs::exists(tmp)) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw std::runtime_error("gnuplot failed on " + dir + "/" + name + ".gp: " + output);
+  }
+  commit_file(tmp, (fs::path(dir) / (name + ".png")).string());
+}
+
+std::string label(const InferenceResult& r, int k) {
+  return r.names[k] + (r.units[k] == "1" ? "" : " (" + r.units[k] + ")");
+}
+
+/// Corner plot: histograms of each parameter's marginal on the diagonal, the samples of
+/// each pair below it.
+void write_corner(const InferenceResult& r, const std::string& dir) {
+  const int d = static_cast<int>(r.samples.cols()), n = static_cast<int>(r.samples.rows());
+  constexpr int kBins = 30;
+  CsvTable hist;
+  hist.comments = {"marginal histograms of the posterior samples: bin centre and density"};
+  for (int k = 0; k < d; ++k) {
+    hist.header.push_back(r.names[k] + "_centre");
+    hist.header.push_back(r.names[k] + "_density");
+  }
+  hist.rows.assign(kBins, std::vector<double>(2 * d, 0.0));
+  std::vector<double> lo(d), hi(d);
+  for (int k = 0; k < d; ++k) {
+    lo[k] = r.samples.col(k).minCoeff();
+    hi[k] = r.samples.col(k).maxCoeff();
+    if (!(hi[k] > lo[k])) hi[k] = lo[k] + 1e-12 * std::max(1.0, std::abs(lo[k]));
+    const double w = (hi[k] - lo[k]) / kBins;
+    for (int b = 0; b < kBins; ++b) hist.rows[b][2 * k] = lo[k] + (b + 0.5) * w;
+    for (int i = 0; i < n; ++i) {
+      const int b = std::min(kBins - 1, static_cast<int>((r.samples(i, k) - lo[k]) / w));
+      hist.rows[b][2 * k + 1] += 1.0 / (n * w);
+    }
+  }
+  write_csv((fs::path(dir) / "corner_marginals.csv").string(), hist);
+  const std::string tmp_png = ".corner.png.tmp";
+  std::ostringstream g;
+  const int px = 320 * d;
+  g << "set terminal pngcairo size " << px << "," << px << " enhanced font 'DejaVu Sans,10'\n"
+    << "set output '" << tmp_png << "'\n"
+    << "set datafile separator ','\nset datafile commentschars '#'\n"
+    << "set multiplot layout " << d << "," << d << " title 'posterior (" << r.method
+    << ", " << n << " samples)'\nunset key\nset grid\n";
+  for (int row = 0; row < d; ++row)
+    for (int col = 0; col < d; ++col) {
+      if (col > row) {
+        g << "set multiplot next\n";
+        continue;
+      }
+      g << "set xlabel '" << (row == d - 1 ? label(r, col) : "") << "'\n";
+      g << "set xrange [" << lo[col] << ":" << hi[col] << "]\n";
+      if (col == row) {
+        g << "set ylabel '" << (col == 0 ? "density" : "") << "'\nset autoscale y\n"
+          << "plot 'corner_marginals.csv' skip 1 using " << 2 * col + 1 << ":" << 2 * col + 2
+          << " with boxes fs solid 0.5 lc rgb '#1f77b4'\n";
+      } else {
+        g << "set ylabel '" << (col == 0 ? label(r, row) : "") << "'\n"
+          << "set yrange [" << lo[row] << ":" << hi[row] << "]\n"
+          << "plot 'posterior_samples.csv' skip 1 using " << col + 1 << ":" << row + 1
+          << " with points pt 7 ps 0.25 lc rgb '#1f77b4'\n";
+      }
+    }
+  g << "unset multiplot\nset output\n";
+  write_text_atomic((fs::path(dir) / "corner.gp").string(), g.str());
+  run_gnuplot_script(dir, "corner", tmp_png);
+}
+
+void write_predictive(const InferenceResult& r, const std::string& dir) {
+  CsvTable t;
+  t.comments = {"posterior predictive of the model curve (no measurement noise) at the data's "
+                "forces, and the data with their total error bars (quadrature with the reading "
+                "uncertainty; x sigma-scale median if inferred)",
+                "method " + r.method + ", data " + r.data_file};
+  t.header = {"force_pN",       "axial_q05_um",       "axial_q50_um",         "axial_q95_um",
+              "transverse_q05_um", "transverse_q50_um", "transverse_q95_um", "data_axial_um",
+              "data_axial_sigma_um", "data_transverse_um", "data_transverse_sigma_um"};
+  for (size_t k = 0; k < r.axial_q50.size(); ++k)
+    t.rows.push_back({r.data.force_pN[k], r.axial_q05[k], r.axial_q50[k], r.axial_q95[k],
+                      r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k],
+                      r.data.axial_um[k], r.data.axial_sigma_um[k], r.data.transverse_um[k],
+                      r.data.transverse_sigma_um[k]});
+  write_csv((fs::path(dir) / "predictive.csv").string(), t);
+  PlotSpec p;
+  p.title = "Posterior predictive (" + r.method + "): median and 90 % band of the model";
+  p.xlabel = "force (pN)";
+  p.ylabel = "diameter (um)";
+  p.key = "inside right center";
+  const std::string band = "filledcurves fs transparent solid 0.25 noborder";
+  p.series = {{"D_A 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
+              {"D_A median", "predictive.csv", "1:3", "lines", "#1f77b4"},
+              {"D_A Mills 2004 (total sigma)", "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
+              {"D_T 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
+              {"D_T median", "predictive.csv", "1:6", "lines", "#d62728"},
+              {"D_T Mills 2004 (total sigma)", "predictive.csv", "1:10:11", "yerrorbars",
+               "#555555", 5}};
+  render_plot(p, dir, "predictive");
+}
+}  // namespace
+
+void write_inference(const InferenceResult& r, const std::string& dir) {
+  ensure_output_directory(dir);
+  write_text_atomic((fs::path(dir) / "summary.json").string(), inference_json(r) + "\n");
+  CsvTable s;
+  s.comments = {"equally weighted posterior samples (TMCMC, last stage), natural units; mu, K "
+                "in uN/m from the closed forms"};
+  for (size_t k = 0; k < r.names.size(); ++k) s.header.push_back(r.names[k]);
+  s.header.insert(s.header.end(), {"mu_uN_per_m", "K_uN_per_m", "log_likelihood"});
+  const int n = static_cast<int>(r.samples.rows()), d = static_cast<int>(r.samples.cols());
+  for (int i = 0; i < n; ++i) {
+    std::vector<double> row;
+    for (int k = 0; k < d; ++k) row.push_back(r.samples(i, k));
+    row.insert(row.end(), {r.mu_uN_per_m(i), r.K_uN_per_m(i), r.log_likelihood(i)});
+    s.rows.push_back(std::move(row));
+  }
+  write_csv((fs::path(dir) / "posterior_samples.csv").string(), s);
+  {
+    const std::string path = (fs::path(dir) / "posterior_samples.h5").string();
+    const std::string tmp = temporary_path_for(path);
+    {
+      H5File f = H5File::create(tmp);
+      std::vector<double> buf;
+      for (const auto& row : s.rows) buf.insert(buf.end(), row.begin(), row.end());
+      f.write("samples", buf.data(), n, s.header.size());
+      std::string cols;
+      for (const auto& h : s.header) cols += (cols.empty() ? "" : ",") + h;
+      f.write_attribute("columns", cols);
+      f.write_attribute("method", r.method);
+      f.write_attribute("log_evidence", r.log_evidence);
+      f.write_attribute("log_evidence_sd", r.log_evidence_sd);
+      f.write_attribute("seed", static_cast<long long>(r.seed));
+    }
+    commit_file(tmp, path);
+  }
+  write_corner(r, dir);
+  if (!r.axial_q50.empty()) write_predictive(r, dir);
+}
+
+}  // namespace rbc

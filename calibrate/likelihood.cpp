@@ -1,0 +1,74 @@
+#include "calibrate/likelihood.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace rbc {
+
+double reading_uncertainty_from_readings(const std::vector<ExperimentPoint>& a,
+                                         const std::vector<ExperimentPoint>& b) {
+  if (a.size() != b.size() || a.empty())
+    throw std::invalid_argument("the two readings need the same, non-zero number of rows, got " +
+                                std::to_string(a.size()) + " and " + std::to_string(b.size()));
+  double s = 0;
+  int n = 0;
+  for (size_t k = 0; k < a.size(); ++k) {
+    s += std::pow(a[k].axial_um - b[k].axial_um, 2);
+    ++n;
+    if (a[k].force_pN > 0) {
+      s += std::pow(a[k].transverse_um - b[k].transverse_um, 2);
+      ++n;
+    }
+  }
+  return std::sqrt(s / n) / std::sqrt(2.0);
+}
+
+int DiameterData::terms() const {
+  int t = size();
+  for (char u : transverse_used) t += u;
+  return t;
+}
+
+DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points, double reading_um) {
+  if (!(reading_um >= 0) || !std::isfinite(reading_um))
+    throw std::invalid_argument("reading uncertainty must be finite and >= 0 um, got " +
+                                std::to_string(reading_um));
+  if (points.empty()) throw std::invalid_argument("no data points");
+  DiameterData d;
+  d.smallest_error_bar_um = INFINITY;
+  for (const auto& p : points) {
+    d.force_pN.push_back(p.force_pN);
+    d.axial_um.push_back(p.axial_um);
+    d.axial_sigma_um.push_back(std::hypot(p.axial_err_um, reading_um));
+    d.transverse_um.push_back(p.transverse_um);
+    d.transverse_sigma_um.push_back(std::hypot(p.transverse_err_um, reading_um));
+    d.transverse_used.push_back(p.force_pN > 0);
+    d.smallest_error_bar_um = std::min(d.smallest_error_bar_um, p.axial_err_um);
+    if (p.force_pN > 0)
+      d.smallest_error_bar_um = std::min(d.smallest_error_bar_um, p.transverse_err_um);
+  }
+  return d;
+}
+
+double gaussian_log_likelihood(const DiameterData& d, const ModelDiameters& m, double c) {
+  if (static_cast<int>(m.axial_um.size()) != d.size() ||
+      static_cast<int>(m.transverse_um.size()) != d.size())
+    throw std::invalid_argument("model diameters at " + std::to_string(m.axial_um.size()) +
+                                " forces for " + std::to_string(d.size()) + " data points");
+  if (!(c > 0)) throw std::invalid_argument("sigma scale must be > 0, got " + std::to_string(c));
+  const double log_sqrt_2pi = 0.5 * std::log(2 * M_PI);
+  double l = 0;
+  auto term = [&](double model, double data, double sigma) {
+    const double s = c * sigma, r = (model - data) / s;
+    l += -0.5 * r * r - std::log(s) - log_sqrt_2pi;
+  };
+  for (int k = 0; k < d.size(); ++k) {
+    term(m.axial_um[k], d.axial_um[k], d.axial_sigma_um[k]);
+    if (d.transverse_used[k])
+      term(m.transverse_um[k], d.transverse_um[k], d.transverse_sigma_um[k]);
+  }
+  return l;
+}
+
+}  // namespace rbc

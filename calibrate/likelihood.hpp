@@ -1,0 +1,59 @@
+#pragma once
+// The likelihood of force-diameter data (MODEL.md section 7): independent Gaussians on the
+// axial and transverse diameters,
+//   log L = -1/2 sum_k [((D_A(F_k) - D_A,k)/(c s_A,k))^2 + ((D_T(F_k) - D_T,k)/(c s_T,k))^2]
+//           - sum_k [log(sqrt(2 pi) c s_A,k) + log(sqrt(2 pi) c s_T,k)],
+// c the optional inferred sigma scale (1 when not inferred). The error s of a point is its
+// error bar as the data file gives it (half the bar extent; data/README.md) combined in
+// quadrature with the uncertainty of reading the published figure:
+//   s = sqrt(err^2 + reading^2).
+// The 0 pN point is the unstretched cell, one measured diameter for both columns: it enters
+// once, as an axial term against the model's D_A(0) (the rest shape is axisymmetric, so
+// D_T(0) = D_A(0) up to the mesh).
+#include <vector>
+
+#include "compare/experiment.hpp"
+
+namespace rbc {
+
+/// Default uncertainty of reading the Mills figure (um): the two readings in data/ differ by
+/// d_k (13 axial and 12 transverse pairs, the 0 pN diameter once); each reading's own error
+/// sd_r then follows from var(d) = 2 sd_r^2: sd_r = rms(d)/sqrt2 = 0.565/sqrt2 = 0.399 um.
+/// reading_uncertainty_from_readings() recomputes it (a test checks the constant).
+inline constexpr double kMillsReadingUncertaintyUm = 0.399;
+
+/// rms over paired rows (same order; 0 pN counted once) of the diameter differences / sqrt2.
+/// Throws std::invalid_argument if the readings have different row counts.
+double reading_uncertainty_from_readings(const std::vector<ExperimentPoint>& a,
+                                         const std::vector<ExperimentPoint>& b);
+
+/// The data as the likelihood uses them: forces and, per force, the terms that enter.
+struct DiameterData {
+  std::vector<double> force_pN;
+  std::vector<double> axial_um, axial_sigma_um;            ///< sigma: quadrature total (um)
+  std::vector<double> transverse_um, transverse_sigma_um;  ///< sigma: quadrature total (um)
+  std::vector<char> transverse_used;                       ///< 0 at the 0 pN point
+  int size() const { return static_cast<int>(force_pN.size()); }
+  /// Number of Gaussian terms (2 per force, 1 at 0 pN).
+  int terms() const;
+  /// Smallest data error bar (um) as given in the file (before the reading uncertainty).
+  double smallest_error_bar_um = 0;
+};
+
+/// Builds the likelihood's data from measured points (forces increasing, validated by
+/// parse_experiment) and the reading uncertainty (um, >= 0; throws std::invalid_argument
+/// naming it otherwise).
+DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points,
+                                double reading_uncertainty_um);
+
+/// Model diameters at the data's forces (um).
+struct ModelDiameters {
+  std::vector<double> axial_um, transverse_um;
+};
+
+/// log L of the model diameters (sizes = data.size()) with every sigma multiplied by
+/// sigma_scale (> 0).
+double gaussian_log_likelihood(const DiameterData& data, const ModelDiameters& model,
+                               double sigma_scale = 1.0);
+
+}  // namespace rbc

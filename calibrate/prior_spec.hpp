@@ -1,0 +1,51 @@
+#pragma once
+// The inferred parameters of `rbc infer` and their uniform prior boxes, in the natural units
+// of the command line (nm, J, dimensionless), with the parsers of --params and --prior.
+// Dependency-free on purpose (the standard library only): a libFuzzer target links just it.
+#include <string>
+#include <vector>
+
+namespace rbc {
+
+/// A parameter the calibration may infer.
+enum class Parameter {
+  persistence,       ///< spectrin persistence length p (nm); Lbar stays 75 nm
+  lmax,              ///< spectrin contour length Lmax (nm), > Lbar = 75 nm
+  kappa,             ///< bending rigidity (J)
+  contact_fraction,  ///< bead contact area per bead / total area (smooth patch weights)
+  sigma_scale,       ///< factor on every error bar (dimensionless)
+};
+inline constexpr int kParameterCount = 5;
+
+/// CLI name: "persistence", "lmax", "kappa", "contact-fraction", "sigma-scale".
+std::string to_string(Parameter p);
+/// Unit at the CLI: "nm", "nm", "J", "1", "1".
+std::string unit_of(Parameter p);
+/// Parses a CLI name; throws std::invalid_argument naming it and listing the known ones.
+Parameter parameter_from_string(const std::string& name);
+/// Parses "persistence,lmax,sigma-scale" (no repeats, at least one); throws
+/// std::invalid_argument naming the bad or repeated item.
+std::vector<Parameter> parse_parameter_list(const std::string& text);
+
+/// A uniform prior lower < value < upper (natural units).
+struct PriorRange {
+  Parameter parameter = Parameter::persistence;
+  double lower = 0, upper = 0;
+  /// Throws std::invalid_argument naming the parameter and the box unless both bounds are
+  /// finite, lower < upper and the box is physical (p > 0, Lmax > 75 nm, kappa > 0,
+  /// contact fraction in (0, 0.5), sigma scale > 0).
+  void validate() const;
+};
+
+/// Documented default boxes (natural units), wide around the paper's values (Table 1-2):
+///   persistence 2:40 nm (paper 7.5; mu ~ 1/p, so 2.5 uN/m needs ~25 nm at Lmax 237.75),
+///   lmax 110:600 nm (paper 237.75), kappa 5e-20:1e-18 J (paper 2e-19),
+///   contact-fraction 0.02:0.15 (paper 0.05), sigma-scale 0.2:3.
+PriorRange default_prior(Parameter p);
+
+/// Parses "NAME=LOWER:UPPER", e.g. "persistence=3:20" or "kappa=1e-19:5e-19"; throws
+/// std::invalid_argument naming the text for a bad form, an unknown name, a non-numeric
+/// bound, or an empty, inverted or non-physical box.
+PriorRange parse_prior(const std::string& text);
+
+}  // namespace rbc

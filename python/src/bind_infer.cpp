@@ -1,0 +1,198 @@
+// Bayesian calibration (calibrate/infer.hpp): the inference problem (data, forward model, prior
+// box, the likelihood `rbc infer` samples) and the TMCMC run, as `rbc infer` sets them up.
+#include <nlohmann/json.hpp>
+
+#include "calibrate/infer.hpp"
+#include "common.hpp"
+
+namespace rbc::py_bind {
+
+namespace {
+
+/// InferOptions from the Python arguments (natural units, the CLI's names and defaults).
+InferOptions infer_options(const std::vector<std::string>& parameters, const py::dict& priors,
+                           const std::string& method, const std::string& data_file,
+                           double reading_uncertainty_um, const py::dict& fixed,
+                           double fixed_sigma_scale, int samples, int chain_length,
+                           double target_cov, double proposal_scale, unsigned long long seed,
+                           int threads) {
+  InferOptions o;
+  o.data_file = data_file;
+  o.method = parse_method(method);
+  o.parameters.clear();
+  for (const auto& p : parameters) o.parameters.push_back(parameter_from_string(p));
+  for (const auto& [k, v] : priors) {
+    const auto box = v.cast<std::pair<double, double>>();
+    PriorRange r;
+    r.parameter = parameter_from_string(k.cast<std::string>());
+    r.lower = box.first;
+    r.upper = box.second;
+    o.priors.push_back(r);
+  }
+  o.reading_uncertainty_um = reading_uncertainty_um;
+  for (const auto& [k, v] : fixed) {
+    const std::string name = k.cast<std::string>();
+    const double x = v.cast<double>();
+    if (name == "persistence_nm")
+      o.fixed.persistence_nm = x;
+    else if (name == "lmax_nm")
+      o.fixed.lmax_nm = x;
+    else if (name == "kappa_J")
+      o.fixed.kappa_J = x;
+    else if (name == "contact_fraction")
+      o.fixed.contact_fraction = x;
+    else
+      throw py::value_error("fixed parameter '" + name +
+                            "' is not one of persistence_nm, lmax_nm, kappa_J, contact_fraction");
+  }
+  o.fixed_sigma_scale = fixed_sigma_scale;
+  o.sampler.samples = samples;
+  o.sampler.chain_length = chain_length;
+  o.sampler.target_cov = target_cov;
+  o.sampler.proposal_scale = proposal_scale;
+  o.sampler.seed = seed;
+  o.threads = threads;
+  o.validate();  // std::invalid_argument -> ValueError naming the value
+  return o;
+}
+
+std::vector<double> theta_arg(const InferenceProblem& p, const py::handle& theta) {
+  const auto t = theta.cast<std::vector<double>>();
+  if (static_cast<int>(t.size()) != p.prior().dimension())
+    throw py::value_error("theta must have " + std::to_string(p.prior().dimension()) + " values (" +
+                          std::to_string(t.size()) + " given)");
+  return t;
+}
+
+py::array_t<double> to_array(const std::vector<double>& v) {
+  return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data());
+}
+
+}  // namespace
+
+void bind_infer(py::module_& m) {
+  py::class_<InferenceProblem, std::shared_ptr<InferenceProblem>>(
+      m, "InferenceProblem",
+      "The calibration problem of `rbc infer` (MODEL.md section 7): force-diameter data, the "
+      "forward model (method 'continuum:ORDER:ELEMENTS' or 'discrete:N'), uniform prior boxes "
+      "of the inferred parameters (names of `rbc infer --params`: persistence, lmax, kappa, "
+      "contact-fraction, sigma-scale; natural units nm, nm, J, 1, 1) and its Gaussian "
+      "likelihood. Defaults are the CLI's.")
+      .def(py::init([](const std::vector<std::string>& parameters, const py::dict& priors,
+                       const std::string& method, const std::string& data_file,
+                       double reading_uncertainty_um, const py::dict& fixed,
+                       double fixed_sigma_scale, int samples, int chain_length, double target_cov,
+                       double proposal_scale, unsigned long long seed, int threads) {
+             const InferOptions o =
+                 infer_options(parameters, priors, method, data_file, reading_uncertainty_um, fixed,
+                               fixed_sigma_scale, samples, chain_length, target_cov, proposal_scale,
+                               seed, threads);
+             return run_released(nullptr, [&] { return std::make_shared<InferenceProblem>(o); });
+           }),
+           py::kw_only(),
+           py::arg("parameters") = std::vector<std::string>{"persistence", "lmax", "sigma-scale"},
+           py::arg("priors") = py::dict(), py::arg("method") = "continuum:2:1000",
+           py::arg("data_file") = "",
+           py::arg("reading_uncertainty_um") = kMillsReadingUncertaintyUm,
+           py::arg("fixed") = py::dict(), py::arg("fixed_sigma_scale") = 1.0,
+           py::arg("samples") = InferOptions::default_sampler().samples,
+           py::arg("chain_length") = InferOptions::default_sampler().chain_length,
+           py::arg("target_cov") = InferOptions::default_sampler().target_cov,
+           py::arg("proposal_scale") = InferOptions::default_sampler().proposal_scale,
+           py::arg("seed") = 1, py::arg("threads") = 0,
+           "priors: {name: (lower, upper)} overriding the defaults; fixed: values of the physical "
+           "parameters not inferred ({'kappa_J': 3e-19, ...}).")
+      .def_property_readonly("names",
+                             [](const InferenceProblem& p) {
+                               std::vector<std::string> n;
+                               for (auto q : p.options().parameters) n.push_back(to_string(q));
+                               return n;
+                             })
+      .def_property_readonly("units",
+                             [](const InferenceProblem& p) {
+                               std::vector<std::string> n;
+                               for (auto q : p.options().parameters) n.push_back(unit_of(q));
+                               return n;
+                             })
+      .def_property_readonly("prior_lower",
+                             [](const InferenceProblem& p) { return to_array(p.prior().lower); })
+      .def_property_readonly("prior_upper",
+                             [](const InferenceProblem& p) { return to_array(p.prior().upper); })
+      .def_property_readonly("data",
+                             [](const InferenceProblem& p) {
+                               const DiameterData& d = p.data();
+                               py::dict out;
+                               out["force_pN"] = to_array(d.force_pN);
+                               out["axial_um"] = to_array(d.axial_um);
+                               out["axial_sigma_um"] = to_array(d.axial_sigma_um);
+                               out["transverse_um"] = to_array(d.transverse_um);
+                               out["transverse_sigma_um"] = to_array(d.transverse_sigma_um);
+                               return out;
+                             })
+      .def(
+          "log_likelihood",
+          [](const InferenceProblem& p, const py::handle& theta, const py::object& warm) {
+            const std::vector<double> t = theta_arg(p, theta);
+            WarmState w;
+            if (!warm.is_none()) w = warm.cast<std::vector<double>>();
+            if (!p.prior().contains(t)) return -std::numeric_limits<double>::infinity();
+            const LikelihoodValue v =
+                run_released(nullptr, [&] { return p.likelihood().evaluate(t, w, nullptr); });
+            return v.log_likelihood;
+          },
+          py::arg("theta"), py::arg("warm") = py::none(),
+          "log L(theta) of `rbc infer` (-inf outside the prior box or for a failed forward run); "
+          "warm: a state from forward_state() to start the forward solves from (same result to "
+          "the solver tolerance, faster).")
+      .def(
+          "forward_state",
+          [](const InferenceProblem& p, const py::handle& theta) {
+            const std::vector<double> t = theta_arg(p, theta);
+            WarmState state;
+            run_released(nullptr, [&] { p.likelihood().evaluate(t, {}, &state); });
+            return to_array(state);
+          },
+          py::arg("theta"),
+          "The forward model's equilibria at theta (per force: 3N positions and two multipliers), "
+          "a warm start for log_likelihood.");
+
+  m.def(
+      "_infer",
+      [](std::shared_ptr<InferenceProblem> problem, py::object cancel, py::object progress) {
+        // run_inference takes the sampler options (and their cancel hook, polled between
+        // stages) from the problem: a copy of it is built with the hook (data, mesh; no solve).
+        const auto cb = make_callbacks(std::move(cancel), std::move(progress));
+        InferOptions o = problem->options();
+        o.sampler.cancel = make_cancel_check(cb);
+        const ProgressSink sink = make_progress_sink(cb);
+        const InferenceResult r = run_released(cb, [&] {
+          const InferenceProblem p(o);
+          return run_inference(p, sink);
+        });
+        py::dict out = py::module_::import("json").attr("loads")(inference_json(r));
+        // (S, P) C-contiguous: a view of the transposed (column-major P x S) copy.
+        out["samples"] = owning_rows(Eigen::MatrixXd(r.samples.transpose()));
+        out["log_likelihood_samples"] = owning_vector(Eigen::VectorXd(r.log_likelihood));
+        out["mu_uN_per_m_samples"] = owning_vector(Eigen::VectorXd(r.mu_uN_per_m));
+        out["K_uN_per_m_samples"] = owning_vector(Eigen::VectorXd(r.K_uN_per_m));
+        py::list stages;
+        for (const StageInfo& s : r.stages) {
+          py::dict d;
+          d["stage"] = s.stage;
+          d["beta"] = s.beta;
+          d["cov"] = s.cov;
+          d["log_mean_weight"] = s.log_mean_weight;
+          d["acceptance"] = s.acceptance;
+          d["unique_fraction"] = s.unique_fraction;
+          d["forward_runs"] = s.forward_runs;
+          stages.append(d);
+        }
+        out["stage_info"] = stages;
+        out["converged"] = r.status == TmcmcStatus::converged;
+        out["status_text"] = to_string(r.status);
+        return out;
+      },
+      py::arg("problem"), py::arg("cancel"), py::arg("progress"));
+}
+
+}  // namespace rbc::py_bind

@@ -1,0 +1,235 @@
+// Metropolis Monte Carlo of the network (discrete/mc_run.hpp), started as `rbc mc` starts it:
+// the zero-temperature equilibrium at the force (continuation in steps of at most 40 pN, on one
+// OpenMP thread for a bit-reproducible start), its multipliers held fixed while sampling.
+#include <omp.h>
+
+#include <cmath>
+
+#include "common.hpp"
+#include "core/units.hpp"
+#include "discrete/mc_run.hpp"
+#include "discrete/stretch.hpp"
+
+namespace rbc::py_bind {
+
+namespace {
+
+/// One OpenMP thread for this scope (the calling thread's setting only).
+struct SerialScope {
+  int saved = omp_get_max_threads();
+  SerialScope() { omp_set_num_threads(1); }
+  ~SerialScope() { omp_set_num_threads(saved); }
+  SerialScope(const SerialScope&) = delete;
+  SerialScope& operator=(const SerialScope&) = delete;
+};
+
+py::dict stat_dict(const BlockingResult& b) {
+  py::dict d;
+  d["mean"] = b.mean;
+  d["error"] = b.error;
+  d["std"] = std::sqrt(b.variance);
+  d["inefficiency"] = b.inefficiency;
+  d["blocking_converged"] = b.converged;
+  return d;
+}
+
+/// The sampler object: prepared state (network, start, setup), the run created at the first
+/// run() call (so the adaptive phase can default to 20 % of the first run's sweeps, as the CLI).
+class MonteCarlo {
+ public:
+  MonteCarlo(std::shared_ptr<PyNetwork> net, double force_pN, double temperature_K,
+             unsigned long seed, int streams, py::object adapt_sweeps, int sample_every,
+             double penalty_scale, const std::string& start, double initial_step_um,
+             double target_acceptance, double adapt_gain)
+      : net_(std::move(net)), adapt_sweeps_(std::move(adapt_sweeps)) {
+    if (!(temperature_K >= 0) || !std::isfinite(temperature_K))
+      throw py::value_error("sampling_temperature_K must be >= 0 K, got " + num(temperature_K));
+    if (!(force_pN >= 0) || !std::isfinite(force_pN))
+      throw py::value_error("force_pN must be finite and >= 0 pN, got " + num(force_pN));
+    if (start != "equilibrium" && start != "rest")
+      throw py::value_error("start '" + start + "' is not one of equilibrium, rest");
+    if (!adapt_sweeps_.is_none() && adapt_sweeps_.cast<long long>() < 0)
+      throw py::value_error("adapt_sweeps must be >= 0, got " +
+                            std::to_string(adapt_sweeps_.cast<long long>()));
+    setup_.force_pN = force_pN;
+    setup_.sampler.temperature_K = temperature_K;
+    setup_.sampler.seed = seed;
+    setup_.sampler.streams = streams;
+    setup_.sampler.initial_step_um = initial_step_um;
+    setup_.sampler.target_acceptance = target_acceptance;
+    setup_.sampler.adapt_gain = adapt_gain;
+    setup_.sample_every = sample_every;
+    setup_.penalty_scale = penalty_scale;
+    validated("MonteCarlo(force_pN=" + num(force_pN) + ", sampling_temperature_K=" +
+                  num(temperature_K) + ", streams=" + std::to_string(streams) + ", sample_every=" +
+                  std::to_string(sample_every) + ", penalty_scale=" + num(penalty_scale) + ")",
+              [&] { setup_.validate(); });
+    const Network& nw = *net_->net;
+    start_ = nw.rest;
+    Positions x = nw.rest;
+    ConstraintMultipliers lambda;
+    StretchPoint eq;
+    bool ok = true;
+    run_released(nullptr, [&] {
+      SerialScope serial;
+      const int steps = std::max(1, static_cast<int>(std::ceil(force_pN / 40.0)));
+      for (int k = 1; k <= steps && ok; ++k) {
+        eq = solve_equilibrium(nw, force_pN * k / steps, x, lambda, StretchOptions{});
+        ok = eq.converged;
+      }
+    });
+    if (!ok)
+      raise_convergence_error("zero-temperature equilibrium at " + num(eq.force_pN) +
+                                  " pN did not converge: " + eq.status + ", residual " +
+                                  num(eq.residual_pN) + " pN",
+                              eq.residual_pN, eq.force_pN);
+    setup_.multipliers = lambda;
+    setup_.reference_axial_um = eq.axial_um;
+    setup_.reference_transverse_um = eq.transverse_um;
+    if (start == "equilibrium") start_ = x;
+  }
+
+  /// Runs `sweeps` more sweeps with the GIL released; Ctrl-C (or cancel() returning true)
+  /// stops at the end of the current sweep with KeyboardInterrupt, the chain left at the last
+  /// completed sweep.
+  void run(long long sweeps, py::object cancel) {
+    if (sweeps < 0) throw py::value_error("sweeps must be >= 0, got " + std::to_string(sweeps));
+    if (busy_) throw std::runtime_error("this MonteCarlo is running in another thread");
+    const auto cb = make_callbacks(std::move(cancel), py::none());
+    const CancelCheck poll = make_cancel_check(cb);
+    if (!run_) {
+      McRunSetup s = setup_;
+      s.sampler.adapt_sweeps = adapt_sweeps_.is_none()
+                                   ? static_cast<int>(std::llround(0.2 * double(sweeps)))
+                                   : adapt_sweeps_.cast<int>();
+      validated("MonteCarlo", [&] { s.validate(); });
+      run_ = std::make_unique<McRun>(*net_->net, s, start_);
+    }
+    busy_ = true;
+    struct Clear {
+      bool& b;
+      ~Clear() { b = false; }
+    } clear{busy_};
+    const long long target = run_->sampler().sweeps_done() + sweeps;
+    const bool finished = run_released(
+        cb, [&] { return run_->advance(target, [&](const McRun&) { return !poll(); }); });
+    if (!finished) {
+      if (cb->error) {
+        py::error_already_set e = std::move(*cb->error);
+        cb->error.reset();
+        throw e;
+      }
+      PyErr_SetString(PyExc_KeyboardInterrupt, "cancelled by the caller");
+      throw py::error_already_set();
+    }
+  }
+
+  py::dict summary() const {
+    const McRun& r = need_run();
+    const McSummary s = r.summarise();  // ValueError (library) with too few samples
+    const McRunSetup& su = r.setup();
+    py::dict j;  // the statistics keys of `rbc mc --json`
+    j["samples"] = s.samples;
+    j["discarded_transient"] = s.discarded;
+    j["acceptance"] = s.acceptance;
+    j["energy_pNum"] = stat_dict(s.energy);
+    j["axial_um"] = stat_dict(s.axial);
+    j["transverse_um"] = stat_dict(s.transverse);
+    j["area_um2"] = stat_dict(s.area);
+    j["volume_um3"] = stat_dict(s.volume);
+    j["thermal_shift_axial_um"] = s.axial.mean - su.reference_axial_um;
+    j["thermal_shift_transverse_um"] = s.transverse.mean - su.reference_transverse_um;
+    j["max_area_drift"] = s.max_area_drift;
+    j["max_volume_drift"] = s.max_volume_drift;
+    j["sweeps"] = r.sampler().sweeps_done();
+    j["adaptive_sweeps"] = su.sampler.adapt_sweeps;
+    j["step_um"] = r.sampler().step_um();
+    j["reference_axial_um"] = su.reference_axial_um;
+    j["reference_transverse_um"] = su.reference_transverse_um;
+    j["running_total_drift_area_um2"] = r.sampler().max_area_drift_um2();
+    j["running_total_drift_volume_um3"] = r.sampler().max_volume_drift_um3();
+    j["colours"] = r.sampler().colours().size();
+    return j;
+  }
+
+  py::dict series() const {
+    py::dict d;
+    const auto& cols = mc_sample_columns();
+    const std::vector<McSample> empty;
+    const auto& rows = run_ ? run_->series() : empty;
+    for (std::size_t c = 0; c < cols.size(); ++c) {
+      py::array_t<double> a(static_cast<py::ssize_t>(rows.size()));
+      auto v = a.mutable_unchecked<1>();
+      for (std::size_t i = 0; i < rows.size(); ++i) v(i) = to_row(rows[i])[c];
+      d[py::str(cols[c])] = a;
+    }
+    return d;
+  }
+
+  py::array positions() const {
+    Positions x = run_ ? run_->sampler().positions() : start_;
+    return owning_rows(std::move(x));  // a copy: the chain keeps moving
+  }
+  long long sweeps_done() const { return run_ ? run_->sampler().sweeps_done() : 0; }
+  double energy() const { return need_run().sampler().energy(); }
+  double step() const { return need_run().sampler().step_um(); }
+  const McRunSetup& setup() const { return setup_; }
+  const std::shared_ptr<PyNetwork>& network() const { return net_; }
+
+ private:
+  const McRun& need_run() const {
+    if (!run_) throw py::value_error("no sweeps run yet: call run(sweeps) first");
+    return *run_;
+  }
+  std::shared_ptr<PyNetwork> net_;
+  py::object adapt_sweeps_;
+  McRunSetup setup_;
+  Positions start_;
+  std::unique_ptr<McRun> run_;
+  bool busy_ = false;
+};
+
+}  // namespace
+
+void bind_mc(py::module_& m) {
+  py::class_<MonteCarlo>(
+      m, "MonteCarlo",
+      "Metropolis Monte Carlo of a Network at sampling_temperature_K (the WLC keeps its own "
+      "wlc_temperature_K), started at the zero-temperature equilibrium at force_pN with its "
+      "area/volume multipliers held fixed, penalty stiffnesses scaled by penalty_scale (as "
+      "`rbc mc`). adapt_sweeps=None: the first 20 % of the first run() adapt the step.")
+      .def(py::init<std::shared_ptr<PyNetwork>, double, double, unsigned long, int, py::object, int,
+                    double, const std::string&, double, double, double>(),
+           py::arg("network"), py::kw_only(), py::arg("force_pN") = 0.0,
+           py::arg("sampling_temperature_K") = 300.0, py::arg("seed") = 1, py::arg("streams") = 1,
+           py::arg("adapt_sweeps") = py::none(), py::arg("sample_every") = 1,
+           py::arg("penalty_scale") = McRunSetup{}.penalty_scale, py::arg("start") = "equilibrium",
+           py::arg("initial_step_um") = 0.0, py::arg("target_acceptance") = 0.4,
+           py::arg("adapt_gain") = 0.5)
+      .def("run", &MonteCarlo::run, py::arg("sweeps"), py::arg("cancel") = py::none(),
+           "Run `sweeps` more sweeps (GIL released; Ctrl-C raises KeyboardInterrupt at the end of "
+           "the current sweep and leaves the chain there).")
+      .def("summary", &MonteCarlo::summary,
+           "Means and blocking errors of the production samples (dict, keys of `rbc mc --json`)")
+      .def_property_readonly("series", &MonteCarlo::series,
+                             "time series: dict of arrays (sweep, energy_pNum, axial_um, "
+                             "transverse_um, area_um2, volume_um3, acceptance, step_um)")
+      .def_property_readonly("positions", &MonteCarlo::positions,
+                             "(N, 3) current positions in um (copy)")
+      .def_property_readonly("sweeps_done", &MonteCarlo::sweeps_done)
+      .def_property_readonly("energy_pNum", &MonteCarlo::energy)
+      .def_property_readonly("step_um", &MonteCarlo::step)
+      .def_property_readonly("network", &MonteCarlo::network)
+      .def_property_readonly("multipliers",
+                             [](const MonteCarlo& mc) { return mc.setup().multipliers; })
+      .def_property_readonly("reference_axial_um",
+                             [](const MonteCarlo& mc) { return mc.setup().reference_axial_um; })
+      .def_property_readonly(
+          "reference_transverse_um",
+          [](const MonteCarlo& mc) { return mc.setup().reference_transverse_um; })
+      .def_property_readonly("kT_pNum", [](const MonteCarlo& mc) {
+        return units::thermal_energy_pNum(mc.setup().sampler.temperature_K);
+      });
+}
+
+}  // namespace rbc::py_bind

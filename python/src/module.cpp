@@ -1,0 +1,27 @@
+// The `_rbc` extension module: bindings over the libraries (core, discrete, homogenise,
+// continuum); the pure-Python package `rbc` (python/rbc/) wraps it.
+#include "common.hpp"
+
+PYBIND11_MODULE(_rbc, m) {
+  namespace py = pybind11;
+  using namespace rbc::py_bind;
+  m.doc() = "rbc: multiscale red blood cell mechanics (Hartmann 2008), compiled core";
+  // A solve that did not converge, raised only when asked (check=True); carries residual_pN.
+  static py::exception<std::runtime_error> convergence_error(m, "ConvergenceError",
+                                                             PyExc_RuntimeError);
+  // A cancelled solve (Ctrl-C or a cancel callback) surfaces as KeyboardInterrupt.
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const rbc::Cancelled& e) {
+      PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
+    }
+  });
+  bind_parameters(m);
+  bind_mesh(m);
+  bind_network(m);
+  bind_stretch(m);
+  bind_homogenise(m);
+  bind_mc(m);
+  bind_infer(m);
+}

@@ -1,0 +1,157 @@
+// `rbc infer` from the command line: bad input exits 2 naming the value before any forward
+// run and leaves nothing behind; the posterior samples depend on the seed only (1 and 2
+// threads, 1 and 3 MPI ranks).
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+namespace {
+namespace fs = std::filesystem;
+
+struct CommandRun {
+  int exit_code;
+  std::string output;
+};
+
+CommandRun run(const std::string& cmd) {
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  std::string out;
+  std::array<char, 512> buf{};
+  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+const std::string kRbc = std::string(RBC_BINARY_DIR) + "/rbc";
+const std::string kDir = std::string(RBC_BINARY_DIR) + "/test_output/calibrate_cli";
+
+std::string write_file(const std::string& name, const std::string& text) {
+  fs::create_directories(kDir);
+  const std::string path = kDir + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+const char* kHeader = "force_pN,axial_um,axial_err_um,transverse_um,transverse_err_um\n";
+
+TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
+  struct Case {
+    std::string args, expect;
+  };
+  const std::string good = "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n";
+  const std::vector<Case> cases = {
+      {"--data-file " + write_file("missing_column.csv",
+                                   "force_pN,axial_um,axial_err_um,transverse_um\n0,1,1,1\n"),
+       "transverse_err_um"},
+      {"--data-file " + write_file("non_numeric.csv", std::string(kHeader) + good +
+                                                          "40,11,0.9,x5.1,0.6\n"),
+       "x5.1"},
+      {"--data-file " + write_file("zero_error.csv", std::string(kHeader) + good +
+                                                         "40,11,0,5.1,0.6\n"),
+       "axial_err_um 0"},
+      {"--data-file " + write_file("decreasing.csv", std::string(kHeader) + good +
+                                                         "20,11,0.9,5.1,0.6\n"),
+       "force_pN 20"},
+      {"--data-file /nonexistent/rbc_mills.csv", "rbc_mills.csv"},
+      {"--prior persistence=20:3", "persistence=20:3"},
+      {"--prior persistence=3:3", "persistence=3:3"},
+      {"--prior lmax=abc:300", "abc"},
+      {"--params persistence,stiffness", "stiffness"},
+      {"--params persistence --prior kappa=1e-19:3e-19", "kappa"},
+      {"--method continuum:7:200", "7"},
+      {"--samples 2", "samples"},
+      {"--reading-uncertainty -1", "-1"},
+  };
+  for (const auto& c : cases) {
+    const std::string out = kDir + "/never";
+    fs::remove_all(out);
+    const CommandRun r = run(kRbc + " infer -q --out " + out + " " + c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find("rbc: error:"), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_EQ(r.output.find("stage"), std::string::npos) << "work started: " << r.output;
+    EXPECT_TRUE(!fs::exists(out) || fs::is_empty(out)) << c.args;
+  }
+}
+
+std::string read(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+nlohmann::json without_timing(const std::string& path) {
+  nlohmann::json j = nlohmann::json::parse(read(path));
+  j.erase("timing");
+  return j;
+}
+
+// Determinism (acceptance item): a small, cheap problem (continuum p = 2 on 200 elements,
+// three forces, 40 samples per stage, two parameters) run with 1 and 2 OpenMP threads and
+// under mpirun with 1 and 3 ranks gives byte-identical posterior samples and summaries
+// (apart from timing).
+TEST(InferCli, PosteriorDependsOnTheSeedOnlyNotOnThreadsOrRanks) {
+  const std::string data = write_file(
+      "small.csv", std::string(kHeader) +
+                       "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n90,13.8,1.2,4.6,0.6\n");
+  const std::string common = " infer -q --method continuum:2:200 --samples 40 --seed 3 "
+                             "--params persistence,sigma-scale --force-overwrite --data-file " +
+                             data + " --out ";
+  auto go = [&](const std::string& launcher, const std::string& name) {
+    const std::string out = kDir + "/det_" + name;
+    fs::remove_all(out);
+    const CommandRun r = run("OMP_WAIT_POLICY=passive " + launcher + kRbc + common + out);
+    EXPECT_EQ(r.exit_code, 0) << launcher << "\n" << r.output;
+    return out;
+  };
+  const std::string t1 = go("OMP_NUM_THREADS=1 ", "t1");
+  const std::string t2 = go("OMP_NUM_THREADS=2 ", "t2");
+  const std::string samples = read(t1 + "/posterior_samples.csv");
+  ASSERT_FALSE(samples.empty());
+  EXPECT_EQ(samples, read(t2 + "/posterior_samples.csv"));
+  EXPECT_EQ(without_timing(t1 + "/summary.json"), without_timing(t2 + "/summary.json"));
+  const std::string mpirun = RBC_MPIRUN;
+  if (mpirun.empty()) GTEST_SKIP() << "mpirun not found";
+  for (int np : {1, 3}) {
+    const std::string m = go("OMP_NUM_THREADS=1 " + mpirun +
+                                 " --allow-run-as-root --oversubscribe -np " + std::to_string(np) +
+                                 " -x OMP_WAIT_POLICY -x OMP_NUM_THREADS ",
+                             "mpi" + std::to_string(np));
+    EXPECT_EQ(samples, read(m + "/posterior_samples.csv")) << np << " ranks";
+    EXPECT_EQ(without_timing(t1 + "/summary.json"), without_timing(m + "/summary.json"));
+  }
+}
+
+TEST(InferCli, WritesTheDocumentedOutputs) {
+  const std::string data = write_file(
+      "outputs.csv", std::string(kHeader) + "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n");
+  const std::string out = kDir + "/outputs";
+  fs::remove_all(out);
+  const CommandRun r = run("OMP_NUM_THREADS=2 " + kRbc +
+                           " infer --method continuum:2:200 --samples 20 --params persistence "
+                           "--json --data-file " + data + " --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* f : {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
+                        "corner.png", "predictive.png", "predictive.csv"})
+    EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
+  const auto j = nlohmann::json::parse(read(out + "/summary.json"));
+  for (const char* k : {"mean", "sd", "q05", "q50", "q95"}) {
+    EXPECT_TRUE(j["parameters"]["persistence"].contains(k)) << k;
+    EXPECT_TRUE(j["derived"]["mu"].contains(k)) << k;
+    EXPECT_TRUE(j["derived"]["K"].contains(k)) << k;
+  }
+  EXPECT_TRUE(j.contains("log_evidence") && j.contains("log_evidence_sd"));
+  EXPECT_GT(j["forward_runs"]["made"].get<long long>(), 20);
+  EXPECT_NE(r.output.find("stage 1"), std::string::npos) << "progress on stderr";
+  // Progress is on stderr, the JSON on stdout: the JSON parses from the last '{' block.
+  EXPECT_NE(r.output.find("\"log_evidence\""), std::string::npos);
+}
+
+}  // namespace

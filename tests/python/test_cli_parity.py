@@ -1,0 +1,106 @@
+"""The package computes what the CLI computes: same inputs, same numbers (exact comparisons of
+the JSON fields, apart from wall-clock timings)."""
+import numpy as np
+import pytest
+
+import rbc
+from conftest import run_cli_json
+
+TIMING = {"wall_s", "seconds_total", "sweeps_per_s", "moves_per_s"}
+
+
+def assert_same(py, cli, keys=None):
+    keys = keys if keys is not None else set(cli) & set(py)
+    assert keys, "nothing compared"
+    for k in sorted(keys - TIMING):
+        assert py[k] == cli[k], f"{k}: python {py[k]!r} != cli {cli[k]!r}"
+
+
+def test_rest_shape_equals_rbc_mesh():
+    cli = run_cli_json("mesh", "--vertices", "250", "--json")
+    py = rbc.rest_shape(250).quality.to_dict()
+    assert set(py) == set(cli)
+    assert_same(py, cli)
+
+
+def test_projected_mesh_equals_rbc_mesh():
+    cli = run_cli_json("mesh", "--vertices", "300", "--quality", "projected", "--json")
+    assert_same(rbc.rest_shape(300, rbc.MeshQuality.projected).quality.to_dict(), cli)
+
+
+def test_discrete_stretch_equals_rbc_stretch():
+    args = ["stretch", "--model", "discrete", "--vertices", "250", "--force", "0,30.6,88",
+            "--persistence", "8", "--kappa", "3e-19", "--json", "-q"]
+    cli = run_cli_json(*args)
+    res = rbc.stretch("discrete", [0, 30.6, 88], vertices=250,
+                      wlc=rbc.WlcParameters(persistence_nm=8),
+                      bending=rbc.BendingParameters(kappa_J=3e-19))
+    assert len(cli) == len(res) == 3
+    for p, c in zip(res.to_records(), cli):
+        assert set(p) == set(c)
+        assert_same(p, c)
+    assert res.converged.all()
+
+
+def test_continuum_stretch_equals_rbc_stretch():
+    cli = run_cli_json("stretch", "--model", "continuum", "--order", "2", "--elements", "400",
+                       "--force", "0,50", "--json", "-q")
+    res = rbc.stretch(rbc.Model.continuum, forces_pN=[0, 50], elements=400, order=2)
+    for p, c in zip(res.to_records(), cli):
+        assert set(p) == set(c)
+        assert_same(p, c)
+
+
+def test_moduli_equal_rbc_moduli():
+    cli = run_cli_json("moduli", "--lmax", "250", "--q", "1.5", "--json")
+    py = rbc.moduli(wlc=rbc.WlcParameters(lmax_nm=250), steric=rbc.StericParameters(q=1.5))
+    assert set(cli) - set(py) == {"seconds_total"}
+    assert_same(py, cli)
+    # and the defaults reproduce MODEL.md's reference numbers
+    d = rbc.moduli()
+    assert d["mu_closed"] == pytest.approx(8.299, abs=5e-4)
+    assert d["K_closed"] == pytest.approx(16.52, abs=5e-3)
+
+
+def test_monte_carlo_equals_rbc_mc():
+    cli = run_cli_json("mc", "--vertices", "150", "--force", "20", "--sweeps", "60", "--seed",
+                       "3", "--streams", "1", "--json", "-q")
+    # `rbc mc` builds its network from the library's literal defaults (kappa = 0.2 pN um, Lmax =
+    # 0.23775 um), while the natural-unit defaults convert to values one bit off (2e-19 J x 1e18
+    # != 0.2, 237.75 nm x 1e-3 != 0.23775), as `rbc stretch` converts them. These inputs convert
+    # exactly to the literals, so the chain must be the CLI's bit for bit.
+    kappa_J, lmax_nm = 0.2 / 1e18, 0.23775 / 1e-3
+    assert kappa_J * 1e18 == 0.2 and lmax_nm * 1e-3 == 0.23775
+    net = rbc.Network(rbc.rest_shape(150), wlc=rbc.WlcParameters(lmax_nm=lmax_nm),
+                      bending=rbc.BendingParameters(kappa_J=kappa_J))
+    mc = rbc.MonteCarlo(net, force_pN=20, sampling_temperature_K=300, seed=3)
+    mc.run(60)
+    py = mc.summary()
+    keys = {"samples", "discarded_transient", "acceptance", "energy_pNum", "axial_um",
+            "transverse_um", "area_um2", "volume_um3", "thermal_shift_axial_um",
+            "thermal_shift_transverse_um", "max_area_drift", "max_volume_drift", "sweeps",
+            "adaptive_sweeps", "step_um", "reference_axial_um", "reference_transverse_um",
+            "running_total_drift_area_um2", "running_total_drift_volume_um3", "colours"}
+    assert_same(py, cli, keys)
+
+
+def test_psi_equals_rbc_psi_table(tmp_path):
+    import csv
+    import subprocess
+    from conftest import rbc_executable
+
+    out = tmp_path / "psi.csv"
+    subprocess.run([rbc_executable(), "psi", "--order", "full", "--curve", "uniaxial", "--points",
+                    "20", "--out", str(out)], check=True, capture_output=True)
+    rows = [r for r in csv.reader(l for l in open(out) if not l.startswith("#"))]
+    header, rows = rows[0], np.array(rows[1:], dtype=float)
+    s = rows[:, header.index("s")]
+    F = np.zeros((len(s), 2, 2))
+    F[:, 0, 0], F[:, 1, 1] = s, 1.0
+    d = rbc.psi("full", F)
+    # the CSV holds 10 significant digits
+    np.testing.assert_allclose(d["psi_pN_per_um"], rows[:, header.index("psi_pN_per_um")],
+                               rtol=1e-9)
+    np.testing.assert_allclose(d["first_piola_pN_per_um"][:, 0, 0], rows[:, header.index("P11")],
+                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(d["I2"], rows[:, header.index("I2")], rtol=1e-9, atol=1e-12)

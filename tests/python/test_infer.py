@@ -1,0 +1,79 @@
+"""rbc.infer (TMCMC, calibrate/) from Python: the CLI's numbers for the same inputs, bad input
+named, and the emcee cross-check of examples/emcee_crosscheck.py at small size (one parameter,
+a cheap likelihood)."""
+import os
+import sys
+
+import numpy as np
+import pytest
+
+import rbc
+from conftest import run_cli_json
+
+EXAMPLES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "examples")
+sys.path.insert(0, EXAMPLES)
+import emcee_crosscheck  # noqa: E402
+
+METHOD = "continuum:2:200"
+
+
+@pytest.fixture(scope="module")
+def small_data(tmp_path_factory):
+    """The Mills data at two forces (same file format): a cheap forward model."""
+    return emcee_crosscheck.subset_data(str(tmp_path_factory.mktemp("data") / "mills2.csv"),
+                                        [0.0, 38.0])
+
+
+def test_infer_equals_rbc_infer(small_data):
+    args = dict(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=30,
+                seed=4)
+    cli = run_cli_json("infer", "--params", "sigma-scale", "--method", METHOD, "--data-file",
+                       small_data, "--samples", "30", "--seed", "4", "--json", "-q")
+    py = rbc.infer(**args)
+    for key in ("parameters", "derived", "log_evidence", "log_evidence_sd", "stages", "status",
+                "method", "elements", "vertices", "seed"):
+        assert py[key] == cli[key], key
+    assert py["samples"].shape == (30, 1)
+    summary = py["parameters"]
+    summary = summary[0] if isinstance(summary, list) else summary["sigma-scale"]
+    assert py["samples"].mean() == pytest.approx(summary["mean"], rel=1e-12)
+
+
+def test_bad_inference_input_raises_value_error(small_data):
+    with pytest.raises(ValueError, match="'stiffness'"):
+        rbc.InferenceProblem(parameters=["stiffness"], data_file=small_data)
+    with pytest.raises(ValueError, match="sigma-scale"):
+        rbc.InferenceProblem(parameters=["sigma-scale"], priors={"sigma-scale": (2.0, 1.0)},
+                             data_file=small_data)
+    with pytest.raises(ValueError, match="samples"):
+        rbc.InferenceProblem(parameters=["sigma-scale"], samples=0, data_file=small_data)
+
+
+def test_log_likelihood_is_the_gaussian_of_the_forward_diameters(small_data):
+    """log L(s) for the error-bar scale s is -1/2 chi2/s^2 - n log(sqrt(2 pi) s) - sum log sigma:
+    with the forward model fixed, two values of s determine chi2 and the constant."""
+    p = rbc.InferenceProblem(parameters=["sigma-scale"], method=METHOD, data_file=small_data)
+    warm = p.forward_state([1.0])
+    l1, l2, l3 = (p.log_likelihood([s], warm) for s in (1.0, 2.0, 0.7))
+    n = 3  # terms: D_A at both forces, D_T at the non-zero force
+    # l(s) = a / s^2 - n log s + c
+    a = (l1 - l2 - n * np.log(2.0)) / (1 - 0.25)
+    c = l1 - a
+    assert l3 == pytest.approx(a / 0.49 - n * np.log(0.7) + c, rel=1e-9)
+    assert a < 0  # -chi2/2
+    assert p.log_likelihood([50.0]) == -np.inf  # outside the prior box
+
+
+def test_tmcmc_and_emcee_agree_within_four_standard_errors(small_data):
+    r = emcee_crosscheck.run(params=("sigma-scale",), method=METHOD, data_file=small_data,
+                             samples=200, seed=2, walkers=8, steps=500, burn=100)
+    assert r["emcee_tau"][0] < 500 / 20  # the chain is long against its correlation time
+    assert r["agree"], r
+
+
+def test_cancel_stops_the_inference_between_stages(small_data):
+    polls = []
+    with pytest.raises(KeyboardInterrupt):
+        rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=20,
+                  cancel=lambda: polls.append(1) or True)
+    assert len(polls) == 1  # the first poll (between stages) stopped it
