@@ -146,8 +146,7 @@ double JuelicherHessianTerms::hinge_coef(const Topology& t, int e) const {
   return 0.5 * params.kappa_pNum * (cells[t.edges(0, e)].h_per_um + cells[t.edges(1, e)].h_per_um);
 }
 
-double JuelicherHessianTerms::face_coef(const Topology& t, int f) const {
-  double coef = 0.0;
+double JuelicherHessianTerms::add_face_coef(const Topology& t, int f, double coef) const {
   for (int k = 0; k < 3; ++k) {
     const double h = cells[t.faces(k, f)].h_per_um;
     coef -= params.kappa_pNum * (params.h0_per_um * h + 0.5 * h * h) / 3.0;
@@ -208,7 +207,7 @@ void add_juelicher_hessian(const Positions& x, const Topology& t, const BendingP
   for (int f = 0; f < nf; ++f) {
     triangle_area_hessian(x.col(t.faces(0, f)), x.col(t.faces(1, f)), x.col(t.faces(2, f)), nullptr,
                           &ha[f]);
-    ha[f] *= terms.face_coef(t, f);
+    ha[f] *= terms.add_face_coef(t, f);
   }
   for (int e = 0; e < ne; ++e) {
     const int verts[4] = {t.edges(0, e), t.edges(1, e), t.edge_opposite(0, e),

@@ -119,7 +119,8 @@ struct JuelicherHessianTerms {
   std::vector<Eigen::Matrix3d> da;              ///< per face: dA_f (columns a, b, c; um)
   double cell_weight(int v) const { return params.kappa_pNum / cells[v].a_um2; }  ///< pN/um^3
   double hinge_coef(const Topology& topo, int e) const;                           ///< c_e (pN)
-  double face_coef(const Topology& topo, int f) const;  ///< beta_f (pN/um)
+  /// c + beta_f (pN/um), the face's three terms subtracted from c in vertex order.
+  double add_face_coef(const Topology& topo, int f, double c = 0.0) const;
   /// u_v (3 x stars.size(v) entries, star order; um and dimensionless parts as dM, dA/um).
   void cell_gradient(const Topology& topo, const VertexStars& stars, int v, double* u) const;
 };

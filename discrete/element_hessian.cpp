@@ -78,19 +78,20 @@ double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector
     grad->segment<3>(6) = dA.segment<3>(3);
   }
   if (hess) {
-    const Eigen::Matrix3d id = Eigen::Matrix3d::Identity();
-    Eigen::Matrix<double, 6, 6> d2D;
-    d2D.block<3, 3>(0, 0) = 2.0 * g22 * id - 2.0 * e2 * e2.transpose();
-    d2D.block<3, 3>(3, 3) = 2.0 * g11 * id - 2.0 * e1 * e1.transpose();
-    d2D.block<3, 3>(0, 3) = 4.0 * e1 * e2.transpose() - 2.0 * e2 * e1.transpose() - 2.0 * g12 * id;
-    d2D.block<3, 3>(3, 0) = d2D.block<3, 3>(0, 3).transpose();
-    const Eigen::Matrix<double, 6, 6> h = d2D / (4.0 * sq) - dD * dD.transpose() / (8.0 * sq * det);
-    Eigen::Matrix<double, 6, 9> map = Eigen::Matrix<double, 6, 9>::Zero();
-    map.block<3, 3>(0, 0) = -id;
-    map.block<3, 3>(0, 3) = id;
-    map.block<3, 3>(3, 0) = -id;
-    map.block<3, 3>(3, 6) = id;
-    *hess = map.transpose() * h * map;
+    // The projector form (no cancellation between the two terms of the D form).
+    const Vec3 n = e1.cross(e2);
+    const double len = n.norm();
+    const Vec3 nh = n / len;
+    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - nh * nh.transpose();
+    const Eigen::Matrix3d j[3] = {cross_matrix(c - b), cross_matrix(a - c), cross_matrix(b - a)};
+    const Eigen::Matrix3d nx = 0.5 * cross_matrix(nh);
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l) {
+        Eigen::Matrix3d blk = j[k].transpose() * p * j[l] / (2.0 * len);
+        if (l == (k + 1) % 3) blk -= nx;
+        if (k == (l + 1) % 3) blk += nx;
+        hess->block<3, 3>(3 * k, 3 * l) = blk;
+      }
   }
   return 0.5 * sq;
 }

@@ -16,11 +16,14 @@ using Vector9d = Eigen::Matrix<double, 9, 1>;
 using Matrix12d = Eigen::Matrix<double, 12, 12>;
 
 /// Triangle area A = sqrt(D)/2 with D = |e1|^2 |e2|^2 - (e1.e2)^2 = |e1 x e2|^2, e1 = b - a,
-/// e2 = c - a (um^2). Gradient (9, um) and Hessian (9 x 9, dimensionless) when requested:
-///   dA = dD/(4 sqrt D),  d2A = d2D/(4 sqrt D) - dD dD^T/(8 D^(3/2)),
-///   d2D/de1^2 = 2|e2|^2 I - 2 e2 e2^T,  d2D/de2^2 = 2|e1|^2 I - 2 e1 e1^T,
-///   dD/de1 = 2|e2|^2 e1 - 2(e1.e2) e2,  d2D/de1de2 = 4 e1 e2^T - 2 e2 e1^T - 2 (e1.e2) I.
-/// The triangle must be non-degenerate (D > 0).
+/// e2 = c - a (um^2). Gradient (9, um) when requested, dA = dD/(4 sqrt D) with
+/// dD/de1 = 2|e2|^2 e1 - 2(e1.e2) e2, dD/de2 = 2|e1|^2 e2 - 2(e1.e2) e1. Hessian (9 x 9,
+/// dimensionless) when requested: with dn/dx_k = [e_k]_x (n = e1 x e2, e_k the edge
+/// opposite vertex k: e_a = c - b, e_b = a - c, e_c = b - a), nh = n/|n|, P = I - nh nh^T,
+///   d2A/dx_k dx_l = (1/(2|n|)) [e_k]_x^T P [e_l]_x + (1/2) s_kl [nh]_x,
+/// s_kl = -1 for the cyclic pairs (a,b), (b,c), (c,a), +1 for (b,a), (c,b), (a,c), 0 on the
+/// diagonal (the bilinear part of n); [v]_x is the cross-product matrix. The triangle must
+/// be non-degenerate (D > 0).
 double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector9d* grad,
                              Matrix9d* hess);
 

@@ -148,11 +148,15 @@ const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
     for (int k = 0; k < 3; ++k) g.segment<3>(3 * k) = ga.col(k);
     Matrix9d d2a;
     triangle_area_hessian(xa, xb, xc, nullptr, &d2a);
+    // Steric s'(J), the constraint tension and Juelicher's beta_f share d2A.
+    const auto area_coef = [&](double ds) {
+      const double c = ds + cc.tension_pN_per_um;
+      return juelicher ? bend.add_face_coef(t, f, c) : c;
+    };
     Matrix9d& kf = face_k_[f];
     steric_face_terms<9>(net.steric_C_pN_per_um, net.steric, net.abar_um2(f), area, g, &d2a,
-                         nullptr, &kf);
-    const double area_coef = cc.tension_pN_per_um + (juelicher ? bend.face_coef(t, f) : 0.0);
-    kf += area_coef * d2a + cc.pressure_pN_per_um2 * tetra_volume_hessian(xa, xb, xc);
+                         nullptr, &kf, area_coef);
+    kf += cc.pressure_pN_per_um2 * tetra_volume_hessian(xa, xb, xc);
     for (int k = 0; k < 3; ++k) {
       const int l = (k + 1) % 3;
       const Eigen::Matrix3d h = 0.5 * link_h[face_edges_[3 * f + k]];

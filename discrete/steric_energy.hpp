@@ -35,14 +35,20 @@ StericDensity steric_density(double C, const StericParameters& s, double J);
 /// face): given the area A (um^2), its gradient dA (N) and, for the Hessian, d2A (N x N),
 ///   E = Abar s(J),  dE = s'(J) dA  [pN],  d2E = s''(J)/Abar dA dA^T + s'(J) d2A  [pN/um],
 /// J = A/Abar. The one home of the steric chain rule: every Hessian of the term uses it.
-template <int N>
+/// d2A_coef maps s'(J) (pN/um) to the whole coefficient of d2A, so that a caller that adds
+/// other terms' multiples of the same d2A (a constraint tension, Juelicher's beta_f) forms
+/// d2A once: hess = s''(J)/Abar dA dA^T + d2A_coef(s'(J)) d2A (default: s'(J) alone).
+struct StericAreaCoefficient {
+  double operator()(double ds_pN_per_um) const { return ds_pN_per_um; }
+};
+template <int N, class AreaCoefficient = StericAreaCoefficient>
 double steric_face_terms(double C, const StericParameters& s, double abar_um2, double area_um2,
                          const Eigen::Matrix<double, N, 1>& dA,
                          const Eigen::Matrix<double, N, N>* d2A, Eigen::Matrix<double, N, 1>* grad,
-                         Eigen::Matrix<double, N, N>* hess) {
+                         Eigen::Matrix<double, N, N>* hess, AreaCoefficient d2A_coef = {}) {
   const StericDensity d = steric_density(C, s, area_um2 / abar_um2);
   if (grad) *grad = d.dv * dA;
-  if (hess) *hess = d.d2v / abar_um2 * dA * dA.transpose() + d.dv * *d2A;
+  if (hess) *hess = d.d2v / abar_um2 * dA * dA.transpose() + d2A_coef(d.dv) * *d2A;
   return abar_um2 * d.v;
 }
 

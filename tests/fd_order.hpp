@@ -44,6 +44,21 @@ inline Eigen::VectorXd random_direction(Eigen::Index n, unsigned seed) {
   return d / d.norm();
 }
 
+/// The errors of one central difference err(h) at the two asymptotic steps and at the
+/// cbrt(eps) step; scale is the exact derivative's size, size that of what is differenced.
+template <class Error>
+FdOrder measure_order(const Error& err, double length, double scale, double size) {
+  FdOrder r;
+  r.h = 1e-2 * length;
+  r.err_h = err(r.h);
+  r.err_h2 = err(0.5 * r.h);
+  r.h_small = std::cbrt(std::numeric_limits<double>::epsilon()) * length;
+  r.err_small = err(r.h_small);
+  r.scale = scale;
+  r.roundoff = kRoundoffFactor * std::numeric_limits<double>::epsilon() * size / r.h_small;
+  return r;
+}
+
 /// Value -> gradient along a random direction (seed); length scale in um.
 inline FdOrder gradient_order(const std::function<double(const Eigen::VectorXd&)>& energy,
                               const Eigen::VectorXd& x, const Eigen::VectorXd& grad, double length,
@@ -53,16 +68,7 @@ inline FdOrder gradient_order(const std::function<double(const Eigen::VectorXd&)
   const auto err = [&](double h) {
     return std::abs((energy(x + h * d) - energy(x - h * d)) / (2 * h) - exact);
   };
-  FdOrder r;
-  r.h = 1e-2 * length;
-  r.err_h = err(r.h);
-  r.err_h2 = err(0.5 * r.h);
-  r.h_small = std::cbrt(std::numeric_limits<double>::epsilon()) * length;
-  r.err_small = err(r.h_small);
-  r.scale = std::abs(exact);
-  r.roundoff =
-      kRoundoffFactor * std::numeric_limits<double>::epsilon() * std::abs(energy(x)) / r.h_small;
-  return r;
+  return measure_order(err, length, std::abs(exact), std::abs(energy(x)));
 }
 
 /// Gradient -> Hessian along a random direction; hess_times(d) = H d.
@@ -75,16 +81,7 @@ inline FdOrder hessian_order(
   const auto err = [&](double h) {
     return ((grad(x + h * d) - grad(x - h * d)) / (2 * h) - hd).cwiseAbs().maxCoeff();
   };
-  FdOrder r;
-  r.h = 1e-2 * length;
-  r.err_h = err(r.h);
-  r.err_h2 = err(0.5 * r.h);
-  r.h_small = std::cbrt(std::numeric_limits<double>::epsilon()) * length;
-  r.err_small = err(r.h_small);
-  r.scale = hd.cwiseAbs().maxCoeff();
-  r.roundoff = kRoundoffFactor * std::numeric_limits<double>::epsilon() *
-               grad(x).cwiseAbs().maxCoeff() / r.h_small;
-  return r;
+  return measure_order(err, length, hd.cwiseAbs().maxCoeff(), grad(x).cwiseAbs().maxCoeff());
 }
 
 /// The observed order lies in [1.8, 2.2], the h = 1e-2 error is small against the
