@@ -10,6 +10,7 @@
 #include "calibrate/forward_model.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/smooth_patch.hpp"
+#include "continuum/continuum_model.hpp"
 #include "core/geometry.hpp"
 #include "core/rest_shape.hpp"
 
