@@ -18,7 +18,7 @@ void check_output_directory(const std::string& dir, bool overwrite);  // cmd_fig
 
 namespace {
 struct InferCli {
-  std::string data_file, method = "continuum:2:1000", params = "persistence,lmax,sigma-scale";
+  std::string data_file, method = "continuum:2:2000", params = "persistence,lmax,sigma-scale";
   std::vector<std::string> priors;
   double reading_uncertainty_um = kMillsReadingUncertaintyUm;
   int samples = InferOptions::default_sampler().samples;

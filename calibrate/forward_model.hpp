@@ -37,8 +37,8 @@ struct ForwardParameters {
 };
 
 struct ForwardOptions {
-  /// Default continuum:2:1000 (calibrate/infer.hpp documents why).
-  Method method{MethodKind::continuum, 1000, WlcExpansion::order2};
+  /// Default continuum:2:2000 (calibrate/infer.hpp documents why).
+  Method method{MethodKind::continuum, 2000, WlcExpansion::order2};
   std::vector<double> forces_pN;  ///< increasing, >= 0
   /// Halvings of the force increment on a retry: 2, 4, ..., 2^b sub-steps (at most 14
   /// extra solves per force at the default 3).

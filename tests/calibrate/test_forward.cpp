@@ -134,7 +134,8 @@ TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
     o.parameters = {Parameter::persistence, Parameter::lmax};
     o.priors = {{Parameter::persistence, 2, 30}, {Parameter::lmax, 120, 500}};
     o.reading_uncertainty_um = 0;
-    o.sampler.samples = 200;
+    o.sampler.samples = 100;
+    o.sampler.chain_length = 2;
     o.sampler.seed = 5;
     const InferenceResult r = run_inference(o);
     ASSERT_EQ(r.status, TmcmcStatus::converged);
