@@ -34,6 +34,13 @@ void run_gnuplot_script(const std::string& dir, const std::string& name,
   commit_file(tmp, (fs::path(dir) / (name + ".png")).string());
 }
 
+/// The method name without underscores (gnuplot's enhanced text reads them as subscripts).
+std::string plain(std::string s) {
+  for (char& c : s)
+    if (c == '_') c = ' ';
+  return s;
+}
+
 std::string label(const InferenceResult& r, int k) {
   return r.names[k] + (r.units[k] == "1" ? "" : " (" + r.units[k] + ")");
 }
@@ -69,8 +76,8 @@ void write_corner(const InferenceResult& r, const std::string& dir) {
   g << "set terminal pngcairo size " << px << "," << px << " enhanced font 'DejaVu Sans,10'\n"
     << "set output '" << tmp_png << "'\n"
     << "set datafile separator ','\nset datafile commentschars '#'\n"
-    << "set multiplot layout " << d << "," << d << " title 'posterior (" << r.method << ", " << n
-    << " samples)'\nunset key\nset grid\n";
+    << "set multiplot layout " << d << "," << d << " title 'posterior (" << plain(r.method) << ", "
+    << n << " samples)'\nunset key\nset grid\n";
   for (int row = 0; row < d; ++row)
     for (int col = 0; col < d; ++col) {
       if (col > row) {
@@ -120,7 +127,7 @@ void write_predictive(const InferenceResult& r, const std::string& dir) {
                       r.data.transverse_sigma_um[k]});
   write_csv((fs::path(dir) / "predictive.csv").string(), t);
   PlotSpec p;
-  p.title = "Posterior predictive (" + r.method + "): median and 90 % band of the model";
+  p.title = "Posterior predictive (" + plain(r.method) + "): median and 90 % band of the model";
   p.xlabel = "force (pN)";
   p.ylabel = "diameter (um)";
   p.key = "inside right center";
