@@ -61,9 +61,9 @@ TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
     o.data_file = simulate_data("recovery_" + std::to_string(s.seed), fo, truth, 0.05, s.seed);
     o.method = fo.method;
     o.parameters = {Parameter::persistence, Parameter::lmax};
-    o.priors = {{Parameter::persistence, 2, 30}, {Parameter::lmax, 120, 500}};
+    o.priors = {{Parameter::persistence, 4, 25}, {Parameter::lmax, 160, 500}};
     o.reading_uncertainty_um = 0;
-    o.sampler.samples = 100;
+    o.sampler.samples = 60;
     o.sampler.chain_length = 2;
     o.sampler.seed = 5;
     const InferenceResult r = run_inference(o);
