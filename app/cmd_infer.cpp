@@ -1,6 +1,7 @@
 // `rbc infer`: Bayesian calibration of the spectrin parameters from force-diameter data
 // (MODEL.md section 7; calibrate/infer.hpp). Under mpirun every rank runs this command; rank 0
 // samples and writes, the others serve forward runs (calibrate/mpi_executor.hpp).
+#include <chrono>
 #include <cstdlib>
 #include <iomanip>
 #include <iostream>
@@ -17,7 +18,7 @@ void check_output_directory(const std::string& dir, bool overwrite);  // cmd_fig
 
 namespace {
 struct InferCli {
-  std::string data_file, method = "continuum:2:1000", params = "persistence,lmax,sigma-scale";
+  std::string data_file, method = "continuum:2:2000", params = "persistence,lmax,sigma-scale";
   std::vector<std::string> priors;
   double reading_uncertainty_um = kMillsReadingUncertaintyUm;
   int samples = InferOptions::default_sampler().samples;
@@ -26,8 +27,69 @@ struct InferCli {
   std::uint64_t seed = 1;
   int threads = 0;
   std::string out;
-  bool json = false, overwrite = false, quiet = false;
+  bool json = false, overwrite = false, quiet = false, forward_check = false;
+  std::vector<std::string> at;
 };
+
+/// Parses "persistence=12" into the forward parameters (natural units).
+void apply_at(const std::string& text, ForwardParameters& p) {
+  const size_t eq = text.find('=');
+  if (eq == std::string::npos)
+    throw std::invalid_argument("--at '" + text + "' is not of the form NAME=VALUE");
+  const Parameter which = parameter_from_string(text.substr(0, eq));
+  const std::vector<double> v =
+      parse_number_list(text.substr(eq + 1), "--at " + text.substr(0, eq), "12.5", false);
+  if (v.size() != 1) throw std::invalid_argument("--at '" + text + "': one value expected");
+  switch (which) {
+    case Parameter::persistence:
+      p.persistence_nm = v[0];
+      break;
+    case Parameter::lmax:
+      p.lmax_nm = v[0];
+      break;
+    case Parameter::kappa:
+      p.kappa_J = v[0];
+      break;
+    case Parameter::contact_fraction:
+      p.contact_fraction = v[0];
+      break;
+    case Parameter::sigma_scale:
+      throw std::invalid_argument("--at sigma-scale: not a forward-model parameter");
+  }
+  p.validate();
+}
+
+/// --forward-check: one cold and one warm forward sweep at the --at parameters, with times.
+int forward_check(const InferenceProblem& problem, const ForwardParameters& at) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  const ForwardRun cold = problem.forward().run(at);
+  const auto t1 = Clock::now();
+  ForwardParameters near = at;
+  near.persistence_nm *= 1.01;  // a typical proposal step away
+  const ForwardRun warm = problem.forward().run(near, cold.state);
+  const auto t2 = Clock::now();
+  std::cout << "# " << problem.options().method.name() << ", " << problem.forward().vertices()
+            << " vertices; p = " << at.persistence_nm << " nm, Lmax = " << at.lmax_nm
+            << " nm, kappa = " << at.kappa_J << " J, contact fraction " << at.contact_fraction
+            << "\n# force_pN axial_um transverse_um data_axial_um data_transverse_um\n";
+  for (size_t k = 0; k < cold.diameters.axial_um.size(); ++k)
+    std::cout << std::setprecision(6) << problem.data().force_pN[k] << " "
+              << cold.diameters.axial_um[k] << " " << cold.diameters.transverse_um[k] << " "
+              << problem.data().axial_um[k] << " " << problem.data().transverse_um[k] << "\n";
+  const double cold_s = std::chrono::duration<double>(t1 - t0).count();
+  const double warm_s = std::chrono::duration<double>(t2 - t1).count();
+  std::cout << "cold sweep " << cold_s << " s (" << (cold.converged ? "converged" : "FAILED")
+            << (cold.retried ? ", retried" : "") << "), warm sweep at p x 1.01 " << warm_s << " s ("
+            << (warm.converged ? "converged" : "FAILED") << (warm.retried ? ", retried" : "")
+            << ")\n";
+  if (!cold.converged) {
+    std::cerr << "rbc: error: forward run did not converge, residual " << std::scientific
+              << cold.residual_pN << " pN\n";
+    return 1;
+  }
+  return 0;
+}
 
 InferOptions to_options(const InferCli& c) {
   InferOptions o;
@@ -50,10 +112,11 @@ void print_summary(const InferenceResult& r) {
   std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
             << r.stages.size() - 1 << " stages, seed " << r.seed << "):\n";
   auto line = [](const Summary& s) {
-    std::cout << "  " << std::left << std::setw(18) << s.name + (s.unit == "1" ? "" : " (" + s.unit + ")")
-              << std::right << std::setprecision(4) << " mean " << std::setw(10) << s.mean
-              << "  sd " << std::setw(10) << s.sd << "  90 % [" << s.q05 << ", " << s.q95
-              << "]  median " << s.q50 << "\n";
+    std::cout << "  " << std::left << std::setw(18)
+              << s.name + (s.unit == "1" ? "" : " (" + s.unit + ")") << std::right
+              << std::setprecision(4) << " mean " << std::setw(10) << s.mean << "  sd "
+              << std::setw(10) << s.sd << "  90 % [" << s.q05 << ", " << s.q95 << "]  median "
+              << s.q50 << "\n";
   };
   for (const auto& s : r.parameters) line(s);
   line(r.mu);
@@ -79,7 +142,7 @@ void add_infer_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--prior", c->priors,
                   "uniform prior NAME=LOWER:UPPER, repeatable (defaults: persistence=2:40, "
-                  "lmax=110:600, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
+                  "lmax=150:600, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
                   "sigma-scale=0.2:3)");
   cmd->add_option("--reading-uncertainty", c->reading_uncertainty_um,
                   "figure-reading uncertainty (um) added in quadrature to every error bar "
@@ -98,8 +161,13 @@ void add_infer_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--threads", c->threads, "OpenMP threads for forward runs (0: OMP_NUM_THREADS)")
       ->capture_default_str();
-  cmd->add_option("--out", c->out, "output directory (summary, samples, corner and predictive plots)");
+  cmd->add_option("--out", c->out,
+                  "output directory (summary, samples, corner and predictive plots)");
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
+  cmd->add_flag("--forward-check", c->forward_check,
+                "no inference: one cold and one warm forward sweep at the --at parameters "
+                "(default the paper's), diameters and times");
+  cmd->add_option("--at", c->at, "forward-check parameter NAME=VALUE (natural units), repeatable");
   cmd->add_flag("--force-overwrite", c->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
   cmd->callback([c, &action] {
@@ -118,6 +186,12 @@ void add_infer_command(CLI::App& app, Action& action) {
       } catch (const std::exception&) {
         if (!master) return 2;  // rank 0 names the error
         throw;
+      }
+      use_single_threaded_blas();  // also on MPI workers, which never call run_inference
+      if (c->forward_check) {
+        ForwardParameters at = o.fixed;
+        for (const auto& a : c->at) apply_at(a, at);
+        return forward_check(*problem, at);
       }
       const ProgressSink progress = stderr_progress(c->quiet || !master);
       InferenceResult r;
@@ -145,8 +219,8 @@ void add_infer_command(CLI::App& app, Action& action) {
         r = run_inference(*problem, progress);
       }
       if (r.status != TmcmcStatus::converged) {
-        std::cerr << "rbc: error: inference stopped (" << to_string(r.status) << "): "
-                  << r.counts.failed << " of " << r.counts.runs
+        std::cerr << "rbc: error: inference stopped (" << to_string(r.status)
+                  << "): " << r.counts.failed << " of " << r.counts.runs
                   << " forward runs failed (limit 1 %); worst case not converged\n";
         return 1;
       }

@@ -1,5 +1,7 @@
 #include "calibrate/forward_model.hpp"
 
+#include <omp.h>
+
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -12,7 +14,13 @@
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
 
+extern "C" void openblas_set_num_threads(int) __attribute__((weak));
+
 namespace rbc {
+
+void use_single_threaded_blas() {
+  if (openblas_set_num_threads) openblas_set_num_threads(1);
+}
 
 void ForwardParameters::validate() const {
   if (!(persistence_nm > 0) || !std::isfinite(persistence_nm))
@@ -42,6 +50,7 @@ void ForwardOptions::validate() const {
   if (method.resolution <= 0)
     throw std::invalid_argument("method resolution must be > 0, got " +
                                 std::to_string(method.resolution));
+  newton.validate();
   if (retry_bisections < 0)
     throw std::invalid_argument("retry bisections must be >= 0, got " +
                                 std::to_string(retry_bisections));
@@ -77,6 +86,14 @@ struct ForwardModel::Workspace {
 ForwardModel::ForwardModel(const ForwardOptions& options)
     : options_(options), shared_(std::make_unique<Shared>()) {
   options_.validate();
+  // The rest mesh (Phi minimisation) is assembled by OpenMP reductions: built on one thread
+  // so its last bits, and with them every posterior sample, do not depend on OMP_NUM_THREADS.
+  const int saved_threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  struct Restore {
+    int n;
+    ~Restore() { omp_set_num_threads(n); }
+  } restore{saved_threads};
   if (options_.method.kind == MethodKind::discrete) {
     shared_->network = make_discrete_network(options_.method.resolution);
     shared_->vertices = shared_->network.topo.num_vertices;
@@ -128,7 +145,7 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
     };
   } else {
     ws->continuum = shared_->continuum;
-    ws->newton = std::make_unique<NewtonSolver>(ws->continuum, NewtonOptions{});
+    ws->newton = std::make_unique<NewtonSolver>(ws->continuum, options_.newton);
     Workspace* w = ws.get();
     ws->solve = [w](double f, Positions& x, ConstraintMultipliers& l, double& residual) {
       const Positions x0 = x;

@@ -22,6 +22,7 @@
 #include "calibrate/likelihood.hpp"
 #include "calibrate/tmcmc.hpp"
 #include "compare/methods.hpp"
+#include "continuum/newton_solver.hpp"
 
 namespace rbc {
 
@@ -36,10 +37,24 @@ struct ForwardParameters {
 };
 
 struct ForwardOptions {
-  /// Default continuum:2:1000 (calibrate/infer.hpp documents why).
-  Method method{MethodKind::continuum, 1000, WlcExpansion::order2};
+  /// Default continuum:2:2000 (calibrate/infer.hpp documents why).
+  Method method{MethodKind::continuum, 2000, WlcExpansion::order2};
   std::vector<double> forces_pN;  ///< increasing, >= 0
-  int retry_bisections = 5;       ///< halvings of the force increment on a retry
+  /// Halvings of the force increment on a retry: 2, 4, ..., 2^b sub-steps (at most 14
+  /// extra solves per force at the default 3).
+  int retry_bisections = 3;
+  /// Continuum Newton settings: converged at a largest net vertex force of 1e-4 pN (the
+  /// library default 1e-6 pN sits at the round-off floor of soft networks: p = 40 nm stalled
+  /// at 1.4e-6 pN, Lmax = 110 nm at 3.3e-5 pN; 1e-4 pN moves a diameter by ~1e-5 um), area and
+  /// volume to 1e-10, at most 40 iterations per solve (a warm start converges in 2-5, a
+  /// continuation step in 5-9; a solve that needs more is retried in smaller steps instead).
+  NewtonOptions newton = default_newton();
+  static NewtonOptions default_newton() {
+    NewtonOptions n;
+    n.max_iterations = 40;
+    n.force_tolerance_pN = 1e-4;
+    return n;
+  }
   void validate() const;
 };
 
@@ -51,6 +66,14 @@ struct ForwardRun {
   double residual_pN = 0;    ///< largest final residual over the forces
   WarmState state;           ///< per force: 3N positions (um) and two multipliers
 };
+
+/// Sets OpenBLAS (CHOLMOD's BLAS) to one thread, process-wide (defensive: OpenBLAS takes its
+/// thread count from OMP_NUM_THREADS when it loads and does not follow the one-thread inner
+/// regions, so a factorisation could sum in an order that depends on OMP_NUM_THREADS; the
+/// difference measured at 1e-12 in the log-evidence came from the rest mesh, built on one
+/// thread now). With forward solves run one per thread, BLAS threads buy nothing.
+/// run_inference() calls it; a no-op when the BLAS is not OpenBLAS.
+void use_single_threaded_blas();
 
 class ForwardModel {
  public:

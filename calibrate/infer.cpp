@@ -22,9 +22,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 class DiameterLikelihood final : public Likelihood {
  public:
   DiameterLikelihood(const InferenceProblem& problem) : problem_(problem) {}
-  int dimension() const override {
-    return static_cast<int>(problem_.options().parameters.size());
-  }
+  int dimension() const override { return static_cast<int>(problem_.options().parameters.size()); }
   LikelihoodValue evaluate(std::span<const double> theta, const WarmState& warm,
                            WarmState* state_out) const override {
     const ForwardRun run = problem_.forward().run(problem_.physical(theta), warm);
@@ -59,8 +57,7 @@ void InferOptions::validate() const {
   for (size_t i = 0; i < parameters.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (parameters[i] == parameters[j])
-        throw std::invalid_argument("--params: '" + to_string(parameters[i]) +
-                                    "' is given twice");
+        throw std::invalid_argument("--params: '" + to_string(parameters[i]) + "' is given twice");
   for (size_t i = 0; i < priors.size(); ++i) {
     priors[i].validate();
     if (std::find(parameters.begin(), parameters.end(), priors[i].parameter) == parameters.end())
@@ -104,8 +101,8 @@ std::vector<PriorRange> InferOptions::prior_ranges() const {
 
 InferenceProblem::InferenceProblem(const InferOptions& options) : options_(options) {
   options_.validate();
-  data_ = make_diameter_data(load_experiment(options_.data_path()),
-                             options_.reading_uncertainty_um);
+  data_ =
+      make_diameter_data(load_experiment(options_.data_path()), options_.reading_uncertainty_um);
   std::vector<std::string> names;
   for (const auto& r : options_.prior_ranges()) {
     prior_.lower.push_back(r.lower);
@@ -190,14 +187,15 @@ LinearModuli sample_moduli(const ForwardParameters& p) {
 InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress,
                               const ExecutorFactory& factory) {
   const InferOptions& o = problem.options();
-  const Executor executor = factory ? factory(problem)
-                                    : omp_executor(problem.prior(), problem.likelihood(), o.threads);
+  use_single_threaded_blas();
+  const Executor executor =
+      factory ? factory(problem) : omp_executor(problem.prior(), problem.likelihood(), o.threads);
   const auto on_stage = [&](const StageInfo& s) {
     std::ostringstream m;
-    m << "stage " << s.stage << ": beta = " << std::setprecision(4) << s.beta
-      << ", acceptance " << std::fixed << std::setprecision(2) << s.acceptance
-      << ", distinct parents " << s.unique_fraction << ", forward runs " << s.forward_runs
-      << ", elapsed " << std::setprecision(1) << s.elapsed_s << " s";
+    m << "stage " << s.stage << ": beta = " << std::setprecision(4) << s.beta << ", acceptance "
+      << std::fixed << std::setprecision(2) << s.acceptance << ", distinct parents "
+      << s.unique_fraction << ", forward runs " << s.forward_runs << ", elapsed "
+      << std::setprecision(1) << s.elapsed_s << " s";
     report(progress, m.str());
   };
   const TmcmcResult t =
@@ -226,7 +224,8 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
       dt[k].push_back(md.transverse_um[k]);
     }
   }
-  for (int k = 0; k < d; ++k) r.parameters.push_back(summarise(r.names[k], r.units[k], t.samples.col(k)));
+  for (int k = 0; k < d; ++k)
+    r.parameters.push_back(summarise(r.names[k], r.units[k], t.samples.col(k)));
   r.mu = summarise("mu", "uN/m", r.mu_uN_per_m);
   r.K = summarise("K", "uN/m", r.K_uN_per_m);
   r.log_evidence = t.log_evidence;
@@ -280,7 +279,7 @@ std::string inference_json(const InferenceResult& r) {
   j["log_evidence"] = r.log_evidence;
   j["log_evidence_sd"] = r.log_evidence_sd;
   j["log_evidence_error_estimate"] =
-      "delta method per stage, sqrt(sum_j cov_j^2 / samples); independent samples assumed";
+      "scatter of the independent islands' log-evidence / sqrt(islands) (calibrate/tmcmc.hpp)";
   j["stages"] = static_cast<int>(r.stages.size()) - 1;
   json stages = json::array();
   for (const auto& s : r.stages)
@@ -291,14 +290,14 @@ std::string inference_json(const InferenceResult& r) {
                       {"distinct_parents", s.unique_fraction},
                       {"forward_runs", s.forward_runs}});
   j["stage_log"] = stages;
-  j["forward_runs"] = {{"made", r.counts.runs},
-                       {"retried", r.counts.retried},
-                       {"failed", r.counts.failed}};
+  j["forward_runs"] = {
+      {"made", r.counts.runs}, {"retried", r.counts.retried}, {"failed", r.counts.failed}};
   json pred = json::array();
   for (size_t k = 0; k < r.axial_q50.size(); ++k)
-    pred.push_back({{"force_pN", r.data.force_pN[k]},
-                    {"axial_um", {r.axial_q05[k], r.axial_q50[k], r.axial_q95[k]}},
-                    {"transverse_um", {r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k]}}});
+    pred.push_back(
+        {{"force_pN", r.data.force_pN[k]},
+         {"axial_um", {r.axial_q05[k], r.axial_q50[k], r.axial_q95[k]}},
+         {"transverse_um", {r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k]}}});
   j["predictive_q05_q50_q95"] = pred;
   j["timing"] = {{"wall_s", r.wall_s}, {"threads", r.threads}, {"ranks", r.ranks}};
   return j.dump(2);

@@ -6,9 +6,11 @@
 // - data: data/mills2004_optical_tweezers.csv (Mills et al. 2004, main reading), error bars
 //   = half the bar extent as the file gives them, plus the reading uncertainty 0.399 um in
 //   quadrature (calibrate/likelihood.hpp derives it from the two readings in data/);
-// - method continuum:2:1000 (p = 2 law, 1,000 elements): its model error against a finer
-//   mesh (continuum:2:4000) is below 0.1 x the smallest error bar of the data (0.048 um)
-//   over the data's forces (see the README's measured figures), at a fraction of the cost;
+// - method continuum:2:2000 (p = 2 law, ~2,000 elements): the largest difference of D_A, D_T
+//   over the Mills forces against continuum:2:4000 is 0.028 um, below 0.1 x the smallest
+//   error bar of the data (0.048 um); 1,000 elements give 0.078 um, 700 give 0.076 um (measured
+//   with `rbc stretch --model continuum --order 2 --elements E` at the Mills forces, paper
+//   parameters);
 // - parameters persistence, lmax, sigma-scale; uniform priors of default_prior()
 //   (calibrate/prior_spec.hpp); the parameters not inferred keep the paper's values
 //   (p = 7.5 nm, Lmax = 237.75 nm, kappa = 2e-19 J, contact fraction 0.05, sigma scale 1);
@@ -35,7 +37,7 @@ namespace rbc {
 struct InferOptions {
   std::string data_file;  ///< Mills-format CSV; empty =
                           ///< default_data_directory()/mills2004_optical_tweezers.csv
-  Method method{MethodKind::continuum, 1000, WlcExpansion::order2};
+  Method method{MethodKind::continuum, 2000, WlcExpansion::order2};
   std::vector<Parameter> parameters = {Parameter::persistence, Parameter::lmax,
                                        Parameter::sigma_scale};
   std::vector<PriorRange> priors;  ///< overrides of default_prior(), one per parameter at most

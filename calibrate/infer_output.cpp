@@ -34,6 +34,13 @@ void run_gnuplot_script(const std::string& dir, const std::string& name,
   commit_file(tmp, (fs::path(dir) / (name + ".png")).string());
 }
 
+/// The method name without underscores (gnuplot's enhanced text reads them as subscripts).
+std::string plain(std::string s) {
+  for (char& c : s)
+    if (c == '_') c = ' ';
+  return s;
+}
+
 std::string label(const InferenceResult& r, int k) {
   return r.names[k] + (r.units[k] == "1" ? "" : " (" + r.units[k] + ")");
 }
@@ -69,8 +76,8 @@ void write_corner(const InferenceResult& r, const std::string& dir) {
   g << "set terminal pngcairo size " << px << "," << px << " enhanced font 'DejaVu Sans,10'\n"
     << "set output '" << tmp_png << "'\n"
     << "set datafile separator ','\nset datafile commentschars '#'\n"
-    << "set multiplot layout " << d << "," << d << " title 'posterior (" << r.method
-    << ", " << n << " samples)'\nunset key\nset grid\n";
+    << "set multiplot layout " << d << "," << d << " title 'posterior (" << plain(r.method) << ", "
+    << n << " samples)'\nunset key\nset grid\n";
   for (int row = 0; row < d; ++row)
     for (int col = 0; col < d; ++col) {
       if (col > row) {
@@ -97,13 +104,22 @@ void write_corner(const InferenceResult& r, const std::string& dir) {
 
 void write_predictive(const InferenceResult& r, const std::string& dir) {
   CsvTable t;
-  t.comments = {"posterior predictive of the model curve (no measurement noise) at the data's "
-                "forces, and the data with their total error bars (quadrature with the reading "
-                "uncertainty; x sigma-scale median if inferred)",
-                "method " + r.method + ", data " + r.data_file};
-  t.header = {"force_pN",       "axial_q05_um",       "axial_q50_um",         "axial_q95_um",
-              "transverse_q05_um", "transverse_q50_um", "transverse_q95_um", "data_axial_um",
-              "data_axial_sigma_um", "data_transverse_um", "data_transverse_sigma_um"};
+  t.comments = {
+      "posterior predictive of the model curve (no measurement noise) at the data's "
+      "forces, and the data with their total error bars (quadrature with the reading "
+      "uncertainty; x sigma-scale median if inferred)",
+      "method " + r.method + ", data " + r.data_file};
+  t.header = {"force_pN",
+              "axial_q05_um",
+              "axial_q50_um",
+              "axial_q95_um",
+              "transverse_q05_um",
+              "transverse_q50_um",
+              "transverse_q95_um",
+              "data_axial_um",
+              "data_axial_sigma_um",
+              "data_transverse_um",
+              "data_transverse_sigma_um"};
   for (size_t k = 0; k < r.axial_q50.size(); ++k)
     t.rows.push_back({r.data.force_pN[k], r.axial_q05[k], r.axial_q50[k], r.axial_q95[k],
                       r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k],
@@ -111,18 +127,18 @@ void write_predictive(const InferenceResult& r, const std::string& dir) {
                       r.data.transverse_sigma_um[k]});
   write_csv((fs::path(dir) / "predictive.csv").string(), t);
   PlotSpec p;
-  p.title = "Posterior predictive (" + r.method + "): median and 90 % band of the model";
+  p.title = "Posterior predictive (" + plain(r.method) + "): median and 90 % band of the model";
   p.xlabel = "force (pN)";
   p.ylabel = "diameter (um)";
   p.key = "inside right center";
   const std::string band = "filledcurves fs transparent solid 0.25 noborder";
-  p.series = {{"D_A 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
-              {"D_A median", "predictive.csv", "1:3", "lines", "#1f77b4"},
-              {"D_A Mills 2004 (total sigma)", "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
-              {"D_T 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
-              {"D_T median", "predictive.csv", "1:6", "lines", "#d62728"},
-              {"D_T Mills 2004 (total sigma)", "predictive.csv", "1:10:11", "yerrorbars",
-               "#555555", 5}};
+  p.series = {
+      {"D_A 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
+      {"D_A median", "predictive.csv", "1:3", "lines", "#1f77b4"},
+      {"D_A Mills 2004 (total sigma)", "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
+      {"D_T 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
+      {"D_T median", "predictive.csv", "1:6", "lines", "#d62728"},
+      {"D_T Mills 2004 (total sigma)", "predictive.csv", "1:10:11", "yerrorbars", "#555555", 5}};
   render_plot(p, dir, "predictive");
 }
 }  // namespace
@@ -131,8 +147,9 @@ void write_inference(const InferenceResult& r, const std::string& dir) {
   ensure_output_directory(dir);
   write_text_atomic((fs::path(dir) / "summary.json").string(), inference_json(r) + "\n");
   CsvTable s;
-  s.comments = {"equally weighted posterior samples (TMCMC, last stage), natural units; mu, K "
-                "in uN/m from the closed forms"};
+  s.comments = {
+      "equally weighted posterior samples (TMCMC, last stage), natural units; mu, K "
+      "in uN/m from the closed forms"};
   for (size_t k = 0; k < r.names.size(); ++k) s.header.push_back(r.names[k]);
   s.header.insert(s.header.end(), {"mu_uN_per_m", "K_uN_per_m", "log_likelihood"});
   const int n = static_cast<int>(r.samples.rows()), d = static_cast<int>(r.samples.cols());

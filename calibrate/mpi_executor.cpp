@@ -23,8 +23,12 @@ void check(int rc, const char* what) {
 // Messages are arrays of doubles; integers are below 2^53, the 64-bit seed goes in halves.
 std::vector<double> pack_task(const StageSetup& s, const ChainTask& t) {
   const int d = static_cast<int>(t.theta.size());
-  std::vector<double> b = {double(s.stage), s.beta, double(s.chain_length),
-                           double(s.seed >> 32), double(s.seed & 0xffffffffu), double(d)};
+  std::vector<double> b = {double(s.stage),
+                           s.beta,
+                           double(s.chain_length),
+                           double(s.seed >> 32),
+                           double(s.seed & 0xffffffffu),
+                           double(d)};
   for (int j = 0; j < d; ++j)
     for (int i = 0; i < d; ++i) b.push_back(s.chain_length ? s.proposal_chol(i, j) : 0.0);
   b.push_back(double(t.index));
@@ -56,8 +60,8 @@ void unpack_task(const std::vector<double>& b, StageSetup& s, ChainTask& t) {
 }
 
 std::vector<double> pack_result(const ChainTask& t) {
-  std::vector<double> b = {double(t.index),        t.log_likelihood,        double(t.proposed),
-                           double(t.accepted),     double(t.counts.runs),   double(t.counts.retried),
+  std::vector<double> b = {double(t.index),         t.log_likelihood,      double(t.proposed),
+                           double(t.accepted),      double(t.counts.runs), double(t.counts.retried),
                            double(t.counts.failed), double(t.theta.size())};
   b.insert(b.end(), t.theta.begin(), t.theta.end());
   b.push_back(double(t.state.size()));
@@ -106,8 +110,7 @@ struct InFlight {
 }  // namespace
 
 bool launched_by_mpirun() {
-  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") ||
-         std::getenv("PMIX_RANK");
+  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
 }
 
 MpiSession::MpiSession() {
@@ -118,7 +121,9 @@ MpiSession::MpiSession() {
   MPI_Comm_size(MPI_COMM_WORLD, &size_);
 }
 
-MpiSession::~MpiSession() { MPI_Finalize(); }
+MpiSession::~MpiSession() {
+  MPI_Finalize();
+}
 
 void MpiSession::abort(int code) const {
   MPI_Abort(MPI_COMM_WORLD, code);
@@ -149,7 +154,8 @@ Executor mpi_master_executor(const PriorBox& prior, const Likelihood& likelihood
       MPI_Status st;
       check(MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, MPI_COMM_WORLD, &flag, &st), "MPI_Iprobe");
       if (flag || next >= n) {
-        const std::vector<double> b = receive(flag ? st.MPI_SOURCE : MPI_ANY_SOURCE, kTagResult, st);
+        const std::vector<double> b =
+            receive(flag ? st.MPI_SOURCE : MPI_ANY_SOURCE, kTagResult, st);
         unpack_result(b, tasks);
         ++done;
         const int w = st.MPI_SOURCE;

@@ -39,7 +39,7 @@ struct PriorRange {
 
 /// Documented default boxes (natural units), wide around the paper's values (Table 1-2):
 ///   persistence 2:40 nm (paper 7.5; mu ~ 1/p, so 2.5 uN/m needs ~25 nm at Lmax 237.75),
-///   lmax 110:600 nm (paper 237.75), kappa 5e-20:1e-18 J (paper 2e-19),
+///   lmax 150:600 nm (paper 237.75; x0 = Lbar/Lmax <= 0.5), kappa 5e-20:1e-18 J (paper 2e-19),
 ///   contact-fraction 0.02:0.15 (paper 0.05), sigma-scale 0.2:3.
 PriorRange default_prior(Parameter p);
 

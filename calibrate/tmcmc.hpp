@@ -116,8 +116,8 @@ struct TmcmcOptions {
   double target_cov = 1.0;      ///< target coefficient of variation of the stage weights
   double proposal_scale = 0.2;  ///< beta: proposal covariance = beta^2 x weighted sample cov
   int chain_length = 3;         ///< Metropolis steps per resampled point and stage
-  int islands = 4;              ///< independent resampling blocks (evidence error), >= 5 samples each
-  int max_stages = 200;         ///< safety cap on the number of tempering stages
+  int islands = 4;       ///< independent resampling blocks (evidence error), >= 5 samples each
+  int max_stages = 200;  ///< safety cap on the number of tempering stages
   std::uint64_t seed = 1;
   /// Stop with status failed_runs once more than this fraction of the forward runs failed
   /// (checked after every stage).

@@ -47,16 +47,16 @@ TEST(Likelihood, SigmaScaleMaximisesAtTheRmsStandardisedResidual) {
   const double l0 = gaussian_log_likelihood(d, m, c);
   EXPECT_GT(l0, gaussian_log_likelihood(d, m, c - h));
   EXPECT_GT(l0, gaussian_log_likelihood(d, m, c + h));
-  const double slope = (gaussian_log_likelihood(d, m, c + h) -
-                        gaussian_log_likelihood(d, m, c - h)) / (2 * h);
+  const double slope =
+      (gaussian_log_likelihood(d, m, c + h) - gaussian_log_likelihood(d, m, c - h)) / (2 * h);
   EXPECT_NEAR(slope, 0.0, 1e-6 * d.terms() / c);
 }
 
 TEST(Likelihood, DefaultReadingUncertaintyComesFromTheTwoMillsReadings) {
   const std::string dir = std::string(RBC_SOURCE_DIR) + "/data/";
-  const double r = reading_uncertainty_from_readings(
-      load_experiment(dir + "mills2004_optical_tweezers.csv"),
-      load_experiment(dir + "mills2004_alternative_reading.csv"));
+  const double r =
+      reading_uncertainty_from_readings(load_experiment(dir + "mills2004_optical_tweezers.csv"),
+                                        load_experiment(dir + "mills2004_alternative_reading.csv"));
   EXPECT_NEAR(r, kMillsReadingUncertaintyUm, 5e-4);
 }
 
@@ -72,7 +72,8 @@ void expect_parse_error(const std::string& body, const std::string& fragment) {
 }
 
 TEST(ExperimentParser, AcceptsTheMillsFormatAndNamesEveryDefect) {
-  std::istringstream good(std::string("# comment\n") + kHeader + "0,7.9,0.7,7.9,0.7\n\n16,9.2,0.8,6.2,0.6\n");
+  std::istringstream good(std::string("# comment\n") + kHeader +
+                          "0,7.9,0.7,7.9,0.7\n\n16,9.2,0.8,6.2,0.6\n");
   const auto p = parse_experiment(good, "good");
   ASSERT_EQ(p.size(), 2u);
   EXPECT_DOUBLE_EQ(p[1].transverse_err_um, 0.6);
