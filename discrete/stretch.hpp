@@ -34,6 +34,10 @@ struct StretchOptions {
   /// Wall-clock budget of one force (s), all multiplier updates included; 0 = none. The
   /// iteration budget of one force is minimiser.max_iterations, summed over the updates.
   double time_budget_s = 0.0;
+  /// Energy evaluations one force may use, as a multiple of minimiser.max_iterations (line
+  /// searches that keep hitting the infeasible domain cost many evaluations per iteration:
+  /// measured at 1e6 pN, N = 300, 600 s without this budget).
+  int evaluations_per_iteration_budget = 4;
   StretchOptions() {
     minimiser.force_tolerance = 1e-3;
     minimiser.max_iterations = 50000;
