@@ -2,6 +2,7 @@
 
 #include "core/blas_threads.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -90,6 +91,19 @@ NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& opt
   ldlt_.setMode(3 * model.topo.num_vertices >= options_.supernodal_min_unknowns
                     ? Eigen::CholmodSupernodalLLt
                     : Eigen::CholmodSimplicialLLt);
+  switch (options_.ordering) {
+    case FillOrdering::automatic:
+      break;
+    case FillOrdering::amd:
+    case FillOrdering::metis:
+    case FillOrdering::nested_dissection:
+      ldlt_.cholmod().nmethods = 1;
+      ldlt_.cholmod().method[0].ordering = options_.ordering == FillOrdering::amd ? CHOLMOD_AMD
+                                           : options_.ordering == FillOrdering::metis
+                                               ? CHOLMOD_METIS
+                                               : CHOLMOD_NESDIS;
+      break;
+  }
   ldlt_.cholmod().print = 0;  // library code does not print: a failed (indefinite) trial is
                               // expected and handled by the shift loop
   ldlt_.analyzePattern(hessian_.matrix());
@@ -97,9 +111,9 @@ NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& opt
 
 NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
                                  const ProgressSink& progress, const NewtonLimits& limits) {
-  const int max_iterations =
-      limits.max_iterations >= 0 ? limits.max_iterations : options_.max_iterations;
-  const ScopedBlasThreads blas_threads(options_.blas_threads);
+  const int max_iterations = limits.max_iterations >= 0
+                                 ? std::min(limits.max_iterations, options_.max_iterations)
+                                 : options_.max_iterations;
   NewtonResult res;
   const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
   Iterate cur, trial;
@@ -170,7 +184,10 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
       for (int attempt = 0; attempt < 30; ++attempt) {
         std::copy(h.valuePtr(), h.valuePtr() + h.nonZeros(), k.valuePtr());
         for (int d : diag) k.valuePtr()[d] += sigma * mean_diag;
-        ldlt_.factorize(k);
+        {
+          const ScopedBlasThreads blas(options_.blas_threads);
+          ldlt_.factorize(k);
+        }
         ++res.factorisations;
         if (ldlt_.info() == Eigen::Success) {  // CHOLMOD fails unless K is positive definite
           factorised = true;
@@ -189,8 +206,13 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
     Eigen::MatrixXd cm(3 * n, 2);
     cm.col(0) = flat(cur.cons.grad_area);
     cm.col(1) = flat(cur.cons.grad_volume);
-    const Eigen::VectorXd y0 = ldlt_.solve(flat(r));
-    const Eigen::MatrixXd ym = ldlt_.solve(cm);
+    Eigen::VectorXd y0;
+    Eigen::MatrixXd ym;
+    {
+      const ScopedBlasThreads blas(options_.blas_threads);
+      y0 = ldlt_.solve(flat(r));
+      ym = ldlt_.solve(cm);
+    }
     const Eigen::Matrix2d s = cm.transpose() * ym;
     const Eigen::Vector2d dl = s.fullPivLu().solve(c - cm.transpose() * y0);
     Eigen::VectorXd dx = -y0 - ym * dl;

@@ -6,8 +6,11 @@
 // elements a quarter of the CPU time was futex wake-ups). One BLAS thread also makes the
 // factorisation's rounding independent of the machine's core count. The OpenBLAS entry
 // points are looked up at run time, so any BLAS works (then this is a no-op). The OpenMP
-// thread count of the caller (element loops) is not touched.
+// build of OpenBLAS (Debian's openblas-openmp) sets the caller's OpenMP thread count in
+// openblas_set_num_threads, so the guard restores that count too: the caller's element
+// loops keep their threads.
 #include <dlfcn.h>
+#include <omp.h>
 
 namespace rbc {
 
@@ -17,6 +20,11 @@ class ScopedBlasThreads {
   explicit ScopedBlasThreads(int threads) {
     if (threads <= 0) return;
     active_ = true;
+    saved_omp_ = omp_get_max_threads();
+    saved_levels_ = omp_get_max_active_levels();
+    // CHOLMOD's supernodal code opens its own regions with num_threads(4) (SuiteSparse 5's
+    // CHOLMOD_OMP_NUM_THREADS); with one thread requested, no region may be active.
+    if (threads == 1) omp_set_max_active_levels(0);
     const Api& api = openblas();
     if (api.get && api.set) {
       saved_blas_ = api.get();
@@ -27,6 +35,8 @@ class ScopedBlasThreads {
     if (!active_) return;
     const Api& api = openblas();
     if (api.set && saved_blas_ > 0) api.set(saved_blas_);
+    omp_set_num_threads(saved_omp_);
+    omp_set_max_active_levels(saved_levels_);
   }
   ScopedBlasThreads(const ScopedBlasThreads&) = delete;
   ScopedBlasThreads& operator=(const ScopedBlasThreads&) = delete;
@@ -46,7 +56,7 @@ class ScopedBlasThreads {
     return api;
   }
   bool active_ = false;
-  int saved_blas_ = 0;
+  int saved_blas_ = 0, saved_omp_ = 1, saved_levels_ = 1;
 };
 
 }  // namespace rbc

@@ -57,7 +57,8 @@ MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const Lbf
       res.status = MinimiserStatus::converged;
       return res;
     }
-    if (it >= opt.max_iterations) {
+    if (it >= opt.max_iterations ||
+        (opt.max_evaluations > 0 && res.evaluations >= opt.max_evaluations)) {
       res.status = MinimiserStatus::max_iterations;
       return res;
     }
@@ -95,6 +96,10 @@ MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const Lbf
     bool accepted = false;
     double f_new = 0.0;
     for (int ls = 0; ls < opt.max_line_search; ++ls) {
+      if (opt.max_evaluations > 0 && res.evaluations >= opt.max_evaluations) {
+        res.status = MinimiserStatus::max_iterations;  // budget spent inside the line search
+        return res;
+      }
       x_new = x + step * d;
       f_new = f(x_new, g_new);
       ++res.evaluations;

@@ -25,6 +25,10 @@ using Objective = std::function<double(const Eigen::VectorXd& x, Eigen::VectorXd
 struct LbfgsOptions {
   int memory = 12;             ///< correction pairs kept
   int max_iterations = 20000;  ///< iterations before giving up
+  /// Objective evaluations before giving up (line-search trials included; an iteration
+  /// whose trials keep hitting the infeasible domain costs up to max_line_search of them).
+  /// 0 = no limit. Stops with MinimiserStatus::max_iterations.
+  long long max_evaluations = 0;
   /// Converged when the largest block norm of the gradient (with block = 3: the largest
   /// net vertex force, pN) is below this.
   double force_tolerance = 1e-3;

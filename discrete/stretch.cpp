@@ -88,6 +88,11 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   // Budgets of the whole force: minimiser.max_iterations over all updates and segments,
   // and the optional wall-clock budget (checked once per iteration).
   int used = 0;
+  long long evaluations = 0;
+  const long long evaluation_budget =
+      static_cast<long long>(std::max(opt.evaluations_per_iteration_budget, 1)) *
+      std::max(lo.max_iterations, 1);
+  bool exhausted = false;
   const bool timed = opt.time_budget_s > 0;
   const auto deadline = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                     std::chrono::duration<double>(timed ? opt.time_budget_s : 0.0));
@@ -117,9 +122,12 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
         };
       LbfgsOptions seg = lo;
       seg.max_iterations = std::max(lo.max_iterations - used, 0);
+      seg.max_evaluations = std::max(evaluation_budget - evaluations, 1LL);
       total = minimise_lbfgs(f, u, seg, monitor);
       used += total.iterations;
-      if (!stalled || out_of_time) break;
+      evaluations += total.evaluations;
+      if (evaluations >= evaluation_budget) exhausted = true;
+      if (!stalled || out_of_time || exhausted) break;
       reference = total.residual;
       std::ostringstream msg;
       msg << "  refactorising after " << used << " iterations, residual " << total.residual
@@ -148,7 +156,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
         << ", dV/V = " << pt.volume_drift;
     report(progress, msg.str());
     if (!r.converged() && r.status != MinimiserStatus::max_iterations) break;
-    if (out_of_time || used >= lo.max_iterations) break;  // the force's budget is spent
+    if (out_of_time || exhausted || used >= lo.max_iterations) break;  // budget spent
     throw_if_cancelled(lo.cancel);
     const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&
                       std::abs(pt.volume_drift) < net.constraints.tolerance;

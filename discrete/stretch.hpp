@@ -22,9 +22,11 @@ struct StretchOptions {
   /// Precondition L-BFGS with a sparse Cholesky factorisation (CHOLMOD) of the projected
   /// Newton Hessian (discrete/newton_preconditioner.hpp: network_hessian.hpp + the
   /// area/volume penalties by Woodbury) for networks with at least this many vertices.
-  /// 0 = always (the default: at N = 250 it cuts a 13-force sweep from ~2,900 L-BFGS
-  /// iterations to ~380 and the CPU time by ~2x), INT_MAX = never (plain L-BFGS).
-  int precondition_min_vertices = 0;
+  /// 0 = always, INT_MAX = never (plain L-BFGS). Measured at N = 250 (note_speed.md):
+  /// preconditioning from N = 0 cuts a 13-force sweep from ~2,900 L-BFGS iterations to ~380
+  /// (CPU 0.68 -> 0.22 s), but at N = 300 and 2,000 pN it fails to converge where plain
+  /// L-BFGS does, so the default stays at 1,500 until that is understood.
+  int precondition_min_vertices = 1500;
   NewtonPreconditionerOptions preconditioner;
   /// Refactorise at the current point when this many L-BFGS iterations since the last
   /// factorisation have not reduced the largest vertex force tenfold (0 = factorise once
@@ -38,6 +40,10 @@ struct StretchOptions {
   /// Wall-clock budget of one force (s), all multiplier updates included; 0 = none. The
   /// iteration budget of one force is minimiser.max_iterations, summed over the updates.
   double time_budget_s = 0.0;
+  /// Energy evaluations one force may use, as a multiple of minimiser.max_iterations (line
+  /// searches that keep hitting the infeasible domain cost many evaluations per iteration:
+  /// measured at 1e6 pN, N = 300, 600 s without this budget).
+  int evaluations_per_iteration_budget = 4;
   StretchOptions() {
     minimiser.force_tolerance = 1e-3;
     minimiser.max_iterations = 50000;
