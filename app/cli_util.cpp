@@ -13,10 +13,13 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
   std::vector<double> out;
   if (text.find_first_not_of(" \t") == std::string::npos)
     throw std::invalid_argument("the " + what + " list is empty (expected e.g. " + example + ")");
-  // Every comma separates two items: "16," and "16,,38" name the empty item.
+  // Every comma separates two items: "16," and "16,,38" have an empty item.
   for (std::size_t begin = 0, end = 0; end != std::string::npos; begin = end + 1) {
     end = text.find(',', begin);
     const std::string item = text.substr(begin, end == std::string::npos ? end : end - begin);
+    if (item.find_first_not_of(" \t") == std::string::npos)
+      throw std::invalid_argument("the " + what + " list '" + text +
+                                  "' has an empty item (expected e.g. " + example + ")");
     size_t used = 0;
     double v = 0;
     try {
