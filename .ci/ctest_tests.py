@@ -4,7 +4,7 @@
   .ci/ctest_tests.py BUILD python   tests whose command runs Python (pytest or a python* binary)
   .ci/ctest_tests.py BUILD skip5    of those, the ones with SKIP_RETURN_CODE 5 (pytest's "no
                                     tests collected" must fail, never count as skipped)
-  .ci/ctest_tests.py BUILD mpi      tests whose command runs mpirun or mpiexec
+  .ci/ctest_tests.py BUILD mpi      tests whose command runs mpirun or mpiexec, or labelled mpi
 Used by .ci/run (Python tests must be registered) and .ci/sanitize.sh (an instrumented module
 cannot be imported by the uninstrumented interpreter, so Python tests run in the normal build;
 MPI tests run in a second pass with the slow unwinder, see there).
@@ -25,7 +25,9 @@ def main() -> int:
         command = test.get("command", [])
         props = {p["name"]: p["value"] for p in test.get("properties", [])}
         python = any("pytest" in a or os.path.basename(a).startswith("python") for a in command)
-        mpi = any(os.path.basename(a) in ("mpirun", "mpiexec", "orterun") for a in command)
+        labels = props.get("LABELS", [])
+        mpi = ("mpi" in labels or
+               any(os.path.basename(a) in ("mpirun", "mpiexec", "orterun") for a in command))
         skip = props.get("SKIP_RETURN_CODE")
         if ((kind == "python" and python) or (kind == "mpi" and mpi) or
                 (kind == "skip5" and python and skip is not None and int(skip) == 5)):

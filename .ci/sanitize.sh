@@ -4,7 +4,9 @@
 # detection on. Python tests are left to the normal build (an instrumented module cannot be loaded
 # by the uninstrumented interpreter); MPI tests run in a second pass with the slow unwinder,
 # because OpenMPI's libraries have no frame pointers and unload their plugins, so the fast
-# unwinder's stacks cannot be matched against .ci/lsan.supp. Heavy cases excluded under ASan:
+# unwinder's stacks cannot be matched against .ci/lsan.supp: a test is an MPI test when its
+# command runs mpirun, it has the ctest label "mpi", or it matches a regex in .ci/asan_mpi.txt
+# (for gtest cases that start mpirun themselves). Heavy cases excluded under ASan:
 # .ci/asan_exclude.txt (one ctest regex a line, each with its reason and measured time).
 # Usage: .ci/sanitize.sh [extra ctest arguments, e.g. -R discrete]
 set -euo pipefail
@@ -12,7 +14,9 @@ cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRBC_SANITIZE=ON "${launcher[@]}" >/dev/null
+# No Python module: the uninstrumented interpreter could not load an instrumented one.
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRBC_SANITIZE=ON -DRBC_BUILD_PYTHON=OFF \
+  "${launcher[@]}" >/dev/null
 cmake --build build-asan -j "$jobs" >/dev/null
 
 export OMP_NUM_THREADS="${OMP_NUM_THREADS:-2}" OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
@@ -22,27 +26,28 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # OpenMPI in containers (as the MPI tests set it too): no cross-memory attach.
 export OMPI_MCA_btl_vader_single_copy_mechanism=none
 
-# One regex of excluded tests: the heavy cases (.ci/asan_exclude.txt), Python and MPI tests.
-mapfile -t excluded < <(grep -v '^\s*\(#\|$\)' .ci/asan_exclude.txt | sed 's/\s*#.*//')
+# Test lists: heavy cases (excluded), Python tests (excluded), MPI tests (second pass).
+patterns() { grep -v '^\s*\(#\|$\)' "$1" | sed 's/\s*#.*//' || true; }
+mapfile -t heavy < <(patterns .ci/asan_exclude.txt)
 mapfile -t python < <(/usr/bin/python3 .ci/ctest_tests.py build-asan python)
 mapfile -t mpi < <(/usr/bin/python3 .ci/ctest_tests.py build-asan mpi)
-regex() {  # names -> ^(a|b)$ with regex characters escaped
+mapfile -t mpi_patterns < <(patterns .ci/asan_mpi.txt)
+names() {  # names -> ^(a|b)$ with regex characters escaped
   local out="" n
   for n in "$@"; do out+="${out:+|}$(printf '%s' "$n" | sed 's/[][\.*^$()+?{}|]/\\&/g')"; done
   printf '^(%s)$' "$out"
 }
-exclude=("${excluded[@]}")
-((${#python[@]})) && exclude+=("$(regex "${python[@]}")")
-((${#mpi[@]})) && exclude+=("$(regex "${mpi[@]}")")
-args=(--test-dir build-asan --output-on-failure -j 2 --timeout 1200 --no-tests=error)
-if ((${#exclude[@]})); then
-  joined=$(IFS='|'; echo "${exclude[*]}")
-  args+=(-E "$joined")
-fi
-echo "sanitize: C++ suite under ASan+UBSan (excluded: ${#excluded[@]} heavy patterns, ${#python[@]} Python, ${#mpi[@]} MPI tests)"
-ASAN_OPTIONS="$asan" ctest "${args[@]}" "$@"
-if ((${#mpi[@]})); then
-  echo "sanitize: ${#mpi[@]} MPI tests under ASan+UBSan (slow unwinder)"
-  ASAN_OPTIONS="$asan:fast_unwind_on_malloc=0" \
-    ctest --test-dir build-asan --output-on-failure -j 2 --timeout 1200 -R "$(regex "${mpi[@]}")" "$@"
+join() { local IFS='|'; echo "$*"; }
+mpi_regex=("${mpi_patterns[@]}")
+((${#mpi[@]})) && mpi_regex+=("$(names "${mpi[@]}")")
+exclude=("${heavy[@]}" "${mpi_regex[@]}")
+((${#python[@]})) && exclude+=("$(names "${python[@]}")")
+common=(--test-dir build-asan --output-on-failure -j 2 --timeout 1200)
+first=("${common[@]}" --no-tests=error)
+((${#exclude[@]})) && first+=(-E "$(join "${exclude[@]}")")
+echo "sanitize: C++ suite under ASan+UBSan (left out: ${#heavy[@]} heavy patterns, ${#python[@]} Python tests, MPI tests for the second pass)"
+ASAN_OPTIONS="$asan" ctest "${first[@]}" "$@"
+if ((${#mpi_regex[@]})); then
+  echo "sanitize: MPI tests under ASan+UBSan (slow unwinder)"
+  ASAN_OPTIONS="$asan:fast_unwind_on_malloc=0" ctest "${common[@]}" -R "$(join "${mpi_regex[@]}")" "$@"
 fi

@@ -26,6 +26,9 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
   for (std::size_t begin = 0, end = 0; end != std::string::npos; begin = end + 1) {
     end = text.find(',', begin);
     const std::string item = text.substr(begin, end == std::string::npos ? end : end - begin);
+    if (item.find_first_not_of(" \t") == std::string::npos)
+      throw std::invalid_argument("the " + what + " list '" + text +
+                                  "' has an empty item (expected e.g. " + example + ")");
     size_t used = 0;
     double v = 0;
     try {

@@ -29,7 +29,7 @@ TEST(CliLists, EmptyItemsAreRefused) {
     const CommandRun r = rbc(std::string("stretch -n 200 --json --force ") + forces);
     EXPECT_EQ(r.exit_code, 2) << forces << ": " << r.output;
     EXPECT_NE(r.output.find("rbc: error:"), std::string::npos) << r.output;
-    EXPECT_NE(r.output.find("force"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("force list"), std::string::npos) << r.output;
   }
 }
 
