@@ -42,7 +42,7 @@ mpi_regex=("${mpi_patterns[@]}")
 ((${#mpi[@]})) && mpi_regex+=("$(names "${mpi[@]}")")
 exclude=("${heavy[@]}" "${mpi_regex[@]}")
 ((${#python[@]})) && exclude+=("$(names "${python[@]}")")
-common=(--test-dir build-asan --output-on-failure -j 2 --timeout 1200)
+common=(--test-dir build-asan --output-on-failure -j 2 --timeout 1200 --label-exclude slow)
 first=("${common[@]}" --no-tests=error)
 ((${#exclude[@]})) && first+=(-E "$(join "${exclude[@]}")")
 echo "sanitize: C++ suite under ASan+UBSan (left out: ${#heavy[@]} heavy patterns, ${#python[@]} Python tests, MPI tests for the second pass)"
