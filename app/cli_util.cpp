@@ -27,8 +27,8 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
     end = text.find(',', begin);
     const std::string item = text.substr(begin, end == std::string::npos ? end : end - begin);
     if (item.find_first_not_of(" \t") == std::string::npos)
-      throw std::invalid_argument("the " + what + " list '" + text +
-                                  "' has an empty item (expected e.g. " + example + ")");
+      throw std::invalid_argument(option + " '" + text + "': the list has an empty item; " +
+                                  expected);
     size_t used = 0;
     double v = 0;
     try {
@@ -95,9 +95,12 @@ CLI::Validator integer_in(long long lo, long long hi) {
 }
 
 CLI::Validator unsigned_integer() {
-  const unsigned long long hi = std::numeric_limits<unsigned long long>::max();
   return CLI::Validator(
-      [hi](std::string& s) { return check_integer<unsigned long long>(s, 0ull, hi); }, "UINT64");
+      [](std::string& s) {
+        return check_integer<unsigned long long>(s, 0ull,
+                                                 std::numeric_limits<unsigned long long>::max());
+      },
+      "UINT64");
 }
 
 namespace {

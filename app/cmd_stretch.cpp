@@ -308,19 +308,16 @@ int run_discrete(const StretchCli& o) {
   };
   const std::vector<StretchPoint> pts =
       with_manifest(manifest, [&] { return run_stretch(net, forces, so, progress); });
-}
-return out;
-});
-std::vector<StretchRow> rows;
-for (const auto& p : pts) rows.push_back(to_row(p, 0));
-return emit_stretch(
-    o, rows,
-    {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
-     "units: force pN, diameters um, energy pN*um, wall time s",
-     "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
-         std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
-         std::to_string(rest_force) + " pN"},
-    manifest);
+  std::vector<StretchRow> rows;
+  for (const auto& p : pts) rows.push_back(to_row(p, 0));
+  return emit_stretch(
+      o, rows,
+      {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
+       "units: force pN, diameters um, energy pN*um, wall time s",
+       "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
+           std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
+           std::to_string(rest_force) + " pN"},
+      manifest);
 }
 
 // Continuum branch (issue 4): surface FEM with the homogenised law of the given order.
