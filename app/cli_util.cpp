@@ -15,20 +15,28 @@
 
 namespace rbc::app {
 
+namespace {
+/// "--force" -> "force": the list's name in messages.
+std::string list_noun(const std::string& option) {
+  return option.rfind("--", 0) == 0 ? option.substr(2) : option;
+}
+}  // namespace
+
 std::vector<double> parse_number_list(const std::string& text, const std::string& option,
                                       const std::string& example, bool allow_negative) {
   const std::string expected = std::string("expected a comma-separated list of finite numbers") +
                                (allow_negative ? "" : " >= 0") + " (e.g. " + example + ")";
   std::vector<double> out;
   if (text.find_first_not_of(" \t") == std::string::npos)
-    throw std::invalid_argument(option + " '" + text + "': the list is empty; " + expected);
+    throw std::invalid_argument(option + " '" + text + "': the " + list_noun(option) +
+                                " list is empty; " + expected);
   // Every comma separates two items: "16," and "16,,38" name the empty item.
   for (std::size_t begin = 0, end = 0; end != std::string::npos; begin = end + 1) {
     end = text.find(',', begin);
     const std::string item = text.substr(begin, end == std::string::npos ? end : end - begin);
     if (item.find_first_not_of(" \t") == std::string::npos)
-      throw std::invalid_argument(option + " '" + text + "': the list has an empty item; " +
-                                  expected);
+      throw std::invalid_argument(option + " '" + text + "': the " + list_noun(option) +
+                                  " list has an empty item; " + expected);
     size_t used = 0;
     double v = 0;
     try {

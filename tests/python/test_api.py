@@ -22,14 +22,14 @@ def test_parameter_defaults_are_the_papers():
 
 
 @pytest.mark.parametrize("make, names", [
-    (lambda: rbc.WlcParameters(persistence_nm=-1.0), ["persistence_nm=-1.0", "positive"]),
-    (lambda: rbc.WlcParameters(lmax_nm=70.0), ["lmax_nm=70.0", "Lmax must exceed Lbar"]),
+    (lambda: rbc.WlcParameters(persistence_nm=-1.0), ["persistence_nm=-1.0", "(0, 10000] nm"]),
+    (lambda: rbc.WlcParameters(lmax_nm=70.0), ["lmax_nm=70.0", "> Lbar"]),
     (lambda: rbc.WlcParameters(wlc_temperature_K=float("nan")), ["wlc_temperature_K=nan"]),
-    (lambda: rbc.BendingParameters(kappa_J=-2e-19), ["kappa_J=-2e-19", ">= 0"]),
+    (lambda: rbc.BendingParameters(kappa_J=-2e-19), ["kappa_J=-2e-19", "[0, 1e-16] J"]),
     (lambda: rbc.BendingParameters(h0_per_um=float("inf")), ["h0_per_um=inf", "finite"]),
     (lambda: rbc.BendingParameters(model="helfrich"), ["'helfrich'", "juelicher, dihedral"]),
     (lambda: rbc.StericParameters(q=11.0), ["q=11.0", "(0, 10]"]),
-    (lambda: rbc.StericParameters(eta=0.0), ["eta=0.0", "positive"]),
+    (lambda: rbc.StericParameters(eta=0.0), ["eta=0.0", "(0, 1]"]),
     (lambda: rbc.ContactParameters(fraction=0.7), ["fraction=0.7", "(0, 0.5)"]),
     (lambda: rbc.ContactParameters(rule="beads"), ["'beads'", "area, vertices"]),
     (lambda: rbc.rest_shape(50), ["50"]),
