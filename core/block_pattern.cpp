@@ -19,6 +19,9 @@ BlockPattern make_block_pattern(std::vector<std::vector<int>> cols) {
   for (int j = 0; j < n; ++j) p.rows.insert(p.rows.end(), cols[j].begin(), cols[j].end());
 
   p.matrix.resize(3 * n, 3 * n);
+  // An empty pattern (a placeholder before the real one is built) stays an empty compressed
+  // matrix: Eigen's reserve() + makeCompressed() read past the outer index of a 0 x 0 matrix.
+  if (n == 0) return p;
   Eigen::VectorXi nnz(3 * n);
   for (int j = 0; j < n; ++j)
     for (int c = 0; c < 3; ++c) nnz(3 * j + c) = 3 * (p.col_offsets[j + 1] - p.col_offsets[j]);
