@@ -10,6 +10,7 @@
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/warm_start.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
@@ -44,6 +45,7 @@ struct StretchCli {
   std::string order = "2";
   int elements = 4000;
   std::string out;
+  std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
   bool json = false, quiet = false, overwrite = false;
 };
 
@@ -122,13 +124,14 @@ struct StretchRow {
   int vertices = 0, elements = 0;
   double residual_pN = 0, area_drift = 0, volume_drift = 0;
   std::string status;
+  bool warm = false;  ///< solved from its --warm-start equilibrium
 };
 
 template <class Point>
 StretchRow to_row(const Point& p, int elements) {
   return {p.force_pN,   p.axial_um,     p.transverse_um, p.energy_pNum, p.iterations,
           p.converged,  p.wall_s,       p.vertices,      elements,      p.residual_pN,
-          p.area_drift, p.volume_drift, p.status};
+          p.area_drift, p.volume_drift, p.status,        p.warm};
 }
 
 /// DIR/run.json, the manifest of `stretch --out`: rewritten (atomically) when the run starts,
@@ -227,6 +230,7 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
                              p.converged ? 1.0 : 0.0,
                              p.wall_s,
                              static_cast<double>(p.vertices)};
+    if (!o.warm_start.empty()) j["warm_started"] = p.warm;
     if (continuum) {
       j["elements"] = p.elements;
       r.push_back(p.elements);
@@ -301,13 +305,24 @@ int run_discrete(const StretchCli& o) {
   so.on_point = [&](const StretchPoint& p) {
     if (o.out.empty()) return;
     const Eigen::VectorXd u = (p.x - net.rest).colwise().norm().transpose();
-    MeshSnapshot s{p.x, net.topo.faces, {{"displacement_um", u}}, {}, {{"force_pN", p.force_pN}}};
+    MeshSnapshot s{p.x,
+                   net.topo.faces,
+                   {{"displacement_um", u}},
+                   {},
+                   {{"force_pN", p.force_pN},
+                    {kLambdaAreaAttribute, p.multipliers.area_pN_per_um},
+                    {kLambdaVolumeAttribute, p.multipliers.volume_pN_per_um2}}};
     const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
     write_mesh_snapshot(base, s);
     manifest.force_done(p.force_pN, base);
   };
+  const StretchState warm =
+      o.warm_start.empty()
+          ? StretchState{}
+          : read_warm_start(o.warm_start, "discrete", net.rest.cols(), net.topo.faces, forces);
+  if (!warm.empty()) report(progress, "warm start from " + o.warm_start);
   const std::vector<StretchPoint> pts =
-      with_manifest(manifest, [&] { return run_stretch(net, forces, so, progress); });
+      with_manifest(manifest, [&] { return run_stretch(net, forces, so, progress, warm); });
   std::vector<StretchRow> rows;
   for (const auto& p : pts) rows.push_back(to_row(p, 0));
   return emit_stretch(
@@ -352,8 +367,13 @@ int run_continuum(const StretchCli& o) {
                            forces);
   // The continuation (with its secant predictor and bisection) runs in the library, so the
   // shapes are written after the last force; an interrupted run records none as complete.
-  const std::vector<ContinuumStretchPoint> pts =
-      with_manifest(manifest, [&] { return run_continuum_stretch(model, forces, co, progress); });
+  const StretchState warm =
+      o.warm_start.empty()
+          ? StretchState{}
+          : read_warm_start(o.warm_start, "continuum", model.rest.cols(), model.topo.faces, forces);
+  if (!warm.empty()) report(progress, "warm start from " + o.warm_start);
+  const std::vector<ContinuumStretchPoint> pts = with_manifest(
+      manifest, [&] { return run_continuum_stretch(model, forces, co, progress, warm); });
   if (!o.out.empty())
     for (const auto& p : pts) {
       const Eigen::VectorXd u = (p.x - model.rest).colwise().norm().transpose();
@@ -364,7 +384,9 @@ int run_continuum(const StretchCli& o) {
                       {"I2", p.fields.i2},
                       {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
                       {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}},
-                     {{"force_pN", p.force_pN}}};
+                     {{"force_pN", p.force_pN},
+                      {kLambdaAreaAttribute, p.multipliers.area_pN_per_um},
+                      {kLambdaVolumeAttribute, p.multipliers.volume_pN_per_um2}}};
       const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
       write_mesh_snapshot(base, s);
       manifest.force_done(p.force_pN, base);
@@ -444,6 +466,9 @@ void add_stretch_command(CLI::App& app, Action& action) {
                   "write per-force HDF5/XDMF shapes, stretch.csv and run.json (must be empty "
                   "unless --force-overwrite)");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
+  cmd->add_option("--warm-start", o->warm_start,
+                  "re-solve each force from the equilibria of an earlier `stretch --out DIR` "
+                  "(same model, mesh and forces; e.g. after a small parameter change)");
   cmd->add_flag("--json", o->json, "print a JSON array of points on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action, tolerance] {

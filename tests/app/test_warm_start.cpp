@@ -1,0 +1,116 @@
+// `rbc stretch --warm-start DIR` (issue 11): a re-solve after a small parameter change from the
+// equilibria of an earlier `--out` reaches the same equilibrium as the cold continuation, in
+// fewer Newton iterations, and is refused (exit 2, naming what differs) unless the model, the
+// mesh and the forces match.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace {
+namespace fs = std::filesystem;
+
+struct CommandRun {
+  int exit_code;
+  std::string out;  // stdout
+  std::string all;  // stdout and stderr
+};
+
+CommandRun rbc(const std::string& args) {
+  const std::string err = std::string(RBC_BINARY_DIR) + "/test_output/warm_stderr.txt";
+  const std::string cmd = std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2>" + err;
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 512> buf{};
+  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+  const int status = pclose(p);
+  std::ifstream e(err);
+  const std::string errs((std::istreambuf_iterator<char>(e)), std::istreambuf_iterator<char>());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, out + errs};
+}
+
+std::string fresh_dir(const std::string& name) {
+  const std::string dir = std::string(RBC_BINARY_DIR) + "/test_output/warm_" + name;
+  fs::remove_all(dir);
+  fs::create_directories(fs::path(dir).parent_path());
+  return dir;
+}
+
+int total_iterations(const nlohmann::json& rows) {
+  int n = 0;
+  for (const auto& r : rows) n += r["iterations"].get<int>();
+  return n;
+}
+
+const std::string kContinuum = "stretch --model continuum --elements 300 --force 0,30,88 -q --json";
+
+TEST(WarmStart, ContinuumReSolveMatchesTheColdRunInFewerIterations) {
+  const std::string dir = fresh_dir("continuum");
+  ASSERT_EQ(rbc(kContinuum + " --out " + dir).exit_code, 0);
+  // 1 % softer persistence length: cold continuation from rest vs warm from the stored run.
+  const CommandRun cold = rbc(kContinuum + " --persistence 7.575");
+  const CommandRun warm = rbc(kContinuum + " --persistence 7.575 --warm-start " + dir);
+  ASSERT_EQ(cold.exit_code, 0) << cold.all;
+  ASSERT_EQ(warm.exit_code, 0) << warm.all;
+  const auto c = nlohmann::json::parse(cold.out), w = nlohmann::json::parse(warm.out);
+  ASSERT_EQ(c.size(), 3u);
+  ASSERT_EQ(w.size(), 3u);
+  for (size_t k = 0; k < c.size(); ++k) {
+    EXPECT_TRUE(w[k]["warm_started"].get<bool>()) << k;
+    EXPECT_TRUE(w[k]["converged"].get<bool>()) << k;
+    // Both end at the same equilibrium to Newton's tolerance (1e-6 pN net vertex force).
+    for (const char* d : {"axial_um", "transverse_um"})
+      EXPECT_NEAR(w[k][d].get<double>(), c[k][d].get<double>(), 1e-7 * c[k][d].get<double>())
+          << d << " at " << c[k]["force_pN"];
+  }
+  EXPECT_LT(total_iterations(w), total_iterations(c));
+}
+
+TEST(WarmStart, DiscreteReSolveReachesTheColdEquilibrium) {
+  const std::string base = "stretch --model discrete -n 200 --force 0,30 -q --json";
+  const std::string dir = fresh_dir("discrete");
+  ASSERT_EQ(rbc(base + " --out " + dir).exit_code, 0);
+  const CommandRun cold = rbc(base + " --lmax 240");
+  const CommandRun warm = rbc(base + " --lmax 240 --warm-start " + dir);
+  ASSERT_EQ(cold.exit_code, 0) << cold.all;
+  ASSERT_EQ(warm.exit_code, 0) << warm.all;
+  const auto c = nlohmann::json::parse(cold.out), w = nlohmann::json::parse(warm.out);
+  ASSERT_EQ(w.size(), 2u);
+  for (size_t k = 0; k < c.size(); ++k) {
+    EXPECT_TRUE(w[k]["warm_started"].get<bool>());
+    // L-BFGS stops at 1e-3 pN per vertex: the two paths agree to ~1e-4 relative.
+    for (const char* d : {"axial_um", "transverse_um"})
+      EXPECT_NEAR(w[k][d].get<double>(), c[k][d].get<double>(), 1e-3 * c[k][d].get<double>()) << d;
+  }
+}
+
+TEST(WarmStart, RefusedUnlessModelMeshAndForcesMatch) {
+  const std::string dir = fresh_dir("refuse");
+  ASSERT_EQ(rbc("stretch --model continuum --elements 300 --force 0,30 -q --out " + dir).exit_code,
+            0);
+  const std::string broken = fresh_dir("broken");
+  fs::create_directories(broken);
+  std::ofstream(broken + "/run.json") << "{ \"model\": \"continuum\", ";
+  struct Case {
+    std::string args, expect;
+  };
+  const Case cases[] = {
+      {"--model continuum --elements 1000 --force 0,30 --warm-start " + dir, "same mesh"},
+      {"--model continuum --elements 300 --force 0,40 --warm-start " + dir, "40"},
+      {"--model discrete -n 200 --force 0,30 --warm-start " + dir, "same model"},
+      {"--model continuum --elements 300 --force 0 --warm-start /nonexistent/rbc_run", "run.json"},
+      {"--model continuum --elements 300 --force 0 --warm-start " + broken, "not valid JSON"},
+  };
+  for (const auto& c : cases) {
+    const CommandRun r = rbc("stretch -q " + c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.all;
+    EXPECT_NE(r.all.find(c.expect), std::string::npos) << c.args << "\n" << r.all;
+    EXPECT_NE(r.all.find("--warm-start"), std::string::npos) << r.all;
+  }
+}
+
+}  // namespace
