@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/SVD>
+
 #include "core/geometry.hpp"
 #include "core/lbfgs.hpp"
 
@@ -117,6 +119,34 @@ void DiscreteDynamicsOptions::validate() const {
     throw std::invalid_argument("dynamics iteration counts must be >= 1");
 }
 
+void remove_unseen_rigid_motion(Positions& x, const Positions& reference, bool full_rotation) {
+  const Eigen::Vector3d c = x.rowwise().mean(), c_ref = reference.rowwise().mean();
+  const Eigen::Matrix3Xd p = x.colwise() - c;
+  const Eigen::Matrix3Xd q = reference.colwise() - c_ref;
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+  if (full_rotation) {
+    // Kabsch: H = sum p q^T = U S V^T, R = V diag(1, 1, det(V U^T)) U^T minimises
+    // sum |R p_i - q_i|^2 over proper rotations.
+    const Eigen::Matrix3d h = p * q.transpose();
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+    d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+    rot = svd.matrixV() * d * svd.matrixU().transpose();
+  } else {
+    // Rotation by theta about x: minimises sum |R p_i - q_i|^2 in the y-z plane at
+    // tan theta = sum (p x q)_x / sum (p_y q_y + p_z q_z).
+    const double cross =
+        (p.row(1).array() * q.row(2).array() - p.row(2).array() * q.row(1).array()).sum();
+    const double dot =
+        (p.row(1).array() * q.row(1).array() + p.row(2).array() * q.row(2).array()).sum();
+    const double theta = std::atan2(cross, dot);
+    rot(1, 1) = rot(2, 2) = std::cos(theta);
+    rot(2, 1) = std::sin(theta);
+    rot(1, 2) = -rot(2, 1);
+  }
+  x = (rot * p).colwise() + c_ref;
+}
+
 StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double dt,
                                    DynamicsState& state, const DiscreteDynamicsOptions& o) {
   const int n = net.topo.num_vertices;
@@ -125,7 +155,6 @@ StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double d
   dp.dt_s = dt;
   dp.validate();
   const Eigen::VectorXd lprev = link_lengths(state.x, net.topo);
-  const Eigen::Vector3d centroid0 = state.x.rowwise().mean();
   LoadState load;
   load.force_pN = force_pN;
   LbfgsOptions lo;
@@ -160,7 +189,7 @@ StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double d
     const double dv = (v - net.volume0_um3) / net.volume0_um3;
     if (std::abs(da) < net.constraints.tolerance && std::abs(dv) < net.constraints.tolerance) {
       Positions x = p;
-      x.colwise() += centroid0 - x.rowwise().mean();  // project out the net translation
+      remove_unseen_rigid_motion(x, state.x, force_pN == 0.0);
       state.x = x;
       state.lambda = lambda;
       out.converged = true;

@@ -7,10 +7,13 @@
 // (core/lbfgs.hpp) as the static stretch (discrete/stretch.cpp). The multipliers are carried
 // from step to step. The step's force tolerance is tolerance_pN_per_s x dt, so the solver
 // error per unit time stays below the scheme's O(dt) error as dt shrinks.
-// Rigid modes: the dashpots do not see rigid motions; every L-BFGS update is a combination
-// of gradients of a translation-invariant objective, so the centroid does not move (the
-// step's net translation is projected out explicitly); a rigid rotation is second order in
-// the step and costs no energy at F = 0.
+// Rigid modes: the dashpots see link lengths only, so the step's objective does not see a
+// rigid translation, nor a rigid rotation at F = 0, nor a rotation about the stretch axis x
+// at F > 0 (the beads pull along x). Each converged step therefore removes the rigid motion
+// from x_n to x_{n+1} that the objective does not see (remove_unseen_rigid_motion): this
+// changes neither the objective nor the residual, and fixes the otherwise free rigid part of
+// the minimiser (L-BFGS, whose updates are combinations of torque-free gradients, would let
+// a rotation drift in at second order in the step).
 // The fluids are not modelled: the cytosol's share of the in-plane dissipation is ~4 % of
 // the membrane's (MODEL.md section 6: eta_cyt R / eta_m ~ 6e-3 Pa s x 4 um / 0.6 pN s/um),
 // and a 2 um silica bead in water has Stokes drag 6 pi eta a ~ 1.9e-8 pN s/um, negligible
@@ -86,6 +89,14 @@ struct DiscreteDynamicsOptions {
   int max_outer_iterations = 30;             ///< augmented-Lagrangian updates per step
   void validate() const;
 };
+
+/// Moves x rigidly so that it has no rigid motion relative to reference (3 x N, um) among
+/// the modes the step's objective does not see: the centroid is put on the reference's, and
+/// x is rotated about it by the least-squares (Kabsch) rotation onto the reference, a full
+/// 3-d rotation when full_rotation (F = 0) and a rotation about the x axis otherwise
+/// (F > 0). Afterwards sum_i (x_i - c) x (r_i - c) = 0 (all three components, or the x
+/// component only).
+void remove_unseen_rigid_motion(Positions& x, const Positions& reference, bool full_rotation);
 
 /// One backward-Euler step of the network at bead force F (pN) from state.x.
 StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double dt_s,
