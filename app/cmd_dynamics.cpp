@@ -21,6 +21,7 @@
 #include "core/h5file.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
+#include "core/validation.hpp"
 #include "discrete/dynamics.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
@@ -45,8 +46,11 @@ struct DynamicsCli {
   std::string order = "2";
   int frames = 100;
   int max_halvings = 4;
+  /// Solver iterations per step: L-BFGS per multiplier update (discrete), Newton (continuum).
+  /// 0 = the library defaults (20,000 L-BFGS iterations per update; 50 Newton iterations).
+  int step_iterations = 0;
   std::string out;
-  bool json = false, quiet = false;
+  bool json = false, quiet = false, overwrite = false;
 };
 
 Scene scene_from(const std::string& s) {
@@ -64,44 +68,48 @@ void validate(const DynamicsCli& o) {
     throw std::invalid_argument(
         "--scene relax is the Helfrich relaxation of the continuum model; use --model continuum");
   if (!(o.dt_s > 0) || !std::isfinite(o.dt_s))
-    throw std::invalid_argument("--dt must be finite and > 0 s, got " + std::to_string(o.dt_s));
+    throw std::invalid_argument("--dt must be finite and > 0 s, got " + format_number(o.dt_s));
   if (!(o.duration_s > 0) || !std::isfinite(o.duration_s))
     throw std::invalid_argument("--duration must be finite and > 0 s, got " +
-                                std::to_string(o.duration_s));
+                                format_number(o.duration_s));
   if (o.dt_s > o.duration_s)
-    throw std::invalid_argument("--dt " + std::to_string(o.dt_s) +
-                                " s must not exceed --duration " + std::to_string(o.duration_s) +
-                                " s");
+    throw std::invalid_argument("--dt " + format_number(o.dt_s) + " s must not exceed --duration " +
+                                format_number(o.duration_s) + " s");
   if (!(o.eta_pN_s_per_um > 0) || !std::isfinite(o.eta_pN_s_per_um))
     throw std::invalid_argument("--membrane-viscosity must be finite and > 0 pN s/um, got " +
-                                std::to_string(o.eta_pN_s_per_um));
+                                format_number(o.eta_pN_s_per_um));
   if (!(o.dilatational_ratio >= 0) || !std::isfinite(o.dilatational_ratio))
     throw std::invalid_argument("--dilatational-ratio must be >= 0, got " +
-                                std::to_string(o.dilatational_ratio));
-  if (!(o.force_pN >= 0) || !std::isfinite(o.force_pN))
-    throw std::invalid_argument("--force must be finite and >= 0 pN, got " +
-                                std::to_string(o.force_pN));
+                                format_number(o.dilatational_ratio));
+  const double force_max = o.model == "discrete" ? kMaxDiscreteForce_pN : kMaxContinuumForce_pN;
+  if (!(o.force_pN >= 0) || !(o.force_pN <= force_max))
+    throw std::invalid_argument("--force must be finite and in [0, " + format_number(force_max) +
+                                "] pN for --model " + o.model + ", got " +
+                                format_number(o.force_pN));
   if ((sc == Scene::release || sc == Scene::stretch) && !(o.force_pN > 0))
     throw std::invalid_argument("--force must be > 0 pN for --scene " + o.scene + ", got " +
-                                std::to_string(o.force_pN));
+                                format_number(o.force_pN));
   if (!(o.tolerance_pN_per_s > 0))
     throw std::invalid_argument("--tolerance must be > 0 pN/s, got " +
-                                std::to_string(o.tolerance_pN_per_s));
+                                format_number(o.tolerance_pN_per_s));
   if (!(o.normal_drag > 0))
     throw std::invalid_argument("--normal-drag must be > 0 pN s/um^3, got " +
-                                std::to_string(o.normal_drag));
+                                format_number(o.normal_drag));
   if (o.vertices < 100 || o.vertices > 40000)
-    throw std::invalid_argument("--vertices " + std::to_string(o.vertices) +
+    throw std::invalid_argument("--vertices " + format_number(o.vertices) +
                                 " is out of range; expected 100 to 40000");
   if (o.elements < kMinContinuumElements || o.elements > kMaxContinuumElements)
     throw std::invalid_argument(
-        "--elements " + std::to_string(o.elements) + " is out of range; expected " +
+        "--elements " + format_number(o.elements) + " is out of range; expected " +
         std::to_string(kMinContinuumElements) + " to " + std::to_string(kMaxContinuumElements));
   if (o.frames < 1)
-    throw std::invalid_argument("--frames must be >= 1, got " + std::to_string(o.frames));
+    throw std::invalid_argument("--frames must be >= 1, got " + format_number(o.frames));
+  if (o.step_iterations < 0)
+    throw std::invalid_argument("--step-iterations must be >= 0 (0 = default), got " +
+                                std::to_string(o.step_iterations));
   if (o.max_halvings < 0 || o.max_halvings > 20)
     throw std::invalid_argument("--max-halvings must be in [0, 20], got " +
-                                std::to_string(o.max_halvings));
+                                format_number(o.max_halvings));
   wlc_expansion_from_string(o.order);
 }
 
@@ -150,6 +158,7 @@ SceneRun run_discrete(const DynamicsCli& o, Scene sc, const ProgressSink& progre
   DiscreteDynamicsOptions dop;
   dop.shear_viscosity_pN_s_per_um = o.eta_pN_s_per_um;
   dop.tolerance_pN_per_s = o.tolerance_pN_per_s;
+  if (o.step_iterations > 0) dop.max_iterations = o.step_iterations;
   dop.validate();
   TrajectoryOptions to;
   to.duration_s = o.duration_s;
@@ -202,6 +211,7 @@ SceneRun run_continuum(const DynamicsCli& o, Scene sc, const ProgressSink& progr
   dop.shear_viscosity_pN_s_per_um = o.eta_pN_s_per_um;
   dop.dilatational_ratio = o.dilatational_ratio;
   dop.tolerance_pN_per_s = o.tolerance_pN_per_s;
+  if (o.step_iterations > 0) dop.max_iterations = o.step_iterations;
   if (relax) dop.normal_drag_pN_s_per_um3 = o.normal_drag;
   ContinuumDynamics dyn(model, dop);
   TrajectoryOptions to;
@@ -265,7 +275,7 @@ void write_time_series(const std::string& dir, const SceneRun& r, int frame_ever
 int run(const DynamicsCli& o) {
   validate(o);
   const Scene sc = scene_from(o.scene);
-  if (!o.out.empty()) ensure_output_directory(o.out);
+  if (!o.out.empty()) prepare_output_directory(o.out, o.overwrite);
   const ProgressSink progress = stderr_progress(o.quiet);
   const long steps = std::lround(std::ceil(o.duration_s / o.dt_s - 1e-9));
   const int sample_every = static_cast<int>(std::max<long>(1, steps / 1000));
@@ -275,6 +285,10 @@ int run(const DynamicsCli& o) {
     std::cerr << "rbc: error: the static equilibrium did not converge (" << r.static_status
               << "): largest vertex force residual " << std::scientific << r.static_residual_pN
               << " pN\n";
+    return 1;
+  }
+  if (!r.traj.converged) {  // nothing written: a trajectory that stops early is no result
+    std::cerr << "rbc: error: " << r.traj.status << "\n";
     return 1;
   }
   const LinearModuli mod = closed_form_moduli(WlcParameters{}, StericParameters{});
@@ -307,6 +321,10 @@ int run(const DynamicsCli& o) {
   if (o.model == "continuum") j["elements"] = r.elements;
   if (sc == Scene::release) {
     const RecoveryFit fit = fit_recovery(t, lam, r.lambda_inf);
+    if (!fit.valid)
+      report(progress, "recovery fit invalid: " + std::to_string(fit.points) +
+                           " samples in the window (3 needed): use a smaller --dt");
+    j["recovery_fit_valid"] = fit.valid;
     j["lambda_inf"] = r.lambda_inf;
     j["recovery_time_s"] = fit.recovery_time_s;
     j["recovery_time_err_s"] = fit.recovery_time_err_s;
@@ -415,10 +433,6 @@ int run(const DynamicsCli& o) {
     std::cout << "final t = " << last.t_s << " s: D_A = " << last.axial_um
               << " um, D_T = " << last.transverse_um << " um\n";
   }
-  if (!r.traj.converged) {
-    std::cerr << "rbc: error: " << r.traj.status << "\n";
-    return 1;
-  }
   return 0;
 }
 
@@ -456,7 +470,13 @@ void add_dynamics_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--max-halvings", o->max_halvings, "halvings of a failing step's dt")
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "write dynamics.{csv,json,h5,xdmf,png}");
+  cmd->add_option("--step-iterations", o->step_iterations,
+                  "solver iterations per step: L-BFGS per multiplier update (discrete), Newton "
+                  "(continuum); 0 = defaults 20000 and 50")
+      ->capture_default_str();
+  cmd->add_option("--out", o->out,
+                  "write dynamics.{csv,json,h5,xdmf,png} (must be empty unless --force-overwrite)");
+  cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print the JSON summary on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] { action = [o]() -> int { return run(*o); }; });

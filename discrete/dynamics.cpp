@@ -11,19 +11,20 @@
 
 #include "core/geometry.hpp"
 #include "core/lbfgs.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
 void TrajectoryOptions::validate() const {
   if (!(duration_s > 0) || !std::isfinite(duration_s))
     throw std::invalid_argument("duration must be finite and > 0 s, got " +
-                                std::to_string(duration_s));
+                                format_number(duration_s));
   if (!(dt_s > 0) || !std::isfinite(dt_s))
     throw std::invalid_argument("time step dt must be finite and > 0 s, got " +
-                                std::to_string(dt_s));
+                                format_number(dt_s));
   if (dt_s > duration_s)
-    throw std::invalid_argument("time step dt = " + std::to_string(dt_s) +
-                                " s must not exceed the duration " + std::to_string(duration_s) +
+    throw std::invalid_argument("time step dt = " + format_number(dt_s) +
+                                " s must not exceed the duration " + format_number(duration_s) +
                                 " s");
   if (max_halvings < 0 || sample_every < 1)
     throw std::invalid_argument("max_halvings must be >= 0 and sample_every >= 1");
@@ -33,7 +34,8 @@ namespace {
 
 /// Advances by dt, as two half steps (recursively) if the full step fails.
 StepOutcome step_with_halving(const StepFunction& step, double dt, DynamicsState& s, int depth,
-                              int max_depth, bool& halved) {
+                              int max_depth, bool& halved, double& smallest_dt) {
+  smallest_dt = std::min(smallest_dt, dt);
   DynamicsState trial = s;
   StepOutcome r = step(dt, trial);
   if (r.converged) {
@@ -43,9 +45,11 @@ StepOutcome step_with_halving(const StepFunction& step, double dt, DynamicsState
   if (depth >= max_depth) return r;
   halved = true;
   DynamicsState half = s;
-  StepOutcome a = step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved);
+  StepOutcome a =
+      step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved, smallest_dt);
   if (!a.converged) return a;
-  StepOutcome b = step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved);
+  StepOutcome b =
+      step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved, smallest_dt);
   if (!b.converged) return b;
   b.iterations += a.iterations + r.iterations;
   s = std::move(half);
@@ -70,14 +74,17 @@ TrajectoryResult run_trajectory(const StepFunction& step, const Measure& measure
     const double t_prev = (k - 1) * o.dt_s;
     const double t = std::min(k * o.dt_s, o.duration_s);
     bool halved = false;
-    const StepOutcome r = step_with_halving(step, t - t_prev, state, 0, o.max_halvings, halved);
+    double smallest_dt = t - t_prev;
+    const StepOutcome r =
+        step_with_halving(step, t - t_prev, state, 0, o.max_halvings, halved, smallest_dt);
     iterations += r.iterations;
     out.residual_pN = r.residual_pN;
     if (halved) {
       ++out.halved_steps;
       std::ostringstream m;
-      m << "  step at t = " << t << " s: dt halved (step did not converge at dt = " << t - t_prev
-        << " s)" << (r.converged ? "" : "; failed at the smallest dt");
+      m << "  step to t = " << t << " s: dt halved down to " << smallest_dt
+        << " s (the step did not converge at dt = " << t - t_prev << " s)"
+        << (r.converged ? "" : "; it failed at the smallest dt");
       report(progress, m.str());
     }
     if (!r.converged) {
@@ -111,10 +118,10 @@ TrajectoryResult run_trajectory(const StepFunction& step, const Measure& measure
 void DiscreteDynamicsOptions::validate() const {
   if (!(shear_viscosity_pN_s_per_um > 0) || !std::isfinite(shear_viscosity_pN_s_per_um))
     throw std::invalid_argument("membrane viscosity must be finite and > 0 pN s/um, got " +
-                                std::to_string(shear_viscosity_pN_s_per_um));
+                                format_number(shear_viscosity_pN_s_per_um));
   if (!(tolerance_pN_per_s > 0))
     throw std::invalid_argument("dynamics tolerance must be > 0 pN/s, got " +
-                                std::to_string(tolerance_pN_per_s));
+                                format_number(tolerance_pN_per_s));
   if (max_iterations < 1 || max_outer_iterations < 1)
     throw std::invalid_argument("dynamics iteration counts must be >= 1");
 }

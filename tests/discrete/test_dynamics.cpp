@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -170,6 +172,93 @@ TEST(DiscreteDynamics, RotationAboutTheStretchAxisIsRemovedUnderLoad) {
   EXPECT_GT(max_distance(z, x), 0.1);
   remove_unseen_rigid_motion(z, x, true);
   EXPECT_LT(max_distance(z, x), 1e-12);
+}
+
+/// Backward Euler of dx/dt = -x/tau (x in state.x(0, 0)) that "fails to converge" for
+/// dt > dt_ok, with a residual of dt pN.
+StepFunction decay_step(double tau, double dt_ok) {
+  return [=](double dt, DynamicsState& s) {
+    StepOutcome r;
+    r.iterations = 1;
+    r.residual_pN = dt;
+    if (dt > dt_ok * (1 + 1e-12)) {
+      r.status = "iteration limit reached";
+      return r;
+    }
+    s.x(0, 0) /= 1 + dt / tau;
+    r.converged = true;
+    r.status = "converged";
+    return r;
+  };
+}
+
+TrajectorySample decay_measure(const DynamicsState& s) {
+  TrajectorySample t;
+  t.axial_um = s.x(0, 0);
+  return t;
+}
+
+// A step that fails is redone as two half steps, recursively (bounded), and each halving is
+// reported; the result is the backward-Euler solution at the halved step.
+TEST(Trajectory, FailingStepsAreHalvedAndReported) {
+  TrajectoryOptions o;
+  o.duration_s = 0.05;
+  o.dt_s = 0.01;
+  o.max_halvings = 4;
+  std::vector<std::string> messages;
+  const ProgressSink sink = [&](const std::string& m) { messages.push_back(m); };
+  const TrajectoryResult r = run_trajectory(decay_step(0.1, 0.003), decay_measure,
+                                            DynamicsState{Positions::Ones(3, 1), {}}, o, sink);
+  ASSERT_TRUE(r.converged) << r.status;
+  EXPECT_EQ(r.halved_steps, 5);  // every step, each as four steps of 2.5 ms
+  ASSERT_EQ(r.samples.size(), 6u);
+  EXPECT_NEAR(r.samples.back().t_s, 0.05, 1e-15);
+  EXPECT_NEAR(r.samples.back().axial_um, std::pow(1 + 0.0025 / 0.1, -20), 1e-14);
+  int halving_lines = 0;
+  for (const auto& m : messages)
+    if (m.find("dt halved down to 0.0025 s") != std::string::npos) ++halving_lines;
+  EXPECT_EQ(halving_lines, 5);
+}
+
+// The halving is bounded: past max_halvings the trajectory stops, converged = false, with the
+// residual in scientific notation; no step is silently clamped.
+TEST(Trajectory, HalvingIsBoundedAndTheFailureIsReported) {
+  TrajectoryOptions o;
+  o.duration_s = 0.05;
+  o.dt_s = 0.01;
+  o.max_halvings = 3;
+  const TrajectoryResult r = run_trajectory(decay_step(0.1, 1e-4), decay_measure,
+                                            DynamicsState{Positions::Ones(3, 1), {}}, o);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.samples.size(), 1u);  // only t = 0
+  EXPECT_NE(r.status.find("after 3 halvings"), std::string::npos) << r.status;
+  EXPECT_NE(r.status.find("1.250000e-03 pN"), std::string::npos) << r.status;  // dt / 8
+}
+
+TEST(Trajectory, BadTimesAreRefusedNamingTheValue) {
+  const auto message = [](double duration, double dt) {
+    TrajectoryOptions o;
+    o.duration_s = duration;
+    o.dt_s = dt;
+    try {
+      o.validate();
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message(1.0, 0.0).find("dt"), std::string::npos);
+  EXPECT_NE(message(1.0, -1e-3).find("dt"), std::string::npos);
+  EXPECT_NE(message(0.0, 1e-3).find("duration"), std::string::npos);
+  EXPECT_NE(message(-1.0, 1e-3).find("duration"), std::string::npos);
+  EXPECT_NE(message(1.0, 2.0).find("exceed"), std::string::npos);
+  EXPECT_NE(message(std::nan(""), 1e-3).find("duration"), std::string::npos);
+  EXPECT_EQ(message(1.0, 1.0), "");
+  DiscreteDynamicsOptions d;
+  d.shear_viscosity_pN_s_per_um = 0.0;
+  EXPECT_THROW(d.validate(), std::invalid_argument);
+  d.shear_viscosity_pN_s_per_um = -0.7;
+  EXPECT_THROW(d.validate(), std::invalid_argument);
 }
 
 TEST(RecoveryFit, RecoversAnExactExponential) {
