@@ -36,6 +36,7 @@ enum class Scene { release, stretch, relax };
 struct DynamicsCli {
   std::string model = "continuum";
   std::string scene = "release";
+  std::string scheme = "be";  ///< be (backward Euler) | bdf2 (discrete only)
   double force_pN = 88.0;
   double eta_pN_s_per_um = 0.7;  // Hochmuth 1979 range 0.6-0.8 with mu ~ 6 uN/m
   double dilatational_ratio = 2.0;
@@ -67,6 +68,12 @@ void validate(const DynamicsCli& o) {
   if (o.model != "discrete" && o.model != "continuum")
     throw std::invalid_argument("--model '" + o.model + "' is not one of discrete, continuum");
   const Scene sc = scene_from(o.scene);
+  if (o.scheme != "be" && o.scheme != "bdf2")
+    throw std::invalid_argument("--scheme '" + o.scheme + "' is not one of be, bdf2");
+  if (o.scheme == "bdf2" && o.model != "discrete")
+    throw std::invalid_argument(
+        "--scheme bdf2 is implemented for --model discrete only; the continuum step is "
+        "backward Euler");
   if (sc == Scene::relax && o.model == "discrete")
     throw std::invalid_argument(
         "--scene relax is the Helfrich relaxation of the continuum model; use --model continuum");
@@ -178,6 +185,7 @@ SceneRun run_discrete(const DynamicsCli& o, Scene sc, const ProgressSink& progre
   dop.shear_viscosity_pN_s_per_um = o.eta_pN_s_per_um;
   dop.tolerance_pN_per_s = step_tolerance(o, sc);
   if (o.step_iterations > 0) dop.max_iterations = o.step_iterations;
+  dop.scheme = o.scheme == "bdf2" ? TimeScheme::bdf2 : TimeScheme::backward_euler;
   dop.validate();
   TrajectoryOptions to;
   to.duration_s = o.duration_s;
@@ -379,6 +387,7 @@ int run(const DynamicsCli& o) {
       {"membrane_viscosity_pN_s_per_um", o.eta_pN_s_per_um},
       {"dilatational_viscosity_pN_s_per_um",
        o.model == "discrete" ? 2.0 * o.eta_pN_s_per_um : o.dilatational_ratio * o.eta_pN_s_per_um},
+      {"scheme", o.scheme},
       {"dt_s", o.dt_s},
       {"step_tolerance_pN_per_s", step_tolerance(o, sc)},
       {"duration_s", o.duration_s},
@@ -523,6 +532,10 @@ void add_dynamics_command(CLI::App& app, Action& action) {
   cmd->add_option("--scene", o->scene,
                   "release (equilibrium at F, then F = 0) | stretch (F from t = 0) | relax "
                   "(Helfrich, continuum only)")
+      ->capture_default_str();
+  cmd->add_option("--scheme", o->scheme,
+                  "time scheme: be (backward Euler, energy-monotone) | bdf2 (second order, "
+                  "discrete only)")
       ->capture_default_str();
   cmd->add_option("--force", o->force_pN, "total bead force F (pN)")->capture_default_str();
   cmd->add_option("--membrane-viscosity", o->eta_pN_s_per_um,

@@ -161,7 +161,15 @@ StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double d
   dp.gamma_pN_s_per_um = link_damping_for_shear_viscosity(o.shear_viscosity_pN_s_per_um);
   dp.dt_s = dt;
   dp.validate();
-  const Eigen::VectorXd lprev = link_lengths(state.x, net.topo);
+  Eigen::VectorXd lprev = link_lengths(state.x, net.topo);
+  const bool two_step = o.scheme == TimeScheme::bdf2 && state.previous_dt_s > 0 &&
+                        state.previous_x.cols() == state.x.cols();
+  if (two_step) {
+    const double w = dt / state.previous_dt_s;
+    const double a = (1 + 2 * w) / (1 + w);
+    lprev = ((1 + w) * lprev - (w * w / (1 + w)) * link_lengths(state.previous_x, net.topo)) / a;
+    dp.gamma_pN_s_per_um *= a;
+  }
   LoadState load;
   load.force_pN = force_pN;
   LbfgsOptions lo;
@@ -197,6 +205,8 @@ StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double d
     if (std::abs(da) < net.constraints.tolerance && std::abs(dv) < net.constraints.tolerance) {
       Positions x = p;
       remove_unseen_rigid_motion(x, state.x, force_pN == 0.0);
+      state.previous_x = state.x;
+      state.previous_dt_s = dt;
       state.x = x;
       state.lambda = lambda;
       out.converged = true;

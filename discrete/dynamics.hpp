@@ -28,10 +28,13 @@
 
 namespace rbc {
 
-/// State advanced by a step: positions and the constraint multipliers.
+/// State advanced by a step: positions and the constraint multipliers, and the previous
+/// positions and step for the two-step scheme (TimeScheme::bdf2; ignored by backward Euler).
 struct DynamicsState {
   Positions x;  ///< 3 x N (um)
   ConstraintMultipliers lambda;
+  Positions previous_x{};      ///< x_{n-1} (um); empty before the first step
+  double previous_dt_s = 0.0;  ///< t_n - t_{n-1} (s); 0 before the first step
 };
 
 /// Outcome of one (sub)step.
@@ -82,7 +85,19 @@ TrajectoryResult run_trajectory(const StepFunction& step, const Measure& measure
                                 DynamicsState state, const TrajectoryOptions& options,
                                 const ProgressSink& progress = {});
 
+/// Time discretisation of the discrete step.
+enum class TimeScheme {
+  /// x_{n+1} = argmin E + gamma/(2 dt) sum (L - L^n)^2: first order, E never increases.
+  backward_euler,
+  /// Variable-step BDF2 on the link-length rates: with w = dt_n/dt_{n-1} and
+  /// a = (1 + 2w)/(1 + w), dL/dt ~ a (L - L*)/dt, L* = [(1 + w) L^n - w^2/(1 + w) L^{n-1}]/a,
+  /// so the step minimises E + a gamma/(2 dt) sum (L - L*)^2 (the same dashpot term): second
+  /// order, A-stable; the first step (no x_{n-1}) is backward Euler. Not energy-monotone.
+  bdf2,
+};
+
 struct DiscreteDynamicsOptions {
+  TimeScheme scheme = TimeScheme::backward_euler;
   double shear_viscosity_pN_s_per_um = 0.7;  ///< eta_m; gamma = 4 eta_m/sqrt3 (> 0)
   double tolerance_pN_per_s = 1.0;           ///< step force tolerance = this x dt (> 0)
   int max_iterations = 20000;                ///< L-BFGS iterations per multiplier update

@@ -70,6 +70,8 @@ TEST(CliDynamics, BadTimesAndViscositiesExitTwoAndWriteNothing) {
       {"--scene release --force 0", "--force"},
       {"--step-iterations -1", "--step-iterations"},
       {"--scene nope", "nope"},
+      {"--scheme rk4", "rk4"},
+      {"--model continuum --scheme bdf2", "--scheme bdf2"},
   };
   int k = 0;
   for (const auto& c : cases) {

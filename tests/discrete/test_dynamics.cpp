@@ -35,9 +35,11 @@ struct SmallNetwork {
 };
 
 TrajectoryResult run(const SmallNetwork& c, const DynamicsState& start, double force, double dt,
-                     double duration, double tol_pN_per_s) {
+                     double duration, double tol_pN_per_s,
+                     TimeScheme scheme = TimeScheme::backward_euler) {
   DiscreteDynamicsOptions o;
   o.tolerance_pN_per_s = tol_pN_per_s;
+  o.scheme = scheme;
   TrajectoryOptions to;
   to.dt_s = dt;
   to.duration_s = duration;
@@ -172,6 +174,48 @@ TEST(DiscreteDynamics, RotationAboutTheStretchAxisIsRemovedUnderLoad) {
   EXPECT_GT(max_distance(z, x), 0.1);
   remove_unseen_rigid_motion(z, x, true);
   EXPECT_LT(max_distance(z, x), 1e-12);
+}
+
+// Time-step convergence at the scheme's order, on D_A(t = 0.04 s) of a release from 50 pN:
+// with D(h) the value at step h, the ratio (D(h) - D(h/2)) / (D(h/2) - D(h/4)) tends to 2^p,
+// p = 1 for backward Euler and 2 for BDF2 (h = 10, 5, 2.5 ms; t_c ~ 0.085 s). The step force
+// tolerance, 1e-5 pN at 2.5 ms (the floor plain L-BFGS reaches here), keeps the solver's error
+// below the smallest difference.
+TEST(DiscreteDynamics, TimeStepConvergenceAtTheSchemesOrder) {
+  testing::OneOpenMpThread one;
+  SmallNetwork c;
+  DynamicsState s{c.net.rest, {}};
+  ASSERT_TRUE(c.equilibrium(50.0, s.x, s.lambda).converged);
+  for (const TimeScheme scheme : {TimeScheme::backward_euler, TimeScheme::bdf2}) {
+    std::vector<double> d;
+    for (const double h : {0.01, 0.005, 0.0025}) {
+      const TrajectoryResult r = run(c, s, 0.0, h, 0.04, 4e-3, scheme);
+      ASSERT_TRUE(r.converged) << r.status;
+      d.push_back(r.samples.back().axial_um);
+    }
+    const double ratio = (d[0] - d[1]) / (d[1] - d[2]);
+    const double order = std::log2(ratio);
+    if (scheme == TimeScheme::backward_euler) {
+      EXPECT_GT(order, 0.85) << ratio;  // measured 0.92
+      EXPECT_LT(order, 1.15) << ratio;
+    } else {
+      EXPECT_GT(order, 1.8) << ratio;  // measured 2.02
+      EXPECT_LT(order, 2.25) << ratio;
+    }
+  }
+}
+
+// BDF2's first step has no x_{n-1} and is the backward-Euler step; the second is not.
+TEST(DiscreteDynamics, SecondOrderSchemeStartsWithABackwardEulerStep) {
+  testing::OneOpenMpThread one;
+  SmallNetwork c;
+  DynamicsState s{c.net.rest, {}};
+  ASSERT_TRUE(c.equilibrium(50.0, s.x, s.lambda).converged);
+  const TrajectoryResult be = run(c, s, 0.0, 0.01, 0.02, 2e-3);
+  const TrajectoryResult b2 = run(c, s, 0.0, 0.01, 0.02, 2e-3, TimeScheme::bdf2);
+  ASSERT_TRUE(be.converged && b2.converged);
+  EXPECT_EQ(be.samples[1].axial_um, b2.samples[1].axial_um);
+  EXPECT_GT(std::abs(be.samples[2].axial_um - b2.samples[2].axial_um), 1e-4);
 }
 
 /// Backward Euler of dx/dt = -x/tau (x in state.x(0, 0)) that "fails to converge" for
