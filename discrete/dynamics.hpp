@@ -14,10 +14,12 @@
 // changes neither the objective nor the residual, and fixes the otherwise free rigid part of
 // the minimiser (L-BFGS, whose updates are combinations of torque-free gradients, would let
 // a rotation drift in at second order in the step).
-// The fluids are not modelled: the cytosol's share of the in-plane dissipation is ~4 % of
-// the membrane's (MODEL.md section 6: eta_cyt R / eta_m ~ 6e-3 Pa s x 4 um / 0.6 pN s/um),
-// and a 2 um silica bead in water has Stokes drag 6 pi eta a ~ 1.9e-8 pN s/um, negligible
-// against the membrane's gamma ~ 1 pN s/um per link.
+// The fluids are not modelled: the cytosol's share of the in-plane dissipation is ~3-4 % of
+// the membrane's (MODEL.md section 6: eta_cyt R / eta_m ~ 6e-3 Pa s x 3.9 um / 0.7 pN s/um),
+// the outer medium's ~0.6 %; a bead of radius 2.06 um (Mills et al. 2004) in water has
+// Stokes drag 6 pi eta a ~ 0.039 pN s/um (1 Pa s = 1 pN s/um^2), which, at half the D_A rate
+// for each of the two beads, is ~1 % of the cell's axial drag k_eff eta_m/mu ~ 1.7 pN s/um
+// (rbc dynamics reports these per scene).
 #include <functional>
 #include <string>
 #include <vector>
