@@ -19,19 +19,14 @@
 namespace {
 namespace fs = std::filesystem;
 
+/// Exit code, stdout and stderr of one `rbc dynamics` run.
 struct CommandResult {
   int exit_code = -1;
   std::string out, err;
 };
 
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-/// Runs `rbc dynamics ARGS` with one OpenMP thread, stdout and stderr apart.
+/// Runs `rbc dynamics ARGS` with one OpenMP thread, stdout and stderr to files under
+/// test_output/cli_dynamics/TAG.{out,err}, read back.
 CommandResult dynamics(const std::string& args, const std::string& tag) {
   const fs::path dir = fs::path(RBC_BINARY_DIR) / "test_output" / "cli_dynamics";
   fs::create_directories(dir);
@@ -39,7 +34,14 @@ CommandResult dynamics(const std::string& args, const std::string& tag) {
   const std::string cmd = "OMP_NUM_THREADS=1 " + std::string(RBC_BINARY_DIR) + "/rbc dynamics " +
                           args + " > " + out.string() + " 2> " + err.string();
   const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+  CommandResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::stringstream so, se;
+  so << std::ifstream(out).rdbuf();
+  se << std::ifstream(err).rdbuf();
+  r.out = so.str();
+  r.err = se.str();
+  return r;
 }
 
 fs::path fresh_dir(const std::string& name) {
