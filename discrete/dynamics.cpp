@@ -7,21 +7,24 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/SVD>
+
 #include "core/geometry.hpp"
 #include "core/lbfgs.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
 void TrajectoryOptions::validate() const {
   if (!(duration_s > 0) || !std::isfinite(duration_s))
     throw std::invalid_argument("duration must be finite and > 0 s, got " +
-                                std::to_string(duration_s));
+                                format_number(duration_s));
   if (!(dt_s > 0) || !std::isfinite(dt_s))
     throw std::invalid_argument("time step dt must be finite and > 0 s, got " +
-                                std::to_string(dt_s));
+                                format_number(dt_s));
   if (dt_s > duration_s)
-    throw std::invalid_argument("time step dt = " + std::to_string(dt_s) +
-                                " s must not exceed the duration " + std::to_string(duration_s) +
+    throw std::invalid_argument("time step dt = " + format_number(dt_s) +
+                                " s must not exceed the duration " + format_number(duration_s) +
                                 " s");
   if (max_halvings < 0 || sample_every < 1)
     throw std::invalid_argument("max_halvings must be >= 0 and sample_every >= 1");
@@ -31,7 +34,8 @@ namespace {
 
 /// Advances by dt, as two half steps (recursively) if the full step fails.
 StepOutcome step_with_halving(const StepFunction& step, double dt, DynamicsState& s, int depth,
-                              int max_depth, bool& halved) {
+                              int max_depth, bool& halved, double& smallest_dt) {
+  smallest_dt = std::min(smallest_dt, dt);
   DynamicsState trial = s;
   StepOutcome r = step(dt, trial);
   if (r.converged) {
@@ -41,9 +45,11 @@ StepOutcome step_with_halving(const StepFunction& step, double dt, DynamicsState
   if (depth >= max_depth) return r;
   halved = true;
   DynamicsState half = s;
-  StepOutcome a = step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved);
+  StepOutcome a =
+      step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved, smallest_dt);
   if (!a.converged) return a;
-  StepOutcome b = step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved);
+  StepOutcome b =
+      step_with_halving(step, 0.5 * dt, half, depth + 1, max_depth, halved, smallest_dt);
   if (!b.converged) return b;
   b.iterations += a.iterations + r.iterations;
   s = std::move(half);
@@ -68,14 +74,17 @@ TrajectoryResult run_trajectory(const StepFunction& step, const Measure& measure
     const double t_prev = (k - 1) * o.dt_s;
     const double t = std::min(k * o.dt_s, o.duration_s);
     bool halved = false;
-    const StepOutcome r = step_with_halving(step, t - t_prev, state, 0, o.max_halvings, halved);
+    double smallest_dt = t - t_prev;
+    const StepOutcome r =
+        step_with_halving(step, t - t_prev, state, 0, o.max_halvings, halved, smallest_dt);
     iterations += r.iterations;
     out.residual_pN = r.residual_pN;
     if (halved) {
       ++out.halved_steps;
       std::ostringstream m;
-      m << "  step at t = " << t << " s: dt halved (step did not converge at dt = " << t - t_prev
-        << " s)" << (r.converged ? "" : "; failed at the smallest dt");
+      m << "  step to t = " << t << " s: dt halved down to " << smallest_dt
+        << " s (the step did not converge at dt = " << t - t_prev << " s)"
+        << (r.converged ? "" : "; it failed at the smallest dt");
       report(progress, m.str());
     }
     if (!r.converged) {
@@ -109,12 +118,40 @@ TrajectoryResult run_trajectory(const StepFunction& step, const Measure& measure
 void DiscreteDynamicsOptions::validate() const {
   if (!(shear_viscosity_pN_s_per_um > 0) || !std::isfinite(shear_viscosity_pN_s_per_um))
     throw std::invalid_argument("membrane viscosity must be finite and > 0 pN s/um, got " +
-                                std::to_string(shear_viscosity_pN_s_per_um));
+                                format_number(shear_viscosity_pN_s_per_um));
   if (!(tolerance_pN_per_s > 0))
     throw std::invalid_argument("dynamics tolerance must be > 0 pN/s, got " +
-                                std::to_string(tolerance_pN_per_s));
+                                format_number(tolerance_pN_per_s));
   if (max_iterations < 1 || max_outer_iterations < 1)
     throw std::invalid_argument("dynamics iteration counts must be >= 1");
+}
+
+void remove_unseen_rigid_motion(Positions& x, const Positions& reference, bool full_rotation) {
+  const Eigen::Vector3d c = x.rowwise().mean(), c_ref = reference.rowwise().mean();
+  const Eigen::Matrix3Xd p = x.colwise() - c;
+  const Eigen::Matrix3Xd q = reference.colwise() - c_ref;
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+  if (full_rotation) {
+    // Kabsch: H = sum p q^T = U S V^T, R = V diag(1, 1, det(V U^T)) U^T minimises
+    // sum |R p_i - q_i|^2 over proper rotations.
+    const Eigen::Matrix3d h = p * q.transpose();
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+    d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+    rot = svd.matrixV() * d * svd.matrixU().transpose();
+  } else {
+    // Rotation by theta about x: minimises sum |R p_i - q_i|^2 in the y-z plane at
+    // tan theta = sum (p x q)_x / sum (p_y q_y + p_z q_z).
+    const double cross =
+        (p.row(1).array() * q.row(2).array() - p.row(2).array() * q.row(1).array()).sum();
+    const double dot =
+        (p.row(1).array() * q.row(1).array() + p.row(2).array() * q.row(2).array()).sum();
+    const double theta = std::atan2(cross, dot);
+    rot(1, 1) = rot(2, 2) = std::cos(theta);
+    rot(2, 1) = std::sin(theta);
+    rot(1, 2) = -rot(2, 1);
+  }
+  x = (rot * p).colwise() + c_ref;
 }
 
 StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double dt,
@@ -124,8 +161,15 @@ StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double d
   dp.gamma_pN_s_per_um = link_damping_for_shear_viscosity(o.shear_viscosity_pN_s_per_um);
   dp.dt_s = dt;
   dp.validate();
-  const Eigen::VectorXd lprev = link_lengths(state.x, net.topo);
-  const Eigen::Vector3d centroid0 = state.x.rowwise().mean();
+  Eigen::VectorXd lprev = link_lengths(state.x, net.topo);
+  const bool two_step = o.scheme == TimeScheme::bdf2 && state.previous_dt_s > 0 &&
+                        state.previous_x.cols() == state.x.cols();
+  if (two_step) {
+    const double w = dt / state.previous_dt_s;
+    const double a = (1 + 2 * w) / (1 + w);
+    lprev = ((1 + w) * lprev - (w * w / (1 + w)) * link_lengths(state.previous_x, net.topo)) / a;
+    dp.gamma_pN_s_per_um *= a;
+  }
   LoadState load;
   load.force_pN = force_pN;
   LbfgsOptions lo;
@@ -160,7 +204,9 @@ StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double d
     const double dv = (v - net.volume0_um3) / net.volume0_um3;
     if (std::abs(da) < net.constraints.tolerance && std::abs(dv) < net.constraints.tolerance) {
       Positions x = p;
-      x.colwise() += centroid0 - x.rowwise().mean();  // project out the net translation
+      remove_unseen_rigid_motion(x, state.x, force_pN == 0.0);
+      state.previous_x = state.x;
+      state.previous_dt_s = dt;
       state.x = x;
       state.lambda = lambda;
       out.converged = true;

@@ -7,14 +7,19 @@
 // (core/lbfgs.hpp) as the static stretch (discrete/stretch.cpp). The multipliers are carried
 // from step to step. The step's force tolerance is tolerance_pN_per_s x dt, so the solver
 // error per unit time stays below the scheme's O(dt) error as dt shrinks.
-// Rigid modes: the dashpots do not see rigid motions; every L-BFGS update is a combination
-// of gradients of a translation-invariant objective, so the centroid does not move (the
-// step's net translation is projected out explicitly); a rigid rotation is second order in
-// the step and costs no energy at F = 0.
-// The fluids are not modelled: the cytosol's share of the in-plane dissipation is ~4 % of
-// the membrane's (MODEL.md section 6: eta_cyt R / eta_m ~ 6e-3 Pa s x 4 um / 0.6 pN s/um),
-// and a 2 um silica bead in water has Stokes drag 6 pi eta a ~ 1.9e-8 pN s/um, negligible
-// against the membrane's gamma ~ 1 pN s/um per link.
+// Rigid modes: the dashpots see link lengths only, so the step's objective does not see a
+// rigid translation, nor a rigid rotation at F = 0, nor a rotation about the stretch axis x
+// at F > 0 (the beads pull along x). Each converged step therefore removes the rigid motion
+// from x_n to x_{n+1} that the objective does not see (remove_unseen_rigid_motion): this
+// changes neither the objective nor the residual, and fixes the otherwise free rigid part of
+// the minimiser (L-BFGS, whose updates are combinations of torque-free gradients, would let
+// a rotation drift in at second order in the step).
+// The fluids are not modelled: the cytosol's share of the in-plane dissipation is ~3-4 % of
+// the membrane's (MODEL.md section 6: eta_cyt R / eta_m ~ 6e-3 Pa s x 3.9 um / 0.7 pN s/um),
+// the outer medium's ~0.6 %; a bead of radius 2.06 um (Mills et al. 2004) in water has
+// Stokes drag 6 pi eta a ~ 0.039 pN s/um (1 Pa s = 1 pN s/um^2), which, at half the D_A rate
+// for each of the two beads, is ~1 % of the cell's axial drag k_eff eta_m/mu ~ 1.7 pN s/um
+// (rbc dynamics reports these per scene).
 #include <functional>
 #include <string>
 #include <vector>
@@ -25,10 +30,13 @@
 
 namespace rbc {
 
-/// State advanced by a step: positions and the constraint multipliers.
+/// State advanced by a step: positions and the constraint multipliers, and the previous
+/// positions and step for the two-step scheme (TimeScheme::bdf2; ignored by backward Euler).
 struct DynamicsState {
   Positions x;  ///< 3 x N (um)
   ConstraintMultipliers lambda;
+  Positions previous_x{};      ///< x_{n-1} (um); empty before the first step
+  double previous_dt_s = 0.0;  ///< t_n - t_{n-1} (s); 0 before the first step
 };
 
 /// Outcome of one (sub)step.
@@ -79,13 +87,33 @@ TrajectoryResult run_trajectory(const StepFunction& step, const Measure& measure
                                 DynamicsState state, const TrajectoryOptions& options,
                                 const ProgressSink& progress = {});
 
+/// Time discretisation of the discrete step.
+enum class TimeScheme {
+  /// x_{n+1} = argmin E + gamma/(2 dt) sum (L - L^n)^2: first order, E never increases.
+  backward_euler,
+  /// Variable-step BDF2 on the link-length rates: with w = dt_n/dt_{n-1} and
+  /// a = (1 + 2w)/(1 + w), dL/dt ~ a (L - L*)/dt, L* = [(1 + w) L^n - w^2/(1 + w) L^{n-1}]/a,
+  /// so the step minimises E + a gamma/(2 dt) sum (L - L*)^2 (the same dashpot term): second
+  /// order, A-stable; the first step (no x_{n-1}) is backward Euler. Not energy-monotone.
+  bdf2,
+};
+
 struct DiscreteDynamicsOptions {
+  TimeScheme scheme = TimeScheme::backward_euler;
   double shear_viscosity_pN_s_per_um = 0.7;  ///< eta_m; gamma = 4 eta_m/sqrt3 (> 0)
   double tolerance_pN_per_s = 1.0;           ///< step force tolerance = this x dt (> 0)
   int max_iterations = 20000;                ///< L-BFGS iterations per multiplier update
   int max_outer_iterations = 30;             ///< augmented-Lagrangian updates per step
   void validate() const;
 };
+
+/// Moves x rigidly so that it has no rigid motion relative to reference (3 x N, um) among
+/// the modes the step's objective does not see: the centroid is put on the reference's, and
+/// x is rotated about it by the least-squares (Kabsch) rotation onto the reference, a full
+/// 3-d rotation when full_rotation (F = 0) and a rotation about the x axis otherwise
+/// (F > 0). Afterwards sum_i (x_i - c) x (r_i - c) = 0 (all three components, or the x
+/// component only).
+void remove_unseen_rigid_motion(Positions& x, const Positions& reference, bool full_rotation);
 
 /// One backward-Euler step of the network at bead force F (pN) from state.x.
 StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double dt_s,

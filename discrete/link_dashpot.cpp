@@ -4,14 +4,16 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/validation.hpp"
+
 namespace rbc {
 
 void LinkDashpotParameters::validate() const {
   if (!(gamma_pN_s_per_um > 0) || !std::isfinite(gamma_pN_s_per_um))
     throw std::invalid_argument("link damping gamma must be finite and > 0 pN s/um, got " +
-                                std::to_string(gamma_pN_s_per_um));
+                                format_number(gamma_pN_s_per_um));
   if (!(dt_s > 0) || !std::isfinite(dt_s))
-    throw std::invalid_argument("time step must be finite and > 0 s, got " + std::to_string(dt_s));
+    throw std::invalid_argument("time step must be finite and > 0 s, got " + format_number(dt_s));
 }
 
 double link_damping_for_shear_viscosity(double eta_m) {
