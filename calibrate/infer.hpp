@@ -117,6 +117,9 @@ struct InferenceResult {
   std::vector<double> axial_q05, axial_q50, axial_q95, transverse_q05, transverse_q50,
       transverse_q95;
   std::string method, data_file;
+  std::string command;  ///< the command line that made it (set by the caller; summary.json)
+  std::vector<double> prior_lower, prior_upper;  ///< prior box per inferred parameter
+  double reading_uncertainty_um = 0;
   int vertices = 0, elements = 0, samples_per_stage = 0, threads = 0, ranks = 1;
   std::uint64_t seed = 0;
 };

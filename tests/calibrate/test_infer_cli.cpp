@@ -90,6 +90,7 @@ std::string read(const std::string& path) {
 nlohmann::json without_timing(const std::string& path) {
   nlohmann::json j = nlohmann::json::parse(read(path));
   j.erase("timing");
+  j.erase("command");  // names the --out directory
   return j;
 }
 
