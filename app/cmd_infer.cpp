@@ -28,6 +28,7 @@ struct InferCli {
   double target_cov = 1.0, proposal_scale = 0.2;
   std::uint64_t seed = 1;
   int threads = 0;
+  double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   std::string out;
   bool json = false, overwrite = false, quiet = false, forward_check = false, trace = false;
   std::vector<std::string> at;
@@ -135,6 +136,7 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.proposal_scale = c.proposal_scale;
   o.sampler.seed = c.seed;
   o.threads = c.threads;
+  o.force_tolerance_pN = c.force_tolerance_pN;
   o.validate();
   return o;
 }
@@ -191,6 +193,9 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_option("--seed", c->seed, "random seed (the posterior depends on it only)")
       ->capture_default_str();
   cmd->add_option("--threads", c->threads, "OpenMP threads for forward runs (0: OMP_NUM_THREADS)")
+      ->capture_default_str();
+  cmd->add_option("--force-tolerance", c->force_tolerance_pN,
+                  "Newton tolerance of the continuum forward runs: largest net vertex force (pN)")
       ->capture_default_str();
   cmd->add_option("--out", c->out,
                   "output directory (summary, samples, corner and predictive plots)");

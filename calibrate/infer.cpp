@@ -74,6 +74,9 @@ void InferOptions::validate() const {
   if (!(fixed_sigma_scale > 0) || !std::isfinite(fixed_sigma_scale))
     throw std::invalid_argument("sigma scale must be finite and > 0, got " +
                                 std::to_string(fixed_sigma_scale));
+  if (!(force_tolerance_pN > 0 && force_tolerance_pN <= 0.1))
+    throw std::invalid_argument("--force-tolerance must lie in (0, 0.1] pN, got " +
+                                std::to_string(force_tolerance_pN));
   if (threads < 0)
     throw std::invalid_argument("--threads must be >= 0, got " + std::to_string(threads));
   fixed.validate();
@@ -112,6 +115,7 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
   prior_.validate(names);
   ForwardOptions fo;
   fo.method = options_.method;
+  fo.newton.force_tolerance_pN = options_.force_tolerance_pN;
   fo.forces_pN = data_.force_pN;
   forward_ = std::make_unique<ForwardModel>(fo);
   likelihood_ = std::make_unique<DiameterLikelihood>(*this);

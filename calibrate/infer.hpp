@@ -46,6 +46,9 @@ struct InferOptions {
   double fixed_sigma_scale = 1;  ///< when sigma-scale is not inferred
   TmcmcOptions sampler = default_sampler();
   int threads = 0;  ///< OpenMP threads for the forward runs (0: OpenMP's default)
+  /// Newton force tolerance of the continuum forward runs (pN; ForwardOptions documents
+  /// the default 1e-4 pN).
+  double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   /// Throws std::invalid_argument naming the value: repeated parameters, a prior for a
   /// parameter not inferred or given twice, an invalid prior box, reading uncertainty < 0,
   /// invalid sampler options or fixed parameters. Does not read the data file.
