@@ -3,8 +3,10 @@
 // samples and writes, the others serve forward runs (calibrate/mpi_executor.hpp).
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <iterator>
 #include <memory>
 
 #include "app/cli_util.hpp"
@@ -26,10 +28,33 @@ struct InferCli {
   double target_cov = 1.0, proposal_scale = 0.2;
   std::uint64_t seed = 1;
   int threads = 0;
+  double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   std::string out;
-  bool json = false, overwrite = false, quiet = false, forward_check = false;
+  bool json = false, overwrite = false, quiet = false, forward_check = false, trace = false;
   std::vector<std::string> at;
 };
+
+/// This process's command line ("rbc infer ..."), from /proc/self/cmdline (Linux); empty
+/// elsewhere. Recorded in summary.json so a cached result says how it was made.
+std::string own_command_line() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string out;
+  bool first = true;
+  for (size_t b = 0; b < all.size();) {
+    size_t e = all.find('\0', b);
+    if (e == std::string::npos) e = all.size();
+    std::string arg = all.substr(b, e - b);
+    if (first)
+      arg = "rbc";
+    else if (arg.find_first_of(" \t\"'") != std::string::npos)
+      arg = "'" + arg + "'";
+    out += (first ? "" : " ") + arg;
+    first = false;
+    b = e + 1;
+  }
+  return out;
+}
 
 /// Parses "persistence=12" into the forward parameters (natural units).
 void apply_at(const std::string& text, ForwardParameters& p) {
@@ -60,14 +85,17 @@ void apply_at(const std::string& text, ForwardParameters& p) {
 }
 
 /// --forward-check: one cold and one warm forward sweep at the --at parameters, with times.
-int forward_check(const InferenceProblem& problem, const ForwardParameters& at) {
+int forward_check(const InferenceProblem& problem, const ForwardParameters& at, bool trace) {
   using Clock = std::chrono::steady_clock;
+  const ProgressSink sink = stderr_progress(!trace);
   const auto t0 = Clock::now();
-  const ForwardRun cold = problem.forward().run(at);
+  report(sink, "cold sweep:");
+  const ForwardRun cold = problem.forward().run(at, {}, sink);
   const auto t1 = Clock::now();
   ForwardParameters near = at;
   near.persistence_nm *= 1.01;  // a typical proposal step away
-  const ForwardRun warm = problem.forward().run(near, cold.state);
+  report(sink, "warm sweep at p x 1.01:");
+  const ForwardRun warm = problem.forward().run(near, cold.state, sink);
   const auto t2 = Clock::now();
   std::cout << "# " << problem.options().method.name() << ", " << problem.forward().vertices()
             << " vertices; p = " << at.persistence_nm << " nm, Lmax = " << at.lmax_nm
@@ -82,7 +110,11 @@ int forward_check(const InferenceProblem& problem, const ForwardParameters& at) 
   std::cout << "cold sweep " << cold_s << " s (" << (cold.converged ? "converged" : "FAILED")
             << (cold.retried ? ", retried" : "") << "), warm sweep at p x 1.01 " << warm_s << " s ("
             << (warm.converged ? "converged" : "FAILED") << (warm.retried ? ", retried" : "")
-            << ")\n";
+            << "), " << cold.solves << " and " << warm.solves << " solves\n";
+  for (const ForwardRun* r : {&cold, &warm})
+    if (!r->converged)
+      std::cout << (r == &cold ? "cold" : "warm") << " sweep failed at F = " << r->failed_force_pN
+                << " pN: " << r->failure << "\n";
   if (!cold.converged) {
     std::cerr << "rbc: error: forward run did not converge, residual " << std::scientific
               << cold.residual_pN << " pN\n";
@@ -104,6 +136,7 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.proposal_scale = c.proposal_scale;
   o.sampler.seed = c.seed;
   o.threads = c.threads;
+  o.force_tolerance_pN = c.force_tolerance_pN;
   o.validate();
   return o;
 }
@@ -161,12 +194,17 @@ void add_infer_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--threads", c->threads, "OpenMP threads for forward runs (0: OMP_NUM_THREADS)")
       ->capture_default_str();
+  cmd->add_option("--force-tolerance", c->force_tolerance_pN,
+                  "Newton tolerance of the continuum forward runs: largest net vertex force (pN)")
+      ->capture_default_str();
   cmd->add_option("--out", c->out,
                   "output directory (summary, samples, corner and predictive plots)");
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
   cmd->add_flag("--forward-check", c->forward_check,
                 "no inference: one cold and one warm forward sweep at the --at parameters "
                 "(default the paper's), diameters and times");
+  cmd->add_flag("--trace", c->trace,
+                "with --forward-check: every solve and Newton iteration on stderr");
   cmd->add_option("--at", c->at, "forward-check parameter NAME=VALUE (natural units), repeatable");
   cmd->add_flag("--force-overwrite", c->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
@@ -191,7 +229,7 @@ void add_infer_command(CLI::App& app, Action& action) {
       if (c->forward_check) {
         ForwardParameters at = o.fixed;
         for (const auto& a : c->at) apply_at(a, at);
-        return forward_check(*problem, at);
+        return forward_check(*problem, at, c->trace);
       }
       const ProgressSink progress = stderr_progress(c->quiet || !master);
       InferenceResult r;
@@ -224,6 +262,7 @@ void add_infer_command(CLI::App& app, Action& action) {
                   << " forward runs failed (limit 1 %); worst case not converged\n";
         return 1;
       }
+      r.command = own_command_line();
       if (!c->out.empty()) write_inference(r, c->out);
       if (c->json)
         std::cout << inference_json(r) << "\n";

@@ -4,6 +4,7 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "compare/experiment.hpp"
 #include "compare/report.hpp"
 #include "continuum/continuum_model.hpp"
 
@@ -52,18 +53,39 @@ void add_report_command(CLI::App& app, Action& action) {
   struct Opts {
     std::string out = "results/report";
     bool overwrite = false, quiet = false, quick = false;
+    std::string calibration;  ///< cached `rbc infer --out` results (empty: data/calibration)
+    bool calibration_only = false, no_calibration = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("report", "Fig. 7 + trade-off + stability in DIR/report.md");
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--quick", o->quick,
                 "small resolutions (minutes, not the full study; for a first look)");
+  cmd->add_option("--calibration", o->calibration,
+                  "cached calibration results: DIR/index.json and the `rbc infer --out` "
+                  "directories it names (default: data/calibration)");
+  cmd->add_flag("--calibration-only", o->calibration_only,
+                "only the calibration section, from the cache (seconds; runs no study)");
+  cmd->add_flag("--no-calibration", o->no_calibration, "leave the calibration section out");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] {
     action = [o]() -> int {
+      if (o->calibration_only && o->no_calibration)
+        throw std::invalid_argument("--calibration-only and --no-calibration exclude each other");
+      const std::string cache =
+          o->calibration.empty() ? default_data_directory() + "/calibration" : o->calibration;
+      // A missing or corrupt cache: exit 2 before anything is written or run.
+      if (!o->no_calibration) (void)read_calibration_cache(cache);
       check_output_directory(o->out, o->overwrite);
+      if (o->calibration_only) {
+        run_calibration_report(cache, o->out);
+        std::cout << "report: " << o->out << "/report.md (calibration section)\n";
+        return 0;
+      }
       ReportOptions ro;
+      ro.calibration_cache = cache;
+      ro.include_calibration = !o->no_calibration;
       if (o->quick) {
         ro.tradeoff.discrete_vertices = {250, 500, 1000, 2000, 4000};
         ro.tradeoff.continuum_elements = {500, 1000, 2000, 4000};

@@ -3,7 +3,9 @@
 #include <omp.h>
 
 #include <cmath>
+#include <iomanip>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -51,6 +53,20 @@ void ForwardOptions::validate() const {
     throw std::invalid_argument("method resolution must be > 0, got " +
                                 std::to_string(method.resolution));
   newton.validate();
+  if (pass_iterations < 1 || max_total_iterations < newton.max_iterations)
+    throw std::invalid_argument("Newton passes of " + std::to_string(pass_iterations) +
+                                " iterations up to " + std::to_string(max_total_iterations) +
+                                " in all: need passes >= 1 and a total >= the first pass's " +
+                                std::to_string(newton.max_iterations));
+  if (!(diameter_tolerance_um > 0) || !std::isfinite(diameter_tolerance_um))
+    throw std::invalid_argument("diameter tolerance must be finite and > 0 um, got " +
+                                std::to_string(diameter_tolerance_um));
+  if (!(accept_residual_pN > 0) || !std::isfinite(accept_residual_pN))
+    throw std::invalid_argument("accepted residual must be finite and > 0 pN, got " +
+                                std::to_string(accept_residual_pN));
+  if (!(max_contraction > 0 && max_contraction < 1))
+    throw std::invalid_argument("largest accepted contraction must lie in (0, 1), got " +
+                                std::to_string(max_contraction));
   if (retry_bisections < 0)
     throw std::invalid_argument("retry bisections must be >= 0, got " +
                                 std::to_string(retry_bisections));
@@ -74,13 +90,23 @@ struct ForwardModel::Shared {
   int vertices = 0, elements = 0;
 };
 
+/// Outcome of one equilibrium solve.
+struct SolveOutcome {
+  bool converged = false;
+  double residual_pN = 0;  ///< largest net vertex force at the end
+  int iterations = 0;
+  std::string status;               ///< solver status in words
+  bool diameter_converged = false;  ///< accepted at the diameter tolerance
+};
+
 /// Mutable per-call state: the model with this call's parameters and its solver.
 struct ForwardModel::Workspace {
   Network network;
   ContinuumModel continuum;
   std::unique_ptr<NewtonSolver> newton;
   /// Equilibrium at force F from x, lambda (updated in place; left at the start on failure).
-  std::function<bool(double, Positions&, ConstraintMultipliers&, double&)> solve;
+  std::function<SolveOutcome(double, Positions&, ConstraintMultipliers&, const ProgressSink&)>
+      solve;
 };
 
 ForwardModel::ForwardModel(const ForwardOptions& options)
@@ -130,33 +156,70 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
   if (options_.method.kind == MethodKind::discrete) {
     ws->network = shared_->network;
     Workspace* w = ws.get();
-    ws->solve = [w](double f, Positions& x, ConstraintMultipliers& l, double& residual) {
+    ws->solve = [w](double f, Positions& x, ConstraintMultipliers& l, const ProgressSink& trace) {
       const Positions x0 = x;
       const ConstraintMultipliers l0 = l;
       StretchOptions so;
       so.precondition_min_vertices = std::numeric_limits<int>::max();  // no per-call factorisation
-      const StretchPoint p = solve_equilibrium(w->network, f, x, l, so);
-      residual = p.residual_pN;
+      const StretchPoint p = solve_equilibrium(w->network, f, x, l, so, trace);
       if (!p.converged) {
         x = x0;
         l = l0;
       }
-      return p.converged;
+      return SolveOutcome{p.converged, p.residual_pN, p.iterations, p.status};
     };
   } else {
     ws->continuum = shared_->continuum;
     ws->newton = std::make_unique<NewtonSolver>(ws->continuum, options_.newton);
     Workspace* w = ws.get();
-    ws->solve = [w](double f, Positions& x, ConstraintMultipliers& l, double& residual) {
+    const ForwardOptions o = options_;
+    ws->solve = [w, o](double f, Positions& x, ConstraintMultipliers& l,
+                       const ProgressSink& trace) {
       const Positions x0 = x;
       const ConstraintMultipliers l0 = l;
-      const NewtonResult r = w->newton->solve(f, x, l);
-      residual = r.residual_pN;
-      if (!r.converged()) {
+      NewtonResult r = w->newton->solve(f, x, l, trace);
+      SolveOutcome out;
+      out.iterations = r.iterations;
+      int factorisations = r.factorisations;
+      double shift = r.largest_shift;
+      // Continuation passes of a slow but converging solve (ForwardOptions).
+      Diameters d = measure_diameters(x);
+      double change_prev = std::numeric_limits<double>::infinity();
+      double residual_prev = r.residual_pN;
+      while (r.status == NewtonStatus::max_iterations && out.iterations < o.max_total_iterations) {
+        NewtonLimits limits;
+        limits.max_iterations =
+            std::min(o.pass_iterations, o.max_total_iterations - out.iterations);
+        r = w->newton->solve(f, x, l, trace, limits);
+        out.iterations += r.iterations;
+        factorisations += r.factorisations;
+        shift = std::max(shift, r.largest_shift);
+        if (r.status != NewtonStatus::max_iterations) break;  // converged or failed
+        const Diameters dn = measure_diameters(x);
+        const double change = std::max(std::abs(dn.axial_um - d.axial_um),
+                                       std::abs(dn.transverse_um - d.transverse_um));
+        d = dn;
+        const double q = change / change_prev;
+        if (q <= o.max_contraction && change * q / (1 - q) < o.diameter_tolerance_um &&
+            r.residual_pN < o.accept_residual_pN) {
+          out.diameter_converged = true;
+          break;
+        }
+        if (!(r.residual_pN < residual_prev)) break;  // not converging: fail
+        change_prev = change;
+        residual_prev = r.residual_pN;
+      }
+      out.converged = r.converged() || out.diameter_converged;
+      out.residual_pN = r.residual_pN;
+      if (!out.converged) {
         x = x0;
         l = l0;
       }
-      return r.converged();
+      std::ostringstream status;
+      status << (out.diameter_converged ? "diameters converged" : to_string(r.status)) << " ("
+             << factorisations << " factorisations, largest shift " << shift << " x mean diagonal)";
+      out.status = status.str();
+      return out;
     };
   }
   return ws;
@@ -168,6 +231,11 @@ void ForwardModel::give_back(std::unique_ptr<Workspace> ws) const {
 }
 
 ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm) const {
+  return run(p, warm, ProgressSink{});
+}
+
+ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
+                             const ProgressSink& trace) const {
   p.validate();
   auto ws = borrow();
   struct Return {  // hands the workspace back on every path, exceptions included
@@ -216,23 +284,40 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm) 
       l.area_pN_per_um = w[3 * n];
       l.volume_pN_per_um2 = w[3 * n + 1];
     }
-    double residual = 0;
-    bool ok = ws->solve(f, x, l, residual);
-    if (!ok) {
+    const auto attempt = [&](double force, const char* start) {
+      const SolveOutcome o = ws->solve(force, x, l, trace);
+      ++out.solves;
+      if (trace) {
+        std::ostringstream m;
+        m << "solve F = " << force << " pN from " << start << ": " << o.status << " after "
+          << o.iterations << " iterations, residual " << std::scientific << std::setprecision(3)
+          << o.residual_pN << " pN";
+        trace(m.str());
+      }
+      return o;
+    };
+    SolveOutcome o = attempt(f, have_warm ? "the parent's equilibrium" : "the previous force");
+    if (!o.converged) {
       // Retry: from this run's previous equilibrium through 2^b equal increments.
       out.retried = true;
-      for (int b = 1; b <= options_.retry_bisections && !ok; ++b) {
+      for (int b = 1; b <= options_.retry_bisections && !o.converged; ++b) {
         x = x_prev;
         l = l_prev;
         const int steps = 1 << b;
-        ok = true;
-        for (int s = 1; s <= steps && ok; ++s)
-          ok = ws->solve(f_prev + (f - f_prev) * s / steps, x, l, residual);
+        o.converged = true;
+        for (int s = 1; s <= steps && o.converged; ++s)
+          o = attempt(f_prev + (f - f_prev) * s / steps, "a retry sub-step");
       }
     }
-    out.residual_pN = std::max(out.residual_pN, residual);
-    if (!ok) {
+    out.residual_pN = std::max(out.residual_pN, o.residual_pN);
+    out.diameter_converged += o.diameter_converged;
+    if (!o.converged) {
       out.converged = false;
+      out.failed_force_pN = f;
+      std::ostringstream m;
+      m << o.status << ", residual " << std::scientific << std::setprecision(3) << o.residual_pN
+        << " pN";
+      out.failure = m.str();
       out.state.clear();
       return out;
     }

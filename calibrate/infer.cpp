@@ -74,6 +74,9 @@ void InferOptions::validate() const {
   if (!(fixed_sigma_scale > 0) || !std::isfinite(fixed_sigma_scale))
     throw std::invalid_argument("sigma scale must be finite and > 0, got " +
                                 std::to_string(fixed_sigma_scale));
+  if (!(force_tolerance_pN > 0 && force_tolerance_pN <= 0.1))
+    throw std::invalid_argument("--force-tolerance must lie in (0, 0.1] pN, got " +
+                                std::to_string(force_tolerance_pN));
   if (threads < 0)
     throw std::invalid_argument("--threads must be >= 0, got " + std::to_string(threads));
   fixed.validate();
@@ -112,6 +115,7 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
   prior_.validate(names);
   ForwardOptions fo;
   fo.method = options_.method;
+  fo.newton.force_tolerance_pN = options_.force_tolerance_pN;
   fo.forces_pN = data_.force_pN;
   forward_ = std::make_unique<ForwardModel>(fo);
   likelihood_ = std::make_unique<DiameterLikelihood>(*this);
@@ -243,6 +247,9 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
     r.transverse_q50.push_back(quantile(dt[k], 0.50));
     r.transverse_q95.push_back(quantile(dt[k], 0.95));
   }
+  r.prior_lower = problem.prior().lower;
+  r.prior_upper = problem.prior().upper;
+  r.reading_uncertainty_um = o.reading_uncertainty_um;
   r.method = o.method.name();
   r.data_file = o.data_path();
   r.vertices = problem.forward().vertices();
@@ -273,7 +280,11 @@ std::string inference_json(const InferenceResult& r) {
   j["samples_per_stage"] = r.samples_per_stage;
   j["seed"] = r.seed;
   json params = json::object();
-  for (const auto& s : r.parameters) params[s.name] = summary(s);
+  for (size_t k = 0; k < r.parameters.size(); ++k) {
+    params[r.parameters[k].name] = summary(r.parameters[k]);
+    if (k < r.prior_lower.size())
+      params[r.parameters[k].name]["prior"] = {r.prior_lower[k], r.prior_upper[k]};
+  }
   j["parameters"] = params;
   j["derived"] = {{"mu", summary(r.mu)}, {"K", summary(r.K)}};
   j["log_evidence"] = r.log_evidence;
@@ -299,6 +310,19 @@ std::string inference_json(const InferenceResult& r) {
          {"axial_um", {r.axial_q05[k], r.axial_q50[k], r.axial_q95[k]}},
          {"transverse_um", {r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k]}}});
   j["predictive_q05_q50_q95"] = pred;
+  // The data as the likelihood saw them (total sigma = error bar and reading uncertainty in
+  // quadrature, before sigma-scale), so a reader of the summary can check the fit alone.
+  json data = json::array();
+  for (int k = 0; k < r.data.size(); ++k)
+    data.push_back({{"force_pN", r.data.force_pN[k]},
+                    {"axial_um", r.data.axial_um[k]},
+                    {"axial_sigma_um", r.data.axial_sigma_um[k]},
+                    {"transverse_um", r.data.transverse_um[k]},
+                    {"transverse_sigma_um", r.data.transverse_sigma_um[k]},
+                    {"transverse_used", r.data.transverse_used[k] != 0}});
+  j["data"] = data;
+  j["reading_uncertainty_um"] = r.reading_uncertainty_um;
+  j["command"] = r.command;
   j["timing"] = {{"wall_s", r.wall_s}, {"threads", r.threads}, {"ranks", r.ranks}};
   return j.dump(2);
 }

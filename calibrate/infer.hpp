@@ -46,6 +46,9 @@ struct InferOptions {
   double fixed_sigma_scale = 1;  ///< when sigma-scale is not inferred
   TmcmcOptions sampler = default_sampler();
   int threads = 0;  ///< OpenMP threads for the forward runs (0: OpenMP's default)
+  /// Newton force tolerance of the continuum forward runs (pN; ForwardOptions documents
+  /// the default 1e-4 pN).
+  double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   /// Throws std::invalid_argument naming the value: repeated parameters, a prior for a
   /// parameter not inferred or given twice, an invalid prior box, reading uncertainty < 0,
   /// invalid sampler options or fixed parameters. Does not read the data file.
@@ -117,6 +120,9 @@ struct InferenceResult {
   std::vector<double> axial_q05, axial_q50, axial_q95, transverse_q05, transverse_q50,
       transverse_q95;
   std::string method, data_file;
+  std::string command;  ///< the command line that made it (set by the caller; summary.json)
+  std::vector<double> prior_lower, prior_upper;  ///< prior box per inferred parameter
+  double reading_uncertainty_um = 0;
   int vertices = 0, elements = 0, samples_per_stage = 0, threads = 0, ranks = 1;
   std::uint64_t seed = 0;
 };

@@ -91,3 +91,41 @@ TEST(ForwardModel, ConcurrentRunsEqualSerialRunsBitForBit) {
 
 }  // namespace
 }  // namespace rbc
+
+namespace rbc {
+namespace {
+
+// A soft network (p = 25 nm, Lmax = 500 nm) at 40 and 48 pN, where Newton converges only
+// linearly (forward_model.hpp): the run must be accepted through the diameter criterion at
+// least once, and its diameters must lie within the stated tolerance of those of a run
+// converged to 1e-8 pN (no diameter criterion: tolerance 1e-12 um, 2,000 iterations). Falsifiable:
+// accepting a solve whose diameters are still moving by more than the tolerance fails it.
+TEST(ForwardModel, SlowSolvesAreAcceptedOnlyWhenTheDiametersHaveConverged) {
+  ForwardOptions o;
+  o.method = parse_method("continuum:2:200");
+  o.forces_pN = {0, 20, 40, 48};
+  ForwardParameters p;
+  p.persistence_nm = 25;
+  p.lmax_nm = 500;
+  const ForwardRun run = ForwardModel(o).run(p);
+  ASSERT_TRUE(run.converged) << run.failure;
+  EXPECT_GE(run.diameter_converged, 1);
+  ForwardOptions tight = o;
+  tight.newton.force_tolerance_pN = 1e-8;
+  tight.newton.max_iterations = 2000;
+  tight.max_total_iterations = 2000;
+  tight.diameter_tolerance_um = 1e-12;
+  const ForwardRun ref = ForwardModel(tight).run(p);
+  ASSERT_TRUE(ref.converged) << ref.failure;
+  EXPECT_EQ(ref.diameter_converged, 0);
+  for (size_t k = 0; k < o.forces_pN.size(); ++k) {
+    EXPECT_NEAR(run.diameters.axial_um[k], ref.diameters.axial_um[k], o.diameter_tolerance_um)
+        << o.forces_pN[k] << " pN";
+    EXPECT_NEAR(run.diameters.transverse_um[k], ref.diameters.transverse_um[k],
+                o.diameter_tolerance_um)
+        << o.forces_pN[k] << " pN";
+  }
+}
+
+}  // namespace
+}  // namespace rbc

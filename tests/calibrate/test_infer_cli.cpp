@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -90,6 +91,7 @@ std::string read(const std::string& path) {
 nlohmann::json without_timing(const std::string& path) {
   nlohmann::json j = nlohmann::json::parse(read(path));
   j.erase("timing");
+  j.erase("command");  // names the --out directory
   return j;
 }
 
@@ -157,3 +159,69 @@ TEST(InferCli, WritesTheDocumentedOutputs) {
 }
 
 }  // namespace
+
+// The report's calibration section is read from cached `rbc infer --out` results: two small
+// real runs (continuum p = 2 and the full law on 200 elements) make a cache; the section must
+// print each run's mu interval as its summary.json has it, copy the predictive plot and
+// compare the two runs; a missing cache, a corrupt index and a truncated summary must each
+// exit 2 naming the file, before anything is written.
+TEST(ReportCli, CalibrationSectionReadsTheCacheAndRefusesABadOne) {
+  const std::string data =
+      write_file("report.csv", std::string(kHeader) +
+                                   "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n90,13.8,1.2,4.6,0.6\n");
+  const std::string cache = kDir + "/cache";
+  fs::remove_all(cache);
+  for (const char* m : {"continuum:2:200", "continuum:full:200"}) {
+    const std::string name = std::string(m).find("full") != std::string::npos ? "full" : "p2";
+    const CommandRun r = run("OMP_WAIT_POLICY=passive OMP_NUM_THREADS=1 " + kRbc +
+                             " infer -q --samples 20 --chain-length 1 --seed 3 --params "
+                             "persistence,sigma-scale --method " +
+                             m + " --data-file " + data + " --out " + cache + "/" + name);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  std::ofstream(cache + "/index.json")
+      << R"({"readings": [{"dir": "p2", "label": "small test data"}],
+             "comparison": {"reference": "p2", "others": ["full"]}})";
+  const std::string out = kDir + "/report";
+  fs::remove_all(out);
+  const CommandRun ok =
+      run(kRbc + " report --calibration-only --calibration " + cache + " --out " + out);
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  const std::string md = read(out + "/report.md");
+  EXPECT_NE(md.find("## Calibration"), std::string::npos);
+  EXPECT_NE(md.find("small test data"), std::string::npos);
+  EXPECT_NE(md.find("Posterior-predictive check"), std::string::npos);
+  EXPECT_NE(md.find("Model comparison"), std::string::npos);
+  EXPECT_NE(md.find("continuum_pfull_E200"), std::string::npos) << md;
+  EXPECT_TRUE(fs::is_regular_file(out + "/calibration/p2/predictive.png"));
+  const nlohmann::json s = nlohmann::json::parse(read(cache + "/p2/summary.json"));
+  std::ostringstream mu;
+  mu << std::setprecision(3) << s["derived"]["mu"]["q50"].get<double>() << " ["
+     << s["derived"]["mu"]["q05"].get<double>() << ", " << s["derived"]["mu"]["q95"].get<double>()
+     << "]";
+  EXPECT_NE(md.find(mu.str()), std::string::npos) << mu.str() << "\n" << md;
+
+  auto refused = [&](const std::string& dir, const std::string& expect) {
+    const std::string never = kDir + "/report_never";
+    fs::remove_all(never);
+    const CommandRun r =
+        run(kRbc + " report --calibration-only --calibration " + dir + " --out " + never);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("rbc: error: calibration cache"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(expect), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(never));
+  };
+  refused(kDir + "/no_such_cache", "index.json");
+  const std::string bad = kDir + "/cache_bad";
+  fs::remove_all(bad);
+  fs::create_directories(bad);
+  fs::copy(cache + "/p2", bad + "/p2");
+  std::ofstream(bad + "/index.json") << R"({"readings": [{"dir": "p2"})";  // truncated
+  refused(bad, "index.json");
+  std::ofstream(bad + "/index.json") << R"({"readings": [{"dir": "p2"}]})";
+  const std::string summary = read(bad + "/p2/summary.json");
+  std::ofstream(bad + "/p2/summary.json") << summary.substr(0, summary.size() / 2);
+  refused(bad, "summary.json");
+  fs::remove(bad + "/p2/summary.json");
+  refused(bad, "summary.json");
+}

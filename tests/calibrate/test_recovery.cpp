@@ -1,9 +1,10 @@
 // Parameter recovery: data simulated with the project's own model, inferred back with it.
-// Its own executable and ctest label (`calibrate;slow`): a few minutes on a shared machine.
+// Its own executable (ctest label `calibrate`): ~26 s of CPU at 200 elements.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <random>
 
 #include "calibrate/forward_model.hpp"
@@ -47,13 +48,17 @@ std::string simulate_data(const std::string& name, const ForwardOptions& fo,
 // lmax with the same model. For a correct sampler each 90 % interval holds the truth with
 // probability 0.9; the noise seeds are the first ones tried. A second, tighter-false-alarm
 // check: |posterior mean - truth| < 3.3 posterior sd (0.1 % per check for a Gaussian posterior).
+// Prior box p 3:16 nm, Lmax 150:300 nm: a 4 x 4 grid over it converges at every point at
+// continuum:2:200 and these forces (D_A(150 pN) from 9.0 to 22.4 um); beyond it (p > 16 nm
+// with Lmax > 300 nm) the cell stretches past D_A = 25 um and Newton slows to linear
+// convergence (calibrate/forward_model.hpp), so failures there would end the run.
 TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
   const ForwardOptions fo = small_options();
   struct Set {
     double p_nm, lmax_nm;
     unsigned seed;
   };
-  for (const Set& s : {Set{12.0, 320.0, 11}, Set{5.0, 180.0, 12}}) {
+  for (const Set& s : {Set{12.0, 240.0, 11}, Set{5.0, 180.0, 12}}) {
     ForwardParameters truth;
     truth.persistence_nm = s.p_nm;
     truth.lmax_nm = s.lmax_nm;
@@ -61,7 +66,7 @@ TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
     o.data_file = simulate_data("recovery_" + std::to_string(s.seed), fo, truth, 0.05, s.seed);
     o.method = fo.method;
     o.parameters = {Parameter::persistence, Parameter::lmax};
-    o.priors = {{Parameter::persistence, 4, 25}, {Parameter::lmax, 160, 500}};
+    o.priors = {{Parameter::persistence, 3, 16}, {Parameter::lmax, 150, 300}};
     o.reading_uncertainty_um = 0;
     o.sampler.samples = 60;
     o.sampler.chain_length = 2;
@@ -72,6 +77,8 @@ TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
     const double t[2] = {s.p_nm, s.lmax_nm};
     for (int k = 0; k < 2; ++k) {
       const Summary& q = r.parameters[k];
+      std::cout << q.name << ": truth " << t[k] << ", mean " << q.mean << " sd " << q.sd
+                << ", 90 % [" << q.q05 << ", " << q.q95 << "]\n";
       EXPECT_LT(q.q05, t[k]) << q.name << " truth " << t[k];
       EXPECT_GT(q.q95, t[k]) << q.name << " truth " << t[k];
       EXPECT_LT(std::abs(q.mean - t[k]), 3.3 * q.sd) << q.name;
