@@ -289,7 +289,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
       eq = solve_equilibrium(net, forces[k], x, lambda, so);
       if (!eq.converged) {
         std::cerr << "rbc: error: zero-temperature equilibrium at " + format_number(eq.force_pN) +
-                         " pN did not converge: " + eq.status + ", residual " +
+                         " pN did not converge: " + to_string(eq.status) + ", residual " +
                          format_scientific(eq.residual_pN) + " pN\n";
         return 1;
       }

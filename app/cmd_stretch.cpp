@@ -126,9 +126,9 @@ struct StretchRow {
 
 template <class Point>
 StretchRow to_row(const Point& p, int elements) {
-  return {p.force_pN,   p.axial_um,     p.transverse_um, p.energy_pNum, p.iterations,
-          p.converged,  p.wall_s,       p.vertices,      elements,      p.residual_pN,
-          p.area_drift, p.volume_drift, p.status};
+  return {p.force_pN,   p.axial_um,     p.transverse_um,    p.energy_pNum, p.iterations,
+          p.converged,  p.wall_s,       p.vertices,         elements,      p.residual_pN,
+          p.area_drift, p.volume_drift, to_string(p.status)};
 }
 
 /// DIR/run.json, the manifest of `stretch --out`: rewritten (atomically) when the run starts,

@@ -80,7 +80,7 @@ class MonteCarlo {
     });
     if (!ok)
       raise_convergence_error("zero-temperature equilibrium at " + num(eq.force_pN) +
-                                  " pN did not converge: " + eq.status + ", residual " +
+                                  " pN did not converge: " + to_string(eq.status) + ", residual " +
                                   num(eq.residual_pN) + " pN",
                               eq.residual_pN, eq.force_pN);
     setup_.multipliers = lambda;
