@@ -11,6 +11,7 @@
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "core/defaults.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
@@ -38,8 +39,9 @@ struct StretchCli {
   RestMeshQuality mesh_quality = RestMeshQuality::phi_minimised;
   PatchRule contact = PatchRule::by_area;
   double contact_fraction = 0.05;
-  double lbar_nm = 75.0, lmax_nm = 237.75, persistence_nm = 7.5, temperature_K = 300.0;
-  double kappa_J = 2e-19, h0_per_um = 0.0;
+  double lbar_nm = defaults::kLbar_nm, lmax_nm = defaults::kLmax_nm,
+         persistence_nm = defaults::kPersistence_nm, temperature_K = defaults::kWlcTemperature_K;
+  double kappa_J = defaults::kKappa_J, h0_per_um = 0.0;
   double q = 1.0, eta = 0.005;
   double tolerance_pN = 1e-3;    ///< discrete default; the continuum's is Newton's 1e-6 pN
   bool tolerance_given = false;  ///< --tolerance on the command line (the continuum honours it)

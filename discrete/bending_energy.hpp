@@ -7,13 +7,15 @@
 #include <vector>
 
 #include "core/block_pattern.hpp"
+#include "core/defaults.hpp"
 #include "core/mesh.hpp"
+#include "core/units.hpp"
 
 namespace rbc {
 
 /// kappa in pN*um (2e-19 J = 0.2 pN*um, paper Table 2); H0 in 1/um (pointwise, sum convention).
 struct BendingParameters {
-  double kappa_pNum = 0.2;
+  double kappa_pNum = units::joule_to_pNum(defaults::kKappa_J);  ///< core/defaults.hpp
   double h0_per_um = 0.0;
   /// Throws std::invalid_argument (rbc::InvalidParameter): kappa in [0, kMaxKappa_J] J (the
   /// message in J), |H0| <= kMaxSpontaneousCurvature_per_um, both finite.
