@@ -76,18 +76,6 @@ bool holds_mc_run(const std::string& dir) {
          fs::exists(fs::path(dir) / "mc_series.csv", ec);
 }
 
-/// Runs its scope on one OpenMP thread. The parallel reductions in make_rest_shape and
-/// network_energy (hence L-BFGS) sum in thread-arrival order, so their last bits vary from run
-/// to run; the rest shape (checked by the checkpoint fingerprint) and the zero-temperature start
-/// must not, or the same seed would not give the same chain.
-struct SerialScope {
-  int saved = omp_get_max_threads();
-  SerialScope() { omp_set_num_threads(1); }
-  ~SerialScope() { omp_set_num_threads(saved); }
-  SerialScope(const SerialScope&) = delete;
-  SerialScope& operator=(const SerialScope&) = delete;
-};
-
 /// DIR/run.json of `mc --out`: whether the outputs are those of a finished run ("complete"),
 /// the status (running | interrupted | finished), the reason, the sweeps done and requested
 /// and the checkpoint written on the way out. Rewritten atomically at each change.
@@ -168,7 +156,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     params.bending_model = cn.bending_model;
   }
   const Network net = [&] {
-    SerialScope serial;  // the rest shape must be identical on resume (network fingerprint)
+    SerialOpenMpScope serial;  // the rest shape must be identical on resume (network fingerprint)
     return build_network(make_rest_shape(ro), params);
   }();
   report(progress, "network: " + std::to_string(net.topo.num_vertices) + " vertices");
@@ -195,7 +183,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     so.start = o.start;
     so.cancel = cancel;
     const McZeroTemperatureStart z = [&] {
-      SerialScope serial;  // one thread for a bit-reproducible start state
+      SerialOpenMpScope serial;  // one thread for a bit-reproducible start state
       return mc_zero_temperature_start(net, setup, so, progress);
     }();
     if (!z.converged) {

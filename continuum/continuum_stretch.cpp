@@ -173,13 +173,7 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
 }
 
 StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points) {
-  StretchState s;
-  for (const auto& p : points) {
-    s.forces_pN.push_back(p.force_pN);
-    s.x.push_back(p.x);
-    s.multipliers.push_back(p.multipliers);
-  }
-  return s;
+  return stretch_state_of(points);
 }
 
 std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,

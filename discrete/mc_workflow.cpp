@@ -1,5 +1,7 @@
 #include "discrete/mc_workflow.hpp"
 
+#include <omp.h>
+
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -10,6 +12,13 @@
 #include "core/units.hpp"
 
 namespace rbc {
+
+SerialOpenMpScope::SerialOpenMpScope() : saved_(omp_get_max_threads()) {
+  omp_set_num_threads(1);
+}
+SerialOpenMpScope::~SerialOpenMpScope() {
+  omp_set_num_threads(saved_);
+}
 
 std::string to_string(McStart s) {
   return s == McStart::equilibrium ? "equilibrium" : "rest";

@@ -14,6 +14,20 @@
 
 namespace rbc {
 
+/// Runs its scope on one OpenMP thread (the calling thread's setting, restored on exit): the
+/// front ends build the rest shape and the zero-temperature start inside one, so a checkpoint's
+/// network fingerprint and start state never depend on the thread count of the run.
+class SerialOpenMpScope {
+ public:
+  SerialOpenMpScope();
+  ~SerialOpenMpScope();
+  SerialOpenMpScope(const SerialOpenMpScope&) = delete;
+  SerialOpenMpScope& operator=(const SerialOpenMpScope&) = delete;
+
+ private:
+  int saved_;
+};
+
 /// Where the chain starts: the zero-temperature equilibrium at the force, or the rest shape
 /// (both with the equilibrium's area/volume multipliers held fixed). Spelled "equilibrium",
 /// "rest" on the command line and in Python.

@@ -292,13 +292,7 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
 }
 
 StretchState stretch_state(const std::vector<StretchPoint>& points) {
-  StretchState s;
-  for (const auto& p : points) {
-    s.forces_pN.push_back(p.force_pN);
-    s.x.push_back(p.x);
-    s.multipliers.push_back(p.multipliers);
-  }
-  return s;
+  return stretch_state_of(points);
 }
 
 }  // namespace rbc

@@ -16,15 +16,6 @@ namespace rbc::py_bind {
 
 namespace {
 
-/// One OpenMP thread for this scope (the calling thread's setting only).
-struct SerialScope {
-  int saved = omp_get_max_threads();
-  SerialScope() { omp_set_num_threads(1); }
-  ~SerialScope() { omp_set_num_threads(saved); }
-  SerialScope(const SerialScope&) = delete;
-  SerialScope& operator=(const SerialScope&) = delete;
-};
-
 /// The sampler object: prepared state (network, start, setup), the run created at the first
 /// run() call (so the adaptive phase can default to 20 % of the first run's sweeps, as the CLI).
 class MonteCarlo {
@@ -59,7 +50,7 @@ class MonteCarlo {
     const Network& nw = *net_->net;
     McZeroTemperatureStart z;
     run_released(nullptr, [&] {
-      SerialScope serial;
+      SerialOpenMpScope serial;
       z = mc_zero_temperature_start(nw, setup_, so);
     });
     if (!z.converged)
