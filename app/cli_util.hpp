@@ -6,6 +6,7 @@
 #include <iostream>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/progress.hpp"
@@ -41,6 +42,27 @@ int naming_options(const OptionNames& names, const std::function<int()>& body);
 CLI::Validator integer_in(long long lo, long long hi);
 /// As integer_in for an unsigned 64-bit option (a seed): [0, 18446744073709551615].
 CLI::Validator unsigned_integer();
+
+/// CLI11 transform for a choice option parsed once into an enum (bound to an enum-typed
+/// variable): the text must be one of the names, spelled as listed; otherwise the parse fails
+/// with "<option> <text> not in {a,b}" (exit 2). Help shows "{a,b}"; set the option's default
+/// text with ->default_str(name).
+template <class E>
+CLI::Validator enum_choice(std::vector<std::pair<std::string, E>> names) {
+  std::string set = "{";
+  for (const auto& [name, value] : names) set += (set.size() > 1 ? "," : "") + name;
+  set += "}";
+  return CLI::Validator(
+      [names, set](std::string& s) -> std::string {
+        for (const auto& [name, value] : names)
+          if (s == name) {
+            s = std::to_string(static_cast<long long>(value));
+            return {};
+          }
+        return s + " not in " + set;
+      },
+      set);
+}
 
 /// Checks an output directory up front, before any work, and creates it: `option` ('--out')
 /// must name a directory (or a path whose nearest existing ancestor is a directory) that can be

@@ -170,7 +170,7 @@ SceneRun run_discrete(const DynamicsCli& o, Scene sc, const ProgressSink& progre
   ConstraintMultipliers lf = l0;
   const StretchPoint loaded = solve_equilibrium(net, o.force_pN, xf, lf, so, progress);
   out.static_converged = rest.converged && loaded.converged;
-  out.static_status = rest.converged ? loaded.status : rest.status;
+  out.static_status = rest.converged ? to_string(loaded.status) : to_string(rest.status);
   out.static_residual_pN = std::max(rest.residual_pN, loaded.residual_pN);
   out.lambda_inf = rest.axial_um / rest.transverse_um;
   out.rest_axial_um = rest.axial_um;
@@ -224,7 +224,7 @@ SceneRun run_continuum(const DynamicsCli& o, Scene sc, const ProgressSink& progr
   if (!relax) {
     const auto pts = run_continuum_stretch(model, {0.0, o.force_pN}, co, progress);
     out.static_converged = pts[0].converged && pts[1].converged;
-    out.static_status = pts[0].converged ? pts[1].status : pts[0].status;
+    out.static_status = pts[0].converged ? to_string(pts[1].status) : to_string(pts[0].status);
     out.static_residual_pN = std::max(pts[0].residual_pN, pts[1].residual_pN);
     out.lambda_inf = pts[0].axial_um / pts[0].transverse_um;
     out.rest_axial_um = pts[0].axial_um;

@@ -29,6 +29,7 @@
 #include "core/validation.hpp"
 #include "discrete/mc_checkpoint.hpp"
 #include "discrete/mc_run.hpp"
+#include "discrete/mc_workflow.hpp"
 #include "discrete/stretch.hpp"
 
 namespace rbc::app {
@@ -46,7 +47,9 @@ struct McCli {
   long long adapt_sweeps = -1;  // -1: adapt_fraction x sweeps
   int sample_every = 1;
   double penalty_scale = McRunSetup{}.penalty_scale;
-  std::string checkpoint, resume, out, start = "equilibrium", bending = "juelicher";
+  std::string checkpoint, resume, out;
+  McStart start = McStart::equilibrium;
+  BendingModel bending = BendingModel::juelicher;
   long long checkpoint_every = 100;
   long long snapshot_every = 0;
   bool json = false, quiet = false, overwrite = false;
@@ -73,63 +76,6 @@ bool holds_mc_run(const std::string& dir) {
          fs::exists(fs::path(dir) / "mc_series.csv", ec);
 }
 
-/// Runs its scope on one OpenMP thread. The parallel reductions in make_rest_shape and
-/// network_energy (hence L-BFGS) sum in thread-arrival order, so their last bits vary from run
-/// to run; the rest shape (checked by the checkpoint fingerprint) and the zero-temperature start
-/// must not, or the same seed would not give the same chain.
-struct SerialScope {
-  int saved = omp_get_max_threads();
-  SerialScope() { omp_set_num_threads(1); }
-  ~SerialScope() { omp_set_num_threads(saved); }
-  SerialScope(const SerialScope&) = delete;
-  SerialScope& operator=(const SerialScope&) = delete;
-};
-
-void write_series(const std::string& dir, const McRun& run) {
-  CsvTable t;
-  t.comments = {"rbc mc time series: one row per recorded sweep",
-                "force_pN " + std::to_string(run.setup().force_pN) + ", temperature_K " +
-                    std::to_string(run.setup().sampler.temperature_K) + ", adaptive sweeps " +
-                    std::to_string(run.setup().sampler.adapt_sweeps) +
-                    " (rows with sweep <= that are equilibration)"};
-  t.header = mc_sample_columns();
-  std::vector<double> flat_rows;
-  for (const McSample& s : run.series()) {
-    t.rows.push_back(to_row(s));
-    flat_rows.insert(flat_rows.end(), t.rows.back().begin(), t.rows.back().end());
-  }
-  write_csv(dir + "/mc_series.csv", t);
-  const std::string path = dir + "/mc_series.h5";
-  TempFile tmp(path);
-  {
-    H5File h = H5File::create(tmp.path(), path);
-    if (!flat_rows.empty())
-      h.write("/series", flat_rows.data(), hsize_t(run.series().size()), kMcSampleColumns);
-    std::string cols;
-    for (const auto& c : mc_sample_columns()) cols += (cols.empty() ? "" : ",") + c;
-    h.write_attribute("columns", cols);
-    h.write_attribute("force_pN", run.setup().force_pN);
-    h.write_attribute("temperature_K", run.setup().sampler.temperature_K);
-    h.close();
-  }
-  tmp.commit();
-}
-
-void write_snapshot(const std::string& dir, const Network& net, const McRun& run) {
-  const Positions& x = run.sampler().positions();
-  std::ostringstream name;
-  name << dir << "/mc_snapshot_" << std::setw(8) << std::setfill('0')
-       << run.sampler().sweeps_done();
-  MeshSnapshot s{x,
-                 net.topo.faces,
-                 {{"displacement_x_um", (x - net.rest).row(0).transpose()}},
-                 {},
-                 {{"force_pN", run.setup().force_pN},
-                  {"temperature_K", run.setup().sampler.temperature_K},
-                  {"sweep", double(run.sampler().sweeps_done())}}};
-  write_mesh_snapshot(name.str(), s);
-}
-
 /// DIR/run.json of `mc --out`: whether the outputs are those of a finished run ("complete"),
 /// the status (running | interrupted | finished), the reason, the sweeps done and requested
 /// and the checkpoint written on the way out. Rewritten atomically at each change.
@@ -148,14 +94,6 @@ void write_mc_manifest(const std::string& dir, bool complete, const std::string&
     j["files"] = {"mc_series.csv", "mc_series.h5", "mc_summary.json"};
   }
   write_text_atomic(dir + "/run.json", j.dump(2) + "\n");
-}
-
-nlohmann::json stat_json(const BlockingResult& b) {
-  return {{"mean", b.mean},
-          {"error", b.error},
-          {"std", std::sqrt(b.variance)},
-          {"inefficiency", b.inefficiency},
-          {"blocking_converged", b.converged}};
 }
 
 /// Which chain-defining options were given on the command line (checked against a resumed
@@ -187,8 +125,6 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     throw std::invalid_argument(
         "--adapt-sweeps " + std::to_string(o.adapt_sweeps) +
         ": expected an integer in [0, --sweeps = " + std::to_string(o.sweeps) + "]");
-  if (o.start != "equilibrium" && o.start != "rest")
-    throw std::invalid_argument("--start " + o.start + ": expected one of equilibrium, rest");
   to_setup(o);  // every number up front (on --resume too: a given option must be valid)
   if (std::error_code ec; !o.resume.empty() && !std::filesystem::is_regular_file(o.resume, ec))
     throw std::invalid_argument("--resume " + o.resume + ": no such checkpoint file");
@@ -201,19 +137,26 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
   NetworkParameters params;
-  params.bending_model = bending_model_from_string(o.bending);
+  params.bending_model = o.bending;
+  McResumeRequest request;  // the chain-defining options given (checked against a checkpoint)
+  if (given.force) request.force_pN = o.force_pN;
+  if (given.temperature) request.temperature_K = o.temperature_K;
+  if (given.seed) request.seed = o.seed;
+  if (given.penalty_scale) request.penalty_scale = o.penalty_scale;
+  if (given.bending) request.bending_model = o.bending;
+  if (given.adapt_fraction) request.adapt_fraction = o.adapt_fraction;
+  if (o.adapt_sweeps >= 0) request.adapt_sweeps = o.adapt_sweeps;
+  request.total_sweeps = o.sweeps;
   if (!o.resume.empty()) {
     // The network comes from the checkpoint unless given; a different one given is an error
     // (caught by the fingerprint for the mesh, named here for the bending model).
     const McCheckpointNetwork cn = peek_mc_checkpoint_network(o.resume);
     if (!given.vertices) ro.target_vertices = cn.vertices;
-    if (given.bending && params.bending_model != cn.bending_model)
-      throw std::invalid_argument("checkpoint '" + o.resume + "' was run with " +
-                                  to_string(cn.bending_model) + " bending, not " + o.bending);
+    check_mc_resume_network(cn, request, o.resume);
     params.bending_model = cn.bending_model;
   }
   const Network net = [&] {
-    SerialScope serial;  // the rest shape must be identical on resume (network fingerprint)
+    SerialOpenMpScope serial;  // the rest shape must be identical on resume (network fingerprint)
     return build_network(make_rest_shape(ro), params);
   }();
   report(progress, "network: " + std::to_string(net.topo.num_vertices) + " vertices");
@@ -223,45 +166,9 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   std::string resume_note;  // what differs from a straight run, when extending a checkpoint
   if (!o.resume.empty()) {
     McCheckpoint cp = read_mc_checkpoint(o.resume, net);
-    auto differs = [](double a, double b) { return std::abs(a - b) > 1e-12 * (1 + std::abs(b)); };
-    if (given.force && differs(o.force_pN, cp.setup.force_pN))
-      throw std::invalid_argument("checkpoint '" + o.resume + "' was run at " +
-                                  std::to_string(cp.setup.force_pN) + " pN, not " +
-                                  std::to_string(o.force_pN) + " pN");
-    if (given.temperature && differs(o.temperature_K, cp.setup.sampler.temperature_K))
-      throw std::invalid_argument("checkpoint '" + o.resume + "' was run at " +
-                                  std::to_string(cp.setup.sampler.temperature_K) + " K, not " +
-                                  std::to_string(o.temperature_K) + " K");
-    if (given.seed && o.seed != cp.setup.sampler.seed)
-      throw std::invalid_argument("checkpoint '" + o.resume + "' was seeded with " +
-                                  std::to_string(cp.setup.sampler.seed));
-    if (given.penalty_scale && differs(o.penalty_scale, cp.setup.penalty_scale))
-      throw std::invalid_argument("checkpoint '" + o.resume + "' was run with penalty scale " +
-                                  std::to_string(cp.setup.penalty_scale) + ", not " +
-                                  std::to_string(o.penalty_scale));
-    if (o.adapt_sweeps >= 0 && o.adapt_sweeps != cp.setup.sampler.adapt_sweeps)
-      throw std::invalid_argument("checkpoint '" + o.resume + "' adapts the step for " +
-                                  std::to_string(cp.setup.sampler.adapt_sweeps) +
-                                  " sweeps, not --adapt-sweeps " + std::to_string(o.adapt_sweeps));
     schedule = cp.schedule;
-    // The adaptive phase is stored in absolute sweeps and kept: a resumed chain continues
-    // exactly as the run that wrote the checkpoint would have. Extending a run whose phase was
-    // a fraction of its length is the one case where a straight run of the new length differs.
-    const long long a = cp.setup.sampler.adapt_sweeps;
-    if (schedule.adapt_fraction >= 0) {
-      const double fraction = given.adapt_fraction ? o.adapt_fraction : schedule.adapt_fraction;
-      const long long straight = std::llround(fraction * double(o.sweeps));
-      if (straight != a) {
-        std::ostringstream m;
-        m << "the checkpoint's adaptive phase is kept: sweeps 1-" << a << " (--adapt-fraction "
-          << fraction << " of its " << schedule.planned_sweeps << " sweeps); a straight "
-          << o.sweeps << "-sweep run adapts sweeps 1-" << straight << ", so this chain matches it"
-          << " up to sweep " << std::min(a, straight) << " only (statistics use the sweeps after "
-          << a << "); run both with --adapt-sweeps N for identical chains";
-        resume_note = m.str();
-        report(progress, "note: " + resume_note);
-      }
-    }
+    resume_note = check_mc_resume(cp, request, o.resume);
+    if (!resume_note.empty()) report(progress, "note: " + resume_note);
     report(progress, "resuming at sweep " + std::to_string(cp.chain.sweep) + " from " + o.resume);
     cp.setup.cancel = cancel;
     run = std::make_unique<McRun>(net, cp.setup, cp.chain, cp.series);
@@ -272,34 +179,21 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     schedule.adapt_fraction = o.adapt_sweeps >= 0 ? -1.0 : o.adapt_fraction;
     setup.cancel = cancel;
     // Zero-temperature equilibrium by continuation: start state, multipliers and reference.
-    Positions x = net.rest;
-    ConstraintMultipliers lambda;
-    StretchPoint eq;
-    // One thread (see SerialScope) for a bit-reproducible start state.
-    SerialScope serial;
-    StretchOptions so;
-    so.minimiser.cancel = cancel;
-    const std::vector<double> forces = mc_startup_forces(o.force_pN);
-    for (std::size_t k = 0; k < forces.size(); ++k) {
-      throw_if_cancelled(cancel);
-      if (forces.size() > 1)
-        report(progress, "zero-temperature start-up: step " + std::to_string(k + 1) + "/" +
-                             std::to_string(forces.size()) + " at " + std::to_string(forces[k]) +
-                             " pN");
-      eq = solve_equilibrium(net, forces[k], x, lambda, so);
-      if (!eq.converged) {
-        std::cerr << "rbc: error: zero-temperature equilibrium at " + format_number(eq.force_pN) +
-                         " pN did not converge: " + eq.status + ", residual " +
-                         format_scientific(eq.residual_pN) + " pN\n";
-        return 1;
-      }
+    McStartOptions so;
+    so.start = o.start;
+    so.cancel = cancel;
+    const McZeroTemperatureStart z = [&] {
+      SerialOpenMpScope serial;  // one thread for a bit-reproducible start state
+      return mc_zero_temperature_start(net, setup, so, progress);
+    }();
+    if (!z.converged) {
+      const StretchPoint& eq = z.equilibrium;
+      std::cerr << "rbc: error: zero-temperature equilibrium at " + format_number(eq.force_pN) +
+                       " pN did not converge: " + to_string(eq.status) + ", residual " +
+                       format_scientific(eq.residual_pN) + " pN\n";
+      return 1;
     }
-    report(progress, "zero-temperature equilibrium: D_A = " + std::to_string(eq.axial_um) +
-                         " um, D_T = " + std::to_string(eq.transverse_um) + " um");
-    setup.multipliers = lambda;
-    setup.reference_axial_um = eq.axial_um;
-    setup.reference_transverse_um = eq.transverse_um;
-    run = std::make_unique<McRun>(net, setup, o.start == "rest" ? net.rest : x);
+    run = std::make_unique<McRun>(net, setup, z.start);
   }
 
   const long long first_sweep = run->sampler().sweeps_done();
@@ -309,7 +203,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
                           McCheckpoint{r.setup(), r.state(), r.series(), schedule});
   };
   write_mc_manifest(o.out, false, "running", "the run has not finished", first_sweep, o.sweeps, "");
-  if (!o.out.empty()) write_snapshot(o.out, net, *run);
+  if (!o.out.empty()) write_mc_snapshot(o.out, net, *run);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_report = t0;
   try {
@@ -317,7 +211,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
       const long long s = r.sampler().sweeps_done();
       if (s % o.checkpoint_every == 0) write_checkpoint(r);
       if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
-        write_snapshot(o.out, net, r);
+        write_mc_snapshot(o.out, net, r);
       const auto now = std::chrono::steady_clock::now();
       if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
         last_report = now;
@@ -335,7 +229,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     // are written on the way out (complete files); the manifest says the run is incomplete.
     const long long s = run->sampler().sweeps_done();
     write_checkpoint(*run);
-    if (!o.out.empty()) write_series(o.out, *run);
+    if (!o.out.empty()) write_mc_series(o.out, *run);
     write_mc_manifest(o.out, false, "interrupted",
                       "interrupted by " + interrupt_name() + " after sweep " + std::to_string(s) +
                           " of " + std::to_string(o.sweeps) +
@@ -346,9 +240,9 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_checkpoint(*run);
   if (!o.out.empty()) {
-    write_series(o.out, *run);
+    write_mc_series(o.out, *run);
     if (o.snapshot_every == 0 || run->sampler().sweeps_done() % o.snapshot_every != 0)
-      write_snapshot(o.out, net, *run);
+      write_mc_snapshot(o.out, net, *run);
   }
 
   const long long done = run->sampler().sweeps_done() - first_sweep;
@@ -356,27 +250,12 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   for (const auto& c : run->sampler().colours()) mobile += static_cast<long long>(c.size());
   const double sweeps_per_s = wall > 0 ? double(done) / wall : 0.0;
   const McRunSetup& su = run->setup();
-  nlohmann::json j = {{"vertices", net.topo.num_vertices},
-                      {"force_pN", su.force_pN},
-                      {"temperature_K", su.sampler.temperature_K},
-                      {"kT_pNum", units::thermal_energy_pNum(su.sampler.temperature_K)},
-                      {"seed", su.sampler.seed},
-                      {"streams", su.sampler.streams},
-                      {"bending", to_string(net.bending_model)},
-                      {"penalty_scale", su.penalty_scale},
-                      {"threads", omp_get_max_threads()},
-                      {"colours", run->sampler().colours().size()},
-                      {"sweeps", run->sampler().sweeps_done()},
-                      {"sweeps_this_run", done},
-                      {"adaptive_sweeps", su.sampler.adapt_sweeps},
-                      {"step_um", run->sampler().step_um()},
-                      {"wall_s", wall},
-                      {"sweeps_per_s", sweeps_per_s},
-                      {"moves_per_s", sweeps_per_s * double(mobile)},
-                      {"reference_axial_um", su.reference_axial_um},
-                      {"reference_transverse_um", su.reference_transverse_um},
-                      {"running_total_drift_area_um2", run->sampler().max_area_drift_um2()},
-                      {"running_total_drift_volume_um3", run->sampler().max_volume_drift_um3()}};
+  nlohmann::json j = mc_run_json(net, *run);
+  j.update({{"threads", omp_get_max_threads()},
+            {"sweeps_this_run", done},
+            {"wall_s", wall},
+            {"sweeps_per_s", sweeps_per_s},
+            {"moves_per_s", sweeps_per_s * double(mobile)}});
   bool have_stats = true;
   McSummary s;
   try {
@@ -385,20 +264,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
     have_stats = false;
     j["statistics"] = e.what();
   }
-  if (have_stats) {
-    j["samples"] = s.samples;
-    j["discarded_transient"] = s.discarded;
-    j["acceptance"] = s.acceptance;
-    j["energy_pNum"] = stat_json(s.energy);
-    j["axial_um"] = stat_json(s.axial);
-    j["transverse_um"] = stat_json(s.transverse);
-    j["area_um2"] = stat_json(s.area);
-    j["volume_um3"] = stat_json(s.volume);
-    j["thermal_shift_axial_um"] = s.axial.mean - su.reference_axial_um;
-    j["thermal_shift_transverse_um"] = s.transverse.mean - su.reference_transverse_um;
-    j["max_area_drift"] = s.max_area_drift;
-    j["max_volume_drift"] = s.max_volume_drift;
-  }
+  if (have_stats) j.update(to_json(s, su));
   if (!resume_note.empty()) j["resume_note"] = resume_note;
   if (!o.out.empty()) write_text_atomic(o.out + "/mc_summary.json", j.dump(2) + "\n");
   write_mc_manifest(o.out, true, "finished", "", run->sampler().sweeps_done(), o.sweeps,
@@ -477,12 +343,16 @@ void add_mc_command(CLI::App& app, Action& action) {
       ->check(integer_in(1, std::numeric_limits<int>::max()))
       ->capture_default_str();
   cmd->add_option("--start", o->start, "equilibrium | rest")
-      ->check(CLI::IsMember({"equilibrium", "rest"}))
-      ->capture_default_str();
+      ->transform(
+          enum_choice<McStart>({{"equilibrium", McStart::equilibrium}, {"rest", McStart::rest}}))
+      ->type_name("TEXT")
+      ->default_str("equilibrium");
   auto* bending =
       cmd->add_option("--bending", o->bending, "juelicher | dihedral (--resume: the checkpoint's)")
-          ->check(CLI::IsMember({"juelicher", "dihedral"}))
-          ->capture_default_str();
+          ->transform(enum_choice<BendingModel>(
+              {{"juelicher", BendingModel::juelicher}, {"dihedral", BendingModel::dihedral}}))
+          ->type_name("TEXT")
+          ->default_str("juelicher");
   auto* penalty =
       cmd->add_option("--penalty-scale", o->penalty_scale,
                       "multiplies the area/volume penalty stiffnesses while sampling (thermal "

@@ -10,6 +10,7 @@
 #include "app/commands.hpp"
 #include "continuum/continuum_model.hpp"
 #include "continuum/relax.hpp"
+#include "core/defaults.hpp"
 #include "core/io.hpp"
 #include "core/lbfgs.hpp"
 #include "core/units.hpp"
@@ -23,7 +24,7 @@ namespace {
 struct RelaxCli {
   int elements = 2000;
   std::string h0_list = "0,0.1";
-  double kappa_J = 2e-19;
+  double kappa_J = defaults::kKappa_J;
   double regulariser = 1e-2;
   double tolerance_pN = 1e-6;
   int max_iterations = 200;

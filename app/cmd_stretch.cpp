@@ -12,6 +12,7 @@
 #include "app/interrupt.hpp"
 #include "app/warm_start.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "core/defaults.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
@@ -26,23 +27,27 @@ nlohmann::json mesh_report_json(const MeshQualityReport& r);  // cmd_mesh.cpp
 
 namespace {
 
+/// Which model `rbc stretch` runs (--model discrete | continuum).
+enum class StretchModel { discrete, continuum };
+
 /// Options in natural units (nm, J, pN), converted once in to_network_parameters().
 struct StretchCli {
-  std::string model = "discrete";
+  StretchModel model = StretchModel::discrete;
   std::string forces = "0,16,19.5,30.6,38,46.6,67.6,87.6,108.8,130,151,172.8,193";
   int vertices = 2000;
-  std::string bending = "juelicher";
-  std::string dihedral_mapping = "sphere";
-  std::string mesh_quality = "phi-minimised";
-  std::string contact = "area";
+  BendingModel bending = BendingModel::juelicher;
+  DihedralMapping dihedral_mapping = DihedralMapping::sphere_matched;
+  RestMeshQuality mesh_quality = RestMeshQuality::phi_minimised;
+  PatchRule contact = PatchRule::by_area;
   double contact_fraction = 0.05;
-  double lbar_nm = 75.0, lmax_nm = 237.75, persistence_nm = 7.5, temperature_K = 300.0;
-  double kappa_J = 2e-19, h0_per_um = 0.0;
+  double lbar_nm = defaults::kLbar_nm, lmax_nm = defaults::kLmax_nm,
+         persistence_nm = defaults::kPersistence_nm, temperature_K = defaults::kWlcTemperature_K;
+  double kappa_J = defaults::kKappa_J, h0_per_um = 0.0;
   double q = 1.0, eta = 0.005;
   double tolerance_pN = 1e-3;    ///< discrete default; the continuum's is Newton's 1e-6 pN
   bool tolerance_given = false;  ///< --tolerance on the command line (the continuum honours it)
   int max_iterations = 50000;
-  std::string order = "2";
+  WlcExpansion order = WlcExpansion::order2;
   int elements = 4000;
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
@@ -74,17 +79,11 @@ NetworkParameters to_network_parameters(const StretchCli& o) {
   p.wlc.temperature_K = o.temperature_K;
   p.bending.kappa_pNum = units::joule_to_pNum(o.kappa_J);
   p.bending.h0_per_um = o.h0_per_um;
-  p.bending_model = bending_model_from_string(o.bending);
-  if (o.dihedral_mapping == "sphere")
-    p.dihedral_mapping = DihedralMapping::sphere_matched;
-  else if (o.dihedral_mapping == "li")
-    p.dihedral_mapping = DihedralMapping::li_et_al;
-  else
-    throw std::invalid_argument("dihedral mapping '" + o.dihedral_mapping +
-                                "' is not one of sphere, li");
+  p.bending_model = o.bending;
+  p.dihedral_mapping = o.dihedral_mapping;
   p.steric.q = o.q;
   p.steric.eta = o.eta;
-  p.tweezers.rule = patch_rule_from_string(o.contact);
+  p.tweezers.rule = o.contact;
   p.tweezers.contact_fraction = o.contact_fraction;
   p.validate();
   // Without bending the closed network has no definite shape to stretch (the library allows
@@ -129,9 +128,9 @@ struct StretchRow {
 
 template <class Point>
 StretchRow to_row(const Point& p, int elements) {
-  return {p.force_pN,   p.axial_um,     p.transverse_um, p.energy_pNum, p.iterations,
-          p.converged,  p.wall_s,       p.vertices,      elements,      p.residual_pN,
-          p.area_drift, p.volume_drift, p.status,        p.warm};
+  return {p.force_pN,   p.axial_um,     p.transverse_um,      p.energy_pNum, p.iterations,
+          p.converged,  p.wall_s,       p.vertices,           elements,      p.residual_pN,
+          p.area_drift, p.volume_drift, to_string(p.status), p.warm};
 }
 
 /// DIR/run.json, the manifest of `stretch --out`: rewritten (atomically) when the run starts,
@@ -202,7 +201,7 @@ auto with_manifest(StretchManifest& manifest, Solve&& solve) {
 /// every non-converged force with its residual. Returns the exit code (1 if any failed).
 int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
                  const std::vector<std::string>& comments, StretchManifest& manifest) {
-  const bool continuum = o.model == "continuum";
+  const bool continuum = o.model == StretchModel::continuum;
   nlohmann::json rows = nlohmann::json::array();
   CsvTable csv;
   csv.comments = comments;
@@ -282,7 +281,7 @@ int run_discrete(const StretchCli& o) {
   const ProgressSink progress = stderr_progress(o.quiet);
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
-  ro.quality = rest_mesh_quality_from_string(o.mesh_quality);
+  ro.quality = o.mesh_quality;
   MeshQualityReport mesh_report;
   report(progress, "building the rest network (N ~ " + std::to_string(o.vertices) + ")");
   const TriMesh mesh = make_rest_shape(ro, &mesh_report);
@@ -340,7 +339,7 @@ int run_continuum(const StretchCli& o) {
   const std::vector<double> forces = parse_force_list(o.forces);
   for (double f : forces) validate_continuum_force(f);
   const NetworkParameters params = to_network_parameters(o);  // WLC, steric, bending, tweezers
-  const WlcExpansion order = wlc_expansion_from_string(o.order);
+  const WlcExpansion order = o.order;
   to_stretch_options(o);  // the same --tolerance and --max-iterations checks as the network's
   ContinuumOptions co;
   co.newton.max_iterations = std::min(o.max_iterations, 1000);
@@ -408,8 +407,10 @@ void add_stretch_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<StretchCli>();
   auto* cmd = app.add_subcommand("stretch", "Optical-tweezers stretch: diameters against force");
   cmd->add_option("--model", o->model, "discrete (spectrin network) | continuum (surface FEM)")
-      ->check(CLI::IsMember({"discrete", "continuum"}))
-      ->capture_default_str();
+      ->transform(enum_choice<StretchModel>(
+          {{"discrete", StretchModel::discrete}, {"continuum", StretchModel::continuum}}))
+      ->type_name("TEXT")
+      ->default_str("discrete");
   cmd->add_option("--force", o->forces,
                   "comma-separated total bead forces in pN, each in [0, " +
                       format_number(kMaxDiscreteForce_pN) + "] (discrete) or [0, " +
@@ -419,18 +420,27 @@ void add_stretch_command(CLI::App& app, Action& action) {
       ->check(integer_in(100, 40000))
       ->capture_default_str();
   cmd->add_option("--bending", o->bending, "discrete: juelicher | dihedral")
-      ->check(CLI::IsMember({"juelicher", "dihedral"}))
-      ->capture_default_str();
+      ->transform(enum_choice<BendingModel>(
+          {{"juelicher", BendingModel::juelicher}, {"dihedral", BendingModel::dihedral}}))
+      ->type_name("TEXT")
+      ->default_str("juelicher");
   cmd->add_option("--dihedral-mapping", o->dihedral_mapping,
                   "dihedral k_b(kappa): sphere (2 sqrt3 kappa) | li (2 kappa/sqrt3)")
-      ->check(CLI::IsMember({"sphere", "li"}))
-      ->capture_default_str();
+      ->transform(enum_choice<DihedralMapping>(
+          {{"sphere", DihedralMapping::sphere_matched}, {"li", DihedralMapping::li_et_al}}))
+      ->type_name("TEXT")
+      ->default_str("sphere");
   cmd->add_option("--mesh-quality", o->mesh_quality, "phi-minimised | projected | equal-area")
-      ->check(CLI::IsMember({"phi-minimised", "projected", "equal-area"}))
-      ->capture_default_str();
+      ->transform(enum_choice<RestMeshQuality>({{"phi-minimised", RestMeshQuality::phi_minimised},
+                                                {"projected", RestMeshQuality::projected},
+                                                {"equal-area", RestMeshQuality::equal_area}}))
+      ->type_name("TEXT")
+      ->default_str("phi-minimised");
   cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")
-      ->check(CLI::IsMember({"area", "vertices"}))
-      ->capture_default_str();
+      ->transform(enum_choice<PatchRule>(
+          {{"area", PatchRule::by_area}, {"vertices", PatchRule::by_vertex_count}}))
+      ->type_name("TEXT")
+      ->default_str("area");
   cmd->add_option("--contact-fraction", o->contact_fraction,
                   "contact patch fraction per bead, in (0, 0.5)")
       ->capture_default_str();
@@ -457,8 +467,12 @@ void add_stretch_command(CLI::App& app, Action& action) {
       ->check(integer_in(1, kMaxIterations))
       ->capture_default_str();
   cmd->add_option("--order", o->order, "continuum: 2 | 3 | 4 | full")
-      ->check(CLI::IsMember({"2", "3", "4", "full"}))
-      ->capture_default_str();
+      ->transform(enum_choice<WlcExpansion>({{"2", WlcExpansion::order2},
+                                             {"3", WlcExpansion::order3},
+                                             {"4", WlcExpansion::order4},
+                                             {"full", WlcExpansion::full}}))
+      ->type_name("TEXT")
+      ->default_str("2");
   cmd->add_option("--elements", o->elements, "continuum: triangles (200 to 79,996)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();
@@ -476,10 +490,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
     action = [o]() -> int {
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(kStretchOptionNames, [&]() -> int {
-        if (o->model == "discrete") return run_discrete(*o);
-        if (o->model == "continuum") return run_continuum(*o);
-        throw std::invalid_argument("--model " + o->model +
-                                    ": expected one of discrete, continuum");
+        return o->model == StretchModel::discrete ? run_discrete(*o) : run_continuum(*o);
       });
     };
   });

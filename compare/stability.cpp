@@ -109,7 +109,7 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
   const std::string method = "discrete N=" + std::to_string(net.topo.num_vertices);
   for (const auto& p : pts) {
     res.rows.push_back({StabilityStudy::solver_budget, method, "force_pN", p.force_pN,
-                        StabilityMetric::converged, p.converged ? 1.0 : 0.0, p.status});
+                        StabilityMetric::converged, p.converged ? 1.0 : 0.0, to_string(p.status)});
     res.rows.push_back({StabilityStudy::solver_budget, method, "force_pN", p.force_pN,
                         StabilityMetric::iterations, static_cast<double>(p.iterations),
                         "L-BFGS iterations"});
@@ -127,7 +127,8 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
     for (const auto& p : cp) {
       const std::string m = "continuum p=" + to_string(order);
       res.rows.push_back({StabilityStudy::solver_budget, m, "force_pN", p.force_pN,
-                          StabilityMetric::converged, p.converged ? 1.0 : 0.0, p.status});
+                          StabilityMetric::converged, p.converged ? 1.0 : 0.0,
+                          to_string(p.status)});
       res.rows.push_back({StabilityStudy::solver_budget, m, "force_pN", p.force_pN,
                           StabilityMetric::iterations, static_cast<double>(p.iterations),
                           "Newton iterations (all sub-steps)"});
@@ -153,7 +154,8 @@ void mesh_quality_sweep(const StabilityOptions& o, StabilityResult& res,
                         pts[0].axial_um / rest.axial_um - 1.0,
                         "relative D_A change in the zero-force relaxation"});
     res.rows.push_back({StabilityStudy::mesh_quality, method, "phi_over_area", mr.phi_over_area,
-                        StabilityMetric::axial_um_at_88pN, pts[1].axial_um, pts[1].status});
+                        StabilityMetric::axial_um_at_88pN, pts[1].axial_um,
+                        to_string(pts[1].status)});
     res.rows.push_back({StabilityStudy::mesh_quality, method, "phi_over_area", mr.phi_over_area,
                         StabilityMetric::largest_rest_inplane_force_pN,
                         largest_rest_inplane_force_pN(net), ""});
@@ -177,9 +179,10 @@ void steric_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
       const auto pts = run_stretch(net, {0.0, o.steric_force_pN}, StretchOptions{});
       res.rows.push_back({StabilityStudy::steric, m.str(), "eta", eta,
                           StabilityMetric::K_closed_pN_per_um, lm.K_pN_per_um, ""});
-      res.rows.push_back({StabilityStudy::steric, m.str(), "eta", eta,
-                          StabilityMetric::axial_um_at_force, pts.back().axial_um,
-                          pts.back().status + " at " + std::to_string(o.steric_force_pN) + " pN"});
+      res.rows.push_back(
+          {StabilityStudy::steric, m.str(), "eta", eta, StabilityMetric::axial_um_at_force,
+           pts.back().axial_um,
+           to_string(pts.back().status) + " at " + std::to_string(o.steric_force_pN) + " pN"});
       res.rows.push_back({StabilityStudy::steric, m.str(), "eta", eta,
                           StabilityMetric::transverse_um_at_force, pts.back().transverse_um, ""});
     }

@@ -8,6 +8,7 @@
 
 #include "core/geometry.hpp"
 #include "core/validation.hpp"
+#include "discrete/augmented_lagrangian.hpp"
 #include "discrete/constraint_energy.hpp"
 
 namespace rbc {
@@ -29,55 +30,66 @@ void ContinuumOptions::validate() const {
                           kUnbounded);
   require_finite_in_range("L-BFGS volume penalty stiffness", "pN/um^5", lbfgs_volume_stiffness, 0.0,
                           kUnbounded);
+  lbfgs_schedule.validate();
 }
 
 NewtonResult solve_equilibrium_lbfgs(const ContinuumModel& model, double force_pN, Positions& x,
                                      ConstraintMultipliers& lambda,
                                      const ContinuumOptions& options) {
-  ConstraintParameters cp;
-  cp.area_stiffness_pN_per_um3 = options.lbfgs_area_stiffness;
-  cp.volume_stiffness_pN_per_um5 = options.lbfgs_volume_stiffness;
-  cp.tolerance = options.newton.constraint_tolerance;
+  AugmentedLagrangianProblem al;
+  al.area0_um2 = model.area0_um2;
+  al.volume0_um3 = model.volume0_um3;
+  al.constraints.area_stiffness_pN_per_um3 = options.lbfgs_area_stiffness;
+  al.constraints.volume_stiffness_pN_per_um5 = options.lbfgs_volume_stiffness;
+  al.constraints.tolerance = options.newton.constraint_tolerance;
   const int n = static_cast<int>(x.cols());
-  NewtonResult res;
   Eigen::VectorXd v = flat(x);
-  for (int outer = 0; outer < options.lbfgs_outer_iterations; ++outer) {
+  al.minimise = [&](const ConstraintMultipliers& l, double scale) {
+    ConstraintParameters cp = al.constraints;
+    cp.area_stiffness_pN_per_um3 *= scale;
+    cp.volume_stiffness_pN_per_um5 *= scale;
     const Objective f = [&](const Eigen::VectorXd& y, Eigen::VectorXd& g) {
       const Positions p = Eigen::Map<const Eigen::Matrix3Xd>(y.data(), 3, n);
       Positions gp;
       const double e = continuum_energy(model, p, force_pN, &gp);
       if (!std::isfinite(e)) return e;
       const double ec =
-          constraint_energy(p, model.topo, model.area0_um2, model.volume0_um3, cp, lambda, &gp);
+          constraint_energy(p, model.topo, model.area0_um2, model.volume0_um3, cp, l, &gp);
       g = flat(gp);
       return e + ec;
     };
     const MinimiserResult mr = minimise_lbfgs(f, v, options.lbfgs);
-    res.iterations += mr.iterations;
-    res.residual_pN = mr.residual;
-    if (mr.status == MinimiserStatus::infeasible_start) {
-      res.status = NewtonStatus::infeasible_start;
-      return res;
-    }
-    x = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
-    const double a = total_area(x, model.topo), vol = enclosed_volume(x, model.topo);
-    res.area_drift = (a - model.area0_um2) / model.area0_um2;
-    res.volume_drift = (vol - model.volume0_um3) / model.volume0_um3;
-    res.energy_pNum = continuum_energy(model, x, force_pN);
-    const bool held =
-        std::abs(res.area_drift) < cp.tolerance && std::abs(res.volume_drift) < cp.tolerance;
-    if (mr.converged() && held) {
+    if (mr.status != MinimiserStatus::infeasible_start)
+      x = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
+    return mr;
+  };
+  al.measure = [&] {
+    return ConstraintState{total_area(x, model.topo), enclosed_volume(x, model.topo)};
+  };
+  al.cancel = options.cancel;
+  double scale = 1.0;
+  const AugmentedLagrangianResult r = run_augmented_lagrangian(
+      al, options.lbfgs_outer_iterations, options.lbfgs_schedule, lambda, scale);
+  NewtonResult res;
+  res.iterations = r.iterations;
+  res.residual_pN = r.last.residual;
+  res.area_drift = r.area_drift;
+  res.volume_drift = r.volume_drift;
+  res.energy_pNum = continuum_energy(model, x, force_pN);
+  switch (r.stop) {
+    case AugmentedLagrangianStop::converged:
       res.status = NewtonStatus::converged;
-      return res;
-    }
-    if (!mr.converged() && mr.status != MinimiserStatus::max_iterations) {
-      res.status = NewtonStatus::line_search_failed;
-      return res;
-    }
-    lambda.area_pN_per_um += cp.area_stiffness_pN_per_um3 * (a - model.area0_um2);
-    lambda.volume_pN_per_um2 += cp.volume_stiffness_pN_per_um5 * (vol - model.volume0_um3);
+      break;
+    case AugmentedLagrangianStop::minimiser_failed:
+      res.status = r.last.status == MinimiserStatus::infeasible_start
+                       ? NewtonStatus::infeasible_start
+                       : NewtonStatus::line_search_failed;
+      break;
+    case AugmentedLagrangianStop::budget_spent:
+    case AugmentedLagrangianStop::max_updates:
+      res.status = NewtonStatus::max_iterations;
+      break;
   }
-  res.status = NewtonStatus::max_iterations;
   return res;
 }
 
@@ -161,13 +173,7 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
 }
 
 StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points) {
-  StretchState s;
-  for (const auto& p : points) {
-    s.forces_pN.push_back(p.force_pN);
-    s.x.push_back(p.x);
-    s.multipliers.push_back(p.multipliers);
-  }
-  return s;
+  return stretch_state_of(points);
 }
 
 std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
@@ -229,7 +235,7 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
     p.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     p.substeps = substeps;
     p.converged = r.converged();
-    p.status = to_string(r.status);
+    p.status = r.status;
     p.residual_pN = r.residual_pN;
     p.area_drift = r.area_drift;
     p.volume_drift = r.volume_drift;
@@ -245,8 +251,8 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
     {
       std::ostringstream m;
       m << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um << " um, "
-        << p.iterations << " iterations, " << p.status << ", residual " << p.residual_pN << " pN, "
-        << p.wall_s << " s";
+        << p.iterations << " iterations, " << to_string(p.status) << ", residual " << p.residual_pN
+        << " pN, " << p.wall_s << " s";
       report(progress, m.str());
     }
     if (r.converged()) {

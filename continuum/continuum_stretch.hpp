@@ -12,6 +12,7 @@
 #include "core/lbfgs.hpp"
 #include "core/progress.hpp"
 #include "core/validation.hpp"
+#include "discrete/augmented_lagrangian.hpp"
 #include "discrete/stretch_state.hpp"
 
 namespace rbc {
@@ -38,6 +39,9 @@ struct ContinuumOptions {
   LbfgsOptions lbfgs;
   double lbfgs_area_stiffness = 100.0, lbfgs_volume_stiffness = 100.0;
   int lbfgs_outer_iterations = 40;
+  /// L-BFGS only: penalty schedule of the augmented-Lagrangian driver
+  /// (discrete/augmented_lagrangian.hpp), the same as the discrete stretch's.
+  AugmentedLagrangianSchedule lbfgs_schedule;
   ContinuumOptions() {
     lbfgs.force_tolerance = 1e-3;
     lbfgs.max_iterations = 20000;
@@ -72,9 +76,9 @@ struct ContinuumStretchPoint {
   int iterations = 0;                      ///< Newton (or L-BFGS) iterations, all sub-steps
   int substeps = 1;                        ///< forces solved to reach this one
   bool converged = false;
-  std::string status;
-  double residual_pN = 0;                   ///< largest net vertex force at the end
-  double area_drift = 0, volume_drift = 0;  ///< relative
+  NewtonStatus status = NewtonStatus::max_iterations;  ///< to_string(status): in words
+  double residual_pN = 0;                              ///< largest net vertex force at the end
+  double area_drift = 0, volume_drift = 0;             ///< relative
   double wall_s = 0;
   int vertices = 0, elements = 0;
   ConstraintMultipliers multipliers;  ///< tension-like lambda_A, pressure-like lambda_V
@@ -103,8 +107,11 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
 /// The equilibria of a run, to warm-start the next one.
 StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points);
 
-/// One equilibrium at force F from x (updated) and lambda (updated) with the L-BFGS
-/// augmented-Lagrangian method; returns the same summary as Newton's.
+/// One equilibrium at force F from x (updated) and lambda (updated) with L-BFGS inside the
+/// augmented-Lagrangian driver (discrete/augmented_lagrangian.hpp; penalties
+/// lbfgs_area_stiffness, lbfgs_volume_stiffness, schedule lbfgs_schedule, at most
+/// lbfgs_outer_iterations updates); returns the same summary as Newton's. A failed line
+/// search or an infeasible start is reported as such; spent updates as max_iterations.
 NewtonResult solve_equilibrium_lbfgs(const ContinuumModel& model, double force_pN, Positions& x,
                                      ConstraintMultipliers& lambda,
                                      const ContinuumOptions& options);

@@ -59,10 +59,8 @@ std::vector<JuelicherCell> juelicher_cells(const Topology& topo, const BendingPa
   std::vector<JuelicherCell> cells(nv);
 #pragma omp parallel for schedule(static) if (nv > kChunkElements)
   for (int v = 0; v < nv; ++v) {
-    double m = 0, a = 0;
-    for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e) m += lt[*e];
-    for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) a += af[*f];
-    cells[v] = juelicher_cell(p, m, a);
+    cells[v] = juelicher_vertex_cell(
+        topo, p, v, [&](int e) { return lt[e]; }, [&](int f) { return af[f]; });
   }
   return cells;
 }

@@ -7,13 +7,15 @@
 #include <vector>
 
 #include "core/block_pattern.hpp"
+#include "core/defaults.hpp"
 #include "core/mesh.hpp"
+#include "core/units.hpp"
 
 namespace rbc {
 
 /// kappa in pN*um (2e-19 J = 0.2 pN*um, paper Table 2); H0 in 1/um (pointwise, sum convention).
 struct BendingParameters {
-  double kappa_pNum = 0.2;
+  double kappa_pNum = units::joule_to_pNum(defaults::kKappa_J);  ///< core/defaults.hpp
   double h0_per_um = 0.0;
   /// Throws std::invalid_argument (rbc::InvalidParameter): kappa in [0, kMaxKappa_J] J (the
   /// message in J), |H0| <= kMaxSpontaneousCurvature_per_um, both finite.
@@ -75,11 +77,17 @@ inline JuelicherCell juelicher_cell(const BendingParameters& p, double sum_lt_um
   return c;
 }
 
-/// Juelicher energy of one vertex cell, E = (kappa/2)(M - H0 A)^2/A (pN um), from the sums
-/// sum_lt (um) over the cell's edges and sum_area (um^2) over its faces.
-inline double juelicher_cell_energy(const BendingParameters& p, double sum_lt_um,
-                                    double sum_area_um2) {
-  return juelicher_cell(p, sum_lt_um, sum_area_um2).energy_pNum;
+/// The cell of vertex v from per-edge L_e theta_e (lt(e), um) and per-face areas (af(f),
+/// um^2) given by accessors: the one place the sums M_v = 1/2 sum_e L_e theta_e and
+/// A_v = 1/3 sum_f A_f are formed, over topo.vertex_edges(v) and topo.vertex_faces(v) in their
+/// order. Used by juelicher_cells and by the Monte Carlo sampler (cached or trial values).
+template <class EdgeLt, class FaceArea>
+JuelicherCell juelicher_vertex_cell(const Topology& topo, const BendingParameters& p, int v,
+                                    EdgeLt&& lt, FaceArea&& af) {
+  double m = 0, a = 0;
+  for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e) m += lt(*e);
+  for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) a += af(*f);
+  return juelicher_cell(p, m, a);
 }
 
 /// Every vertex cell from per-edge L_e theta_e (lt, um, E entries) and per-face areas (af,

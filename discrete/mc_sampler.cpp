@@ -267,11 +267,10 @@ void McSampler::restore(const McChainState& s) {
     for (int e = 0; e < ne; ++e) lt_[e] = hinge_length_angle(x_, t, e);
 #pragma omp parallel for schedule(static)
     for (int w = 0; w < bend_terms_.count; ++w) {
-      double lt = 0, area = 0;
-      for (const int* e = t.vertex_edges.begin(w); e != t.vertex_edges.end(w); ++e) lt += lt_[*e];
-      for (const int* f = t.vertex_faces.begin(w); f != t.vertex_faces.end(w); ++f)
-        area += face_area_[*f];
-      bend_[w] = juelicher_cell_energy(net_.bending, lt, area);
+      bend_[w] = juelicher_vertex_cell(
+                     t, net_.bending, w, [&](int e) { return lt_[e]; },
+                     [&](int f) { return face_area_[f]; })
+                     .energy_pNum;
     }
   } else {
 #pragma omp parallel for schedule(static)
@@ -367,17 +366,21 @@ void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d) {
   const int b_lo = bend_terms_.offsets[v], b_hi = bend_terms_.offsets[v + 1];
   if (net_.bending_model == BendingModel::juelicher) {
     // New L theta of the changed hinges, then the cells of v and its ring from their sums with
-    // the changed hinges and faces substituted (in juelicher_vertex_energy's summation order).
+    // the changed hinges and faces substituted (juelicher_vertex_cell: the one home of the M_v, A_v
+    // sums).
     const int h_lo = hinges_.offsets[v], h_hi = hinges_.offsets[v + 1];
     for (int k = h_lo; k < h_hi; ++k) lt_new_[k] = hinge_length_angle(x_, t, hinges_.terms[k]);
     for (int k = b_lo; k < b_hi; ++k) {
       const int w = bend_terms_.terms[k];
-      double lt = 0, area = 0;
-      for (const int* e = t.vertex_edges.begin(w); e != t.vertex_edges.end(w); ++e)
-        lt += changed_or_cached(*e, hinges_.terms, h_lo, h_hi, lt_new_, lt_);
-      for (const int* f = t.vertex_faces.begin(w); f != t.vertex_faces.end(w); ++f)
-        area += changed_or_cached(*f, t.vertex_faces.items, f_lo, f_hi, area_new_, face_area_);
-      bend_new_[k] = juelicher_cell_energy(net_.bending, lt, area);
+      bend_new_[k] =
+          juelicher_vertex_cell(
+              t, net_.bending, w,
+              [&](int e) { return changed_or_cached(e, hinges_.terms, h_lo, h_hi, lt_new_, lt_); },
+              [&](int f) {
+                return changed_or_cached(f, t.vertex_faces.items, f_lo, f_hi, area_new_,
+                                         face_area_);
+              })
+              .energy_pNum;
       bend_change += bend_new_[k] - bend_[w];
     }
   } else {

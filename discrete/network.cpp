@@ -77,24 +77,69 @@ double inplane_energy(const Network& net, const Positions& x, Positions* grad, d
 
 }  // namespace
 
-double network_energy(const Network& net, const Positions& x, const LoadState& load,
-                      Positions* grad, EnergyBreakdown* parts) {
+namespace {
+
+/// The production list for a bending model (built once; the terms read everything from the
+/// Network they are given, so one list serves every network).
+std::vector<NetworkTerm> make_production_terms(BendingModel model) {
+  std::vector<NetworkTerm> t;
+  t.push_back({"in-plane",
+               [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
+                  EnergyBreakdown& e) { return inplane_energy(n, x, grad, &e.links, &e.steric); }});
+  if (model == BendingModel::juelicher)
+    t.push_back({"bending (juelicher)", [](const Network& n, const Positions& x, const LoadState&,
+                                           Positions* grad, EnergyBreakdown& e) {
+                   return e.bending = juelicher_bending_energy(x, n.topo, n.bending, grad);
+                 }});
+  else
+    t.push_back({"bending (dihedral)", [](const Network& n, const Positions& x, const LoadState&,
+                                          Positions* grad, EnergyBreakdown& e) {
+                   return e.bending =
+                              dihedral_bending_energy(x, n.topo, n.dihedral_kb_pNum, 0.0, grad);
+                 }});
+  t.push_back({"area/volume", [](const Network& n, const Positions& x, const LoadState& load,
+                                 Positions* grad, EnergyBreakdown& e) {
+                 ConstraintParameters penalty = n.constraints;
+                 penalty.area_stiffness_pN_per_um3 *= load.stiffness_scale;
+                 penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
+                 return e.constraints = constraint_energy(x, n.topo, n.area0_um2, n.volume0_um3,
+                                                          penalty, load.multipliers, grad);
+               }});
+  t.push_back({"tweezers", [](const Network& n, const Positions& x, const LoadState& load,
+                              Positions* grad, EnergyBreakdown& e) {
+                 return e.tweezers = tweezers_energy(n.patch, load.force_pN, x, n.rest, grad);
+               }});
+  return t;
+}
+
+const std::vector<NetworkTerm>& production_terms(BendingModel model) {
+  static const std::vector<NetworkTerm> juelicher = make_production_terms(BendingModel::juelicher);
+  static const std::vector<NetworkTerm> dihedral = make_production_terms(BendingModel::dihedral);
+  return model == BendingModel::juelicher ? juelicher : dihedral;
+}
+
+}  // namespace
+
+std::vector<NetworkTerm> network_terms(const Network& net) {
+  return production_terms(net.bending_model);
+}
+
+double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& net,
+                         const Positions& x, const LoadState& load, Positions* grad,
+                         EnergyBreakdown* parts) {
   EnergyBreakdown e;
   if (grad) grad->setZero(3, x.cols());
-  if (!(inplane_energy(net, x, grad, &e.links, &e.steric) <
-        std::numeric_limits<double>::infinity()))
-    return std::numeric_limits<double>::infinity();
-  e.bending = net.bending_model == BendingModel::juelicher
-                  ? juelicher_bending_energy(x, net.topo, net.bending, grad)
-                  : dihedral_bending_energy(x, net.topo, net.dihedral_kb_pNum, 0.0, grad);
-  ConstraintParameters penalty = net.constraints;
-  penalty.area_stiffness_pN_per_um3 *= load.stiffness_scale;
-  penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
-  e.constraints = constraint_energy(x, net.topo, net.area0_um2, net.volume0_um3, penalty,
-                                    load.multipliers, grad);
-  e.tweezers = tweezers_energy(net.patch, load.force_pN, x, net.rest, grad);
+  for (const NetworkTerm& term : terms)
+    if (!(term.energy(net, x, load, grad, e) < std::numeric_limits<double>::infinity()))
+      return std::numeric_limits<double>::infinity();
   if (parts) *parts = e;
   return e.total();
+}
+
+double network_energy(const Network& net, const Positions& x, const LoadState& load,
+                      Positions* grad, EnergyBreakdown* parts) {
+  return sum_network_terms(net.terms.empty() ? production_terms(net.bending_model) : net.terms, net,
+                           x, load, grad, parts);
 }
 
 double largest_rest_inplane_force_pN(const Network& net) {

@@ -1,4 +1,7 @@
 #pragma once
+#include <functional>
+#include <string>
+#include <vector>
 // The spectrin network of Model 1 on a closed triangulation, with its stress-free
 // per-element reference (MODEL.md section 2), and its total free energy.
 #include <string>
@@ -28,6 +31,21 @@ struct NetworkParameters {
 /// A network ready to evaluate: topology, rest positions X, per-edge Lbar_e and per-face
 /// Abar_f taken from X (so every element is stress-free at its own reference), the
 /// material constants derived once, and the bead patches.
+struct Network;
+struct LoadState;
+struct EnergyBreakdown;
+
+/// One energy term of a network model (the interface every term of the sum implements):
+/// returns its energy at x under `load` (pN um; +infinity outside its domain, grad then
+/// unspecified), adds its gradient (pN) into *grad when non-null, and adds its value into its
+/// field(s) of `parts`. A model is the list of its terms; network_energy sums the list.
+struct NetworkTerm {
+  std::string name;  ///< e.g. "in-plane", "bending (juelicher)"
+  std::function<double(const Network& net, const Positions& x, const LoadState& load,
+                       Positions* grad, EnergyBreakdown& parts)>
+      energy;
+};
+
 struct Network {
   Topology topo;
   Positions rest;            ///< 3 x N, um
@@ -42,6 +60,11 @@ struct Network {
   ConstraintParameters constraints;
   double area0_um2 = 0, volume0_um3 = 0;
   TweezerPatch patch;
+  /// The model's terms; empty (the default) = network_terms(*this), the production list. A
+  /// model with its own list (e.g. another bending law: one NetworkTerm) is set here; the
+  /// stretch drivers then minimise that sum (the Newton preconditioner and the Monte Carlo
+  /// sampler use the production terms only).
+  std::vector<NetworkTerm> terms;
 };
 
 Network build_network(const TriMesh& rest_mesh, const NetworkParameters& params);
@@ -68,6 +91,18 @@ inline constexpr double kCollapsedFaceRatio = 1e-3;
 /// Total free energy F = links + steric + bending + constraints - tweezer work (pN um).
 /// Returns +infinity for infeasible x (a link at/after Lmax, a collapsed face); then grad
 /// is unspecified. grad (3 x N, pN) is overwritten when given.
+/// The production terms of `net`, in the order they are summed: "in-plane" (WLC links and
+/// steric faces, parts.links and parts.steric), the bending law of net.bending_model
+/// (parts.bending), "area/volume" (parts.constraints, penalties times load.stiffness_scale),
+/// "tweezers" (parts.tweezers).
+std::vector<NetworkTerm> network_terms(const Network& net);
+
+/// The terms' sum at x: grad (when given) is zeroed, then each term adds its gradient; returns
+/// +infinity as soon as a term is not finite-below-infinity. parts receives the breakdown.
+double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& net,
+                         const Positions& x, const LoadState& load, Positions* grad,
+                         EnergyBreakdown* parts);
+
 double network_energy(const Network& net, const Positions& x, const LoadState& load,
                       Positions* grad = nullptr, EnergyBreakdown* parts = nullptr);
 

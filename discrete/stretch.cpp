@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/geometry.hpp"
+#include "discrete/augmented_lagrangian.hpp"
 
 namespace rbc {
 
@@ -25,6 +26,43 @@ void StretchOptions::validate() const {
                           kUnbounded);
   require_finite_in_range("preconditioned step cap (shortest links)", "",
                           preconditioned_max_step_links, 0.0, kUnbounded);
+  augmented_lagrangian.validate();
+}
+
+std::string to_string(StretchStatus s) {
+  switch (s) {
+    case StretchStatus::converged:
+      return "converged";
+    case StretchStatus::max_iterations:
+      return "iteration limit reached";
+    case StretchStatus::line_search_failed:
+      return "line search failed";
+    case StretchStatus::infeasible_start:
+      return "infeasible starting point";
+    case StretchStatus::time_budget:
+      return "time budget exhausted";
+    case StretchStatus::constraints_not_held:
+      return "constraints not held after multiplier updates";
+  }
+  return "unknown";
+}
+
+std::ostream& operator<<(std::ostream& os, StretchStatus s) {
+  return os << to_string(s);
+}
+
+StretchStatus stretch_status(MinimiserStatus s) {
+  switch (s) {
+    case MinimiserStatus::converged:
+      return StretchStatus::converged;
+    case MinimiserStatus::max_iterations:
+      return StretchStatus::max_iterations;
+    case MinimiserStatus::line_search_failed:
+      return StretchStatus::line_search_failed;
+    case MinimiserStatus::infeasible_start:
+      return StretchStatus::infeasible_start;
+  }
+  return StretchStatus::line_search_failed;
 }
 
 namespace {
@@ -139,51 +177,46 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
     return total;
   };
 
-  MinimiserResult r;
-  double previous_violation = std::numeric_limits<double>::infinity();
-  for (int outer = 0; outer < opt.max_outer_iterations; ++outer) {
-    load.multipliers = lambda;
+  // Area and volume by the shared augmented-Lagrangian driver; each inner minimisation is
+  // the (preconditioned, refreshed) L-BFGS above at the driver's multipliers and scale.
+  AugmentedLagrangianProblem al;
+  al.area0_um2 = net.area0_um2;
+  al.volume0_um3 = net.volume0_um3;
+  al.constraints = net.constraints;
+  al.minimise = [&](const ConstraintMultipliers& l, double scale) {
+    load.multipliers = l;
+    load.stiffness_scale = scale;
     if (pre && pre->ready()) pre->set_stiffness_scale(load.stiffness_scale);
-    r = minimise();
-    pt.iterations += r.iterations;
+    return minimise();
+  };
+  al.measure = [&] {
     Eigen::Map<const Eigen::Matrix3Xd> p(u.data(), 3, n);
-    const double a = total_area(p, net.topo), v = enclosed_volume(p, net.topo);
-    pt.area_drift = (a - net.area0_um2) / net.area0_um2;
-    pt.volume_drift = (v - net.volume0_um3) / net.volume0_um3;
+    return ConstraintState{total_area(p, net.topo), enclosed_volume(p, net.topo)};
+  };
+  al.budget_spent = [&] { return out_of_time || exhausted || used >= lo.max_iterations; };
+  al.on_update = [&](int update, const MinimiserResult& r, double area_drift, double volume_drift) {
     std::ostringstream msg;
-    msg << "  F = " << force_pN << " pN, update " << outer << ": " << r.iterations
-        << " iterations, residual " << r.residual << " pN, dA/A = " << pt.area_drift
-        << ", dV/V = " << pt.volume_drift;
+    msg << "  F = " << force_pN << " pN, update " << update << ": " << r.iterations
+        << " iterations, residual " << r.residual << " pN, dA/A = " << area_drift
+        << ", dV/V = " << volume_drift;
     report(progress, msg.str());
-    if (!r.converged() && r.status != MinimiserStatus::max_iterations) break;
-    if (out_of_time || exhausted || used >= lo.max_iterations) break;  // budget spent
-    throw_if_cancelled(lo.cancel);
-    const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&
-                      std::abs(pt.volume_drift) < net.constraints.tolerance;
-    if (held && r.converged()) break;
-    if (!r.converged()) break;
-    // Standard augmented-Lagrangian schedule: update the multipliers; if the violation did
-    // not fall by 4x since the last update, stiffen the penalty tenfold (the forces of a
-    // small violation had dropped below the minimiser's force tolerance).
-    lambda.area_pN_per_um +=
-        load.stiffness_scale * net.constraints.area_stiffness_pN_per_um3 * (a - net.area0_um2);
-    lambda.volume_pN_per_um2 +=
-        load.stiffness_scale * net.constraints.volume_stiffness_pN_per_um5 * (v - net.volume0_um3);
-    const double violation = std::max(std::abs(pt.area_drift), std::abs(pt.volume_drift));
-    if (violation > 0.25 * previous_violation) load.stiffness_scale *= 10.0;
-    previous_violation = violation;
-  }
+  };
+  al.cancel = lo.cancel;
+  const AugmentedLagrangianResult res = run_augmented_lagrangian(
+      al, opt.max_outer_iterations, opt.augmented_lagrangian, lambda, load.stiffness_scale);
+  const MinimiserResult& r = res.last;
+  pt.iterations = res.iterations;
+  pt.area_drift = res.area_drift;
+  pt.volume_drift = res.volume_drift;
   x = Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n);
-  pt.multipliers = load.multipliers;
   pt.stiffness_scale = load.stiffness_scale;
-  const bool held = std::abs(pt.area_drift) < net.constraints.tolerance &&
-                    std::abs(pt.volume_drift) < net.constraints.tolerance;
+  const bool held = res.held();
   pt.converged = r.converged() && held;
   pt.residual_pN = r.residual;
-  pt.status = out_of_time      ? "time budget exhausted"
-              : !r.converged() ? to_string(r.status)
-              : held           ? "converged"
-                               : "constraints not held after multiplier updates";
+  pt.status = out_of_time      ? StretchStatus::time_budget
+              : !r.converged() ? stretch_status(r.status)
+              : held           ? StretchStatus::converged
+                               : StretchStatus::constraints_not_held;
   if (pre) {
     const auto& s = pre->statistics();
     pt.factorisations = s.factorisations - factorisations_before;
@@ -237,7 +270,7 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
         x = xw;
         lambda = lw;
       } else {
-        report(progress, "  warm start did not converge (" + p.status +
+        report(progress, "  warm start did not converge (" + to_string(p.status) +
                              "); solving from the previous force's equilibrium");
       }
     }
@@ -259,13 +292,7 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
 }
 
 StretchState stretch_state(const std::vector<StretchPoint>& points) {
-  StretchState s;
-  for (const auto& p : points) {
-    s.forces_pN.push_back(p.force_pN);
-    s.x.push_back(p.x);
-    s.multipliers.push_back(p.multipliers);
-  }
-  return s;
+  return stretch_state_of(points);
 }
 
 }  // namespace rbc

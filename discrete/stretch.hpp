@@ -3,11 +3,14 @@
 // free energy is minimised (L-BFGS) from the previous equilibrium (continuation in force),
 // with area and volume held by augmented-Lagrangian outer updates.
 #include <functional>
+#include <iosfwd>
+#include <string>
 #include <vector>
 
 #include "core/lbfgs.hpp"
 #include "core/progress.hpp"
 #include "core/validation.hpp"
+#include "discrete/augmented_lagrangian.hpp"
 #include "discrete/network.hpp"
 #include "discrete/newton_preconditioner.hpp"
 #include "discrete/stretch_state.hpp"
@@ -16,9 +19,26 @@ namespace rbc {
 
 struct StretchPoint;
 
+/// Outcome of one force of the discrete stretch. to_string gives the words printed and written
+/// to JSON ("converged", "iteration limit reached", ...).
+enum class StretchStatus {
+  converged,
+  max_iterations,        ///< the iteration or evaluation budget of the force was spent
+  line_search_failed,    ///< L-BFGS found no acceptable step
+  infeasible_start,      ///< the start is outside the energy's domain
+  time_budget,           ///< StretchOptions::time_budget_s passed
+  constraints_not_held,  ///< converged, but area/volume not held after the updates
+};
+std::string to_string(StretchStatus s);
+std::ostream& operator<<(std::ostream& os, StretchStatus s);
+/// The stretch status of an L-BFGS outcome.
+StretchStatus stretch_status(MinimiserStatus s);
+
 struct StretchOptions {
   LbfgsOptions minimiser;         ///< force_tolerance in pN per vertex
   int max_outer_iterations = 40;  ///< augmented-Lagrangian multiplier updates per force
+  /// Penalty schedule of the augmented-Lagrangian driver (discrete/augmented_lagrangian.hpp).
+  AugmentedLagrangianSchedule augmented_lagrangian;
   /// Precondition L-BFGS with a sparse Cholesky factorisation (CHOLMOD) of the projected
   /// Newton Hessian (discrete/newton_preconditioner.hpp: network_hessian.hpp + the
   /// area/volume penalties by Woodbury) for networks with at least this many vertices.
@@ -89,8 +109,8 @@ struct StretchPoint {
   double area_drift = 0, volume_drift = 0;  ///< relative (A - A0)/A0, (V - V0)/V0
   double wall_s = 0;
   int vertices = 0;
-  std::string status;  ///< minimiser status in words
-  Positions x;         ///< equilibrium positions (um)
+  StretchStatus status = StretchStatus::max_iterations;  ///< to_string(status): in words
+  Positions x;                                           ///< equilibrium positions (um)
   /// Area/volume multipliers (lambda_A pN/um, lambda_V pN/um^2) and penalty stiffness scale of
   /// the last minimisation: x is a stationary point of network_energy at
   /// LoadState{force_pN, multipliers, stiffness_scale}.

@@ -45,4 +45,17 @@ struct StretchState {
   }
 };
 
+/// The state of a run's points (any point type with force_pN, x and multipliers: the discrete
+/// StretchPoint, the continuum ContinuumStretchPoint).
+template <class Points>
+StretchState stretch_state_of(const Points& points) {
+  StretchState s;
+  for (const auto& p : points) {
+    s.forces_pN.push_back(p.force_pN);
+    s.x.push_back(p.x);
+    s.multipliers.push_back(p.multipliers);
+  }
+  return s;
+}
+
 }  // namespace rbc

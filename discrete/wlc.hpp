@@ -4,15 +4,19 @@
 #include <array>
 #include <string>
 
+#include "core/defaults.hpp"
+#include "core/units.hpp"
+
 namespace rbc {
 
 /// Spectrin-level WLC parameters, internal units (um, K). Defaults: Li et al. 2005,
 /// Table 1 of the paper: Lbar = 75 nm, Lmax = 237.75 nm, p = 7.5 nm, T = 300 K.
 struct WlcParameters {
-  double lbar_um = 0.075;          ///< rest (equilibrium) link length at the spectrin level
-  double lmax_um = 0.23775;        ///< contour (maximum) length
-  double persistence_um = 0.0075;  ///< persistence length p
-  double temperature_K = 300.0;
+  /// rest (equilibrium) link length at the spectrin level
+  double lbar_um = units::nm_to_um(defaults::kLbar_nm);
+  double lmax_um = units::nm_to_um(defaults::kLmax_nm);                ///< contour (maximum) length
+  double persistence_um = units::nm_to_um(defaults::kPersistence_nm);  ///< persistence length p
+  double temperature_K = defaults::kWlcTemperature_K;
   /// Throws std::invalid_argument (rbc::InvalidParameter) naming the quantity, the value and the
   /// documented range, with lengths in nm: Lbar in (0, kMaxWlcLength_nm], Lmax in
   /// (Lbar, kMaxWlcLength_nm], p in (0, kMaxWlcLength_nm], T in (0, kMaxTemperature_K]; all finite.

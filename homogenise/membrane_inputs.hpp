@@ -1,6 +1,7 @@
 #pragma once
 // The in-plane material as a user states it: spectrin lengths in nm, temperature in K,
 // steric q and eta. Converted to internal units (um) once, here, for the sub-commands.
+#include "core/defaults.hpp"
 #include "core/units.hpp"
 #include "discrete/steric_energy.hpp"
 #include "discrete/wlc.hpp"
@@ -10,10 +11,10 @@ namespace rbc {
 /// Defaults: Li et al. 2005 / Table 1 (Lbar 75 nm, Lmax 237.75 nm, p 7.5 nm, 300 K),
 /// q = 1, eta = 0.005 (MODEL.md section 2).
 struct MembraneInputs {
-  double lbar_nm = 75.0;
-  double lmax_nm = 237.75;
-  double persistence_nm = 7.5;
-  double temperature_K = 300.0;
+  double lbar_nm = defaults::kLbar_nm;
+  double lmax_nm = defaults::kLmax_nm;
+  double persistence_nm = defaults::kPersistence_nm;
+  double temperature_K = defaults::kWlcTemperature_K;
   double q = 1.0;
   double eta = 0.005;
   /// Internal units, validated (throws std::invalid_argument naming the value).

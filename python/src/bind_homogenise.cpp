@@ -8,6 +8,7 @@
 #include "homogenise/invariant_laws.hpp"
 #include "homogenise/lattice_density.hpp"
 #include "homogenise/moduli.hpp"
+#include "homogenise/moduli_study.hpp"
 #include "homogenise/periodic_network.hpp"
 
 namespace rbc::py_bind {
@@ -19,120 +20,20 @@ void bind_homogenise(py::module_& m) {
          double disorder, int seeds, py::object cancel, py::object progress) {
         const PyWlc pw = wlc_or_default(wlc_o);
         const PySteric ps = steric_or_default(steric_o);
-        const WlcParameters& wlc = pw.lib;
-        const StericParameters& steric = ps.lib;
-        if (network != "hex" && network != "disordered")
-          throw py::value_error("network '" + network + "' is not one of hex, disordered");
-        if (!(disorder >= 0.0 && disorder <= 1.0))
-          throw py::value_error("disorder must lie in [0, 1], got " + num(disorder));
-        if (cells < 0)
-          throw py::value_error("cells must be positive, got " + std::to_string(cells));
-        const NetworkMaterial mat = make_network_material(wlc, steric);
-        const LinearModuli closed = closed_form_moduli(mat.w, steric);
-        const LinearModuli explicit_forms = paper_explicit_moduli(wlc, steric);
-        py::dict j;  // the keys of `rbc moduli --json` (without timing)
-        j["units"] = "uN/m (= pN/um)";
-        j["network"] = network;
-        j["mu_closed"] = closed.mu_pN_per_um;
-        j["K_closed"] = closed.K_pN_per_um;
-        j["young_closed"] = closed.young_pN_per_um();
-        j["poisson_closed"] = closed.poisson();
-        j["mu_paper_formula"] = explicit_forms.mu_pN_per_um;
-        j["K_paper_formula"] = explicit_forms.K_pN_per_um;
-        j["steric_C"] = mat.C_pN_per_um;
+        ModuliStudyOptions so;
+        so.network = moduli_network_from_string(network);  // ValueError naming the choices
+        so.cells = cells;
+        so.disorder = disorder;
+        so.seeds = seeds;
+        validated("moduli(network='" + network + "', cells=" + std::to_string(cells) +
+                      ", disorder=" + num(disorder) + ", seeds=" + std::to_string(seeds) + ")",
+                  [&] { so.validate(); });
         const auto cb = make_callbacks(std::move(cancel), std::move(progress));
-        if (network == "hex") {
-          const int n = cells > 0 ? cells : 4;
-          if (n > 200) throw py::value_error("cells must be <= 200, got " + std::to_string(n));
-          struct Hex {
-            LinearModuli num;
-            RelaxResult r;
-            bool relaxed = false;
-            double psi_lattice = 0, psi_patch = 0;
-          };
-          const Hex h = run_released(cb, [&] {
-            const PeriodicNetwork net = make_hexagonal_patch(n, wlc.lbar_um);
-            const HomogenisedState hs = homogenise_patch(net, mat, Eigen::Matrix2d::Identity());
-            Hex out;
-            out.num = moduli_from_tangent(hs.relaxed_tangent);
-            out.relaxed = hs.relax.converged();
-            // Theorem 3 check of the CLI: a generic F relaxed from a seeded non-affine start.
-            Eigen::Matrix2d F;
-            F << 1.3, 0.2, -0.1, 0.9;
-            std::mt19937 rng(1);
-            std::uniform_real_distribution<double> u(-0.1 * wlc.lbar_um, 0.1 * wlc.lbar_um);
-            Eigen::Matrix2Xd U0(2, net.vertex_count());
-            for (int i = 0; i < U0.size(); ++i) U0.data()[i] = u(rng);
-            out.r = relax_patch(net, mat, F, U0);
-            out.psi_lattice = lattice_density(mat.w, mat.C_pN_per_um, steric, F);
-            out.psi_patch = out.r.energy_pNum / net.reference_area_um2();
-            return out;
-          });
-          j["mu_numeric"] = h.num.mu_pN_per_um;
-          j["K_numeric"] = h.num.K_pN_per_um;
-          j["young"] = h.num.young_pN_per_um();
-          j["poisson"] = h.num.poisson();
-          j["cells"] = n;
-          j["mu_relative_difference"] = h.num.mu_pN_per_um / closed.mu_pN_per_um - 1.0;
-          j["K_relative_difference"] = h.num.K_pN_per_um / closed.K_pN_per_um - 1.0;
-          j["max_internal_displacement_um"] = h.r.max_displacement_um;
-          j["max_internal_displacement_over_lbar"] = h.r.max_displacement_um / wlc.lbar_um;
-          j["relaxation_start_amplitude_over_lbar"] = 0.1;
-          j["psi_patch_over_lattice_minus_1"] = h.psi_patch / h.psi_lattice - 1.0;
-          j["newton_iterations"] = h.r.iterations;
-          j["residual_pN"] = h.r.residual_pN;
-          j["converged"] = h.r.converged() && h.relaxed;
-          return j;
-        }
-        DisorderOptions d;
-        d.cells = cells > 0 ? cells : 12;
-        d.disorder = disorder;
-        d.spacing_um = wlc.lbar_um;
-        d.validate();
-        if (seeds < 1) throw py::value_error("seeds must be >= 1, got " + std::to_string(seeds));
         const ProgressSink sink = make_progress_sink(cb);
-        const std::vector<DisorderedSample> samples =
-            run_released(cb, [&] { return disordered_study(d, mat, seeds, 1, {}, sink); });
-        auto stat = [&](auto get) {
-          std::vector<double> v;
-          for (const auto& s : samples) v.push_back(get(s));
-          return mean_std(v);
-        };
-        auto put = [&](const char* key, MeanStd ms, const char* std_key) {
-          j[key] = ms.mean;
-          j[std_key] = ms.std;
-        };
-        put("mu_numeric", stat([](const DisorderedSample& s) { return s.relaxed.mu_pN_per_um; }),
-            "mu_numeric_std");
-        put("K_numeric", stat([](const DisorderedSample& s) { return s.relaxed.K_pN_per_um; }),
-            "K_numeric_std");
-        put("young", stat([](const DisorderedSample& s) { return s.relaxed.young_pN_per_um(); }),
-            "young_std");
-        put("poisson", stat([](const DisorderedSample& s) { return s.relaxed.poisson(); }),
-            "poisson_std");
-        put("mu_affine", stat([](const DisorderedSample& s) { return s.affine.mu_pN_per_um; }),
-            "mu_affine_std");
-        put("K_affine", stat([](const DisorderedSample& s) { return s.affine.K_pN_per_um; }),
-            "K_affine_std");
-        put("degree6_fraction", stat([](const DisorderedSample& s) { return s.degree6_fraction; }),
-            "degree6_fraction_std");
-        put("prestress_uN_per_m",
-            stat([](const DisorderedSample& s) { return s.prestress_pN_per_um; }), "prestress_std");
-        j["phi_over_area"] = stat([](const DisorderedSample& s) { return s.phi_over_area; }).mean;
-        j["disorder"] = d.disorder;
-        j["cells"] = d.cells;
-        j["rows"] = disordered_rows(d.cells);
-        j["row_distortion"] = disordered_row_distortion(d.cells);
-        j["vertices"] = samples.front().vertices;
-        j["seeds"] = seeds;
-        double worst = 0;
-        bool converged = true;
-        for (const auto& s : samples) {
-          worst = std::max(worst, s.relax.residual_pN);
-          converged = converged && s.relax.converged();
-        }
-        j["worst_residual_pN"] = worst;
-        j["converged"] = converged;
+        // The keys of `rbc moduli --json` without the timing fields.
+        const ModuliStudy study =
+            run_released(cb, [&] { return run_moduli_study(pw.lib, ps.lib, so, sink); });
+        py::dict j = py::module_::import("json").attr("loads")(study.json.dump());
         return j;
       },
       py::kw_only(), py::arg("wlc") = py::none(), py::arg("steric") = py::none(),

@@ -1,6 +1,7 @@
-// Metropolis Monte Carlo of the network (discrete/mc_run.hpp), started as `rbc mc` starts it:
-// the zero-temperature equilibrium at the force (continuation in steps of at most 40 pN, on one
-// OpenMP thread for a bit-reproducible start), its multipliers held fixed while sampling.
+// Metropolis Monte Carlo of the network (discrete/mc_run.hpp), started as `rbc mc` starts it
+// (discrete/mc_workflow.hpp mc_zero_temperature_start: the zero-temperature equilibrium at the
+// force by the continuation mc_startup_forces(), on one OpenMP thread), its multipliers held
+// fixed while sampling.
 #include <omp.h>
 
 #include <cmath>
@@ -8,30 +9,12 @@
 #include "common.hpp"
 #include "core/units.hpp"
 #include "discrete/mc_run.hpp"
+#include "discrete/mc_workflow.hpp"
 #include "discrete/stretch.hpp"
 
 namespace rbc::py_bind {
 
 namespace {
-
-/// One OpenMP thread for this scope (the calling thread's setting only).
-struct SerialScope {
-  int saved = omp_get_max_threads();
-  SerialScope() { omp_set_num_threads(1); }
-  ~SerialScope() { omp_set_num_threads(saved); }
-  SerialScope(const SerialScope&) = delete;
-  SerialScope& operator=(const SerialScope&) = delete;
-};
-
-py::dict stat_dict(const BlockingResult& b) {
-  py::dict d;
-  d["mean"] = b.mean;
-  d["error"] = b.error;
-  d["std"] = std::sqrt(b.variance);
-  d["inefficiency"] = b.inefficiency;
-  d["blocking_converged"] = b.converged;
-  return d;
-}
 
 /// The sampler object: prepared state (network, start, setup), the run created at the first
 /// run() call (so the adaptive phase can default to 20 % of the first run's sweeps, as the CLI).
@@ -46,8 +29,8 @@ class MonteCarlo {
       throw py::value_error("sampling_temperature_K must be >= 0 K, got " + num(temperature_K));
     if (!(force_pN >= 0) || !std::isfinite(force_pN))
       throw py::value_error("force_pN must be finite and >= 0 pN, got " + num(force_pN));
-    if (start != "equilibrium" && start != "rest")
-      throw py::value_error("start '" + start + "' is not one of equilibrium, rest");
+    McStartOptions so;
+    so.start = mc_start_from_string(start);  // ValueError naming the choices
     if (!adapt_sweeps_.is_none() && adapt_sweeps_.cast<long long>() < 0)
       throw py::value_error("adapt_sweeps must be >= 0, got " +
                             std::to_string(adapt_sweeps_.cast<long long>()));
@@ -65,28 +48,17 @@ class MonteCarlo {
                   std::to_string(sample_every) + ", penalty_scale=" + num(penalty_scale) + ")",
               [&] { setup_.validate(); });
     const Network& nw = *net_->net;
-    start_ = nw.rest;
-    Positions x = nw.rest;
-    ConstraintMultipliers lambda;
-    StretchPoint eq;
-    bool ok = true;
+    McZeroTemperatureStart z;
     run_released(nullptr, [&] {
-      SerialScope serial;
-      const int steps = std::max(1, static_cast<int>(std::ceil(force_pN / 40.0)));
-      for (int k = 1; k <= steps && ok; ++k) {
-        eq = solve_equilibrium(nw, force_pN * k / steps, x, lambda, StretchOptions{});
-        ok = eq.converged;
-      }
+      SerialOpenMpScope serial;
+      z = mc_zero_temperature_start(nw, setup_, so);
     });
-    if (!ok)
-      raise_convergence_error("zero-temperature equilibrium at " + num(eq.force_pN) +
-                                  " pN did not converge: " + eq.status + ", residual " +
-                                  num(eq.residual_pN) + " pN",
-                              eq.residual_pN, eq.force_pN);
-    setup_.multipliers = lambda;
-    setup_.reference_axial_um = eq.axial_um;
-    setup_.reference_transverse_um = eq.transverse_um;
-    if (start == "equilibrium") start_ = x;
+    if (!z.converged)
+      raise_convergence_error("zero-temperature equilibrium at " + num(z.equilibrium.force_pN) +
+                                  " pN did not converge: " + to_string(z.equilibrium.status) +
+                                  ", residual " + num(z.equilibrium.residual_pN) + " pN",
+                              z.equilibrium.residual_pN, z.equilibrium.force_pN);
+    start_ = std::move(z.start);
   }
 
   /// Runs `sweeps` more sweeps with the GIL released; Ctrl-C (or cancel() returning true)
@@ -127,29 +99,10 @@ class MonteCarlo {
   py::dict summary() const {
     const McRun& r = need_run();
     const McSummary s = r.summarise();  // ValueError (library) with too few samples
-    const McRunSetup& su = r.setup();
-    py::dict j;  // the statistics keys of `rbc mc --json`
-    j["samples"] = s.samples;
-    j["discarded_transient"] = s.discarded;
-    j["acceptance"] = s.acceptance;
-    j["energy_pNum"] = stat_dict(s.energy);
-    j["axial_um"] = stat_dict(s.axial);
-    j["transverse_um"] = stat_dict(s.transverse);
-    j["area_um2"] = stat_dict(s.area);
-    j["volume_um3"] = stat_dict(s.volume);
-    j["thermal_shift_axial_um"] = s.axial.mean - su.reference_axial_um;
-    j["thermal_shift_transverse_um"] = s.transverse.mean - su.reference_transverse_um;
-    j["max_area_drift"] = s.max_area_drift;
-    j["max_volume_drift"] = s.max_volume_drift;
-    j["sweeps"] = r.sampler().sweeps_done();
-    j["adaptive_sweeps"] = su.sampler.adapt_sweeps;
-    j["step_um"] = r.sampler().step_um();
-    j["reference_axial_um"] = su.reference_axial_um;
-    j["reference_transverse_um"] = su.reference_transverse_um;
-    j["running_total_drift_area_um2"] = r.sampler().max_area_drift_um2();
-    j["running_total_drift_volume_um3"] = r.sampler().max_volume_drift_um3();
-    j["colours"] = r.sampler().colours().size();
-    return j;
+    // The keys of `rbc mc --json` without the timing and thread fields.
+    nlohmann::json j = mc_run_json(*net_->net, r);
+    j.update(to_json(s, r.setup()));
+    return py::module_::import("json").attr("loads")(j.dump());
   }
 
   py::dict series() const {

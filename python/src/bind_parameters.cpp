@@ -201,11 +201,15 @@ T cast_or(const py::object& o, T fallback, const char* what) {
   }
 }
 PyWlc wlc_or_default(const py::object& o) {
-  return cast_or(o, make_wlc(7.5, 237.75, 75.0, 300.0), "WlcParameters");
+  return cast_or(o,
+                 make_wlc(defaults::kPersistence_nm, defaults::kLmax_nm, defaults::kLbar_nm,
+                          defaults::kWlcTemperature_K),
+                 "WlcParameters");
 }
 PyBending bending_or_default(const py::object& o) {
   return cast_or(o,
-                 make_bending(2e-19, 0.0, BendingModel::juelicher, DihedralMapping::sphere_matched),
+                 make_bending(defaults::kKappa_J, 0.0, BendingModel::juelicher,
+                              DihedralMapping::sphere_matched),
                  "BendingParameters");
 }
 PySteric steric_or_default(const py::object& o) {
@@ -256,8 +260,9 @@ void bind_parameters(py::module_& m) {
       .def(py::init([](double p, double lmax, double lbar, double t) {
              return make_wlc(p, lmax, lbar, t);
            }),
-           py::kw_only(), py::arg("persistence_nm") = 7.5, py::arg("lmax_nm") = 237.75,
-           py::arg("lbar_nm") = 75.0, py::arg("wlc_temperature_K") = 300.0)
+           py::kw_only(), py::arg("persistence_nm") = defaults::kPersistence_nm,
+           py::arg("lmax_nm") = defaults::kLmax_nm, py::arg("lbar_nm") = defaults::kLbar_nm,
+           py::arg("wlc_temperature_K") = defaults::kWlcTemperature_K)
       .def_readonly("persistence_nm", &PyWlc::persistence_nm)
       .def_readonly("lmax_nm", &PyWlc::lmax_nm)
       .def_readonly("lbar_nm", &PyWlc::lbar_nm)
@@ -280,7 +285,7 @@ void bind_parameters(py::module_& m) {
                                  enum_arg<BendingModel>(model, bending_model_from_string),
                                  enum_arg<DihedralMapping>(map, dihedral_mapping_from_string));
            }),
-           py::kw_only(), py::arg("kappa_J") = 2e-19, py::arg("h0_per_um") = 0.0,
+           py::kw_only(), py::arg("kappa_J") = defaults::kKappa_J, py::arg("h0_per_um") = 0.0,
            py::arg("model") = "juelicher", py::arg("dihedral_mapping") = "sphere")
       .def_readonly("kappa_J", &PyBending::kappa_J)
       .def_readonly("h0_per_um", &PyBending::h0_per_um)

@@ -52,7 +52,7 @@ void bind_stretch(py::module_& m) {
       .def_readonly("volume_drift", &StretchPoint::volume_drift)
       .def_readonly("wall_s", &StretchPoint::wall_s)
       .def_readonly("vertices", &StretchPoint::vertices)
-      .def_readonly("status", &StretchPoint::status)
+      .def_property_readonly("status", [](const StretchPoint& p) { return to_string(p.status); })
       .def_readonly("multipliers", &StretchPoint::multipliers)
       .def_readonly("stiffness_scale", &StretchPoint::stiffness_scale)
       .def_property_readonly("positions", [](py::object self) {
@@ -73,7 +73,8 @@ void bind_stretch(py::module_& m) {
       .def_readonly("wall_s", &ContinuumStretchPoint::wall_s)
       .def_readonly("vertices", &ContinuumStretchPoint::vertices)
       .def_readonly("elements", &ContinuumStretchPoint::elements)
-      .def_readonly("status", &ContinuumStretchPoint::status)
+      .def_property_readonly("status",
+                             [](const ContinuumStretchPoint& p) { return to_string(p.status); })
       .def_readonly("multipliers", &ContinuumStretchPoint::multipliers)
       .def_property_readonly("positions",
                              [](py::object self) {

@@ -141,12 +141,13 @@ auto run_released(const std::shared_ptr<CallbackState>& s, F&& f) -> decltype(f(
 // ---- parameter objects (natural units, converted once) --------------------------------------
 
 struct PyWlc {
-  double persistence_nm = 7.5, lmax_nm = 237.75, lbar_nm = 75.0, temperature_K = 300.0;
+  double persistence_nm = defaults::kPersistence_nm, lmax_nm = defaults::kLmax_nm,
+         lbar_nm = defaults::kLbar_nm, temperature_K = defaults::kWlcTemperature_K;
   WlcParameters lib;  ///< internal units, validated
   std::string repr() const;
 };
 struct PyBending {
-  double kappa_J = 2e-19, h0_per_um = 0.0;
+  double kappa_J = defaults::kKappa_J, h0_per_um = 0.0;
   BendingModel model = BendingModel::juelicher;
   DihedralMapping mapping = DihedralMapping::sphere_matched;
   BendingParameters lib;

@@ -29,8 +29,8 @@ TEST(WarmStretch, ContinuumWarmReSolveEqualsColdSolve) {
   const auto warm = run_continuum_stretch(changed, forces, co, {}, stretch_state(before));
   int cold_iterations = 0, warm_iterations = 0;
   for (size_t k = 0; k < forces.size(); ++k) {
-    ASSERT_TRUE(cold[k].converged) << cold[k].status;
-    ASSERT_TRUE(warm[k].converged) << warm[k].status;
+    ASSERT_TRUE(cold[k].converged) << to_string(cold[k].status);
+    ASSERT_TRUE(warm[k].converged) << to_string(warm[k].status);
     EXPECT_TRUE(warm[k].warm);
     // Newton converges to 1e-6 pN per vertex: the two equilibria agree to round-off level.
     EXPECT_NEAR(warm[k].axial_um, cold[k].axial_um, 1e-8 * cold[k].axial_um);

@@ -65,14 +65,10 @@ def test_moduli_equal_rbc_moduli():
 def test_monte_carlo_equals_rbc_mc():
     cli = run_cli_json("mc", "--vertices", "150", "--force", "20", "--sweeps", "60", "--seed",
                        "3", "--streams", "1", "--json", "-q")
-    # `rbc mc` builds its network from the library's literal defaults (kappa = 0.2 pN um, Lmax =
-    # 0.23775 um), while the natural-unit defaults convert to values one bit off (2e-19 J x 1e18
-    # != 0.2, 237.75 nm x 1e-3 != 0.23775), as `rbc stretch` converts them. These inputs convert
-    # exactly to the literals, so the chain must be the CLI's bit for bit.
-    kappa_J, lmax_nm = 0.2 / 1e18, 0.23775 / 1e-3
-    assert kappa_J * 1e18 == 0.2 and lmax_nm * 1e-3 == 0.23775
-    net = rbc.Network(rbc.rest_shape(150), wlc=rbc.WlcParameters(lmax_nm=lmax_nm),
-                      bending=rbc.BendingParameters(kappa_J=kappa_J))
+    # Every default is defined once (core/defaults.hpp) and converted once: the library's
+    # struct defaults `rbc mc` uses are the natural-unit defaults the Python objects convert,
+    # bit for bit, so the default network's chain must be the CLI's bit for bit.
+    net = rbc.Network(rbc.rest_shape(150))
     mc = rbc.MonteCarlo(net, force_pN=20, sampling_temperature_K=300, seed=3)
     mc.run(60)
     py = mc.summary()

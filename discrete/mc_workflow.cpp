@@ -1,0 +1,202 @@
+#include "discrete/mc_workflow.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/h5file.hpp"
+#include "core/io.hpp"
+#include "core/units.hpp"
+
+namespace rbc {
+
+SerialOpenMpScope::SerialOpenMpScope() : saved_(omp_get_max_threads()) {
+  omp_set_num_threads(1);
+}
+SerialOpenMpScope::~SerialOpenMpScope() {
+  omp_set_num_threads(saved_);
+}
+
+std::string to_string(McStart s) {
+  return s == McStart::equilibrium ? "equilibrium" : "rest";
+}
+
+McStart mc_start_from_string(const std::string& s) {
+  if (s == "equilibrium") return McStart::equilibrium;
+  if (s == "rest") return McStart::rest;
+  throw std::invalid_argument("start '" + s + "' is not one of equilibrium, rest");
+}
+
+McZeroTemperatureStart mc_zero_temperature_start(const Network& net, McRunSetup& setup,
+                                                 const McStartOptions& options,
+                                                 const ProgressSink& progress) {
+  McZeroTemperatureStart out;
+  Positions x = net.rest;
+  ConstraintMultipliers lambda;
+  StretchOptions so = options.stretch;
+  if (!so.minimiser.cancel) so.minimiser.cancel = options.cancel;
+  const std::vector<double> forces = mc_startup_forces(setup.force_pN);
+  for (std::size_t k = 0; k < forces.size(); ++k) {
+    throw_if_cancelled(options.cancel);
+    if (forces.size() > 1)
+      report(progress, "zero-temperature start-up: step " + std::to_string(k + 1) + "/" +
+                           std::to_string(forces.size()) + " at " + std::to_string(forces[k]) +
+                           " pN");
+    out.equilibrium = solve_equilibrium(net, forces[k], x, lambda, so);
+    if (!out.equilibrium.converged) return out;
+  }
+  report(progress,
+         "zero-temperature equilibrium: D_A = " + std::to_string(out.equilibrium.axial_um) +
+             " um, D_T = " + std::to_string(out.equilibrium.transverse_um) + " um");
+  out.converged = true;
+  setup.multipliers = lambda;
+  setup.reference_axial_um = out.equilibrium.axial_um;
+  setup.reference_transverse_um = out.equilibrium.transverse_um;
+  out.start = options.start == McStart::rest ? net.rest : x;
+  return out;
+}
+
+void check_mc_resume_network(const McCheckpointNetwork& network, const McResumeRequest& r,
+                             const std::string& name) {
+  if (r.bending_model && *r.bending_model != network.bending_model)
+    throw std::invalid_argument("checkpoint '" + name + "' was run with " +
+                                to_string(network.bending_model) + " bending, not " +
+                                to_string(*r.bending_model));
+}
+
+std::string check_mc_resume(const McCheckpoint& cp, const McResumeRequest& r,
+                            const std::string& name) {
+  auto differs = [](double a, double b) { return std::abs(a - b) > 1e-12 * (1 + std::abs(b)); };
+  const std::string ck = "checkpoint '" + name + "'";
+  if (r.force_pN && differs(*r.force_pN, cp.setup.force_pN))
+    throw std::invalid_argument(ck + " was run at " + std::to_string(cp.setup.force_pN) +
+                                " pN, not " + std::to_string(*r.force_pN) + " pN");
+  if (r.temperature_K && differs(*r.temperature_K, cp.setup.sampler.temperature_K))
+    throw std::invalid_argument(ck + " was run at " +
+                                std::to_string(cp.setup.sampler.temperature_K) + " K, not " +
+                                std::to_string(*r.temperature_K) + " K");
+  if (r.seed && *r.seed != cp.setup.sampler.seed)
+    throw std::invalid_argument(ck + " was seeded with " + std::to_string(cp.setup.sampler.seed));
+  if (r.penalty_scale && differs(*r.penalty_scale, cp.setup.penalty_scale))
+    throw std::invalid_argument(ck + " was run with penalty scale " +
+                                std::to_string(cp.setup.penalty_scale) + ", not " +
+                                std::to_string(*r.penalty_scale));
+  if (r.adapt_sweeps && *r.adapt_sweeps != cp.setup.sampler.adapt_sweeps)
+    throw std::invalid_argument(ck + " adapts the step for " +
+                                std::to_string(cp.setup.sampler.adapt_sweeps) +
+                                " sweeps, not --adapt-sweeps " + std::to_string(*r.adapt_sweeps));
+  // The adaptive phase is stored in absolute sweeps and kept: a resumed chain continues
+  // exactly as the run that wrote the checkpoint would have. Extending a run whose phase was
+  // a fraction of its length is the one case where a straight run of the new length differs.
+  const McSchedule& schedule = cp.schedule;
+  const long long a = cp.setup.sampler.adapt_sweeps;
+  if (schedule.adapt_fraction < 0) return {};
+  const double fraction = r.adapt_fraction ? *r.adapt_fraction : schedule.adapt_fraction;
+  const long long straight = std::llround(fraction * double(r.total_sweeps));
+  if (straight == a) return {};
+  std::ostringstream m;
+  m << "the checkpoint's adaptive phase is kept: sweeps 1-" << a << " (--adapt-fraction "
+    << fraction << " of its " << schedule.planned_sweeps << " sweeps); a straight "
+    << r.total_sweeps << "-sweep run adapts sweeps 1-" << straight
+    << ", so this chain matches it up to sweep " << std::min(a, straight)
+    << " only (statistics use the sweeps after " << a
+    << "); run both with --adapt-sweeps N for identical chains";
+  return m.str();
+}
+
+namespace {
+
+nlohmann::json stat_json(const BlockingResult& b) {
+  return {{"mean", b.mean},
+          {"error", b.error},
+          {"std", std::sqrt(b.variance)},
+          {"inefficiency", b.inefficiency},
+          {"blocking_converged", b.converged}};
+}
+
+}  // namespace
+
+nlohmann::json to_json(const McSummary& s, const McRunSetup& su) {
+  return {{"samples", s.samples},
+          {"discarded_transient", s.discarded},
+          {"acceptance", s.acceptance},
+          {"energy_pNum", stat_json(s.energy)},
+          {"axial_um", stat_json(s.axial)},
+          {"transverse_um", stat_json(s.transverse)},
+          {"area_um2", stat_json(s.area)},
+          {"volume_um3", stat_json(s.volume)},
+          {"thermal_shift_axial_um", s.axial.mean - su.reference_axial_um},
+          {"thermal_shift_transverse_um", s.transverse.mean - su.reference_transverse_um},
+          {"max_area_drift", s.max_area_drift},
+          {"max_volume_drift", s.max_volume_drift}};
+}
+
+nlohmann::json mc_run_json(const Network& net, const McRun& run) {
+  const McRunSetup& su = run.setup();
+  return {{"vertices", net.topo.num_vertices},
+          {"force_pN", su.force_pN},
+          {"temperature_K", su.sampler.temperature_K},
+          {"kT_pNum", units::thermal_energy_pNum(su.sampler.temperature_K)},
+          {"seed", su.sampler.seed},
+          {"streams", su.sampler.streams},
+          {"bending", to_string(net.bending_model)},
+          {"penalty_scale", su.penalty_scale},
+          {"colours", run.sampler().colours().size()},
+          {"sweeps", run.sampler().sweeps_done()},
+          {"adaptive_sweeps", su.sampler.adapt_sweeps},
+          {"step_um", run.sampler().step_um()},
+          {"reference_axial_um", su.reference_axial_um},
+          {"reference_transverse_um", su.reference_transverse_um},
+          {"running_total_drift_area_um2", run.sampler().max_area_drift_um2()},
+          {"running_total_drift_volume_um3", run.sampler().max_volume_drift_um3()}};
+}
+
+void write_mc_series(const std::string& dir, const McRun& run) {
+  CsvTable t;
+  t.comments = {"rbc mc time series: one row per recorded sweep",
+                "force_pN " + std::to_string(run.setup().force_pN) + ", temperature_K " +
+                    std::to_string(run.setup().sampler.temperature_K) + ", adaptive sweeps " +
+                    std::to_string(run.setup().sampler.adapt_sweeps) +
+                    " (rows with sweep <= that are equilibration)"};
+  t.header = mc_sample_columns();
+  std::vector<double> flat_rows;
+  for (const McSample& s : run.series()) {
+    t.rows.push_back(to_row(s));
+    flat_rows.insert(flat_rows.end(), t.rows.back().begin(), t.rows.back().end());
+  }
+  write_csv(dir + "/mc_series.csv", t);
+  const std::string path = dir + "/mc_series.h5";
+  TempFile tmp(path);
+  {
+    H5File h = H5File::create(tmp.path(), path);
+    if (!flat_rows.empty())
+      h.write("/series", flat_rows.data(), hsize_t(run.series().size()), kMcSampleColumns);
+    std::string cols;
+    for (const auto& c : mc_sample_columns()) cols += (cols.empty() ? "" : ",") + c;
+    h.write_attribute("columns", cols);
+    h.write_attribute("force_pN", run.setup().force_pN);
+    h.write_attribute("temperature_K", run.setup().sampler.temperature_K);
+    h.close();
+  }
+  tmp.commit();
+}
+
+void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run) {
+  const Positions& x = run.sampler().positions();
+  std::ostringstream name;
+  name << dir << "/mc_snapshot_" << std::setw(8) << std::setfill('0')
+       << run.sampler().sweeps_done();
+  MeshSnapshot s{x,
+                 net.topo.faces,
+                 {{"displacement_x_um", (x - net.rest).row(0).transpose()}},
+                 {},
+                 {{"force_pN", run.setup().force_pN},
+                  {"temperature_K", run.setup().sampler.temperature_K},
+                  {"sweep", double(run.sampler().sweeps_done())}}};
+  write_mesh_snapshot(name.str(), s);
+}
+
+}  // namespace rbc

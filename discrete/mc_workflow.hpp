@@ -1,0 +1,105 @@
+#pragma once
+// The Monte Carlo workflow as `rbc mc` and the Python MonteCarlo run it, as library functions:
+// the zero-temperature start (force continuation, discrete/stretch.hpp), the rules a resumed
+// checkpoint must satisfy, the summary as JSON and the time-series/snapshot files. The front
+// ends only parse, convert units and print.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "core/progress.hpp"
+#include "discrete/mc_checkpoint.hpp"
+#include "discrete/mc_run.hpp"
+#include "discrete/stretch.hpp"
+
+namespace rbc {
+
+/// Runs its scope on one OpenMP thread (the calling thread's setting, restored on exit): the
+/// front ends build the rest shape and the zero-temperature start inside one, so a checkpoint's
+/// network fingerprint and start state never depend on the thread count of the run.
+class SerialOpenMpScope {
+ public:
+  SerialOpenMpScope();
+  ~SerialOpenMpScope();
+  SerialOpenMpScope(const SerialOpenMpScope&) = delete;
+  SerialOpenMpScope& operator=(const SerialOpenMpScope&) = delete;
+
+ private:
+  int saved_;
+};
+
+/// Where the chain starts: the zero-temperature equilibrium at the force, or the rest shape
+/// (both with the equilibrium's area/volume multipliers held fixed). Spelled "equilibrium",
+/// "rest" on the command line and in Python.
+enum class McStart { equilibrium, rest };
+std::string to_string(McStart s);
+/// Throws std::invalid_argument ("start 'x' is not one of equilibrium, rest").
+McStart mc_start_from_string(const std::string& s);
+
+/// How the zero-temperature start is computed.
+struct McStartOptions {
+  McStart start = McStart::equilibrium;
+  /// Options of each zero-temperature solve (the default: StretchOptions{}).
+  StretchOptions stretch;
+  /// Polled before each continuation step (and by L-BFGS when stretch.minimiser.cancel is
+  /// empty); true stops by throwing Cancelled.
+  CancelCheck cancel;
+};
+
+/// The zero-temperature equilibrium at force_pN by continuation through mc_startup_forces()
+/// from the rest shape, and the start state of the chain.
+struct McZeroTemperatureStart {
+  StretchPoint equilibrium;  ///< the last solve (the failing one when !converged)
+  bool converged = false;    ///< every continuation step converged
+  Positions start;           ///< chain start (um): the equilibrium or the rest shape
+};
+
+/// Solves the continuation; on success fills setup.multipliers and setup.reference_*_um from
+/// the equilibrium (setup's other fields untouched). Stops at the first step that does not
+/// converge (converged = false; the caller reports equilibrium.status and residual_pN).
+McZeroTemperatureStart mc_zero_temperature_start(const Network& net, McRunSetup& setup,
+                                                 const McStartOptions& options,
+                                                 const ProgressSink& progress = {});
+
+/// What a resumed run asks for; an empty field takes the checkpoint's value.
+struct McResumeRequest {
+  std::optional<double> force_pN, temperature_K, penalty_scale;
+  std::optional<unsigned long> seed;
+  std::optional<long long> adapt_sweeps;  ///< absolute adaptive sweeps
+  std::optional<double> adapt_fraction;   ///< fraction of total_sweeps
+  std::optional<BendingModel> bending_model;
+  long long total_sweeps = 0;  ///< sweeps the resumed run is to reach
+};
+
+/// Compatibility of a checkpoint's network with the request: throws std::invalid_argument
+/// ("checkpoint 'F' was run with juelicher bending, not dihedral") when the bending model
+/// differs.
+void check_mc_resume_network(const McCheckpointNetwork& network, const McResumeRequest& request,
+                             const std::string& checkpoint_name);
+
+/// Compatibility of a checkpoint with the request (force, temperature, penalty scale equal to
+/// 1e-12 relative, seed and absolute adaptive sweeps equal); throws std::invalid_argument naming
+/// the checkpoint, its value and the requested one. Returns a note (empty when none) when the
+/// kept adaptive phase (absolute sweeps) differs from the one a straight run of total_sweeps
+/// would use: the resumed chain then matches the straight run only up to the shorter phase.
+std::string check_mc_resume(const McCheckpoint& checkpoint, const McResumeRequest& request,
+                            const std::string& checkpoint_name);
+
+/// The statistics keys of `rbc mc --json` and Python's MonteCarlo.summary(): samples,
+/// discarded_transient, acceptance, energy_pNum / axial_um / transverse_um / area_um2 /
+/// volume_um3 ({mean, error, std, inefficiency, blocking_converged}), thermal_shift_axial_um,
+/// thermal_shift_transverse_um, max_area_drift, max_volume_drift.
+nlohmann::json to_json(const McSummary& summary, const McRunSetup& setup);
+
+/// The run keys (no timing): vertices, force_pN, temperature_K, kT_pNum, seed, streams,
+/// bending, penalty_scale, colours, sweeps, adaptive_sweeps, step_um, reference_axial_um,
+/// reference_transverse_um, running_total_drift_area_um2, running_total_drift_volume_um3.
+nlohmann::json mc_run_json(const Network& net, const McRun& run);
+
+/// DIR/mc_series.csv and DIR/mc_series.h5 (/series, samples x 8, columns attribute), atomic.
+void write_mc_series(const std::string& dir, const McRun& run);
+
+/// DIR/mc_snapshot_SSSSSSSS.h5/.xdmf: positions, displacement_x_um, force, temperature, sweep.
+void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run);
+
+}  // namespace rbc

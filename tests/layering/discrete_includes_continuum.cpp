@@ -1,0 +1,6 @@
+// Must NOT compile (ctest layering.WrongDirectionIncludeFails, WILL_FAIL): a translation unit
+// built with rbc_discrete's include path cannot see continuum/ headers.
+#include "continuum/continuum_model.hpp"
+int rbc_layering_probe() {
+  return 0;
+}
