@@ -166,7 +166,7 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
         x = x0;
         l = l0;
       }
-      return SolveOutcome{p.converged, p.residual_pN, p.iterations, p.status};
+      return SolveOutcome{p.converged, p.residual_pN, p.iterations, to_string(p.status)};
     };
   } else {
     ws->continuum = shared_->continuum;
