@@ -146,7 +146,6 @@ StepOutcome ContinuumDynamics::step(double force_pN, double dt, DynamicsState& s
   const NormalDrag nd =
       drag ? make_normal_drag(xn, model_.topo, options_.normal_drag_pN_s_per_um3, dt)
            : NormalDrag{};
-  const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
   const int n = static_cast<int>(xn.cols());
   // The viscous Hessian scales with 1/dt and the tweezers' load with F: a factorisation kept
   // from a step of another length or force is no chord for this one.
@@ -154,31 +153,16 @@ StepOutcome ContinuumDynamics::step(double force_pN, double dt, DynamicsState& s
   factor_dt_s_ = dt;
   factor_force_pN_ = force_pN;
 
-  NewtonProblem pb;
-  Positions xp(3, n), g(3, n);
-  pb.evaluate = [&](const Eigen::VectorXd& xf, NewtonPoint& p) {
-    flat(xp) = xf;
-    p.value = continuum_energy(model_, xp, force_pN, &g);
-    if (!std::isfinite(p.value)) return false;
-    p.value += membrane_viscosity_energy(visc, model_.topo, prev, xp, &g);
-    if (drag) p.value += normal_drag_energy(nd, xn, xp, &g);
-    p.grad = flat(g);
-    const ConstraintValues cv = evaluate_constraints(xp, model_.topo);
-    p.c = Eigen::Vector2d(cv.area_um2 - a0, cv.volume_um3 - v0);
-    p.c_grad.resize(3 * n, 2);
-    p.c_grad.col(0) = flat(cv.grad_area);
-    p.c_grad.col(1) = flat(cv.grad_volume);
-    return true;
+  ContinuumExtraTerms extra;
+  extra.energy = [&](const Positions& x, Positions& grad) {
+    double e = membrane_viscosity_energy(visc, model_.topo, prev, x, &grad);
+    if (drag) e += normal_drag_energy(nd, xn, x, &grad);
+    return e;
   };
-  pb.hessian = [&](const Eigen::VectorXd& xf,
-                   const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
-    flat(xp) = xf;
-    hessian_.set_zero();
-    add_continuum_hessian(model_, xp, hessian_);
-    add_membrane_viscosity_hessian(visc, model_.topo, prev, xp, hessian_);
-    add_constraint_hessian(xp, model_.topo, l(0), l(1), hessian_);
-    return hessian_.matrix();
+  extra.hessian = [&](const Positions& x, BlockHessian& h) {
+    add_membrane_viscosity_hessian(visc, model_.topo, prev, x, h);
   };
+  NewtonProblem pb = continuum_newton_problem(model_, force_pN, hessian_, extra);
   if (drag)  // the drag's Hessian: coef_i n_i n_i^T in the diagonal block of vertex i
     pb.add_unshifted = [&](Eigen::SparseMatrix<double>& k) {
       for (int i = 0; i < n; ++i)
@@ -195,7 +179,6 @@ StepOutcome ContinuumDynamics::step(double force_pN, double dt, DynamicsState& s
     pb.project_step = [&](const Eigen::VectorXd& at, Eigen::VectorXd& dx) {
       remove_rigid_modes(at, force_pN == 0.0, dx);
     };
-  pb.constraint_scale = Eigen::Vector2d(a0, v0);
   NewtonLimitsCore lim;
   lim.force_tolerance = std::max(options_.tolerance_pN_per_s * dt, options_.min_tolerance_pN);
   const Eigen::VectorXd l0 =

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -80,36 +81,51 @@ NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& opt
       hessian_(model.topo),
       newton_(shifted_newton_options(options)) {}
 
-NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
-                                 const ProgressSink& progress, const NewtonLimits& limits) {
-  const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
-  const int n = static_cast<int>(x.cols());
+NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
+                                       BlockHessian& h, const ContinuumExtraTerms& extra) {
+  const double a0 = model.area0_um2, v0 = model.volume0_um3;
+  const auto n = static_cast<Eigen::Index>(model.rest.cols());
+  // Scratch positions and gradient, shared by the callbacks (no allocation per evaluation).
+  struct Scratch {
+    Positions x, g;
+  };
+  auto s = std::make_shared<Scratch>(Scratch{Positions(3, n), Positions(3, n)});
+  const ContinuumModel* m = &model;
+  BlockHessian* hp = &h;
   NewtonProblem pb;
-  pb.evaluate = [&](const Eigen::VectorXd& xf, NewtonPoint& p) {
-    const Eigen::Map<const Positions> xp(xf.data(), 3, n);
-    Positions g;
-    p.value = continuum_energy(model_, xp, force_pN, &g);
+  pb.evaluate = [=](const Eigen::VectorXd& xf, NewtonPoint& p) {
+    flat(s->x) = xf;
+    p.value = continuum_energy(*m, s->x, force_pN, &s->g);
     if (!std::isfinite(p.value)) return false;
-    p.grad = flat(g);
-    const ConstraintValues cv = evaluate_constraints(xp, model_.topo);
+    if (extra.energy) p.value += extra.energy(s->x, s->g);
+    p.grad = flat(s->g);
+    const ConstraintValues cv = evaluate_constraints(s->x, m->topo);
     p.c = Eigen::Vector2d(cv.area_um2 - a0, cv.volume_um3 - v0);
     p.c_grad.resize(3 * n, 2);
     p.c_grad.col(0) = flat(cv.grad_area);
     p.c_grad.col(1) = flat(cv.grad_volume);
     return true;
   };
-  pb.hessian = [&](const Eigen::VectorXd& xf,
+  pb.hessian = [=](const Eigen::VectorXd& xf,
                    const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
-    const Positions xp = Eigen::Map<const Positions>(xf.data(), 3, n);
-    hessian_.set_zero();
-    add_continuum_hessian(model_, xp, hessian_);
-    add_constraint_hessian(xp, model_.topo, l(0), l(1), hessian_);
-    return hessian_.matrix();
+    flat(s->x) = xf;
+    hp->set_zero();
+    add_continuum_hessian(*m, s->x, *hp);
+    if (extra.hessian) extra.hessian(s->x, *hp);
+    add_constraint_hessian(s->x, m->topo, l(0), l(1), *hp);
+    return hp->matrix();
   };
-  pb.feasible = [&](const Eigen::VectorXd& from, const Eigen::VectorXd& to) {
-    return !any_face_flipped(from, to, model_.topo);
+  pb.feasible = [m](const Eigen::VectorXd& from, const Eigen::VectorXd& to) {
+    return !any_face_flipped(from, to, m->topo);
   };
   pb.constraint_scale = Eigen::Vector2d(a0, v0);
+  return pb;
+}
+
+NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
+                                 const ProgressSink& progress, const NewtonLimits& limits) {
+  const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
+  const NewtonProblem pb = continuum_newton_problem(model_, force_pN, hessian_);
   auto on_iteration = [&](const NewtonIterate& it) {
     if (!progress) return;
     std::ostringstream m;

@@ -18,6 +18,7 @@
 // normal turning by more than 90 degrees within one step) is infeasible and halved,
 // so no NaN ever enters the iterate.
 #include <chrono>
+#include <functional>
 #include <string>
 
 #include "continuum/block_hessian.hpp"
@@ -107,6 +108,20 @@ class NewtonSolver {
 /// The core method's options for the continuum equilibrium (tolerances in pN and relative
 /// area/volume, steps in um, penalty in pN um).
 ShiftedNewtonOptions shifted_newton_options(const NewtonOptions& o);
+
+/// Terms a caller adds to the continuum objective (the dynamics' dissipation): value with its
+/// gradient accumulated into grad (pN um, pN), and the Hessian added into h (pN/um).
+struct ContinuumExtraTerms {
+  std::function<double(const Positions& x, Positions& grad)> energy;
+  std::function<void(const Positions& x, BlockHessian& h)> hessian;
+};
+
+/// The continuum equilibrium as a core/shifted_newton.hpp problem over the flat 3N positions:
+/// E(x; F) (+ extra) with the area and volume constraints c = (A - A0, V - V0) scaled by
+/// (A0, V0), its Hessian d2E (+ extra) + lambda_A d2A + lambda_V d2V assembled into h (which
+/// must outlive the problem, as must model and extra), and the face-flip feasibility check.
+NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
+                                       BlockHessian& h, const ContinuumExtraTerms& extra = {});
 
 /// Rejects a trial state that flips a face: some face normal turns by more than 90 degrees
 /// between from and to (flat 3N layouts).

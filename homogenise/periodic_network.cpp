@@ -283,6 +283,7 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
   no.floor_factor = options.floor_factor;
   no.cholesky.ordering = FillOrdering::amd;
   no.cholesky.supernodal_min_unknowns = std::numeric_limits<int>::max();  // simplicial
+  no.cholesky.blas_threads = 0;  // simplicial LL' calls no BLAS: leave the thread counts alone
   no.cancel = options.cancel;
   Eigen::Matrix2Xd trial = r.U;  // vertex 0 stays at zero
   auto full = [&](const Eigen::VectorXd& xr) -> const Eigen::Matrix2Xd& {
