@@ -44,7 +44,8 @@ ShiftedNewtonOptions step_newton_options(const ContinuumDynamicsOptions& o) {
   c.max_step = o.max_step_um;
   c.max_line_search = 40;
   c.penalty = 1e4;     // merit penalty (pN um), as the static solver
-  c.shift_memory = 0;  // each fresh factorisation starts from the smallest shift
+  c.shift_memory = 0;  // each fresh factorisation starts from the smallest shift (measured: a
+                       // memory of 0.01 saves nothing at dt = 1 ms, 108 vs 107 factorisations)
   c.max_factor_reuse = o.reuse_factorisation ? o.max_factor_reuse : 0;
   c.reuse_contraction = o.reuse_contraction;
   c.reuse_across_calls = o.reuse_factorisation;

@@ -13,8 +13,11 @@
 // contracts the residual, and refreshed when it does not (or when dt changes). The force
 // tolerance is tolerance_pN_per_s x dt (it shrinks with dt, so it does not hide the O(dt)
 // error), but not below min_tolerance_pN, the round-off floor of the net vertex forces. Rigid
-// modes: D and E (at F = 0) do not see them; the Levenberg shift sigma >= 1e-8 x mean diagonal
-// makes the step the minimum-norm one, with no rigid part.
+// modes: without the normal drag, D and E do not see the translations and the rotation about
+// the pulling axis (at F = 0 none of the rotations): they are projected out of every Newton
+// step (Euclidean projection at the current x). The 1e-8 shift alone would leave them to the
+// factorisation, and a chord step on an older K turns the residual's tiny component along them
+// into a spurious rotation of the cell (measured: D_A off by 1e-2 um after 3 steps).
 //
 // The fluids' share (stated, not modelled in the in-plane scenes): the cytosol (6 mPa s)
 // dissipates ~ eta_cyt R / eta_m ~ 6e-3 Pa s x 4 um / 0.6 pN s/um ~ 4 % of the membrane's
