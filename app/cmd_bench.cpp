@@ -13,6 +13,7 @@
 
 #include "app/commands.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "continuum/dynamics.hpp"
 #include "core/rest_shape.hpp"
 #include "discrete/mc_sampler.hpp"
 #include "discrete/network.hpp"
@@ -196,6 +197,35 @@ void BM_ContinuumWarm(benchmark::State& state) {
   }
 }
 
+/// Issue 14's speed row: shape recovery after release from the 88 pN equilibrium, range(0)
+/// elements (1000 = the 1 % resolution, p = 2), dt = 1 ms for range(1) ms of simulated time
+/// (1000 = 1 s), eta_m = 0.7 pN s/um; the static equilibrium is not timed.
+void BM_ContinuumRecovery(benchmark::State& state) {
+  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  const auto pts = run_continuum_stretch(m, {88.0}, ContinuumOptions{});
+  TrajectoryOptions to;
+  to.dt_s = 1e-3;
+  to.duration_s = 1e-3 * static_cast<double>(state.range(1));
+  for (auto _ : state) {
+    ContinuumDynamics dyn(m, ContinuumDynamicsOptions{});
+    DynamicsState s{pts[0].x, pts[0].multipliers};
+    TrajectoryResult r;
+    const double secs = seconds_of([&] {
+      r = run_trajectory([&](double h, DynamicsState& st) { return dyn.step(0.0, h, st); },
+                         [&](const DynamicsState& st) { return dyn.measure(0.0, st); }, s, to);
+    });
+    const auto& c = dyn.counters();
+    state.counters["seconds"] = secs;
+    state.counters["steps"] = static_cast<double>(c.steps);
+    state.counters["newton_iterations"] = static_cast<double>(c.iterations);
+    state.counters["factorisations"] = static_cast<double>(c.factorisations);
+    state.counters["chord_steps"] = static_cast<double>(c.chord_steps);
+    state.counters["converged"] = r.converged && pts[0].converged;
+    state.counters["axial_um"] = r.samples.back().axial_um;
+    state.counters["vertices"] = static_cast<double>(m.rest.cols());
+  }
+}
+
 /// Discrete 13-force sweep from rest (range(0) vertices).
 void BM_DiscreteSweep(benchmark::State& state) {
   const Network& net = cached_network_p(static_cast<int>(state.range(0)), 1.0);
@@ -332,7 +362,7 @@ void add_bench_command(CLI::App& app, Action& action) {
       "at 88 pN for N = 500, 2000, 8000, 27500), `rbc bench mc` (Monte Carlo vertex moves/s "
       "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up), `rbc bench sweep` "
       "(issue 11's rows: force sweeps, warm re-solves, each also in energy+gradient "
-      "evaluations); extra arguments go "
+      "evaluations; issue 14's continuum recovery row); extra arguments go "
       "to Google Benchmark");
   cmd->allow_extras();
   cmd->prefix_command();
@@ -367,6 +397,9 @@ void add_bench_command(CLI::App& app, Action& action) {
                  ->Args({5120, 0}));
         once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc", BM_ContinuumWarm)
                  ->Arg(1000));
+        // Issue 14: 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
+        once(benchmark::RegisterBenchmark("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)
+                 ->Args({1000, 1000}));
         // range(1): preconditioner threshold (-1: the default; 0: always; huge: never).
         once(benchmark::RegisterBenchmark("discrete/sweep13_from_rest", BM_DiscreteSweep)
                  ->Args({250, -1})

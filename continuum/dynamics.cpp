@@ -1,5 +1,6 @@
 #include "continuum/dynamics.hpp"
 
+#include <Eigen/QR>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -8,6 +9,7 @@
 
 #include "continuum/newton_solver.hpp"
 #include "core/geometry.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
@@ -24,7 +26,33 @@ void ContinuumDynamicsOptions::validate() const {
   if (!(tolerance_pN_per_s > 0) || !(constraint_tolerance > 0) || max_iterations < 1 ||
       !(max_step_um > 0))
     throw std::invalid_argument("continuum dynamics tolerances and counts must be positive");
+  require_finite_in_range("dynamics round-off force tolerance", "pN", min_tolerance_pN, 0.0, 1.0,
+                          Ends::closed_closed);
+  require_integer_in_range("dynamics factorisation reuse", max_factor_reuse, 0, 1000);
+  require_finite_in_range("dynamics reuse contraction", "", reuse_contraction, 0.0, 1.0,
+                          Ends::open_open);
 }
+
+namespace {
+
+ShiftedNewtonOptions step_newton_options(const ContinuumDynamicsOptions& o) {
+  ShiftedNewtonOptions c;
+  c.force_tolerance = 1.0;  // replaced per step by max(tolerance_pN_per_s dt, floor)
+  c.constraint_tolerance = o.constraint_tolerance;
+  c.max_iterations = o.max_iterations;
+  c.block_size = 3;
+  c.max_step = o.max_step_um;
+  c.max_line_search = 40;
+  c.penalty = 1e4;     // merit penalty (pN um), as the static solver
+  c.shift_memory = 0;  // each fresh factorisation starts from the smallest shift (measured: a
+                       // memory of 0.01 saves nothing at dt = 1 ms, 108 vs 107 factorisations)
+  c.max_factor_reuse = o.reuse_factorisation ? o.max_factor_reuse : 0;
+  c.reuse_contraction = o.reuse_contraction;
+  c.reuse_across_calls = o.reuse_factorisation;
+  return c;
+}
+
+}  // namespace
 
 namespace {
 
@@ -63,15 +91,37 @@ double normal_drag_energy(const NormalDrag& d, const Positions& xn, const Positi
   return e;
 }
 
+/// Removes from dx (flat 3N) its Euclidean projection on the rigid modes at x (flat 3N) that
+/// the step's objective does not see: the three translations and the rotation about the
+/// pulling axis x always, the other two rotations too when no force is applied.
+void remove_rigid_modes(const Eigen::VectorXd& x, bool all_rotations, Eigen::VectorXd& dx) {
+  const Eigen::Index n = x.size() / 3;
+  const Eigen::Map<const Positions> xp(x.data(), 3, n);
+  const Vec3 c = xp.rowwise().mean();
+  const int k = all_rotations ? 6 : 4;
+  Eigen::MatrixXd u = Eigen::MatrixXd::Zero(3 * n, k);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vec3 r = xp.col(i) - c;
+    for (int a = 0; a < 3; ++a) u(3 * i + a, a) = 1.0;
+    u.block<3, 1>(3 * i, 3) = Vec3::UnitX().cross(r);
+    if (all_rotations) {
+      u.block<3, 1>(3 * i, 4) = Vec3::UnitY().cross(r);
+      u.block<3, 1>(3 * i, 5) = Vec3::UnitZ().cross(r);
+    }
+  }
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(u);
+  const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(3 * n, k);
+  dx -= q * (q.transpose() * dx);
+}
+
 }  // namespace
 
 ContinuumDynamics::ContinuumDynamics(const ContinuumModel& model,
                                      const ContinuumDynamicsOptions& options)
-    : model_(model), options_(options), hessian_(model.topo) {
-  options_.validate();
-  llt_.cholmod().print = 0;
-  llt_.analyzePattern(hessian_.matrix());
-}
+    : model_(model),
+      options_((options.validate(), options)),
+      hessian_(model.topo),
+      newton_(step_newton_options(options)) {}
 
 TrajectorySample ContinuumDynamics::measure(double force_pN, const DynamicsState& s) const {
   TrajectorySample t;
@@ -97,134 +147,75 @@ StepOutcome ContinuumDynamics::step(double force_pN, double dt, DynamicsState& s
   const NormalDrag nd =
       drag ? make_normal_drag(xn, model_.topo, options_.normal_drag_pN_s_per_um3, dt)
            : NormalDrag{};
-  const double tol = options_.tolerance_pN_per_s * dt;
-  const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
   const int n = static_cast<int>(xn.cols());
+  // The viscous Hessian scales with 1/dt and the tweezers' load with F: a factorisation kept
+  // from a step of another length or force is no chord for this one.
+  if (dt != factor_dt_s_ || force_pN != factor_force_pN_) newton_.forget_factorisation();
+  factor_dt_s_ = dt;
+  factor_force_pN_ = force_pN;
 
-  struct Iterate {
-    double energy = 0;
-    Positions grad;
-    ConstraintValues cons;
+  ContinuumExtraTerms extra;
+  extra.energy = [&](const Positions& x, Positions& grad) {
+    double e = membrane_viscosity_energy(visc, model_.topo, prev, x, &grad);
+    if (drag) e += normal_drag_energy(nd, xn, x, &grad);
+    return e;
   };
-  auto evaluate = [&](const Positions& x, Iterate& it) {
-    it.energy = continuum_energy(model_, x, force_pN, &it.grad);
-    if (!std::isfinite(it.energy)) return false;
-    it.energy += membrane_viscosity_energy(visc, model_.topo, prev, x, &it.grad);
-    if (drag) it.energy += normal_drag_energy(nd, xn, x, &it.grad);
-    it.cons = evaluate_constraints(x, model_.topo);
-    return true;
+  extra.hessian = [&](const Positions& x, BlockHessian& h) {
+    add_membrane_viscosity_hessian(visc, model_.topo, prev, x, h);
   };
-  Positions x = xn;
-  ConstraintMultipliers lambda = state.lambda;
-  Iterate cur, trial;
-  if (!evaluate(x, cur)) {
-    out.status = "infeasible start";
-    return out;
-  }
-  Eigen::SparseMatrix<double> k = hessian_.matrix();
-  std::vector<int> diag(3 * n);
-  for (int c = 0; c < 3 * n; ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(k, c); it; ++it)
-      if (it.row() == c) diag[c] = static_cast<int>(&it.valueRef() - k.valuePtr());
-  const Eigen::Vector2d scale(a0, v0);
-  const double rho = 1e4;  // merit penalty (pN um), as the static solver
-  for (int iter = 0;; ++iter) {
-    const Positions r = cur.grad + lambda.area_pN_per_um * cur.cons.grad_area +
-                        lambda.volume_pN_per_um2 * cur.cons.grad_volume;
-    const double resid = largest_vertex_norm(r);
-    const Eigen::Vector2d c(cur.cons.area_um2 - a0, cur.cons.volume_um3 - v0);
-    const Eigen::Vector2d chat = c.cwiseQuotient(scale);
-    out.iterations = iter;
-    out.residual_pN = resid;
-    if (resid < tol && chat.cwiseAbs().maxCoeff() < options_.constraint_tolerance) {
-      state.x = x;
-      state.lambda = lambda;
-      out.converged = true;
-      out.status = "converged";
-      return out;
-    }
-    if (iter >= options_.max_iterations) {
-      out.status = "iteration limit reached";
-      return out;
-    }
-    hessian_.set_zero();
-    add_continuum_hessian(model_, x, hessian_);
-    add_membrane_viscosity_hessian(visc, model_.topo, prev, x, hessian_);
-    add_constraint_hessian(x, model_.topo, lambda.area_pN_per_um, lambda.volume_pN_per_um2,
-                           hessian_);
-    const Eigen::SparseMatrix<double>& h = hessian_.matrix();
-    double mean_diag = 0;
-    for (int d : diag) mean_diag += std::abs(h.valuePtr()[d]);
-    mean_diag = std::max(mean_diag / (3.0 * n), 1e-300);
-    double sigma = 1e-8;
-    bool factorised = false;
-    for (int attempt = 0; attempt < 30 && !factorised; ++attempt) {
-      std::copy(h.valuePtr(), h.valuePtr() + h.nonZeros(), k.valuePtr());
-      for (int d : diag) k.valuePtr()[d] += sigma * mean_diag;
-      if (drag)  // the drag's Hessian: coef_i n_i n_i^T in the diagonal block of vertex i
-        for (int i = 0; i < n; ++i)
-          for (int a = 0; a < 3; ++a)
-            for (Eigen::SparseMatrix<double>::InnerIterator it(k, 3 * i + a); it; ++it)
-              if (it.row() / 3 == i)
-                it.valueRef() += nd.coef(i) * nd.normal(it.row() % 3, i) * nd.normal(a, i);
-      llt_.factorize(k);
-      factorised = llt_.info() == Eigen::Success;
-      if (!factorised) sigma = std::max(10.0 * sigma, 1e-4);
-    }
-    if (!factorised) {
-      out.status = "factorisation failed";
-      return out;
-    }
-    Eigen::MatrixXd cm(3 * n, 2);
-    cm.col(0) = flat(cur.cons.grad_area);
-    cm.col(1) = flat(cur.cons.grad_volume);
-    const Eigen::VectorXd y0 = llt_.solve(flat(r));
-    const Eigen::MatrixXd ym = llt_.solve(cm);
-    const Eigen::Matrix2d s = cm.transpose() * ym;
-    const Eigen::Vector2d dl = s.fullPivLu().solve(c - cm.transpose() * y0);
-    Eigen::VectorXd dx = -y0 - ym * dl;
-    const ConstraintMultipliers lnew{lambda.area_pN_per_um + dl(0),
-                                     lambda.volume_pN_per_um2 + dl(1)};
-    const double largest = largest_vertex_norm(Eigen::Map<const Eigen::Matrix3Xd>(dx.data(), 3, n));
-    if (largest > options_.max_step_um) dx *= options_.max_step_um / largest;
-    const Positions dxp = Eigen::Map<const Eigen::Matrix3Xd>(dx.data(), 3, n);
-    auto merit = [&](const Iterate& it) {
-      const Eigen::Vector2d ci(it.cons.area_um2 - a0, it.cons.volume_um3 - v0);
-      return it.energy + lnew.area_pN_per_um * ci(0) + lnew.volume_pN_per_um2 * ci(1) +
-             0.5 * rho * ci.cwiseQuotient(scale).squaredNorm();
+  NewtonProblem pb = continuum_newton_problem(model_, force_pN, hessian_, extra);
+  if (drag)  // the drag's Hessian: coef_i n_i n_i^T in the diagonal block of vertex i
+    pb.add_unshifted = [&](Eigen::SparseMatrix<double>& k) {
+      for (int i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a)
+          for (Eigen::SparseMatrix<double>::InnerIterator it(k, 3 * i + a); it; ++it)
+            if (it.row() / 3 == i)
+              it.valueRef() += nd.coef(i) * nd.normal(it.row() % 3, i) * nd.normal(a, i);
     };
-    const Eigen::VectorXd gm = flat(cur.grad) +
-                               cm * Eigen::Vector2d(lnew.area_pN_per_um, lnew.volume_pN_per_um2) +
-                               cm * Eigen::Vector2d(rho * chat(0) / a0, rho * chat(1) / v0);
-    const double slope = gm.dot(dx);
-    const double phi0 = merit(cur);
-    double t = 1.0;
-    bool accepted = false;
-    Positions xt;
-    for (int ls = 0; ls < 40; ++ls, t *= 0.5) {
-      xt = x + t * dxp;
-      if (!evaluate(xt, trial)) continue;
-      const double phi = merit(trial);
-      const bool armijo = slope < 0 && phi <= phi0 + 1e-4 * t * slope;
-      bool roundoff_ok = false;
-      if (!armijo && phi <= phi0 + 1e-12 * std::abs(phi0)) {
-        const Positions rt = trial.grad + lnew.area_pN_per_um * trial.cons.grad_area +
-                             lnew.volume_pN_per_um2 * trial.cons.grad_volume;
-        roundoff_ok = largest_vertex_norm(rt) < resid;
-      }
-      if (armijo || roundoff_ok) {
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) {
-      out.status = "line search failed";
-      return out;
-    }
-    x = xt;
-    std::swap(cur, trial);
-    lambda = lnew;
+  // Without the fluids' normal drag E + D do not see the rigid modes (D depends on the
+  // metric only; the tweezers' load on the beads' x distance): project them out of each step
+  // (a chord step's older factorisation would otherwise turn the residual's tiny component
+  // along them, divided by the 1e-8 shift, into a spurious rotation).
+  if (!drag)
+    pb.project_step = [&](const Eigen::VectorXd& at, Eigen::VectorXd& dx) {
+      remove_rigid_modes(at, force_pN == 0.0, dx);
+    };
+  NewtonLimitsCore lim;
+  lim.force_tolerance = std::max(options_.tolerance_pN_per_s * dt, options_.min_tolerance_pN);
+  const Eigen::VectorXd l0 =
+      Eigen::Vector2d(state.lambda.area_pN_per_um, state.lambda.volume_pN_per_um2);
+  Eigen::VectorXd xf, l = l0;
+  ShiftedNewtonResult r;
+  const bool continues =
+      options_.extrapolate_start && last_dt_s_ > 0 && last_x_.cols() == n && last_x_ == xn;
+  if (continues) {  // predictor: O(dt^2) from the step's solution
+    xf = flat(xn) + (dt / last_dt_s_) * flat(last_step_);
+    r = newton_.solve(pb, xf, l, {}, lim);
   }
+  if (!continues || r.status == NewtonStatus::infeasible_start) {
+    xf = flat(xn);
+    l = l0;
+    r = newton_.solve(pb, xf, l, {}, lim);
+  }
+  ++counters_.steps;
+  counters_.iterations += r.iterations;
+  counters_.factorisations += r.factorisations;
+  counters_.chord_steps += r.chord_steps;
+  out.iterations = r.iterations;
+  out.residual_pN = r.residual;
+  out.status = to_string(r.status);
+  if (r.status == NewtonStatus::converged) {
+    flat(state.x) = xf;
+    state.lambda = {l(0), l(1)};
+    out.converged = true;
+    last_step_ = state.x - xn;
+    last_x_ = state.x;
+    last_dt_s_ = dt;
+  } else {
+    newton_.forget_factorisation();
+    last_dt_s_ = 0.0;
+  }
+  return out;
 }
 
 }  // namespace rbc

@@ -5,24 +5,26 @@
 // solves the bordered KKT system
 //   [K  C] [dx     ]     [r]     r = dE + C lambda (net vertex forces, pN),
 //   [C' 0] [dlambda] = - [c],    c = (A - A0, V - V0),  C = [dA dV],
-// with K = d2L + sigma I factorised once by supernodal sparse Cholesky (CHOLMOD through
-// Eigen's CholmodSupport; ordering analysed once per mesh) and the 2 x 2 Schur complement S = C'
-// K^-1 C. Safeguards: sigma >= sigma_min ~ 1e-8 x mean diagonal fixes the translation and rotation
-// null modes; when the factorisation is not positive definite (indefinite d2L away from a minimum)
-// sigma grows by 10x until it is (Levenberg-Marquardt). The step is capped so no vertex moves more
-// than max_step_um, then backtracked on the merit
+// by core/shifted_newton.hpp, the project's one shifted Newton method (K = d2L + sigma I
+// factorised by supernodal sparse Cholesky, core/sparse_cholesky.hpp; ordering analysed once per
+// mesh; the 2 x 2 Schur complement S = C' K^-1 C). Safeguards: sigma >= sigma_min ~ 1e-8 x mean
+// diagonal fixes the translation and rotation null modes; when the factorisation is not positive
+// definite (indefinite d2L away from a minimum) sigma grows by 10x until it is
+// (Levenberg-Marquardt). The step is capped so no vertex moves more than max_step_um, then
+// backtracked on the merit
 //   phi = E + lambda_new'c + (rho/2) sum_k (c_k/G_k)^2   (rho = penalty_pNum, G = A0, V0),
 // along which the KKT direction is always a descent direction (phi' = -dx'K dx - rho |c/G|^2).
 // A trial step that collapses or flips an element (J < kCollapsedElementRatio, or a face
 // normal turning by more than 90 degrees within one step) is infeasible and halved,
 // so no NaN ever enters the iterate.
-#include <Eigen/CholmodSupport>
 #include <chrono>
+#include <functional>
 #include <string>
 
 #include "continuum/block_hessian.hpp"
 #include "continuum/continuum_model.hpp"
 #include "core/progress.hpp"
+#include "core/shifted_newton.hpp"
 #include "discrete/constraint_energy.hpp"
 #include "discrete/newton_preconditioner.hpp"
 
@@ -52,6 +54,10 @@ struct NewtonOptions {
   /// One by default: CHOLMOD's many small BLAS calls scale poorly (thread wake-ups) and one
   /// thread keeps the rounding independent of the core count.
   int blas_threads = 1;
+  /// Keep the last factorisation between solve() calls (continuation in force, warm
+  /// re-solves): the first iteration of the next solve is a chord step on it. Off by
+  /// default (the static results then do not depend on the call history).
+  bool reuse_across_solves = false;
   /// Polled once per Newton iteration; returning true stops the solve by throwing Cancelled.
   CancelCheck cancel;
   /// Throws rbc::InvalidParameter: force tolerance finite in (0, 10] pN, constraint tolerance in
@@ -60,13 +66,8 @@ struct NewtonOptions {
   void validate() const;
 };
 
-enum class NewtonStatus {
-  converged,
-  max_iterations,
-  line_search_failed,
-  infeasible_start,
-  time_budget,  ///< the caller's deadline passed before convergence
-};
+// NewtonStatus (converged, max_iterations, line_search_failed, infeasible_start,
+// time_budget, factorisation_failed) and to_string(NewtonStatus): core/shifted_newton.hpp.
 
 /// Per-call limits tighter than the options (a continuation's remaining budget).
 struct NewtonLimits {
@@ -74,12 +75,12 @@ struct NewtonLimits {
   /// Stop with NewtonStatus::time_budget once this time has passed (checked per iteration).
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
 };
-std::string to_string(NewtonStatus s);
 
 struct NewtonResult {
   NewtonStatus status = NewtonStatus::max_iterations;
   int iterations = 0;
   int factorisations = 0;                   ///< including retries with a larger shift
+  int chord_steps = 0;                      ///< iterations that reused an earlier factorisation
   double residual_pN = 0;                   ///< largest net vertex force |dE + C lambda| at the end
   double area_drift = 0, volume_drift = 0;  ///< (A - A0)/A0, (V - V0)/V0 at the end
   double energy_pNum = 0;                   ///< E (without constraint terms) at the end
@@ -101,8 +102,30 @@ class NewtonSolver {
   const ContinuumModel& model_;
   NewtonOptions options_;
   BlockHessian hessian_;
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>> ldlt_;
+  ShiftedNewton newton_;
 };
+
+/// The core method's options for the continuum equilibrium (tolerances in pN and relative
+/// area/volume, steps in um, penalty in pN um).
+ShiftedNewtonOptions shifted_newton_options(const NewtonOptions& o);
+
+/// Terms a caller adds to the continuum objective (the dynamics' dissipation): value with its
+/// gradient accumulated into grad (pN um, pN), and the Hessian added into h (pN/um).
+struct ContinuumExtraTerms {
+  std::function<double(const Positions& x, Positions& grad)> energy;
+  std::function<void(const Positions& x, BlockHessian& h)> hessian;
+};
+
+/// The continuum equilibrium as a core/shifted_newton.hpp problem over the flat 3N positions:
+/// E(x; F) (+ extra) with the area and volume constraints c = (A - A0, V - V0) scaled by
+/// (A0, V0), its Hessian d2E (+ extra) + lambda_A d2A + lambda_V d2V assembled into h (which
+/// must outlive the problem, as must model and extra), and the face-flip feasibility check.
+NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
+                                       BlockHessian& h, const ContinuumExtraTerms& extra = {});
+
+/// Rejects a trial state that flips a face: some face normal turns by more than 90 degrees
+/// between from and to (flat 3N layouts).
+bool any_face_flipped(const Eigen::VectorXd& from, const Eigen::VectorXd& to, const Topology& topo);
 
 /// Largest Euclidean norm over the columns of a 3 x N field (pN for forces).
 double largest_vertex_norm(const Positions& v);

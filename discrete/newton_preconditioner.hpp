@@ -5,17 +5,10 @@
 // Sherman-Morrison-Woodbury. Used as L-BFGS's initial inverse Hessian (core/lbfgs.hpp).
 #include <memory>
 
+#include "core/sparse_cholesky.hpp"  // FillOrdering
 #include "discrete/network_hessian.hpp"
 
 namespace rbc {
-
-/// Fill-reducing ordering of the sparse Cholesky factorisation.
-enum class FillOrdering {
-  automatic,          ///< CHOLMOD's default: AMD, METIS tried when AMD's fill is high
-  amd,                ///< approximate minimum degree
-  metis,              ///< METIS nested dissection
-  nested_dissection,  ///< CHOLMOD's own nested dissection (NESDIS)
-};
 
 /// Which matrix refresh() factorises.
 enum class HessianChoice {

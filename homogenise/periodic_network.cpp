@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/shifted_newton.hpp"
 #include "core/units.hpp"
 #include "discrete/link_energy.hpp"
 
@@ -103,10 +104,6 @@ Eigen::Matrix2Xd zero_if_empty(const PeriodicNetwork& net, Eigen::Matrix2Xd U) {
     throw std::invalid_argument("cell problem: displacement field has " + std::to_string(U.cols()) +
                                 " columns, expected " + std::to_string(net.vertex_count()));
   return U;
-}
-
-double max_block_norm2(const Eigen::Matrix2Xd& g) {
-  return g.cols() ? g.colwise().norm().maxCoeff() : 0.0;
 }
 
 void check_deformation(const Eigen::Matrix2d& F) {
@@ -263,95 +260,76 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
     r.energy_pNum = E;
     return r;
   }
-  auto reduced = [&](const Eigen::Matrix2Xd& full) {
-    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(full.data() + 2, nu));
+  // The project's shifted Newton (core/shifted_newton.hpp) on the reduced unknowns (vertex
+  // 0 pinned), unconstrained: no shift while the Hessian is positive definite, else 1e-8 x
+  // its largest diagonal entry growing tenfold (Levenberg); Armijo backtracking whose slack
+  // 16 eps |E| accepts steps whose decrease is below round-off (the last Newton steps, where
+  // the gradient norm is what still improves). The Hessian's sparsity pattern (links and
+  // faces) is the same at every iterate and shift: its ordering and symbolic factorisation
+  // are computed once, only the numbers per attempt.
+  ShiftedNewtonOptions no;
+  no.force_tolerance = options.force_tolerance_pN;
+  no.max_iterations = options.max_iterations;
+  no.block_size = 2;
+  no.max_line_search = 60;
+  no.armijo_slack_rel = 16 * std::numeric_limits<double>::epsilon();
+  no.roundoff_merit_rel = 0.0;
+  no.initial_shift = 0.0;
+  no.retry_shift = 1e-8;
+  no.shift_memory = 0.0;
+  no.shift_scale = ShiftScale::max_abs_diagonal;
+  no.max_factor_reuse = 0;
+  no.stall_iterations = options.stall_iterations;
+  no.floor_factor = options.floor_factor;
+  no.cholesky.ordering = FillOrdering::amd;
+  no.cholesky.supernodal_min_unknowns = std::numeric_limits<int>::max();  // simplicial
+  no.cholesky.blas_threads = 0;  // simplicial LL' calls no BLAS: leave the thread counts alone
+  no.cancel = options.cancel;
+  Eigen::Matrix2Xd trial = r.U;  // vertex 0 stays at zero
+  auto full = [&](const Eigen::VectorXd& xr) -> const Eigen::Matrix2Xd& {
+    trial.rightCols(N - 1) = Eigen::Map<const Eigen::Matrix2Xd>(xr.data(), 2, N - 1);
+    return trial;
   };
-  // The Hessian's sparsity pattern (links and faces) is the same at every iterate and shift:
-  // its ordering and symbolic factorisation are computed once, only the numbers per attempt.
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
-  Eigen::Index analysed_nonzeros = -1;  // pattern the analysis was done for
-  double best = kInf;                   // smallest residual so far, at U_best (E_best, g_best)
-  int stalled = 0;                      // iterations since the best residual last halved
-  Eigen::Matrix2Xd U_best, g_best;
-  double E_best = E;
-  for (r.iterations = 0;; ++r.iterations) {
-    throw_if_cancelled(options.cancel);
-    r.residual_pN = nu > 0 ? max_block_norm2(g.rightCols(N - 1)) : 0.0;
-    if (r.residual_pN <= options.force_tolerance_pN) {
+  NewtonProblem pb;
+  pb.evaluate = [&](const Eigen::VectorXd& xr, NewtonPoint& p) {
+    Eigen::Matrix2Xd gt;
+    p.value = patch_energy(net, m, F, full(xr), &gt);
+    if (!(p.value < kInf)) return false;
+    p.grad = Eigen::Map<const Eigen::VectorXd>(gt.data() + 2, nu);
+    return true;
+  };
+  Eigen::SparseMatrix<double> H;
+  pb.hessian = [&](const Eigen::VectorXd& xr,
+                   const Eigen::VectorXd&) -> const Eigen::SparseMatrix<double>& {
+    H = patch_hessian(net, m, F, full(xr)).uu;
+    H.makeCompressed();
+    return H;
+  };
+  Eigen::VectorXd xr = Eigen::Map<const Eigen::VectorXd>(r.U.data() + 2, nu);
+  Eigen::VectorXd no_lambda;
+  ShiftedNewton newton(no);
+  const ShiftedNewtonResult nr = newton.solve(pb, xr, no_lambda);
+  r.iterations = nr.iterations;
+  r.residual_pN = nr.residual;
+  r.at_roundoff_floor = nr.at_roundoff_floor;
+  switch (nr.status) {
+    case NewtonStatus::converged:
       r.status = MinimiserStatus::converged;
       break;
-    }
-    if (r.residual_pN < best) {
-      if (r.residual_pN <= 0.5 * best) stalled = -1;
-      best = r.residual_pN;
-      U_best = r.U;
-      g_best = g;
-      E_best = E;
-    }
-    if (++stalled >= options.stall_iterations &&
-        best <= options.floor_factor * options.force_tolerance_pN) {
-      // At the floor: return the best iterate seen (later steps only wander within round-off).
-      r.U = U_best;
-      g = g_best;
-      E = E_best;
-      r.residual_pN = best;
-      r.status = MinimiserStatus::converged;
-      r.at_roundoff_floor = true;
-      break;
-    }
-    if (r.iterations >= options.max_iterations) {
+    case NewtonStatus::max_iterations:
+    case NewtonStatus::time_budget:
       r.status = MinimiserStatus::max_iterations;
       break;
-    }
-    const Eigen::VectorXd gr = reduced(g);
-    Eigen::SparseMatrix<double> H = patch_hessian(net, m, F, r.U).uu;
-    // Shift until positive definite (Levenberg): Newton direction where the energy is convex.
-    double shift = 0.0;
-    const double scale = H.diagonal().cwiseAbs().maxCoeff();
-    Eigen::VectorXd step;
-    for (int attempt = 0; attempt < 30; ++attempt) {
-      Eigen::SparseMatrix<double> Hs = H;
-      if (shift > 0) {
-        for (int i = 0; i < nu; ++i) Hs.coeffRef(i, i) += shift;
-      }
-      if (Hs.nonZeros() != analysed_nonzeros) {
-        ldlt.analyzePattern(Hs);
-        analysed_nonzeros = Hs.nonZeros();
-      }
-      ldlt.factorize(Hs);
-      if (ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() > 0) {
-        step = -ldlt.solve(gr);
-        break;
-      }
-      shift = shift > 0 ? 10 * shift : 1e-8 * scale;
-    }
-    if (step.size() != nu || !(gr.dot(step) < 0)) {
+    case NewtonStatus::infeasible_start:
+      r.status = MinimiserStatus::infeasible_start;
+      break;
+    case NewtonStatus::line_search_failed:
+    case NewtonStatus::factorisation_failed:  // MinimiserStatus has no such value
       r.status = MinimiserStatus::line_search_failed;
       break;
-    }
-    // Backtracking; the slack 16 eps |E| accepts steps whose decrease is below round-off
-    // (the last Newton steps, where the gradient norm is what still improves).
-    double alpha = 1.0;
-    bool accepted = false;
-    Eigen::Matrix2Xd trial = r.U, gt;
-    for (int ls = 0; ls < 60; ++ls, alpha *= 0.5) {
-      trial.rightCols(N - 1) =
-          r.U.rightCols(N - 1) + alpha * Eigen::Map<const Eigen::Matrix2Xd>(step.data(), 2, N - 1);
-      const double Et = patch_energy(net, m, F, trial, &gt);
-      if (Et < kInf && Et - E <= 1e-4 * alpha * gr.dot(step) +
-                                     16 * std::numeric_limits<double>::epsilon() * std::abs(E)) {
-        r.U = trial;
-        E = Et;
-        g = gt;
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) {
-      r.status = MinimiserStatus::line_search_failed;
-      break;
-    }
   }
+  r.U = full(xr);
+  E = nr.point.value;
   r.energy_pNum = E;
   r.max_displacement_um = N > 0 ? r.U.colwise().norm().maxCoeff() : 0.0;
   return r;

@@ -1,0 +1,275 @@
+#include "core/shifted_newton.hpp"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "core/validation.hpp"
+
+namespace rbc {
+
+void ShiftedNewtonOptions::validate() const {
+  require_finite_in_range("Newton force tolerance", "", force_tolerance, 0.0, kUnbounded);
+  require_finite_in_range("Newton relative constraint tolerance", "", constraint_tolerance, 0.0,
+                          1.0, Ends::open_open);
+  require_integer_in_range("Newton max iterations", max_iterations, 0, 100000000);
+  require_integer_in_range("Newton block size", block_size, 1, 64);
+  if (!(max_step > 0))
+    throw std::invalid_argument("Newton largest step must be > 0 (infinity = no cap), got " +
+                                format_number(max_step));
+  require_integer_in_range("line-search halvings", max_line_search, 1, 1000);
+  require_finite_in_range("Armijo constant", "", armijo, 0.0, 0.5, Ends::open_open);
+  require_finite_in_range("Armijo round-off slack", "", armijo_slack_rel, 0.0, 1e-6,
+                          Ends::closed_closed);
+  require_finite_in_range("round-off merit tolerance", "", roundoff_merit_rel, 0.0, 1e-6,
+                          Ends::closed_closed);
+  require_finite_in_range("merit penalty", "", penalty, 0.0, kUnbounded, Ends::closed_open);
+  require_finite_in_range("initial Newton shift", "", initial_shift, 0.0, 1.0, Ends::closed_closed);
+  require_finite_in_range("retry Newton shift", "", retry_shift, 0.0, 1.0, Ends::open_closed);
+  require_finite_in_range("Newton shift growth", "", shift_growth, 1.0, 1e6, Ends::open_closed);
+  require_finite_in_range("Newton shift memory", "", shift_memory, 0.0, 1.0, Ends::closed_closed);
+  require_integer_in_range("Newton shift attempts", max_shift_attempts, 1, 1000);
+  require_integer_in_range("factorisation reuse", max_factor_reuse, 0, 1000);
+  require_finite_in_range("reuse contraction", "", reuse_contraction, 0.0, 1.0, Ends::open_open);
+  require_integer_in_range("Newton stall iterations (0 = off)", stall_iterations, 0, 1000000);
+  require_finite_in_range("Newton round-off floor factor", "", floor_factor, 0.0, kUnbounded,
+                          Ends::closed_open);
+  cholesky.validate();
+}
+
+std::string to_string(NewtonStatus s) {
+  switch (s) {
+    case NewtonStatus::converged:
+      return "converged";
+    case NewtonStatus::max_iterations:
+      return "iteration limit reached";
+    case NewtonStatus::line_search_failed:
+      return "line search failed";
+    case NewtonStatus::infeasible_start:
+      return "infeasible start";
+    case NewtonStatus::time_budget:
+      return "time budget exhausted";
+    case NewtonStatus::factorisation_failed:
+      return "factorisation failed";
+  }
+  return "unknown";
+}
+
+double largest_block_norm(const Eigen::VectorXd& v, int block_size) {
+  if (v.size() == 0) return 0.0;
+  const Eigen::Map<const Eigen::MatrixXd> m(v.data(), block_size, v.size() / block_size);
+  return m.colwise().norm().maxCoeff();
+}
+
+ShiftedNewton::ShiftedNewton(const ShiftedNewtonOptions& options)
+    : options_(options), cholesky_((options.validate(), options.cholesky)) {}
+
+void ShiftedNewton::prepare_pattern(const Eigen::SparseMatrix<double>& h) {
+  if (h.rows() == analysed_rows_ && h.nonZeros() == analysed_nonzeros_) return;
+  if (!h.isCompressed() || h.rows() != h.cols())
+    throw std::logic_error("shifted Newton: the Hessian must be square and compressed");
+  k_ = h;
+  const Eigen::Index n = h.rows();
+  diag_.assign(n, -1);
+  for (Eigen::Index c = 0; c < n; ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(k_, c); it; ++it)
+      if (it.row() == c) diag_[c] = static_cast<int>(&it.valueRef() - k_.valuePtr());
+  if (std::find(diag_.begin(), diag_.end(), -1) != diag_.end())
+    throw std::logic_error("shifted Newton: the Hessian pattern lacks a diagonal entry");
+  cholesky_.analyze(k_);
+  analysed_rows_ = n;
+  analysed_nonzeros_ = h.nonZeros();
+  have_factor_ = false;
+}
+
+ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorXd& x,
+                                         Eigen::VectorXd& lambda,
+                                         const std::function<void(const NewtonIterate&)>& on_it,
+                                         const NewtonLimitsCore& limits) {
+  const ShiftedNewtonOptions& o = options_;
+  const int max_iterations = limits.max_iterations >= 0
+                                 ? std::min(limits.max_iterations, o.max_iterations)
+                                 : o.max_iterations;
+  const double tolerance = limits.force_tolerance >= 0 ? limits.force_tolerance : o.force_tolerance;
+  ShiftedNewtonResult res;
+  NewtonPoint& cur = res.point;
+  NewtonPoint trial;
+  auto evaluate = [&](const Eigen::VectorXd& at, NewtonPoint& p) {
+    return pb.evaluate(at, p) && std::isfinite(p.value);
+  };
+  if (!evaluate(x, cur)) {
+    res.status = NewtonStatus::infeasible_start;
+    return res;
+  }
+  const Eigen::Index n = x.size();
+  const Eigen::Index m = cur.c.size();
+  if (lambda.size() != m) lambda = Eigen::VectorXd::Zero(m);
+  const Eigen::VectorXd& scale = pb.constraint_scale;
+  if (m > 0 && scale.size() != m)
+    throw std::logic_error("shifted Newton: one constraint scale per constraint needed");
+  if (!o.reuse_across_calls) have_factor_ = false;
+  double shift_hint = 0.0, last_resid = 0.0;
+  // A factorisation kept from the previous call counts as a full step's: the first
+  // iteration may be a chord step on it.
+  bool last_full_step = have_factor_, first = have_factor_;
+  int reuse_count = 0;
+  Eigen::VectorXd r;
+  // Best iterate for the round-off floor.
+  double best = std::numeric_limits<double>::infinity();
+  int stalled = 0;
+  Eigen::VectorXd x_best;
+  NewtonPoint p_best;
+  auto residual_vector = [&](const NewtonPoint& p, const Eigen::VectorXd& l) {
+    Eigen::VectorXd v = p.grad;
+    for (Eigen::Index k = 0; k < m; ++k) v += l(k) * p.c_grad.col(k);
+    return v;
+  };
+  auto finish = [&](NewtonStatus s) {
+    res.status = s;
+    res.residual = largest_block_norm(r, o.block_size);
+    return res;
+  };
+  for (int iter = 0;; ++iter) {
+    throw_if_cancelled(o.cancel);
+    r = residual_vector(cur, lambda);
+    const double resid = largest_block_norm(r, o.block_size);
+    const Eigen::VectorXd chat =
+        m > 0 ? Eigen::VectorXd(cur.c.cwiseQuotient(scale)) : Eigen::VectorXd();
+    const double violation = m > 0 ? chat.cwiseAbs().maxCoeff() : 0.0;
+    res.iterations = iter;
+    if (on_it) on_it(NewtonIterate{iter, cur.value, resid, violation, chat});
+    if (resid <= tolerance && violation < o.constraint_tolerance)
+      return finish(NewtonStatus::converged);
+    if (o.stall_iterations > 0) {
+      if (resid < best) {
+        if (resid <= 0.5 * best) stalled = -1;
+        best = resid;
+        x_best = x;
+        p_best = cur;
+      }
+      if (++stalled >= o.stall_iterations && best <= o.floor_factor * tolerance &&
+          violation < o.constraint_tolerance) {
+        // At the floor: the best iterate seen (later steps only wander within round-off).
+        x = x_best;
+        cur = p_best;
+        r = residual_vector(cur, lambda);
+        res.at_roundoff_floor = true;
+        return finish(NewtonStatus::converged);
+      }
+    }
+    if (iter >= max_iterations) return finish(NewtonStatus::max_iterations);
+    if (std::chrono::steady_clock::now() > limits.deadline)
+      return finish(NewtonStatus::time_budget);
+
+    // Factorise K = H + sigma s I afresh, unless the last factorisation is still doing well
+    // (chord step: the last full step cut the residual by reuse_contraction), which saves the
+    // dominant cost on nearby iterates.
+    const bool reuse = have_factor_ && last_full_step &&
+                       (first || resid < o.reuse_contraction * last_resid) &&
+                       reuse_count < o.max_factor_reuse;
+    first = false;
+    if (reuse) {
+      ++reuse_count;
+      ++res.chord_steps;
+    } else {
+      reuse_count = 0;
+      const Eigen::SparseMatrix<double>& h = pb.hessian(x, lambda);
+      if (h.rows() != n) throw std::logic_error("shifted Newton: Hessian size mismatch");
+      prepare_pattern(h);
+      double s = 0;
+      if (o.shift_scale == ShiftScale::mean_abs_diagonal) {
+        for (int d : diag_) s += std::abs(h.valuePtr()[d]);
+        s = std::max(s / static_cast<double>(n), 1e-300);
+      } else {
+        for (int d : diag_) s = std::max(s, std::abs(h.valuePtr()[d]));
+      }
+      double sigma = std::max(o.initial_shift, shift_hint);
+      have_factor_ = false;
+      for (int attempt = 0; attempt < o.max_shift_attempts; ++attempt) {
+        std::copy(h.valuePtr(), h.valuePtr() + h.nonZeros(), k_.valuePtr());
+        if (sigma > 0)
+          for (int d : diag_) k_.valuePtr()[d] += sigma * s;
+        if (pb.add_unshifted) pb.add_unshifted(k_);
+        ++res.factorisations;
+        if (cholesky_.factorize(k_)) {  // fails unless K is positive definite
+          have_factor_ = true;
+          break;
+        }
+        sigma = std::max(o.shift_growth * sigma, o.retry_shift);
+      }
+      if (!have_factor_) return finish(NewtonStatus::factorisation_failed);
+      res.largest_shift = std::max(res.largest_shift, sigma);
+      shift_hint = sigma > o.initial_shift ? o.shift_memory * sigma : 0.0;
+    }
+    last_resid = resid;
+
+    // Bordered solve with the m x m Schur complement.
+    const Eigen::VectorXd y0 = cholesky_.solve(r);
+    Eigen::VectorXd dx;
+    Eigen::VectorXd lnew = lambda;
+    if (m > 0) {
+      const Eigen::MatrixXd ym = cholesky_.solve(cur.c_grad);
+      const Eigen::MatrixXd sc = cur.c_grad.transpose() * ym;
+      const Eigen::VectorXd dl = sc.fullPivLu().solve(cur.c - cur.c_grad.transpose() * y0);
+      dx = -y0 - ym * dl;
+      lnew += dl;
+    } else {
+      dx = -y0;
+    }
+    if (pb.project_step) pb.project_step(x, dx);
+    const double largest = largest_block_norm(dx, o.block_size);
+    if (largest > o.max_step) dx *= o.max_step / largest;
+
+    // Merit phi = f + lnew'c + rho/2 |c/G|^2 and its slope along dx.
+    const double rho = o.penalty;
+    auto merit = [&](const NewtonPoint& p) {
+      double phi = p.value;
+      for (Eigen::Index k = 0; k < m; ++k) phi += lnew(k) * p.c(k);
+      if (m > 0) phi += 0.5 * rho * p.c.cwiseQuotient(scale).squaredNorm();
+      return phi;
+    };
+    Eigen::VectorXd gm = cur.grad;
+    if (m > 0) {  // (grad f + C lnew) + C rho c/G^2, in this order
+      gm += cur.c_grad * lnew;
+      gm += cur.c_grad * Eigen::VectorXd(rho * chat.cwiseQuotient(scale));
+    }
+    const double slope = gm.dot(dx);
+    const double phi0 = merit(cur);
+    double t = 1.0;
+    bool accepted = false;
+    Eigen::VectorXd xt;
+    for (int ls = 0; ls < o.max_line_search; ++ls, t *= 0.5) {
+      xt = x + t * dx;
+      if ((pb.feasible && !pb.feasible(x, xt)) || !evaluate(xt, trial))
+        continue;  // infeasible: halve
+      const double phi = merit(trial);
+      const bool armijo =
+          slope < 0 && phi <= phi0 + o.armijo * t * slope + o.armijo_slack_rel * std::abs(phi0);
+      // Near convergence phi changes at the level of round-off: accept a step that does
+      // not raise phi beyond that and reduces the residual.
+      bool roundoff_ok = false;
+      if (!armijo && o.roundoff_merit_rel > 0 &&
+          phi <= phi0 + o.roundoff_merit_rel * std::abs(phi0))
+        roundoff_ok = largest_block_norm(residual_vector(trial, lnew), o.block_size) < resid;
+      if (armijo || roundoff_ok) {
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) {
+      if (reuse) {  // a stale factorisation may give a poor direction: retry with a fresh one
+        have_factor_ = false;
+        continue;
+      }
+      return finish(NewtonStatus::line_search_failed);
+    }
+    last_full_step = t == 1.0;
+    x = xt;
+    std::swap(cur, trial);
+    lambda = lnew;
+  }
+}
+
+}  // namespace rbc

@@ -1,0 +1,184 @@
+#pragma once
+// The project's one shifted Newton method with backtracking line search, for
+//   stationary points of L(x, lambda) = f(x) + lambda' c(x),   c(x) = 0 (m >= 0 equalities),
+// used by the continuum equilibrium (continuum/newton_solver.hpp), the continuum backward-Euler
+// step (continuum/dynamics.hpp) and the periodic cell problem (homogenise/periodic_network.hpp).
+// Each iteration solves the bordered KKT system
+//   [K  C] [dx     ]     [r]     r = grad f + C lambda,  C = dc/dx (n x m),
+//   [C' 0] [dlambda] = - [c],    K = d2L + sigma s I,
+// by one sparse Cholesky factorisation of K (core/sparse_cholesky.hpp) and the m x m Schur
+// complement C' K^-1 C. The Levenberg shift sigma (relative to the diagonal scale s: mean or
+// largest |K_ii|) starts at initial_shift (or a fraction of the last successful one) and
+// grows until K is positive definite, so the direction is a descent direction of
+//   phi = f + lambda_new' c + (rho/2) sum_k (c_k/G_k)^2   (rho = penalty, G = constraint scale),
+// phi' = -dx'K dx - rho |c/G|^2. The step is capped so no block of dx (block_size entries, e.g.
+// a vertex) is longer than max_step, then halved until phi satisfies Armijo's condition (or,
+// near convergence, phi does not rise beyond round-off and the residual falls). A trial point
+// outside the domain (f not finite, or the caller's feasibility check false) is halved too, so
+// no NaN enters the iterate. Chord steps (modified Newton) reuse the last factorisation while
+// each full step contracts the residual by reuse_contraction, optionally across calls (time
+// steps, continuation): then the first iteration of a call is a chord step on the previous
+// call's factorisation.
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <chrono>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/progress.hpp"
+#include "core/sparse_cholesky.hpp"
+
+namespace rbc {
+
+/// Scale s of the Levenberg shift sigma s I.
+enum class ShiftScale {
+  mean_abs_diagonal,  ///< mean |K_ii| (continuum: stiffnesses spread over the whole surface)
+  max_abs_diagonal,   ///< largest |K_ii| (periodic cell problem)
+};
+
+struct ShiftedNewtonOptions {
+  /// Converged when the largest block norm of r = grad f + C lambda is <= this (units of
+  /// grad f, e.g. pN) ...
+  double force_tolerance = 1e-6;
+  /// ... and every |c_k| / G_k is below this (ignored without constraints).
+  double constraint_tolerance = 1e-10;
+  int max_iterations = 100;  ///< Newton iterations per call
+  /// Entries per block of x for the residual and step norms (3 = vertex in 3D, 2 in 2D).
+  int block_size = 3;
+  /// Largest block norm of one Newton step (units of x, e.g. um); infinity = no cap.
+  double max_step = std::numeric_limits<double>::infinity();
+  int max_line_search = 40;       ///< step halvings before the line search fails
+  double armijo = 1e-4;           ///< sufficient-decrease constant of the line search
+  double armijo_slack_rel = 0.0;  ///< Armijo test accepts phi rising by this x |phi0| (round-off)
+  /// Accept a step that does not raise phi by more than this x |phi0| if it lowers the
+  /// residual (the last iterations, where phi changes at round-off level); 0 = off.
+  double roundoff_merit_rel = 1e-12;
+  double penalty = 1e4;  ///< rho of the merit function (units of f)
+  /// Shift: sigma starts at max(initial_shift, shift_memory x last successful sigma),
+  /// after a failed factorisation sigma <- max(shift_growth x sigma, retry_shift), at most
+  /// max_shift_attempts factorisations per iteration.
+  double initial_shift = 1e-8;
+  double retry_shift = 1e-4;
+  double shift_growth = 10.0;
+  double shift_memory = 0.01;  ///< 0 = every iteration starts from initial_shift
+  int max_shift_attempts = 30;
+  ShiftScale shift_scale = ShiftScale::mean_abs_diagonal;
+  /// Chord steps: consecutive iterations that may reuse the last factorisation while each
+  /// full step cuts the residual by reuse_contraction (0 = plain Newton).
+  int max_factor_reuse = 4;
+  double reuse_contraction = 0.25;
+  /// Keep the factorisation between calls: the first iteration of the next call is a chord
+  /// step on it (the Hessian changes little between time steps or nearby forces).
+  bool reuse_across_calls = false;
+  /// Round-off floor: after stall_iterations iterations without the best residual halving,
+  /// and with the best residual <= floor_factor x force_tolerance, stop converged at the best
+  /// iterate (stall_iterations 0 or floor_factor 0 = off).
+  int stall_iterations = 0;
+  double floor_factor = 1.0;
+  SparseCholeskyOptions cholesky;
+  CancelCheck cancel;  ///< polled once per iteration (throws Cancelled)
+  /// Throws std::invalid_argument naming the quantity, value and expectation.
+  void validate() const;
+};
+
+/// Typed outcome of a shifted-Newton solve.
+enum class NewtonStatus {
+  converged,
+  max_iterations,
+  line_search_failed,
+  infeasible_start,
+  time_budget,           ///< the caller's deadline passed before convergence
+  factorisation_failed,  ///< K stayed indefinite up to the largest shift
+};
+std::string to_string(NewtonStatus s);
+
+/// f, its gradient and the constraints at one point.
+struct NewtonPoint {
+  double value = 0;
+  Eigen::VectorXd grad;    ///< n
+  Eigen::VectorXd c;       ///< m constraint values c(x) (0 at feasibility)
+  Eigen::MatrixXd c_grad;  ///< n x m, column k = grad c_k
+};
+
+struct NewtonProblem {
+  /// Evaluates f (and grad f, c, C) at x; returns false (or a non-finite value) outside the
+  /// domain. c and C are left empty for an unconstrained problem.
+  std::function<bool(const Eigen::VectorXd& x, NewtonPoint& p)> evaluate;
+  /// Assembles d2f + sum_k lambda_k d2c_k at x into a matrix the caller owns and returns it
+  /// (symmetric, compressed; the lower triangle is read; its pattern must contain the
+  /// diagonal and normally stays fixed: it is re-analysed only when its size or nonzero count
+  /// changes). Typically a BlockMatrix's matrix() (core/block_pattern.hpp).
+  std::function<const Eigen::SparseMatrix<double>&(const Eigen::VectorXd& x,
+                                                   const Eigen::VectorXd& lambda)>
+      hessian;
+  /// Optional: adds terms to the shifted matrix before factorisation (e.g. a drag's fixed
+  /// diagonal blocks that should not count in the shift scale).
+  std::function<void(Eigen::SparseMatrix<double>& k)> add_unshifted;
+  /// Optional: projects the Newton step dx at x (after the KKT solve, before the step cap),
+  /// e.g. removes the rigid-body modes an invariant problem does not see, which the tiny
+  /// shift alone leaves undetermined once a chord step uses an older factorisation. It must
+  /// keep C' dx (constraints invariant under the removed modes).
+  std::function<void(const Eigen::VectorXd& x, Eigen::VectorXd& dx)> project_step;
+  /// Optional: false if the trial point `to` reached from `from` is infeasible (halved).
+  std::function<bool(const Eigen::VectorXd& from, const Eigen::VectorXd& to)> feasible;
+  /// Scale G_k of each constraint (m entries; c_k/G_k is the relative violation).
+  Eigen::VectorXd constraint_scale;
+};
+
+/// Per-iteration report.
+struct NewtonIterate {
+  int iteration = 0;
+  double value = 0;                 ///< f
+  double residual = 0;              ///< largest block norm of r
+  double constraint_violation = 0;  ///< largest |c_k| / G_k
+  Eigen::VectorXd relative_c;       ///< c_k / G_k
+};
+
+struct NewtonLimitsCore {
+  int max_iterations = -1;      ///< < 0: options.max_iterations
+  double force_tolerance = -1;  ///< < 0: options.force_tolerance (e.g. a step's dt-scaled one)
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+};
+
+struct ShiftedNewtonResult {
+  NewtonStatus status = NewtonStatus::max_iterations;
+  int iterations = 0;
+  int factorisations = 0;  ///< numeric factorisations, including retries with larger shifts
+  int chord_steps = 0;     ///< iterations that reused an earlier factorisation
+  double residual = 0;     ///< largest block norm of r at the returned point
+  double largest_shift = 0;
+  bool at_roundoff_floor = false;
+  NewtonPoint point;  ///< f, gradient and constraints at the returned x
+};
+
+/// Prepared state of the method for one problem size: the factorisation (symbolic analysis
+/// reused while the pattern stays) and, with reuse_across_calls, the last numeric factor.
+class ShiftedNewton {
+ public:
+  explicit ShiftedNewton(const ShiftedNewtonOptions& options);
+  /// Solves from x (updated in place to the returned point) and lambda (m, updated).
+  ShiftedNewtonResult solve(const NewtonProblem& problem, Eigen::VectorXd& x,
+                            Eigen::VectorXd& lambda,
+                            const std::function<void(const NewtonIterate&)>& on_iteration = {},
+                            const NewtonLimitsCore& limits = {});
+  /// Drops a kept factorisation (the next iteration factorises afresh).
+  void forget_factorisation() { have_factor_ = false; }
+  const ShiftedNewtonOptions& options() const { return options_; }
+
+ private:
+  void prepare_pattern(const Eigen::SparseMatrix<double>& h);
+  ShiftedNewtonOptions options_;
+  SparseCholesky cholesky_;
+  Eigen::SparseMatrix<double> k_;  ///< shifted copy of the Hessian
+  std::vector<int> diag_;          ///< value index of each diagonal entry of k_
+  Eigen::Index analysed_rows_ = -1, analysed_nonzeros_ = -1;
+  bool have_factor_ = false;
+  double shift_hint_ = 0.0;
+};
+
+/// Largest Euclidean norm over consecutive blocks of block_size entries of v.
+double largest_block_norm(const Eigen::VectorXd& v, int block_size);
+
+}  // namespace rbc

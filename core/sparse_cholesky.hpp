@@ -1,0 +1,65 @@
+#pragma once
+// The project's sparse Cholesky factorisation: LL' of a symmetric positive definite sparse
+// matrix by CHOLMOD (SuiteSparse), behind this small interface so that no public header
+// includes CHOLMOD or Eigen's CholmodSupport (the implementation is private to
+// core/sparse_cholesky.cpp). The fill-reducing ordering is analysed once per pattern
+// (analyze) and reused by every numeric factorisation (factorize) of matrices with that
+// pattern. Only the lower triangle of the matrix passed in is read, so full or lower block
+// storage (core/block_pattern.hpp) both work.
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <memory>
+
+namespace rbc {
+
+/// Fill-reducing ordering of the sparse Cholesky factorisation.
+enum class FillOrdering {
+  automatic,          ///< CHOLMOD's default: AMD, METIS tried when AMD's fill is high
+  amd,                ///< approximate minimum degree
+  metis,              ///< METIS nested dissection
+  nested_dissection,  ///< CHOLMOD's own nested dissection (NESDIS)
+};
+
+struct SparseCholeskyOptions {
+  FillOrdering ordering = FillOrdering::metis;
+  /// CHOLMOD's simplicial LL' (no BLAS) below this many unknowns, supernodal LL' (BLAS
+  /// dgemm) from it on; 0 = always supernodal (measured faster from ~750 unknowns on, once
+  /// BLAS runs on one thread: note_speed.md).
+  int supernodal_min_unknowns = 0;
+  /// BLAS (OpenBLAS and OpenMP) threads of the factorisation and solves
+  /// (core/blas_threads.hpp); 0 = the caller's. One keeps the rounding independent of the
+  /// core count and avoids thread wake-ups on CHOLMOD's many small BLAS calls.
+  int blas_threads = 1;
+  /// Throws std::invalid_argument naming the quantity: threshold >= 0, threads in [0, 1024].
+  void validate() const;
+};
+
+class SparseCholesky {
+ public:
+  explicit SparseCholesky(const SparseCholeskyOptions& options = {});
+  ~SparseCholesky();
+  SparseCholesky(SparseCholesky&&) noexcept;
+  SparseCholesky& operator=(SparseCholesky&&) noexcept;
+  SparseCholesky(const SparseCholesky&) = delete;
+  SparseCholesky& operator=(const SparseCholesky&) = delete;
+
+  /// Symbolic analysis (ordering, elimination tree) of a's pattern (compressed, square).
+  void analyze(const Eigen::SparseMatrix<double>& a);
+  /// Numeric factorisation of a (same pattern as analysed; analyses first if none was).
+  /// Returns false if a is not numerically positive definite; the factor is then invalid.
+  bool factorize(const Eigen::SparseMatrix<double>& a);
+  /// True after a successful factorize().
+  bool factorised() const;
+  /// Solves a x = b with the last successful factorisation.
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
+  /// Nonzeros of the factor L (0 before the first factorisation).
+  double factor_nonzeros() const;
+  Eigen::Index rows() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rbc
