@@ -128,8 +128,8 @@ struct StretchRow {
 
 template <class Point>
 StretchRow to_row(const Point& p, int elements) {
-  return {p.force_pN,   p.axial_um,     p.transverse_um,      p.energy_pNum, p.iterations,
-          p.converged,  p.wall_s,       p.vertices,           elements,      p.residual_pN,
+  return {p.force_pN,   p.axial_um,     p.transverse_um,     p.energy_pNum, p.iterations,
+          p.converged,  p.wall_s,       p.vertices,          elements,      p.residual_pN,
           p.area_drift, p.volume_drift, to_string(p.status), p.warm};
 }
 

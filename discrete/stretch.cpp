@@ -20,6 +20,8 @@ void StretchOptions::validate() const {
                            10000);
   require_integer_in_range("preconditioner threshold (vertices)", precondition_min_vertices, 0,
                            std::numeric_limits<int>::max());
+  require_finite_in_range("largest preconditioned force of a small network", "pN",
+                          small_network_max_force_pN, -1.0, 1e9);
   require_integer_in_range("preconditioner refresh interval", refresh_interval, 0,
                            std::numeric_limits<int>::max());
   require_finite_in_range("plain L-BFGS step cap (shortest links)", "", plain_max_step_links, 0.0,
@@ -94,7 +96,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   // Preconditioner: factorised at the start of the force and again whenever L-BFGS stalls.
   std::unique_ptr<NewtonPreconditioner> owned;
   NewtonPreconditioner* pre = nullptr;
-  if (n >= opt.precondition_min_vertices) {
+  if (preconditioned(opt, n, force_pN)) {
     if (!shared) owned = std::make_unique<NewtonPreconditioner>(net, opt.preconditioner);
     pre = shared ? shared : owned.get();
   }
@@ -253,7 +255,8 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
   Positions x = net.rest;
   ConstraintMultipliers lambda;
   std::unique_ptr<NewtonPreconditioner> pre;
-  if (net.topo.num_vertices >= opt.precondition_min_vertices)
+  if (std::any_of(forces.begin(), forces.end(),
+                  [&](double f) { return preconditioned(opt, net.topo.num_vertices, f); }))
     pre = std::make_unique<NewtonPreconditioner>(net, opt.preconditioner);
   for (size_t k = 0; k < forces.size(); ++k) {
     throw_if_cancelled(opt.minimiser.cancel);

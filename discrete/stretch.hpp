@@ -34,6 +34,10 @@ std::ostream& operator<<(std::ostream& os, StretchStatus s);
 /// The stretch status of an L-BFGS outcome.
 StretchStatus stretch_status(MinimiserStatus s);
 
+/// Networks of at least this many vertices are preconditioned at every force (see
+/// StretchOptions::precondition_min_vertices).
+inline constexpr int kLargeNetworkVertices = 1500;
+
 struct StretchOptions {
   LbfgsOptions minimiser;         ///< force_tolerance in pN per vertex
   int max_outer_iterations = 40;  ///< augmented-Lagrangian multiplier updates per force
@@ -41,12 +45,20 @@ struct StretchOptions {
   AugmentedLagrangianSchedule augmented_lagrangian;
   /// Precondition L-BFGS with a sparse Cholesky factorisation (CHOLMOD) of the projected
   /// Newton Hessian (discrete/newton_preconditioner.hpp: network_hessian.hpp + the
-  /// area/volume penalties by Woodbury) for networks with at least this many vertices.
-  /// 0 = always, INT_MAX = never (plain L-BFGS). Measured at N = 250 (note_speed.md):
-  /// preconditioning from N = 0 cuts a 13-force sweep from ~2,900 L-BFGS iterations to ~380
-  /// (CPU 0.68 -> 0.22 s), but at N = 300 and 2,000 pN it fails to converge where plain
-  /// L-BFGS does, so the default stays at 1,500 until that is understood.
-  int precondition_min_vertices = 1500;
+  /// area/volume penalties by Woodbury) for networks with at least this many vertices:
+  /// those with kLargeNetworkVertices or more at every force, smaller ones at forces up to
+  /// small_network_max_force_pN. 0 = always (the default), INT_MAX = never (plain L-BFGS).
+  /// Measured (one thread, the 13 Mills forces plus 250, 300, 400 and 500 pN): every network
+  /// from N = 100 to 1,200 converges at every force with the preconditioner, in 2.0-2.5x
+  /// less wall time than plain L-BFGS (N = 250: 0.73 vs 1.67 s; 1,000: 3.5 vs 5.7 s); the
+  /// diameters differ by up to 1.5e-4 relative at the default 1e-3 pN tolerance and by 4e-6
+  /// at 1e-5 pN, i.e. by the tolerance's slack, not the answer.
+  int precondition_min_vertices = 0;
+  /// Largest force (pN) at which a network smaller than kLargeNetworkVertices is
+  /// preconditioned; above it plain L-BFGS. At N = 300 and 2,000 pN (above the documented
+  /// kMaxDiscreteForce_pN) the preconditioned solve stalls for minutes where plain L-BFGS
+  /// converges; the measured range ends at 500 pN.
+  double small_network_max_force_pN = 500.0;
   NewtonPreconditionerOptions preconditioner;
   /// Refactorise at the current point when this many L-BFGS iterations since the last
   /// factorisation have not reduced the largest vertex force tenfold (0 = factorise once
@@ -118,6 +130,12 @@ struct StretchPoint {
   double stiffness_scale = 1.0;
   bool warm = false;  ///< solved from a given StretchState entry
 };
+
+/// Whether a force is solved with the Newton preconditioner (StretchOptions).
+inline bool preconditioned(const StretchOptions& o, int vertices, double force_pN) {
+  return vertices >= o.precondition_min_vertices &&
+         (vertices >= kLargeNetworkVertices || force_pN <= o.small_network_max_force_pN);
+}
 
 /// Solves one force from x (updated in place) carrying the multipliers along.
 StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
