@@ -103,10 +103,30 @@ StretchOptions to_stretch_options(const StretchCli& o) {
 
 /// Checks --out last, once every other input is known good: no two forces may write the same
 /// shape file, and the directory must be writable and empty (unless --force-overwrite).
-void prepare_stretch_output(const StretchCli& o, const std::vector<double>& forces) {
-  if (o.out.empty()) return;
+/// Returns true when the check created the directory (so a later refusal can remove it).
+bool prepare_stretch_output(const StretchCli& o, const std::vector<double>& forces) {
+  if (o.out.empty()) return false;
   require_distinct(forces, "--force", o.forces);
+  std::error_code ec;
+  const bool existed = std::filesystem::exists(o.out, ec);
   prepare_output_directory(o.out, o.overwrite);
+  return !existed;
+}
+
+/// Reads --warm-start DIR (if given) against the mesh just built. A refusal (wrong model, mesh
+/// or forces; missing or corrupt file) happens before anything is written: the --out directory
+/// the up-front check created is removed again, so a refused run leaves nothing behind.
+StretchState read_checked_warm_start(const StretchCli& o, bool created_out, const char* model,
+                                     Eigen::Index vertices, const Faces& faces,
+                                     const std::vector<double>& forces) {
+  if (o.warm_start.empty()) return {};
+  try {
+    return read_warm_start(o.warm_start, model, vertices, faces, forces);
+  } catch (...) {
+    std::error_code ec;
+    if (created_out && std::filesystem::is_empty(o.out, ec)) std::filesystem::remove(o.out, ec);
+    throw;
+  }
 }
 
 /// Shape file tag: one decimal (shape_16.0pN) or as many as tell two forces apart.
@@ -277,7 +297,7 @@ int run_discrete(const StretchCli& o) {
   for (double f : forces) validate_discrete_force(f);
   const NetworkParameters params = to_network_parameters(o);
   StretchOptions so = to_stretch_options(o);
-  prepare_stretch_output(o, forces);
+  const bool created_out = prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
@@ -295,6 +315,8 @@ int run_discrete(const StretchCli& o) {
     report(progress, m.str());
   }
   so.minimiser.cancel = interrupt_check();
+  const StretchState warm =
+      read_checked_warm_start(o, created_out, "discrete", net.rest.cols(), net.topo.faces, forces);
   StretchManifest manifest(o.out,
                            {{"model", "discrete"},
                             {"mesh", mesh_report_json(mesh_report)},
@@ -315,10 +337,6 @@ int run_discrete(const StretchCli& o) {
     write_mesh_snapshot(base, s);
     manifest.force_done(p.force_pN, base);
   };
-  const StretchState warm =
-      o.warm_start.empty()
-          ? StretchState{}
-          : read_warm_start(o.warm_start, "discrete", net.rest.cols(), net.topo.faces, forces);
   if (!warm.empty()) report(progress, "warm start from " + o.warm_start);
   const std::vector<StretchPoint> pts =
       with_manifest(manifest, [&] { return run_stretch(net, forces, so, progress, warm); });
@@ -346,7 +364,7 @@ int run_continuum(const StretchCli& o) {
   co.max_iterations_per_force = std::min(o.max_iterations, co.max_iterations_per_force);
   if (o.tolerance_given) co.newton.force_tolerance_pN = o.tolerance_pN;
   co.validate();
-  prepare_stretch_output(o, forces);
+  const bool created_out = prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
   MeshQualityReport mesh_report;
   const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mesh_report);
@@ -359,6 +377,8 @@ int run_continuum(const StretchCli& o) {
                        std::to_string(model.num_elements()) + " elements, law " + model.law.name);
   co.newton.cancel = interrupt_check();
   co.lbfgs.cancel = co.newton.cancel;
+  const StretchState warm = read_checked_warm_start(o, created_out, "continuum", model.rest.cols(),
+                                                    model.topo.faces, forces);
   StretchManifest manifest(o.out,
                            {{"model", "continuum"},
                             {"order", to_string(order)},
@@ -366,10 +386,6 @@ int run_continuum(const StretchCli& o) {
                            forces);
   // The continuation (with its secant predictor and bisection) runs in the library, so the
   // shapes are written after the last force; an interrupted run records none as complete.
-  const StretchState warm =
-      o.warm_start.empty()
-          ? StretchState{}
-          : read_warm_start(o.warm_start, "continuum", model.rest.cols(), model.topo.faces, forces);
   if (!warm.empty()) report(progress, "warm start from " + o.warm_start);
   const std::vector<ContinuumStretchPoint> pts = with_manifest(
       manifest, [&] { return run_continuum_stretch(model, forces, co, progress, warm); });

@@ -111,6 +111,22 @@ TEST(WarmStart, RefusedUnlessModelMeshAndForcesMatch) {
     EXPECT_NE(r.all.find(c.expect), std::string::npos) << c.args << "\n" << r.all;
     EXPECT_NE(r.all.find("--warm-start"), std::string::npos) << r.all;
   }
+  // A refusal found only once the mesh is built (the mesh differs) leaves no --out behind,
+  // neither a fresh directory nor a manifest in an existing empty one.
+  const std::string out_new = fresh_dir("refused_out_new");
+  const std::string out_old = fresh_dir("refused_out_old");
+  fs::create_directories(out_old);
+  for (const std::string& out : {out_new, out_old}) {
+    const CommandRun r =
+        rbc("stretch -q --model continuum --elements 1000 --force 0,30 "
+            "--warm-start " +
+            dir + " --out " + out);
+    EXPECT_EQ(r.exit_code, 2) << r.all;
+    EXPECT_NE(r.all.find("same mesh"), std::string::npos) << r.all;
+  }
+  EXPECT_FALSE(fs::exists(out_new)) << "a refused run created " << out_new;
+  ASSERT_TRUE(fs::is_directory(out_old));
+  EXPECT_TRUE(fs::is_empty(out_old)) << "a refused run wrote into " << out_old;
 }
 
 }  // namespace
