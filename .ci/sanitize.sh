@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Sanitizer job: configures build-asan/ (-DRBC_SANITIZE=ON: ASan + LeakSanitizer + UBSan, -O1 -g,
+# Sanitizer job: configures build-asan/ (-DRBC_SANITIZE=ON: ASan + LeakSanitizer + UBSan, -O1 -g1,
 # every finding fatal), builds everything and runs the C++ suite through ctest with leak
 # detection on. Python tests are left to the normal build (an instrumented module cannot be loaded
 # by the uninstrumented interpreter); MPI tests run in a second pass with the slow unwinder,
