@@ -36,8 +36,7 @@ def main():
     ok = True
     if args.rbc:
         # The numpy density against the project's own, at three deformation gradients.
-        c = make_fe.wlc_taylor(75.0, 237.75, 7.5, 300.0)
-        C = 3.0 * 1.005**2 * c[1] / 2.0
+        c, C = make_fe.law_constants()
         for Fd in ((1.1, 0.05, 0.0, 0.95), (1.4, 0.0, 0.0, 0.8), (0.9, -0.2, 0.1, 1.3)):
             out = subprocess.run([args.rbc, "psi", "--order", "2", "--deformation",
                                   ",".join(map(str, Fd))], capture_output=True, text=True).stdout
@@ -55,9 +54,8 @@ def main():
     with h5py.File(args.shape_h5, "r") as f:
         x = np.array(f["mesh/positions_um"], dtype=float)
 
-    c = make_fe.wlc_taylor(75.0, 237.75, 7.5, 300.0)
     q, eta = 1.0, 0.005
-    C = 3.0 * (1.0 + eta) ** 2 * c[1] / (2.0 * q)
+    c, C = make_fe.law_constants(q=q, eta=eta)
 
     def metric(P):
         e1, e2 = P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]

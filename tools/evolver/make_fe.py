@@ -85,6 +85,13 @@ def wlc_taylor(lbar_nm, lmax_nm, p_nm, temperature_K):
     return c0, c1, c2
 
 
+def law_constants(lbar_nm=75.0, lmax_nm=237.75, p_nm=7.5, temperature_K=300.0, q=1.0,
+                  eta=0.005):
+    """(c0, c1, c2) and the steric constant C = 3 (1 + eta)^2 V'(1)/(2 q) (pN/um)."""
+    c = wlc_taylor(lbar_nm, lmax_nm, p_nm, temperature_K)
+    return c, 3.0 * (1.0 + eta) ** 2 * c[1] / (2.0 * q)
+
+
 def psi_p2(c, C, q, eta, i1, i2):
     """The project's p = 2 density (pN/um) at invariants (i1, i2), constants included."""
     c0, c1, c2 = c
@@ -112,6 +119,10 @@ def tweezer_patch(x, faces, fraction):
                 break
             chosen.append(int(v))
             area += a[v]
+        k = len(chosen)
+        if k < len(seq) and x[seq[k], 0] == x[seq[k - 1], 0]:
+            # std::sort in the project is not stable: the cut may differ on a tie.
+            print("make_fe.py: warning: tie in x at the contact patch boundary", file=sys.stderr)
         sign = 1.0 if side == 0 else -1.0
         for v in chosen:
             share[v] = sign * a[v] / area
@@ -176,10 +187,9 @@ def main():
             if not np.array_equal(np.array(f["mesh/faces"]), faces):
                 sys.exit("make_fe.py: error: --positions mesh does not match the rest mesh")
 
-    c = wlc_taylor(args.lbar, args.lmax, args.persistence, args.temperature)
+    c, C = law_constants(args.lbar, args.lmax, args.persistence, args.temperature, args.q,
+                         args.eta)
     c0, c1, c2 = c
-    v1 = c1  # V'(1) = c1
-    C = 3.0 * (1.0 + args.eta) ** 2 * v1 / (2.0 * args.q)
     le_modulus, le_poisson = 8.0 * c2, 1.0 / 3.0
     dirichlet_modulus = 1.5 * c1
     kappa_pNum = args.kappa * PNUM_PER_J
