@@ -50,8 +50,6 @@ def main():
     ap.add_argument("--forces", default=FORCES)
     ap.add_argument("--evolver", default="evolver-nox-d")
     ap.add_argument("--kappa", default="2e-19", help="bending rigidity (J), both sides")
-    ap.add_argument("--evolver-processes", type=int, default=1,
-                    help="evolver -pN (its own parallel evaluation); 1 = serial")
     args = ap.parse_args()
     w = os.path.abspath(args.work)
     os.makedirs(w, exist_ok=True)
@@ -65,14 +63,15 @@ def main():
                     "--forces", args.forces, "--kappa", args.kappa], check=True)
 
     result = {"vertices": args.vertices, "elements": elements, "forces_pN": args.forces,
-              "kappa_J": float(args.kappa), "evolver_processes": args.evolver_processes,
+              "kappa_J": float(args.kappa),
               "cpu": open("/proc/cpuinfo").read().count("processor\t:")}
 
     # Surface Evolver.
     load = load_average()
     with open(os.path.join(w, "evolver.log"), "w") as log:
-        par = [f"-p{args.evolver_processes}"] if args.evolver_processes > 1 else []
-        wall, cpu, rss, rc = timed([args.evolver] + par + ["-x", "-f", cmd, fe], stdout=log)
+        # Serial: evolver -p2 refuses this datafile (ERROR 3362, fixed quantity atot "not
+        # connected to any mobile vertices").
+        wall, cpu, rss, rc = timed([args.evolver, "-x", "-f", cmd, fe], stdout=log)
     ev_points = []
     for m in re.finditer(r"RESULT (\S+) (\d+) (\S+) (\S+) (\S+) (\S+) (\S+) (\S+) (\S+)",
                          open(os.path.join(w, "evolver.log")).read()):
