@@ -50,6 +50,8 @@ def main():
     ap.add_argument("--forces", default=FORCES)
     ap.add_argument("--evolver", default="evolver-nox-d")
     ap.add_argument("--kappa", default="2e-19", help="bending rigidity (J), both sides")
+    ap.add_argument("--bending", default="star_perp_sq_mean_curvature",
+                    help="Evolver's bending method (make_fe.py --bending)")
     args = ap.parse_args()
     w = os.path.abspath(args.work)
     os.makedirs(w, exist_ok=True)
@@ -60,10 +62,11 @@ def main():
     rest = os.path.join(w, "mesh", "rest_shape.h5")
     fe, cmd = os.path.join(w, "scene.fe"), os.path.join(w, "sweep.cmd")
     subprocess.run([sys.executable, os.path.join(HERE, "make_fe.py"), rest, fe, "--commands", cmd,
-                    "--forces", args.forces, "--kappa", args.kappa], check=True)
+                    "--forces", args.forces, "--kappa", args.kappa, "--bending", args.bending],
+                   check=True)
 
     result = {"vertices": args.vertices, "elements": elements, "forces_pN": args.forces,
-              "kappa_J": float(args.kappa),
+              "kappa_J": float(args.kappa), "evolver_bending": args.bending,
               "cpu": open("/proc/cpuinfo").read().count("processor\t:")}
 
     # Surface Evolver.

@@ -170,6 +170,9 @@ def main():
     ap.add_argument("--eta", type=float, default=0.005)
     ap.add_argument("--kappa", type=float, default=2e-19, help="J")
     ap.add_argument("--contact-fraction", type=float, default=0.05)
+    ap.add_argument("--bending", choices=["star_perp_sq_mean_curvature", "star_sq_mean_curvature"],
+                    default="star_perp_sq_mean_curvature",
+                    help="Evolver's discretisation of int h^2 dA (both with Hessians)")
     ap.add_argument("--commands", help="also write the Evolver command file of the sweep")
     ap.add_argument("--forces", default="0,16,38,67.6,87.6,130,172.8,193", help="pN")
     ap.add_argument("--tolerance", type=float, default=1e-6, help="net vertex force, pN")
@@ -246,7 +249,7 @@ def main():
     w("define vertex attribute x0 real")
     w(f"quantity elastic energy modulus {le_modulus:.17g} method linear_elastic global")
     w(f"quantity dirich energy modulus {dirichlet_modulus:.17g} method dirichlet_elastic global")
-    w(f"quantity bend energy modulus {2.0 * kappa_pNum:.17g} method star_perp_sq_mean_curvature global")
+    w(f"quantity bend energy modulus {2.0 * kappa_pNum:.17g} method {args.bending} global")
     w("method_instance twinst method vertex_scalar_integral global element_modulus twshare")
     w("scalar_integrand: -fpull*x")
     w("quantity tweezers energy method twinst")
