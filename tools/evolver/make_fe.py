@@ -24,8 +24,8 @@ C = 3 (1 + eta)^2 V'(1) / (2 q) (discrete/steric_energy.cpp), is written EXACTLY
 Evolver pieces:
 
 * polynomial part: methods linear_elastic and dirichlet_elastic (reference metric in the
-  facet attribute form_factors). Evolver 2.70 computes, per reference area (checked term by
-  term against a direct sum by tools/evolver/check_law.py),
+  facet attribute form_factors). Evolver 2.70 computes, per reference area (their sum is
+  checked against a direct per-facet sum by tools/evolver/check_law.py),
     linear_elastic:   m/(8 (1 + nu)) [(I2^2 + 2 I2 + 2 - 2 J^2) + nu/(1 - nu) I2^2]
     dirichlet_elastic: m (I2 + 2)
   so linear_elastic with m = 8 c2, nu = 1/3 and dirichlet_elastic with m = 3/2 c1 give
@@ -161,7 +161,8 @@ def main():
     ap.add_argument("rest_h5")
     ap.add_argument("out_fe")
     ap.add_argument("--positions", help="start from these positions (an rbc shape_*.h5)")
-    ap.add_argument("--steric", choices=["exact", "none"], default="exact")
+    ap.add_argument("--steric", choices=["exact", "none"], default="exact",
+                    help="none: diagnostics only (without it the law is not convex at rest)")
     ap.add_argument("--lbar", type=float, default=75.0, help="nm")
     ap.add_argument("--lmax", type=float, default=237.75, help="nm")
     ap.add_argument("--persistence", type=float, default=7.5, help="nm")
