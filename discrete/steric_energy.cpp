@@ -18,7 +18,7 @@ double steric_constant(const WlcDensity& w, const StericParameters& s) {
 }
 
 StericDensity steric_density(double C, const StericParameters& s, double J) {
-  const double jq = std::pow(J, s.q);
+  const double jq = s.q == 1.0 ? J : std::pow(J, s.q);  // pow(J, 1) is J exactly, and slow
   const double den = jq + s.eta;
   StericDensity r;
   r.v = 2.0 * C / den;

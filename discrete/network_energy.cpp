@@ -1,0 +1,105 @@
+#include "discrete/network_energy.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "core/parallel.hpp"
+
+namespace rbc {
+
+NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
+  const int nf = topo.num_faces(), ne = topo.num_edges();
+  NetworkGeometry g;
+  g.face_normal2.resize(3, nf);
+  g.face_area.resize(nf);
+  g.edge_length.resize(ne);
+  g.hinge_angle.resize(ne);
+  double area[kMaxChunks] = {0, 0, 0, 0}, volume[kMaxChunks] = {0, 0, 0, 0};
+  // Faces: the same operations, in the same chunks, as triangle_area/total_area and
+  // tetra_volume/enclosed_volume (core/geometry), so the totals carry the same bits.
+  for_each_chunk(nf, [&](int c, int begin, int end) {
+    double sa = 0, sv = 0;
+    for (int f = begin; f < end; ++f) {
+      const auto a = x.col(topo.faces(0, f)), b = x.col(topo.faces(1, f)),
+                 d = x.col(topo.faces(2, f));
+      const Eigen::Vector3d m = (b - a).cross(d - a);
+      g.face_normal2.col(f) = m;
+      g.face_area[f] = 0.5 * m.norm();
+      sa += g.face_area[f];
+      sv += a.dot(b.cross(d)) / 6.0;
+    }
+    area[c] = sa;
+    volume[c] = sv;
+  });
+  for (int c = 0; c < assembly_chunks(nf); ++c) g.area_um2 += area[c], g.volume_um3 += volume[c];
+  // Hinges: theta = atan2((m0 x m1).e/|e|, m0.m1) with m0, m1 the normals of the faces that
+  // traverse e forwards and backwards (= e x (c - a) and (a - b) x (d - b)); the 1/|e| is moved
+  // to the second argument so that a zero-length edge gives atan2(0, 0) rather than 0/0.
+  for_each_chunk(ne, [&](int, int begin, int end) {
+    for (int e = begin; e < end; ++e) {
+      const Eigen::Vector3d ed = x.col(topo.edges(1, e)) - x.col(topo.edges(0, e));
+      const double len = ed.norm();
+      const auto m0 = g.face_normal2.col(topo.edge_faces(0, e));
+      const auto m1 = g.face_normal2.col(topo.edge_faces(1, e));
+      g.edge_length[e] = len;
+      g.hinge_angle[e] = std::atan2(m0.cross(m1).dot(ed), len * m0.dot(m1));
+    }
+  });
+  return g;
+}
+
+GeometricGradient GeometricGradient::zero(const Topology& topo, Positions* direct) {
+  GeometricGradient c;
+  c.face_area.assign(topo.num_faces(), 0.0);
+  c.edge_length.assign(topo.num_edges(), 0.0);
+  c.hinge_angle.assign(topo.num_edges(), 0.0);
+  c.direct = direct;
+  return c;
+}
+
+void assemble_geometric_gradient(const Positions& x, const Topology& topo,
+                                 const NetworkGeometry& geo, const GeometricGradient& c,
+                                 Positions& grad) {
+  const int nf = topo.num_faces(), ne = topo.num_edges();
+  const int chunks = assembly_chunks(ne);  // edges outnumber faces
+  const double cv = c.volume / 6.0;
+  assemble_chunks(chunks, &grad, [&](int chunk, Positions& g) {
+    // Edges: dL/db = e/L = -dL/da; dtheta as core/geometry.hpp dihedral_angle's gradient
+    // (dtheta/dc = -L m0/|m0|^2, dtheta/dd = -L m1/|m1|^2, a and b from t_c, t_d).
+    const int e_end = chunk_begin(ne, chunks, chunk + 1);
+    for (int e = chunk_begin(ne, chunks, chunk); e < e_end; ++e) {
+      const int ia = topo.edges(0, e), ib = topo.edges(1, e);
+      const int ic = topo.edge_opposite(0, e), id = topo.edge_opposite(1, e);
+      const auto a = x.col(ia);
+      const Eigen::Vector3d ed = x.col(ib) - a;
+      const double len = geo.edge_length[e], cl = c.edge_length[e], ct = c.hinge_angle[e];
+      const Eigen::Vector3d dl = (cl / len) * ed;
+      g.col(ib) += dl;
+      g.col(ia) -= dl;
+      if (ct == 0.0) continue;
+      const auto m0 = geo.face_normal2.col(topo.edge_faces(0, e));
+      const auto m1 = geo.face_normal2.col(topo.edge_faces(1, e));
+      const Eigen::Vector3d gc = (-ct * len / m0.squaredNorm()) * m0;
+      const Eigen::Vector3d gd = (-ct * len / m1.squaredNorm()) * m1;
+      const double inv_l2 = 1.0 / (len * len);
+      const double tc = (x.col(ic) - a).dot(ed) * inv_l2, td = (x.col(id) - a).dot(ed) * inv_l2;
+      g.col(ia) -= (1.0 - tc) * gc + (1.0 - td) * gd;
+      g.col(ib) -= tc * gc + td * gd;
+      g.col(ic) += gc;
+      g.col(id) += gd;
+    }
+    // Faces: dA/dx_k = n x (x_{k+2} - x_{k+1})/2, dV/dx_k = x_{k+1} x x_{k+2}/6 (cyclic).
+    const int f_end = chunk_begin(nf, chunks, chunk + 1);
+    for (int f = chunk_begin(nf, chunks, chunk); f < f_end; ++f) {
+      const int i0 = topo.faces(0, f), i1 = topo.faces(1, f), i2 = topo.faces(2, f);
+      const auto p0 = x.col(i0), p1 = x.col(i1), p2 = x.col(i2);
+      const double twice = 2.0 * geo.face_area[f];
+      const Eigen::Vector3d m = (0.5 * c.face_area[f] / twice) * geo.face_normal2.col(f);
+      g.col(i0) += m.cross(p2 - p1) + cv * p1.cross(p2);
+      g.col(i1) += m.cross(p0 - p2) + cv * p2.cross(p0);
+      g.col(i2) += m.cross(p1 - p0) + cv * p0.cross(p1);
+    }
+  });
+}
+
+}  // namespace rbc
