@@ -90,7 +90,7 @@ double inplane_energy(const Network& net, const NetworkGeometry& geo, GeometricG
     double s = 0;
     for (int e = begin; e < end && s < inf; ++e) {
       const double len = geo.edge_length[e], lbar2 = net.lbar_um(e) * net.lbar_um(e);
-      const DensityValue v = evaluate(net.wlc, len * len / lbar2);
+      const DensityValue v = evaluate(net.wlc, len * len / lbar2, 1);
       if (!(v.v < inf)) {
         s = inf;
         break;
@@ -112,7 +112,7 @@ double inplane_energy(const Network& net, const NetworkGeometry& geo, GeometricG
         collapsed[c] = true;
         break;
       }
-      const StericDensity d = steric_density(net.steric_C_pN_per_um, net.steric, ratio);
+      const StericDensity d = steric_density(net.steric_C_pN_per_um, net.steric, ratio, 1);
       s += abar * d.v;
       if (grad) grad->face_area[f] += d.dv;
     }

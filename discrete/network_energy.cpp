@@ -12,7 +12,9 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
   NetworkGeometry g;
   g.face_normal2.resize(3, nf);
   g.face_area.resize(nf);
+  g.face_inv_norm2.resize(nf);
   g.edge_length.resize(ne);
+  g.edge_inv_length.resize(ne);
   g.hinge_angle.resize(ne);
   double area[kMaxChunks] = {0, 0, 0, 0}, volume[kMaxChunks] = {0, 0, 0, 0};
   // Faces: the same operations, in the same chunks, as triangle_area/total_area and
@@ -24,7 +26,9 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
                  d = x.col(topo.faces(2, f));
       const Eigen::Vector3d m = (b - a).cross(d - a);
       g.face_normal2.col(f) = m;
-      g.face_area[f] = 0.5 * m.norm();
+      const double twice = m.norm();
+      g.face_area[f] = 0.5 * twice;
+      g.face_inv_norm2[f] = 1.0 / twice;
       sa += g.face_area[f];
       sv += a.dot(b.cross(d)) / 6.0;
     }
@@ -42,6 +46,7 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
       const auto m0 = g.face_normal2.col(topo.edge_faces(0, e));
       const auto m1 = g.face_normal2.col(topo.edge_faces(1, e));
       g.edge_length[e] = len;
+      g.edge_inv_length[e] = 1.0 / len;
       g.hinge_angle[e] = std::atan2(m0.cross(m1).dot(ed), len * m0.dot(m1));
     }
   });
@@ -72,16 +77,17 @@ void assemble_geometric_gradient(const Positions& x, const Topology& topo,
       const int ic = topo.edge_opposite(0, e), id = topo.edge_opposite(1, e);
       const auto a = x.col(ia);
       const Eigen::Vector3d ed = x.col(ib) - a;
-      const double len = geo.edge_length[e], cl = c.edge_length[e], ct = c.hinge_angle[e];
-      const Eigen::Vector3d dl = (cl / len) * ed;
+      const double len = geo.edge_length[e], inv_len = geo.edge_inv_length[e];
+      const double cl = c.edge_length[e], ct = c.hinge_angle[e];
+      const Eigen::Vector3d dl = (cl * inv_len) * ed;
       g.col(ib) += dl;
       g.col(ia) -= dl;
       if (ct == 0.0) continue;
-      const auto m0 = geo.face_normal2.col(topo.edge_faces(0, e));
-      const auto m1 = geo.face_normal2.col(topo.edge_faces(1, e));
-      const Eigen::Vector3d gc = (-ct * len / m0.squaredNorm()) * m0;
-      const Eigen::Vector3d gd = (-ct * len / m1.squaredNorm()) * m1;
-      const double inv_l2 = 1.0 / (len * len);
+      const int f0 = topo.edge_faces(0, e), f1 = topo.edge_faces(1, e);
+      const double i0 = geo.face_inv_norm2[f0], i1 = geo.face_inv_norm2[f1];
+      const Eigen::Vector3d gc = (-ct * len * i0 * i0) * geo.face_normal2.col(f0);
+      const Eigen::Vector3d gd = (-ct * len * i1 * i1) * geo.face_normal2.col(f1);
+      const double inv_l2 = inv_len * inv_len;
       const double tc = (x.col(ic) - a).dot(ed) * inv_l2, td = (x.col(id) - a).dot(ed) * inv_l2;
       g.col(ia) -= (1.0 - tc) * gc + (1.0 - td) * gd;
       g.col(ib) -= tc * gc + td * gd;
@@ -93,8 +99,8 @@ void assemble_geometric_gradient(const Positions& x, const Topology& topo,
     for (int f = chunk_begin(nf, chunks, chunk); f < f_end; ++f) {
       const int i0 = topo.faces(0, f), i1 = topo.faces(1, f), i2 = topo.faces(2, f);
       const auto p0 = x.col(i0), p1 = x.col(i1), p2 = x.col(i2);
-      const double twice = 2.0 * geo.face_area[f];
-      const Eigen::Vector3d m = (0.5 * c.face_area[f] / twice) * geo.face_normal2.col(f);
+      const Eigen::Vector3d m =
+          (0.5 * c.face_area[f] * geo.face_inv_norm2[f]) * geo.face_normal2.col(f);
       g.col(i0) += m.cross(p2 - p1) + cv * p1.cross(p2);
       g.col(i1) += m.cross(p0 - p2) + cv * p2.cross(p0);
       g.col(i2) += m.cross(p1 - p0) + cv * p0.cross(p1);
