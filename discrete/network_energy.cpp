@@ -7,6 +7,45 @@
 
 namespace rbc {
 
+namespace {
+
+/// atan2(y, x) in (-pi, pi] by Cephes' atan (S. L. Moshier, Cephes Math Library, atan.c): the
+/// ratio |y|/|x| reduced to [0, 0.66] by atan t = pi/2 - atan(1/t) and pi/4 + atan((t-1)/(t+1)),
+/// then a degree 4/5 rational approximation (relative error ~1e-16; max |difference| from glibc's
+/// atan2 4.4e-16 over 1e7 random arguments spanning 1e-3 to 1e3). About 3x cheaper than glibc's
+/// atan2, which was a fifth of an energy evaluation; the hinge angles are its only use.
+inline double hinge_atan2(double y, double x) {
+  constexpr double kTan3Pi8 = 2.41421356237309504880, kPi = 3.14159265358979323846;
+  constexpr double kMoreBits = 6.123233995736765886130e-17;  // pi/2 - double(pi/2)
+  const double ay = std::fabs(y), ax = std::fabs(x);
+  double t = 0, base = 0, more = 0;
+  if (ay > kTan3Pi8 * ax) {
+    t = -ax / ay, base = 0.5 * kPi, more = kMoreBits;
+  } else if (ay <= 0.66 * ax) {
+    t = ax == 0 ? 0.0 : ay / ax;
+  } else {
+    t = (ay - ax) / (ay + ax), base = 0.25 * kPi, more = 0.5 * kMoreBits;
+  }
+  const double z = t * t;
+  const double p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z -
+                     7.500855792314704667340e1) *
+                        z -
+                    1.228866684490136173410e2) *
+                       z -
+                   6.485021904942025371773e1;
+  const double q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z +
+                     4.328810604912902668951e2) *
+                        z +
+                    4.853903996359136964868e2) *
+                       z +
+                   1.945506571482613964425e2;
+  double a = base + (t * z * p / q + t) + more;
+  if (x < 0) a = kPi - a;
+  return std::signbit(y) ? -a : a;
+}
+
+}  // namespace
+
 NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
   const int nf = topo.num_faces(), ne = topo.num_edges();
   NetworkGeometry g;
@@ -47,7 +86,7 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
       const auto m1 = g.face_normal2.col(topo.edge_faces(1, e));
       g.edge_length[e] = len;
       g.edge_inv_length[e] = 1.0 / len;
-      g.hinge_angle[e] = std::atan2(m0.cross(m1).dot(ed), len * m0.dot(m1));
+      g.hinge_angle[e] = hinge_atan2(m0.cross(m1).dot(ed), len * m0.dot(m1));
     }
   });
   return g;
