@@ -25,22 +25,73 @@ inline int assembly_chunks(int count) {
   return std::clamp((count + kChunkElements - 1) / kChunkElements, 1, kMaxChunks);
 }
 
+/// First element of chunk c of `chunks` over [0, count) (chunk c is [begin(c), begin(c + 1))).
+inline int chunk_begin(int count, int chunks, int c) {
+  return static_cast<int>(static_cast<long long>(count) * c / chunks);
+}
+
+/// Runs body(c, begin, end) for the chunks c of [0, count) (assembly_chunks(count) of them),
+/// in parallel when there is more than one. body may write per-element outputs and per-chunk
+/// partial results (indexed by c); the caller combines those in chunk order.
+template <class Body>
+void for_each_chunk(int count, Body&& body) {
+  const int chunks = assembly_chunks(count);
+  if (chunks == 1) {
+    body(0, 0, count);
+    return;
+  }
+#pragma omp parallel for schedule(static, 1)
+  for (int c = 0; c < chunks; ++c)
+    body(c, chunk_begin(count, chunks, c), chunk_begin(count, chunks, c + 1));
+}
+
 /// Deterministic sum of body(i) for i in [0, count): chunk partial sums added in order.
 template <class Body>
 double sum_parallel(int count, Body&& body) {
-  const int chunks = assembly_chunks(count);
   double partial[kMaxChunks] = {0.0, 0.0, 0.0, 0.0};
-#pragma omp parallel for schedule(static, 1) if (chunks > 1)
-  for (int c = 0; c < chunks; ++c) {
-    const int begin = static_cast<int>(static_cast<long long>(count) * c / chunks);
-    const int end = static_cast<int>(static_cast<long long>(count) * (c + 1) / chunks);
+  for_each_chunk(count, [&](int c, int begin, int end) {
     double s = 0.0;
     for (int i = begin; i < end; ++i) s += body(i);
     partial[c] = s;
-  }
+  });
   double total = 0.0;
-  for (int c = 0; c < chunks; ++c) total += partial[c];
+  for (int c = 0; c < assembly_chunks(count); ++c) total += partial[c];
   return total;
+}
+
+/// Runs body(c, local_grad) for c in [0, chunks) and adds the contributions written into
+/// local_grad into *grad deterministically (local_grad is *grad itself for c = 0, a zeroed
+/// buffer of the same shape for the others, added in chunk order). chunks must be a function
+/// of the problem size only (assembly_chunks). Without a gradient body receives a dummy
+/// empty matrix and must not touch it.
+template <class Body>
+void assemble_chunks(int chunks, Positions* grad, Body&& body) {
+  if (chunks == 1) {
+    Positions dummy;
+    body(0, grad ? *grad : dummy);
+    return;
+  }
+  std::vector<Positions> buffers(grad ? chunks - 1 : 0);
+#pragma omp parallel for schedule(static, 1)
+  for (int c = 0; c < chunks; ++c) {
+    Positions dummy;
+    Positions* g = &dummy;
+    if (grad) {
+      if (c == 0) {
+        g = grad;
+      } else {
+        buffers[c - 1].setZero(3, grad->cols());
+        g = &buffers[c - 1];
+      }
+    }
+    body(c, *g);
+  }
+  if (grad) {
+    const int n = static_cast<int>(grad->cols());
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < n; ++v)
+      for (int c = 1; c < chunks; ++c) grad->col(v) += buffers[c - 1].col(v);
+  }
 }
 
 /// Runs body(element, local_grad) for element in [0, count) and returns the sum of the
@@ -52,38 +103,12 @@ template <class Body>
 double assemble_parallel(int count, Positions* grad, Body&& body) {
   const int chunks = assembly_chunks(count);
   double partial[kMaxChunks] = {0.0, 0.0, 0.0, 0.0};
-  if (chunks == 1) {
-    Positions dummy;
-    Positions& g = grad ? *grad : dummy;
+  assemble_chunks(chunks, grad, [&](int c, Positions& g) {
     double s = 0.0;
-    for (int i = 0; i < count; ++i) s += body(i, g);
-    return s;
-  }
-  std::vector<Positions> buffers(grad ? chunks - 1 : 0);
-#pragma omp parallel for schedule(static, 1)
-  for (int c = 0; c < chunks; ++c) {
-    const int begin = static_cast<int>(static_cast<long long>(count) * c / chunks);
-    const int end = static_cast<int>(static_cast<long long>(count) * (c + 1) / chunks);
-    Positions dummy;
-    Positions* g = &dummy;
-    if (grad) {
-      if (c == 0) {
-        g = grad;
-      } else {
-        buffers[c - 1].setZero(3, grad->cols());
-        g = &buffers[c - 1];
-      }
-    }
-    double s = 0.0;
-    for (int i = begin; i < end; ++i) s += body(i, *g);
+    const int end = chunk_begin(count, chunks, c + 1);
+    for (int i = chunk_begin(count, chunks, c); i < end; ++i) s += body(i, g);
     partial[c] = s;
-  }
-  if (grad) {
-    const int n = static_cast<int>(grad->cols());
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < n; ++v)
-      for (int c = 1; c < chunks; ++c) grad->col(v) += buffers[c - 1].col(v);
-  }
+  });
   double total = 0.0;
   for (int c = 0; c < chunks; ++c) total += partial[c];
   return total;

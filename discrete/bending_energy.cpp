@@ -10,6 +10,7 @@
 #include "core/units.hpp"
 #include "core/validation.hpp"
 #include "discrete/element_hessian.hpp"
+#include "discrete/network_energy.hpp"
 
 namespace rbc {
 
@@ -88,7 +89,7 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
   const auto h = [&](int v) { return cells[v].h_per_um; };
   assemble_parallel(ne, grad, [&](int e, Positions& g) {
     const Eigen::Matrix<double, 3, 4>& gl = glt[e];
-    const double coef = 0.5 * p.kappa_pNum * (h(topo.edges(0, e)) + h(topo.edges(1, e)));
+    const double coef = juelicher_hinge_coef(p, h(topo.edges(0, e)), h(topo.edges(1, e)));
     g.col(topo.edges(0, e)) += coef * gl.col(0);
     g.col(topo.edges(1, e)) += coef * gl.col(1);
     g.col(topo.edge_opposite(0, e)) += coef * gl.col(2);
@@ -99,11 +100,38 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
     const auto& t = topo.faces.col(f);
     Eigen::Matrix3d ga;
     triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)), &ga);
-    double coef = 0;
-    for (int k = 0; k < 3; ++k)
-      coef -= p.kappa_pNum * (p.h0_per_um * h(t(k)) + 0.5 * h(t(k)) * h(t(k))) / 3.0;
+    const double hf[3] = {h(t(0)), h(t(1)), h(t(2))};
+    const double coef = juelicher_face_coef(p, hf);
     for (int k = 0; k < 3; ++k) g.col(t(k)) += coef * ga.col(k);
     return 0.0;
+  });
+  return energy;
+}
+
+double juelicher_bending_energy(const Topology& topo, const BendingParameters& p,
+                                const NetworkGeometry& geo, GeometricGradient* grad) {
+  const int nv = topo.num_vertices, ne = topo.num_edges(), nf = topo.num_faces();
+  std::vector<double> lt(ne);
+  for_each_chunk(ne, [&](int, int begin, int end) {
+    for (int e = begin; e < end; ++e) lt[e] = geo.edge_length[e] * geo.hinge_angle[e];
+  });
+  const std::vector<JuelicherCell> cells = juelicher_cells(topo, p, lt, geo.face_area);
+  const double energy = sum_parallel(nv, [&](int v) { return cells[v].energy_pNum; });
+  if (!grad) return energy;
+  for_each_chunk(ne, [&](int, int begin, int end) {
+    for (int e = begin; e < end; ++e) {
+      const double c = juelicher_hinge_coef(p, cells[topo.edges(0, e)].h_per_um,
+                                            cells[topo.edges(1, e)].h_per_um);
+      grad->hinge_angle[e] += c * geo.edge_length[e];
+      grad->edge_length[e] += c * geo.hinge_angle[e];
+    }
+  });
+  for_each_chunk(nf, [&](int, int begin, int end) {
+    for (int f = begin; f < end; ++f) {
+      const double h[3] = {cells[topo.faces(0, f)].h_per_um, cells[topo.faces(1, f)].h_per_um,
+                           cells[topo.faces(2, f)].h_per_um};
+      grad->face_area[f] = juelicher_face_coef(p, h, grad->face_area[f]);
+    }
   });
   return energy;
 }
@@ -141,15 +169,13 @@ VertexStars make_vertex_stars(const Topology& t) {
 }
 
 double JuelicherHessianTerms::hinge_coef(const Topology& t, int e) const {
-  return 0.5 * params.kappa_pNum * (cells[t.edges(0, e)].h_per_um + cells[t.edges(1, e)].h_per_um);
+  return juelicher_hinge_coef(params, cells[t.edges(0, e)].h_per_um, cells[t.edges(1, e)].h_per_um);
 }
 
 double JuelicherHessianTerms::add_face_coef(const Topology& t, int f, double coef) const {
-  for (int k = 0; k < 3; ++k) {
-    const double h = cells[t.faces(k, f)].h_per_um;
-    coef -= params.kappa_pNum * (params.h0_per_um * h + 0.5 * h * h) / 3.0;
-  }
-  return coef;
+  const double h[3] = {cells[t.faces(0, f)].h_per_um, cells[t.faces(1, f)].h_per_um,
+                       cells[t.faces(2, f)].h_per_um};
+  return juelicher_face_coef(params, h, coef);
 }
 
 void JuelicherHessianTerms::cell_gradient(const Topology& t, const VertexStars& stars, int v,

@@ -58,6 +58,15 @@ double dihedral_stiffness_pNum(double kappa_pNum, DihedralMapping mapping);
 double juelicher_bending_energy(const Positions& x, const Topology& topo,
                                 const BendingParameters& params, Positions* grad = nullptr);
 
+struct NetworkGeometry;    // discrete/network_energy.hpp
+struct GeometricGradient;  // discrete/network_energy.hpp
+/// The same Juelicher energy from the shared geometry (L_e theta_e from geo's lengths and
+/// angles, A_f from its areas); adds dE/d(L_e theta_e) = c_e to grad's hinge-angle (c_e L_e)
+/// and edge-length (c_e theta_e) coefficients and beta_f to its face-area coefficients (the
+/// coefficients of JuelicherHessianTerms) when grad != nullptr.
+double juelicher_bending_energy(const Topology& topo, const BendingParameters& params,
+                                const NetworkGeometry& geo, GeometricGradient* grad);
+
 /// One Juelicher vertex cell, formed from its sums over the cell's edges and faces; the one
 /// place the per-vertex bending quantities are defined (energy, gradient, Hessian and the
 /// Monte Carlo local updates all use it).
@@ -88,6 +97,18 @@ JuelicherCell juelicher_vertex_cell(const Topology& topo, const BendingParameter
   for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e) m += lt(*e);
   for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) a += af(*f);
   return juelicher_cell(p, m, a);
+}
+
+/// Juelicher's chain-rule coefficients (the formulas of JuelicherHessianTerms below), from the
+/// cells' h = H - H0 (1/um): a hinge's dE/d(L_e theta_e) = (kappa/2)(h_a + h_b) [pN], and a
+/// face's dE/dA_f at fixed M, -(kappa/3) sum_{k in f} (H0 h_k + h_k^2/2) [pN/um].
+inline double juelicher_hinge_coef(const BendingParameters& p, double h_a, double h_b) {
+  return 0.5 * p.kappa_pNum * (h_a + h_b);
+}
+inline double juelicher_face_coef(const BendingParameters& p, const double (&h)[3],
+                                  double coef = 0.0) {
+  for (int k = 0; k < 3; ++k) coef -= p.kappa_pNum * (p.h0_per_um * h[k] + 0.5 * h[k] * h[k]) / 3.0;
+  return coef;
 }
 
 /// Every vertex cell from per-edge L_e theta_e (lt, um, E entries) and per-face areas (af,

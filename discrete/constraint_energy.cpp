@@ -6,6 +6,7 @@
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
 #include "core/validation.hpp"
+#include "discrete/network_energy.hpp"
 
 namespace rbc {
 
@@ -26,14 +27,42 @@ double constraint_energy_of_totals(double area, double volume, double area0, dou
          lambda.volume_pN_per_um2 * dv + 0.5 * p.volume_stiffness_pN_per_um5 * dv * dv;
 }
 
+namespace {
+
+/// dE/dA (pN/um) and dE/dV (pN/um^2) of constraint_energy_of_totals.
+struct ConstraintForces {
+  double tension = 0, pressure = 0;
+};
+ConstraintForces constraint_forces(double area, double volume, double area0, double volume0,
+                                   const ConstraintParameters& p,
+                                   const ConstraintMultipliers& lambda) {
+  return {lambda.area_pN_per_um + p.area_stiffness_pN_per_um3 * (area - area0),
+          lambda.volume_pN_per_um2 + p.volume_stiffness_pN_per_um5 * (volume - volume0)};
+}
+
+}  // namespace
+
+double constraint_energy(const NetworkGeometry& geo, double area0, double volume0,
+                         const ConstraintParameters& p, const ConstraintMultipliers& lambda,
+                         GeometricGradient* grad) {
+  if (grad) {
+    const ConstraintForces cf =
+        constraint_forces(geo.area_um2, geo.volume_um3, area0, volume0, p, lambda);
+    for_each_chunk(static_cast<int>(grad->face_area.size()), [&](int, int begin, int end) {
+      for (int f = begin; f < end; ++f) grad->face_area[f] += cf.tension;
+    });
+    grad->volume += cf.pressure;
+  }
+  return constraint_energy_of_totals(geo.area_um2, geo.volume_um3, area0, volume0, p, lambda);
+}
+
 double constraint_energy(const Positions& x, const Topology& topo, double area0, double volume0,
                          const ConstraintParameters& p, const ConstraintMultipliers& lambda,
                          Positions* grad, ConstraintState* state) {
   const double area = total_area(x, topo), volume = enclosed_volume(x, topo);
   if (state) *state = {area, volume};
-  const double da = area - area0, dv = volume - volume0;
-  const double tension = lambda.area_pN_per_um + p.area_stiffness_pN_per_um3 * da;
-  const double pressure = lambda.volume_pN_per_um2 + p.volume_stiffness_pN_per_um5 * dv;
+  const ConstraintForces cf = constraint_forces(area, volume, area0, volume0, p, lambda);
+  const double tension = cf.tension, pressure = cf.pressure;
   if (grad) {
     assemble_parallel(topo.num_faces(), grad, [&](int f, Positions& g) {
       const auto& t = topo.faces.col(f);

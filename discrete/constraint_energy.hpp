@@ -39,4 +39,13 @@ double constraint_energy(const Positions& x, const Topology& topo, double area0_
                          const ConstraintMultipliers& lambda, Positions* grad = nullptr,
                          ConstraintState* state = nullptr);
 
+struct NetworkGeometry;    // discrete/network_energy.hpp
+struct GeometricGradient;  // discrete/network_energy.hpp
+/// The same energy from the shared geometry's totals; adds the tension
+/// dE/dA = lA + kA (A - A0) to every face-area coefficient of grad and the pressure
+/// dE/dV = lV + kV (V - V0) to its volume coefficient when grad != nullptr.
+double constraint_energy(const NetworkGeometry& geo, double area0_um2, double volume0_um3,
+                         const ConstraintParameters& params, const ConstraintMultipliers& lambda,
+                         GeometricGradient* grad);
+
 }  // namespace rbc

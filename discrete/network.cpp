@@ -1,11 +1,13 @@
 #include "discrete/network.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
 #include "discrete/link_energy.hpp"
+#include "discrete/network_energy.hpp"
 
 namespace rbc {
 
@@ -75,6 +77,55 @@ double inplane_energy(const Network& net, const Positions& x, Positions* grad, d
   return collapsed ? inf : *links + *steric;
 }
 
+/// inplane_energy from the shared geometry: dE_e/dL_e = sqrt3 V'(z) L_e (link_energy.hpp),
+/// dE_f/dA_f = s'(J) (steric_energy.hpp).
+double inplane_energy(const Network& net, const NetworkGeometry& geo, GeometricGradient* grad,
+                      double* links, double* steric) {
+  constexpr double sqrt3 = 1.73205080756887729353;
+  const Topology& t = net.topo;
+  const double inf = std::numeric_limits<double>::infinity();
+  const int ne = t.num_edges(), nf = t.num_faces();
+  double partial[kMaxChunks] = {0, 0, 0, 0};
+  for_each_chunk(ne, [&](int c, int begin, int end) {
+    double s = 0;
+    for (int e = begin; e < end && s < inf; ++e) {
+      const double len = geo.edge_length[e], lbar2 = net.lbar_um(e) * net.lbar_um(e);
+      const DensityValue v = evaluate(net.wlc, len * len / lbar2, 1);
+      if (!(v.v < inf)) {
+        s = inf;
+        break;
+      }
+      s += 0.5 * sqrt3 * lbar2 * v.v;
+      if (grad) grad->edge_length[e] += sqrt3 * v.dv * len;
+    }
+    partial[c] = s;
+  });
+  *links = 0;
+  for (int c = 0; c < assembly_chunks(ne); ++c) *links += partial[c];
+  if (!(*links < inf)) return inf;
+  bool collapsed[kMaxChunks] = {false, false, false, false};
+  for_each_chunk(nf, [&](int c, int begin, int end) {
+    double s = 0;
+    for (int f = begin; f < end; ++f) {
+      const double abar = net.abar_um2(f), ratio = geo.face_area[f] / abar;
+      if (ratio < kCollapsedFaceRatio) {
+        collapsed[c] = true;
+        break;
+      }
+      const StericDensity d = steric_density(net.steric_C_pN_per_um, net.steric, ratio, 1);
+      s += abar * d.v;
+      if (grad) grad->face_area[f] += d.dv;
+    }
+    partial[c] = s;
+  });
+  *steric = 0;
+  for (int c = 0; c < assembly_chunks(nf); ++c) {
+    if (collapsed[c]) return inf;
+    *steric += partial[c];
+  }
+  return *links + *steric;
+}
+
 }  // namespace
 
 namespace {
@@ -85,11 +136,20 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
   std::vector<NetworkTerm> t;
   t.push_back({"in-plane",
                [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
-                  EnergyBreakdown& e) { return inplane_energy(n, x, grad, &e.links, &e.steric); }});
+                  EnergyBreakdown& e) { return inplane_energy(n, x, grad, &e.links, &e.steric); },
+               [](const Network& n, const Positions&, const NetworkGeometry& geo, const LoadState&,
+                  GeometricGradient* grad, EnergyBreakdown& e) {
+                 return inplane_energy(n, geo, grad, &e.links, &e.steric);
+               }});
   if (model == BendingModel::juelicher)
-    t.push_back({"bending (juelicher)", [](const Network& n, const Positions& x, const LoadState&,
-                                           Positions* grad, EnergyBreakdown& e) {
+    t.push_back({"bending (juelicher)",
+                 [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
+                    EnergyBreakdown& e) {
                    return e.bending = juelicher_bending_energy(x, n.topo, n.bending, grad);
+                 },
+                 [](const Network& n, const Positions&, const NetworkGeometry& geo,
+                    const LoadState&, GeometricGradient* grad, EnergyBreakdown& e) {
+                   return e.bending = juelicher_bending_energy(n.topo, n.bending, geo, grad);
                  }});
   else
     t.push_back({"bending (dihedral)", [](const Network& n, const Positions& x, const LoadState&,
@@ -97,17 +157,32 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
                    return e.bending =
                               dihedral_bending_energy(x, n.topo, n.dihedral_kb_pNum, 0.0, grad);
                  }});
-  t.push_back({"area/volume", [](const Network& n, const Positions& x, const LoadState& load,
-                                 Positions* grad, EnergyBreakdown& e) {
+  t.push_back({"area/volume",
+               [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
+                  EnergyBreakdown& e) {
                  ConstraintParameters penalty = n.constraints;
                  penalty.area_stiffness_pN_per_um3 *= load.stiffness_scale;
                  penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
                  return e.constraints = constraint_energy(x, n.topo, n.area0_um2, n.volume0_um3,
                                                           penalty, load.multipliers, grad);
+               },
+               [](const Network& n, const Positions&, const NetworkGeometry& geo,
+                  const LoadState& load, GeometricGradient* grad, EnergyBreakdown& e) {
+                 ConstraintParameters penalty = n.constraints;
+                 penalty.area_stiffness_pN_per_um3 *= load.stiffness_scale;
+                 penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
+                 return e.constraints = constraint_energy(geo, n.area0_um2, n.volume0_um3, penalty,
+                                                          load.multipliers, grad);
                }});
-  t.push_back({"tweezers", [](const Network& n, const Positions& x, const LoadState& load,
-                              Positions* grad, EnergyBreakdown& e) {
+  t.push_back({"tweezers",
+               [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
+                  EnergyBreakdown& e) {
                  return e.tweezers = tweezers_energy(n.patch, load.force_pN, x, n.rest, grad);
+               },
+               [](const Network& n, const Positions& x, const NetworkGeometry&,
+                  const LoadState& load, GeometricGradient* grad, EnergyBreakdown& e) {
+                 return e.tweezers = tweezers_energy(n.patch, load.force_pN, x, n.rest,
+                                                     grad ? grad->direct : nullptr);
                }});
   return t;
 }
@@ -129,6 +204,20 @@ double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& n
                          EnergyBreakdown* parts) {
   EnergyBreakdown e;
   if (grad) grad->setZero(3, x.cols());
+  const bool shared = std::all_of(terms.begin(), terms.end(),
+                                  [](const NetworkTerm& t) { return bool(t.from_geometry); });
+  if (shared && !terms.empty()) {
+    const NetworkGeometry geo = network_geometry(x, net.topo);
+    GeometricGradient coef;
+    if (grad) coef = GeometricGradient::zero(net.topo, grad);
+    for (const NetworkTerm& term : terms)
+      if (!(term.from_geometry(net, x, geo, load, grad ? &coef : nullptr, e) <
+            std::numeric_limits<double>::infinity()))
+        return std::numeric_limits<double>::infinity();
+    if (grad) assemble_geometric_gradient(x, net.topo, geo, coef, *grad);
+    if (parts) *parts = e;
+    return e.total();
+  }
   for (const NetworkTerm& term : terms)
     if (!(term.energy(net, x, load, grad, e) < std::numeric_limits<double>::infinity()))
       return std::numeric_limits<double>::infinity();

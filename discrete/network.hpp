@@ -34,6 +34,8 @@ struct NetworkParameters {
 struct Network;
 struct LoadState;
 struct EnergyBreakdown;
+struct NetworkGeometry;    // discrete/network_energy.hpp
+struct GeometricGradient;  // discrete/network_energy.hpp
 
 /// One energy term of a network model (the interface every term of the sum implements):
 /// returns its energy at x under `load` (pN um; +infinity outside its domain, grad then
@@ -44,6 +46,14 @@ struct NetworkTerm {
   std::function<double(const Network& net, const Positions& x, const LoadState& load,
                        Positions* grad, EnergyBreakdown& parts)>
       energy;
+  /// Optional: the same energy from the geometry of x shared by the terms
+  /// (discrete/network_energy.hpp), adding its derivatives with respect to the geometric
+  /// primitives into *grad when non-null. When every term of a list has it,
+  /// sum_network_terms computes the geometry once and assembles the gradient once (the
+  /// production terms all have it). It must agree with `energy` up to round-off.
+  std::function<double(const Network& net, const Positions& x, const NetworkGeometry& geo,
+                       const LoadState& load, GeometricGradient* grad, EnergyBreakdown& parts)>
+      from_geometry = {};
 };
 
 struct Network {
@@ -99,6 +109,7 @@ std::vector<NetworkTerm> network_terms(const Network& net);
 
 /// The terms' sum at x: grad (when given) is zeroed, then each term adds its gradient; returns
 /// +infinity as soon as a term is not finite-below-infinity. parts receives the breakdown.
+/// When every term has from_geometry, that path is taken (one geometry pass, one assembly).
 double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& net,
                          const Positions& x, const LoadState& load, Positions* grad,
                          EnergyBreakdown* parts);

@@ -28,7 +28,8 @@ double steric_constant(const WlcDensity& w, const StericParameters& s);
 struct StericDensity {
   double v = 0, dv = 0, d2v = 0;
 };
-StericDensity steric_density(double C, const StericParameters& s, double J);
+/// derivatives = 1 skips d2v (left 0; v and dv carry the same bits).
+StericDensity steric_density(double C, const StericParameters& s, double J, int derivatives = 2);
 
 /// The steric face term through its face area, in any coordinates of dimension N (the 9
 /// vertex coordinates of a mesh face, the 4 edge-vector components of a planar periodic

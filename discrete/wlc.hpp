@@ -59,7 +59,8 @@ struct DensityValue {
 
 /// Evaluates V(z) and its first two derivatives. For the full law, z at or beyond
 /// 1/x0^2 (link at Lmax) returns v = +infinity: callers treat it as infeasible.
-DensityValue evaluate(const WlcDensity& w, double z);
+/// derivatives = 1 skips d2v (left 0; v and dv carry the same bits).
+DensityValue evaluate(const WlcDensity& w, double z, int derivatives = 2);
 
 /// Largest admissible z: 1/x0^2 for the full law (link at Lmax), +infinity for expansions.
 double max_admissible_z(const WlcDensity& w);
