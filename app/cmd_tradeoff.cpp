@@ -64,6 +64,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     std::vector<unsigned> reference_seeds = AccuracyStudyOptions{}.reference_seeds;
     std::vector<unsigned> spread_seeds = AccuracyStudyOptions{}.spread_seeds;
     int reference_vertices = AccuracyStudyOptions{}.reference_vertices;
+    int spread_max = AccuracyStudyOptions{}.spread_max_resolution;
     std::string cache;
   };
   auto o = std::make_shared<Opts>();
@@ -108,8 +109,14 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "mesh; default 0,1,2,3)")
       ->delimiter(',');
   cmd->add_option("--spread-seeds", o->spread_seeds,
-                  "--accuracy-table: extra rotations of every size up to 4,000 (default 1,2,3)")
+                  "--accuracy-table: extra rotations of every size up to --spread-max (default "
+                  "1,2,3)")
       ->delimiter(',');
+  cmd->add_option("--spread-max", o->spread_max,
+                  "--accuracy-table: largest size (vertices or elements) given the extra "
+                  "rotations")
+      ->check(integer_in(0, 80000))
+      ->capture_default_str();
   cmd->add_option("--reference-vertices", o->reference_vertices,
                   "--accuracy-table: reference network size, 100 to 40,000")
       ->check(integer_in(100, 40000))
@@ -133,6 +140,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         if (o->no_continuum) ao.continuum_elements.clear();
         ao.reference_seeds = o->reference_seeds;
         ao.spread_seeds = o->spread_seeds;
+        ao.spread_max_resolution = o->spread_max;
         ao.reference_vertices = o->reference_vertices;
         ao.cache_dir = o->cache.empty() ? o->out + "/runs" : o->cache;
         naming_options({{"accuracy study", "--reference-seeds"}}, [&] {

@@ -49,6 +49,21 @@ Richardson richardson_chain(double v1, double v2, double v3) {
   return r;
 }
 
+double observed_order(const std::vector<double>& vertices, const std::vector<double>& errors) {
+  const size_t n = std::min(vertices.size(), errors.size());
+  if (n < 2) return 0;
+  double mx = 0, my = 0;
+  for (size_t k = 0; k < n; ++k)
+    mx += -0.5 * std::log(vertices[k]) / n, my += std::log(errors[k]) / n;
+  double sxy = 0, sxx = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const double dx = -0.5 * std::log(vertices[k]) - mx;
+    sxy += dx * (std::log(errors[k]) - my);
+    sxx += dx * dx;
+  }
+  return sxx > 0 ? sxy / sxx : 0;
+}
+
 namespace {
 
 int order_code(WlcExpansion o) {
@@ -198,7 +213,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     st.reference.push_back(p);
   }
   st.reference_relative_se = st.reference_relative_sd / std::sqrt(static_cast<double>(ref.size()));
-  // Rows: the default triangulation of every method and resolution.
+  // Rows: every method and resolution, errors worst over its rotations.
   for (const auto& s : st.runs) {
     const MethodRun& r = s.run;
     if (r.method.rotation_seed != 0 || r.points.size() != nf) continue;
@@ -206,14 +221,25 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     row.method = r.method;
     row.vertices = r.vertices;
     row.elements = r.elements;
-    row.converged = r.all_converged();
     row.cpu_s = r.cpu_s;
     row.wall_s = r.total_s - r.setup_s;
     row.own_eg = r.eval_cpu_s > 0 ? r.cpu_s / r.eval_cpu_s : 0;
     row.cost_eg = s.unit_eval_cpu_s > 0 ? r.cpu_s / s.unit_eval_cpu_s : 0;
+    std::vector<const MethodRun*> family;
+    for (const auto& t : st.runs)
+      if (same_family(t.run.method, r.method) && t.run.points.size() == nf)
+        family.push_back(&t.run);
+    row.rotations = static_cast<int>(family.size());
+    row.converged = std::all_of(family.begin(), family.end(),
+                                [](const MethodRun* t) { return t->all_converged(); });
+    row.error_by_force.assign(nf, 0.0);
     for (size_t k = 0; k < nf; ++k) {
-      const double e = max_relative_error(r.points[k], st.reference[k]);
-      row.error_by_force.push_back(e);
+      for (const MethodRun* t : family)
+        row.error_by_force[k] =
+            std::max(row.error_by_force[k], max_relative_error(t->points[k], st.reference[k]));
+      row.error_default =
+          std::max(row.error_default, max_relative_error(r.points[k], st.reference[k]));
+      const double e = row.error_by_force[k];
       row.error_all = std::max(row.error_all, e);
       const double f = o.forces_pN[k];
       double& range = f < kLowForceLimit_pN    ? row.error_low
@@ -222,10 +248,6 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
       range = std::max(range, e);
     }
     // Spread over the rotations of this method and resolution.
-    std::vector<const MethodRun*> family;
-    for (const auto& t : st.runs)
-      if (same_family(t.run.method, r.method) && t.run.points.size() == nf)
-        family.push_back(&t.run);
     if (family.size() > 1)
       for (size_t k = 0; k < nf; ++k) {
         double ma = 0, mt = 0, va = 0, vt = 0;
@@ -323,7 +345,9 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   t.comments = {
       "accuracy against cost over the forces of the study (pN): Mills et al. 2004",
       refline.str(),
-      "error = largest relative error of D_A and D_T against the reference (fraction, not %)",
+      "error = largest relative error of D_A and D_T against the reference (fraction, not %), "
+      "worst over the row's triangulation rotations (column rotations; the default mesh "
+      "included); error_default = the default mesh's alone, all forces",
       "error_low: F < 50 pN; error_mid: 50 <= F < 120 pN; error_high: F >= 120 pN",
       "cost_eg = process CPU of the whole sweep / CPU of one energy+gradient evaluation of the "
       "discrete network with " +
@@ -416,6 +440,31 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
                        c.force_pN, c.axial.limit, c.axial.order, c.axial.clean ? 1.0 : 0.0,
                        c.transverse.limit, c.transverse.order, c.transverse.clean ? 1.0 : 0.0});
   write_csv(dir + "/richardson.csv", rc);
+  // orders.csv: observed order of each model's error against resolution, over the sizes
+  // whose error exceeds twice the reference spread (smaller errors are not resolved).
+  CsvTable oc;
+  oc.comments = {
+      "observed order p of error ~ h^p (h ~ N^-1/2), least squares over the rows "
+      "with error_all > 2 x reference sd; kind 0 discrete, 1 continuum; order 0 "
+      "full, 2",
+      "points = rows used; smallest/largest = their vertex range"};
+  oc.header = {"kind",          "order", "points", "smallest_vertices", "largest_vertices",
+               "observed_order"};
+  std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> fits;
+  for (const auto& r : st.rows)
+    if (r.converged && r.error_all > 2 * st.reference_relative_sd &&
+        !(r.method.kind == MethodKind::discrete && r.method.resolution == o.reference_vertices)) {
+      auto& f = fits[{r.method.kind == MethodKind::discrete ? 0 : 1,
+                      r.method.kind == MethodKind::discrete ? 0 : order_code(r.method.order)}];
+      f.first.push_back(r.vertices);
+      f.second.push_back(r.error_all);
+    }
+  for (const auto& [key, f] : fits)
+    oc.rows.push_back(
+        {static_cast<double>(key.first), static_cast<double>(key.second),
+         static_cast<double>(f.first.size()), *std::min_element(f.first.begin(), f.first.end()),
+         *std::max_element(f.first.begin(), f.first.end()), observed_order(f.first, f.second)});
+  write_csv(dir + "/orders.csv", oc);
   // Plots: error against cost, and error against resolution.
   std::map<std::string, std::vector<const AccuracyRow*>> series;
   for (const auto& r : st.rows)
@@ -452,47 +501,113 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   }
 }
 
-std::string accuracy_study_verdict(const AccuracyStudy& st) {
+AccuracyCostTable load_accuracy_cost(const std::string& path) {
+  const CsvTable t = read_csv(path);
+  const std::vector<std::string> expected = {"kind",
+                                             "order",
+                                             "resolution",
+                                             "vertices",
+                                             "elements",
+                                             "converged",
+                                             "error_all",
+                                             "error_low",
+                                             "error_mid",
+                                             "error_high",
+                                             "cost_eg",
+                                             "own_eg",
+                                             "cpu_s",
+                                             "wall_s",
+                                             "spread",
+                                             "rotations",
+                                             "error_default",
+                                             "reference_sd",
+                                             "cost_unit_vertices"};
+  if (t.header != expected)
+    throw std::runtime_error(path + ": not an accuracy_cost.csv (header differs)");
+  AccuracyCostTable out;
+  for (size_t k = 0; k < t.rows.size(); ++k) {
+    const auto& q = t.rows[k];
+    if (q.size() != expected.size())
+      throw std::runtime_error(path + " row " + std::to_string(k + 1) + ": wrong column count");
+    AccuracyRow r;
+    r.method.kind = q[0] == 0 ? MethodKind::discrete : MethodKind::continuum;
+    r.method.order = q[1] == 2   ? WlcExpansion::order2
+                     : q[1] == 3 ? WlcExpansion::order3
+                     : q[1] == 4 ? WlcExpansion::order4
+                                 : WlcExpansion::full;
+    r.method.resolution = static_cast<int>(q[2]);
+    r.vertices = static_cast<int>(q[3]);
+    r.elements = static_cast<int>(q[4]);
+    r.converged = q[5] != 0;
+    r.error_all = q[6], r.error_low = q[7], r.error_mid = q[8], r.error_high = q[9];
+    r.cost_eg = q[10], r.own_eg = q[11], r.cpu_s = q[12], r.wall_s = q[13], r.spread = q[14];
+    r.rotations = static_cast<int>(q[15]);
+    r.error_default = q[16];
+    out.reference_relative_sd = q[17];
+    out.cost_unit_vertices = static_cast<int>(q[18]);
+    out.rows.push_back(r);
+  }
+  if (out.rows.empty()) throw std::runtime_error(path + ": no rows");
+  return out;
+}
+
+std::string accuracy_verdict(const std::vector<AccuracyRow>& rows, double reference_relative_sd,
+                             int cost_unit_vertices) {
   std::ostringstream out;
+  out.precision(3);
   const double levels[] = {0.005, 0.01, 0.02, 0.05};
   struct Range {
     const char* name;
     double AccuracyRow::*error;
   };
-  const Range ranges[] = {{"all forces", &AccuracyRow::error_all},
+  const Range ranges[] = {{"all 13 forces (0-193 pN)", &AccuracyRow::error_all},
                           {"F < 50 pN", &AccuracyRow::error_low},
-                          {"50-120 pN", &AccuracyRow::error_mid},
-                          {">= 120 pN", &AccuracyRow::error_high}};
-  out << "Is the continuum model cheaper at equal accuracy? (cost in energy+gradient "
-         "evaluations of the N = "
-      << st.options.cost_unit_vertices << " network; reference sd "
-      << 100 * st.reference_relative_sd << " %)\n";
+                          {"50 <= F < 120 pN", &AccuracyRow::error_mid},
+                          {"F >= 120 pN", &AccuracyRow::error_high}};
+  out << "Is the continuum model cheaper at equal accuracy? Cheapest method of each model "
+         "whose largest relative error of D_A and D_T (worst over the triangulation "
+         "rotations) meets the level; cost in energy+gradient evaluations of the N ~ "
+      << cost_unit_vertices << " network; reference spread " << 100 * reference_relative_sd
+      << " % (sd over rotations).\n";
   for (const auto& range : ranges) {
-    out << "  " << range.name << ":";
+    out << "- " << range.name << ":";
+    int continuum_wins = 0, discrete_wins = 0;
     for (double level : levels) {
       const AccuracyRow *d = nullptr, *c = nullptr;
-      for (const auto& r : st.rows) {
+      for (const auto& r : rows) {
         if (!r.converged || r.*(range.error) > level) continue;
         const AccuracyRow*& best = r.method.kind == MethodKind::discrete ? d : c;
         if (!best || r.cost_eg < best->cost_eg) best = &r;
       }
-      out << "  " << 100 * level << " %: ";
+      out << " " << 100 * level << " %: ";
       if (!d && !c) {
-        out << "neither;";
-        continue;
-      }
-      if (d && c)
-        out << (c->cost_eg < d->cost_eg ? "continuum " : "discrete ")
-            << method_spec(c->cost_eg < d->cost_eg ? c->method : d->method) << " ("
+        out << "neither reaches it;";
+      } else if (d && c) {
+        const bool cont = c->cost_eg < d->cost_eg;
+        (cont ? continuum_wins : discrete_wins)++;
+        out << (cont ? "continuum " : "discrete ") << method_spec(cont ? c->method : d->method)
+            << " (" << std::lround((cont ? c : d)->cost_eg) << ") is "
             << std::max(c->cost_eg, d->cost_eg) / std::min(c->cost_eg, d->cost_eg)
-            << "x cheaper than " << method_spec(c->cost_eg < d->cost_eg ? d->method : c->method)
-            << ");";
-      else
-        out << "only " << method_spec((d ? d : c)->method) << ";";
+            << "x cheaper than " << method_spec(cont ? d->method : c->method) << " ("
+            << std::lround((cont ? d : c)->cost_eg) << ");";
+      } else {
+        (c ? continuum_wins : discrete_wins)++;
+        out << "only " << (c ? "continuum " : "discrete ") << method_spec((d ? d : c)->method)
+            << " (" << std::lround((d ? d : c)->cost_eg) << ");";
+      }
     }
-    out << "\n";
+    out << " -> "
+        << (continuum_wins && !discrete_wins   ? "the continuum model wins at every level"
+            : discrete_wins && !continuum_wins ? "the discrete model wins at every level"
+            : continuum_wins || discrete_wins  ? "mixed (see levels)"
+                                               : "no answer")
+        << "\n";
   }
   return out.str();
+}
+
+std::string accuracy_study_verdict(const AccuracyStudy& st) {
+  return accuracy_verdict(st.rows, st.reference_relative_sd, st.options.cost_unit_vertices);
 }
 
 }  // namespace rbc

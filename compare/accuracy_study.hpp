@@ -31,7 +31,7 @@ struct AccuracyStudyOptions {
   /// Extra rotations of every table size up to spread_max_resolution (vertices or elements):
   /// how much a result at that size depends on where its triangulation lies.
   std::vector<unsigned> spread_seeds = {1, 2, 3};
-  int spread_max_resolution = 4000;
+  int spread_max_resolution = 8000;
   /// Cost unit: one energy+gradient evaluation of the discrete network with this many
   /// vertices (the same for every method, so costs compare across methods).
   int cost_unit_vertices = 1000;
@@ -63,16 +63,25 @@ struct Richardson {
 };
 Richardson richardson_chain(double v1, double v2, double v3);
 
-/// One row of the trade-off table: a method at one resolution (default triangulation).
+/// Observed order p of error ~ h^p with h ~ N^(-1/2) (N vertices): the least-squares slope
+/// of log(error) against log(h) over the points. Returns 0 for fewer than two points.
+double observed_order(const std::vector<double>& vertices, const std::vector<double>& errors);
+
+/// One row of the trade-off table: a method at one resolution. Its errors are the worst
+/// over the triangulation rotations run at that size (the default one included), so a
+/// ranking does not rest on a lucky orientation; error_default is the default mesh's alone
+/// (what `rbc stretch` computes).
 struct AccuracyRow {
   Method method;
   int vertices = 0, elements = 0;
-  bool converged = false;
+  bool converged = false;  ///< every rotation converged at every force
+  int rotations = 0;       ///< triangulations behind the errors
   /// Largest relative error of D_A and D_T against the reference, per force.
   std::vector<double> error_by_force;
   double error_all = 0, error_low = 0, error_mid = 0, error_high = 0;  ///< max over ranges
-  double cost_eg = 0;  ///< CPU of the 13-force sweep / CPU of the cost-unit evaluation
-  double own_eg = 0;   ///< the same in evaluations of its own model (as `rbc bench`)
+  double error_default = 0;  ///< the default triangulation's, max over all forces
+  double cost_eg = 0;        ///< CPU of the 13-force sweep / CPU of the cost-unit evaluation
+  double own_eg = 0;         ///< the same in evaluations of its own model (as `rbc bench`)
   double cpu_s = 0, wall_s = 0;
   double spread = 0;  ///< largest relative sd of D_A, D_T over rotations (0 if not run)
 };
@@ -118,8 +127,20 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& options,
 /// diameters, for the observed orders) and the PNGs accuracy_cost.png, convergence_*.png.
 void write_accuracy_study(const AccuracyStudy& study, const std::string& dir);
 
+/// accuracy_cost.csv read back (error_by_force left empty); throws std::runtime_error
+/// naming the file if it is missing or malformed.
+struct AccuracyCostTable {
+  std::vector<AccuracyRow> rows;
+  double reference_relative_sd = 0;
+  int cost_unit_vertices = 0;
+};
+AccuracyCostTable load_accuracy_cost(const std::string& path);
+
 /// The plain-language answer to "is the continuum model cheaper at equal accuracy?" per
-/// force range, from the table (one paragraph, several lines).
+/// force range and accuracy level (0.5, 1, 2, 5 %), from the rows: for each, the cheapest
+/// converged entry of each model meeting it and the cost ratio. Markdown bullet lines.
+std::string accuracy_verdict(const std::vector<AccuracyRow>& rows, double reference_relative_sd,
+                             int cost_unit_vertices);
 std::string accuracy_study_verdict(const AccuracyStudy& study);
 
 }  // namespace rbc

@@ -96,6 +96,12 @@ void write_mc_convergence_section(std::ostream& md, const McConvergenceResult& r
 
 std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResult& tradeoff,
                                      const StabilityResult& stability) {
+  return check_claims(fig7, tradeoff, stability, nullptr);
+}
+
+std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResult& tradeoff,
+                                     const StabilityResult& stability,
+                                     const AccuracyCostTable* accuracy) {
   std::vector<ClaimCheck> out;
   // 1. Order 2 matches the microscopic model up to 200 pN.
   {
@@ -151,10 +157,37 @@ std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResul
     c.evidence = any ? ev.str() + "(stability/stability.csv)" : "stability study without continuum";
     out.push_back(c);
   }
-  // 3. The continuum model is much cheaper at equal accuracy.
+  // 3. The continuum model is much cheaper at equal accuracy: answered from the committed
+  // 13-force table (data/tradeoff/, full-level reference over rotations) when it is there.
   {
     ClaimCheck c{"The continuum model is much cheaper than the microscopic one at equal accuracy",
                  "", ""};
+    if (accuracy) {
+      int cont = 0, disc = 0;
+      std::ostringstream ev;
+      for (double level : {0.01, 0.02}) {
+        for (auto range :
+             {&AccuracyRow::error_low, &AccuracyRow::error_mid, &AccuracyRow::error_high}) {
+          const AccuracyRow *d = nullptr, *k = nullptr;
+          for (const auto& r : accuracy->rows) {
+            if (!r.converged || r.*range > level) continue;
+            const AccuracyRow*& best = r.method.kind == MethodKind::discrete ? d : k;
+            if (!best || r.cost_eg < best->cost_eg) best = &r;
+          }
+          if (d && k) (k->cost_eg < d->cost_eg ? cont : disc)++;
+        }
+      }
+      c.verdict = cont && !disc   ? "holds in every force range at 1 % and 2 %"
+                  : disc && !cont ? "does not hold: the discrete model is cheaper"
+                  : cont || disc  ? "holds only in part (see the per-range table)"
+                                  : "not established";
+      ev << "cheaper model at 1 % and 2 % in 3 force ranges: continuum " << cont << ", discrete "
+         << disc << " of " << cont + disc
+         << " comparisons; cost in energy+gradient evaluations (data/tradeoff/accuracy_cost.csv)";
+      c.evidence = ev.str();
+      out.push_back(c);
+      return out;
+    }
     auto fastest = [&](MethodKind kind, double tol) -> const TradeoffRow* {
       const TradeoffRow* best = nullptr;
       for (const auto& r : tradeoff.rows)
@@ -193,6 +226,11 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
     calibration = read_calibration_cache(o.calibration_cache.empty()
                                              ? default_data_directory() + "/calibration"
                                              : o.calibration_cache);
+  // The committed accuracy-cost table (read first too; absent = section says so).
+  const std::string accuracy_dir = default_data_directory() + "/tradeoff";
+  std::optional<AccuracyCostTable> accuracy;
+  if (std::filesystem::exists(accuracy_dir + "/accuracy_cost.csv"))
+    accuracy = load_accuracy_cost(accuracy_dir + "/accuracy_cost.csv");
   ensure_output_directory(dir);
   const Fig7Result fig7 = run_fig7(o.fig7, progress);
   write_fig7(fig7, dir + "/fig7");
@@ -205,7 +243,7 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
   }
   const StabilityResult stab = run_stability(o.stability, &trade, progress);
   write_stability(stab, dir + "/stability");
-  const auto claims = check_claims(fig7, trade, stab);
+  const auto claims = check_claims(fig7, trade, stab, accuracy ? &*accuracy : nullptr);
 
   std::ostringstream md;
   md << "# Red blood cell stretch: microscopic and continuum models against Mills 2004\n\n"
@@ -246,6 +284,29 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
         "error against the discrete reference includes the homogenisation error (and the "
         "discrete network's residual prestress, MODEL.md section 2), not only discretisation.\n";
   if (mc) write_mc_convergence_section(md, *mc);
+  md << "\n## Accuracy against cost over the 13 Mills forces\n\n";
+  if (accuracy) {
+    std::error_code ec;
+    std::filesystem::copy_file(accuracy_dir + "/accuracy_cost.png",
+                               dir + "/tradeoff/accuracy_cost.png",
+                               std::filesystem::copy_options::overwrite_existing, ec);
+    md << "From the committed table `data/tradeoff/accuracy_cost.csv` (regenerate with `rbc "
+          "tradeoff --accuracy-table --out data/tradeoff --force-overwrite`; see "
+          "data/tradeoff/README.md). Reference: the discrete network at the full spectrin "
+          "level on several rotated triangulations (`data/tradeoff/reference.csv`).\n\n"
+       << (ec ? "" : "![accuracy vs cost](tradeoff/accuracy_cost.png)\n\n")
+       << accuracy_verdict(accuracy->rows, accuracy->reference_relative_sd,
+                           accuracy->cost_unit_vertices)
+       << "\n| method | vertices | error (all) | < 50 pN | 50-120 pN | >= 120 pN | cost (eval.) "
+          "| rotations |\n|---|---|---|---|---|---|---|---|\n";
+    for (const auto& r : accuracy->rows)
+      md << "| " << r.method.label() << " | " << r.vertices << " | " << fixed(100 * r.error_all, 2)
+         << " % | " << fixed(100 * r.error_low, 2) << " % | " << fixed(100 * r.error_mid, 2)
+         << " % | " << fixed(100 * r.error_high, 2) << " % | " << fixed(r.cost_eg, 0) << " | "
+         << r.rotations << (r.converged ? "" : " (not converged)") << " |\n";
+  } else {
+    md << "Not available: data/tradeoff/accuracy_cost.csv is missing.\n";
+  }
   md << "\n## Where methods stop working\n\n";
   if (!stab.orders.empty())
     md << "![Taylor orders vs full WLC](stability/stability_orders.png)\n\n";

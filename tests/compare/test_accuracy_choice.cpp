@@ -29,6 +29,16 @@ TEST(AccuracyStudy, RichardsonRecoversOrderAndLimitOfASmoothChain) {
   EXPECT_EQ(s.limit, 11.792);  // falls back to the finest value
 }
 
+TEST(AccuracyStudy, ObservedOrderIsTheSlopeInMeshSize) {
+  // error = 3 h^2 with h = N^-1/2, i.e. 3/N: order 2 exactly; 1/sqrt(N): order 1.
+  const std::vector<double> n = {250, 1000, 4000, 16000};
+  std::vector<double> e2, e1;
+  for (double v : n) e2.push_back(3 / v), e1.push_back(0.1 / std::sqrt(v));
+  EXPECT_NEAR(observed_order(n, e2), 2.0, 1e-12);
+  EXPECT_NEAR(observed_order(n, e1), 1.0, 1e-12);
+  EXPECT_EQ(observed_order({1000}, {0.01}), 0.0);
+}
+
 /// A synthetic run: D_A = a + slope F, D_T = t - 0.01 F at the given forces.
 StudyRun synthetic_run(MethodKind kind, int resolution, unsigned seed, double a, double t,
                        double cpu_s, const std::vector<double>& forces) {
