@@ -28,10 +28,7 @@ std::string percent_text(double fraction) {
 }
 
 std::string cost_text(double cost) {
-  std::ostringstream s;
-  s.precision(3);
-  s << cost;
-  return s.str();
+  return std::to_string(std::lround(cost));
 }
 
 }  // namespace
@@ -185,9 +182,9 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
       << percent_text(ch.runner_up->error) << ", " << cost_text(ch.runner_up->cost_eg) << ")";
   if (ch.other_kind)
     r << "; cheapest "
-      << (ch.other_kind->method.kind == MethodKind::discrete ? "discrete" : "continuum") << " "
-      << method_spec(ch.other_kind->method) << " (" << percent_text(ch.other_kind->error) << ", "
-      << cost_text(ch.other_kind->cost_eg) << ")";
+      << (ch.other_kind->method.kind == MethodKind::discrete ? "discrete" : "continuum")
+      << " model " << method_spec(ch.other_kind->method) << " ("
+      << percent_text(ch.other_kind->error) << ", " << cost_text(ch.other_kind->cost_eg) << ")";
   ch.reason = r.str();
   return ch;
 }

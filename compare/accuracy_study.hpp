@@ -127,6 +127,10 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& options,
 /// diameters, for the observed orders) and the PNGs accuracy_cost.png, convergence_*.png.
 void write_accuracy_study(const AccuracyStudy& study, const std::string& dir);
 
+/// Cost ratios below this count as a tie in the verdicts: CPU-time costs of the same sweep
+/// repeated in another process on the shared machine came out 0.82-1.08 x the first.
+inline constexpr double kAccuracyCostTieRatio = 1.25;
+
 /// accuracy_cost.csv read back (error_by_force left empty); throws std::runtime_error
 /// naming the file if it is missing or malformed.
 struct AccuracyCostTable {

@@ -16,12 +16,12 @@
 namespace {
 namespace fs = std::filesystem;
 
-struct Run {
+struct CliRun {
   int exit_code;
   std::string out, err;  // stdout, stderr
 };
 
-Run rbc(const std::string& args) {
+CliRun rbc(const std::string& args) {
   const fs::path err_file = fs::path(RBC_BINARY_DIR) / "test_output" / "cli_accuracy_stderr.txt";
   fs::create_directories(err_file.parent_path());
   const std::string cmd =
@@ -59,7 +59,7 @@ TEST(CliAccuracy, RefusalsExitTwoWithOneLineAndWriteNothing) {
       {"--accuracy 0", "expected a finite percentage"},
   };
   for (const auto& c : cases) {
-    const Run r = rbc("stretch " + c.args + " --out '" + out.string() + "' -q");
+    const CliRun r = rbc("stretch " + c.args + " --out '" + out.string() + "' -q");
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.err;
     EXPECT_NE(r.err.find("rbc: error: "), std::string::npos) << c.args << "\n" << r.err;
     EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << "\n" << r.err;
@@ -81,7 +81,7 @@ std::pair<double, double> reference_at(double force_pN) {
 
 TEST(CliAccuracy, ChosenMethodMeetsTheAccuracyAtTwoForces) {
   const double percent = 2.0;
-  const Run r = rbc("stretch --accuracy 2% --force 38,130 --json -q");
+  const CliRun r = rbc("stretch --accuracy 2% --force 38,130 --json -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // What was chosen and why: on stderr and in every JSON point.
   EXPECT_NE(r.err.find("--accuracy 2%: chose "), std::string::npos) << r.err;
