@@ -66,18 +66,33 @@ double observed_order(const std::vector<double>& vertices, const std::vector<dou
 
 namespace {
 
+/// Column code of a continuum law: 0 for the full law, else the Taylor order (2, 3, 4).
 int order_code(WlcExpansion o) {
-  switch (o) {
-    case WlcExpansion::full:
-      return 0;
-    case WlcExpansion::order2:
-      return 2;
-    case WlcExpansion::order3:
-      return 3;
-    case WlcExpansion::order4:
-      return 4;
-  }
-  return 0;
+  return o == WlcExpansion::full ? 0 : std::stoi(to_string(o));
+}
+
+/// accuracy_cost.csv's columns (written and read back).
+const std::vector<std::string>& accuracy_cost_header() {
+  static const std::vector<std::string> h = {"kind",
+                                             "order",
+                                             "resolution",
+                                             "vertices",
+                                             "elements",
+                                             "converged",
+                                             "error_all",
+                                             "error_low",
+                                             "error_mid",
+                                             "error_high",
+                                             "cost_eg",
+                                             "own_eg",
+                                             "cpu_s",
+                                             "wall_s",
+                                             "spread",
+                                             "rotations",
+                                             "error_default",
+                                             "reference_sd",
+                                             "cost_unit_vertices"};
+  return h;
 }
 
 /// Same method and resolution (any rotation).
@@ -358,25 +373,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       "eg_evals); cpu_s, wall_s for information (1 thread, shared machine)",
       "spread = largest relative sd of D_A, D_T over triangulation rotations (0 = not measured)",
       "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4 (continuum); converged 0/1"};
-  t.header = {"kind",
-              "order",
-              "resolution",
-              "vertices",
-              "elements",
-              "converged",
-              "error_all",
-              "error_low",
-              "error_mid",
-              "error_high",
-              "cost_eg",
-              "own_eg",
-              "cpu_s",
-              "wall_s",
-              "spread",
-              "rotations",
-              "error_default",
-              "reference_sd",
-              "cost_unit_vertices"};
+  t.header = accuracy_cost_header();
   for (const auto& r : st.rows)
     t.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
                       r.method.kind == MethodKind::discrete
@@ -539,25 +536,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
 
 AccuracyCostTable load_accuracy_cost(const std::string& path) {
   const CsvTable t = read_csv(path);
-  const std::vector<std::string> expected = {"kind",
-                                             "order",
-                                             "resolution",
-                                             "vertices",
-                                             "elements",
-                                             "converged",
-                                             "error_all",
-                                             "error_low",
-                                             "error_mid",
-                                             "error_high",
-                                             "cost_eg",
-                                             "own_eg",
-                                             "cpu_s",
-                                             "wall_s",
-                                             "spread",
-                                             "rotations",
-                                             "error_default",
-                                             "reference_sd",
-                                             "cost_unit_vertices"};
+  const std::vector<std::string>& expected = accuracy_cost_header();
   if (t.header != expected)
     throw std::runtime_error(path + ": not an accuracy_cost.csv (header differs)");
   AccuracyCostTable out;
