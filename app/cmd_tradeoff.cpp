@@ -108,7 +108,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                 "to 8,000 elements); the forces are the 13 Mills forces");
   cmd->add_option("--reference-seeds", o->reference_seeds,
                   "--accuracy-table: triangulation rotations of the reference (0 = default "
-                  "mesh; default 0,1,2,3)")
+                  "mesh; default 0,1,2,3,4)")
       ->delimiter(',');
   cmd->add_option("--spread-seeds", o->spread_seeds,
                   "--accuracy-table: extra rotations of every size up to --spread-max (default "
