@@ -540,8 +540,22 @@ void add_stretch_command(CLI::App& app, Action& action) {
     for (const char* name : {"--model", "--vertices", "--elements", "--order"})
       if (explicit_choice.empty() && cmd->get_option(name)->count() > 0) explicit_choice = name;
     const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
-    action = [o, explicit_choice, accuracy_given]() -> int {
-      if (accuracy_given) choose_stretch_method(*o, explicit_choice);
+    std::string changed_physics;  // options that leave the table's default physics
+    for (const char* name : {"--bending", "--dihedral-mapping", "--mesh-quality", "--contact",
+                             "--contact-fraction", "--lbar", "--lmax", "--persistence",
+                             "--temperature", "--kappa", "--h0", "--q", "--eta", "--tolerance"})
+      if (cmd->get_option(name)->count() > 0)
+        changed_physics += (changed_physics.empty() ? "" : ", ") + std::string(name);
+    action = [o, explicit_choice, accuracy_given, changed_physics]() -> int {
+      if (accuracy_given) {
+        choose_stretch_method(*o, explicit_choice);
+        if (!changed_physics.empty()) {
+          std::cerr << "rbc: warning: --accuracy: the table was measured with the default "
+                       "parameters and tolerances; "
+                    << changed_physics << " changes them, so its accuracy is not guaranteed\n";
+          o->accuracy_choice["warning"] = "defaults changed by " + changed_physics;
+        }
+      }
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(kStretchOptionNames, [&]() -> int {
         return o->model == StretchModel::discrete ? run_discrete(*o) : run_continuum(*o);

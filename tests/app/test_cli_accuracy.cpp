@@ -79,6 +79,15 @@ std::pair<double, double> reference_at(double force_pN) {
   return {0, 0};
 }
 
+TEST(CliAccuracy, WarnsWhenThePhysicsDiffersFromTheTables) {
+  const CliRun r = rbc("stretch --accuracy 5% --force 0 --kappa 3e-19 --json -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("rbc: warning: --accuracy"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--kappa"), std::string::npos) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j[0]["accuracy_choice"].contains("warning"));
+}
+
 TEST(CliAccuracy, ChosenMethodMeetsTheAccuracyAtTwoForces) {
   const double percent = 2.0;
   const CliRun r = rbc("stretch --accuracy 2% --force 38,130 --json -q");
