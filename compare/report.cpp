@@ -275,7 +275,10 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
      << fixed(trade.reference.axial_error_um, 4)
      << " um, D_T = " << fixed(trade.reference.transverse_um, 4) << " +- "
      << fixed(trade.reference.transverse_error_um, 4) << " um; " << trade.reference.how
-     << ".\n\n![accuracy vs time, D_A](tradeoff/tradeoff_axial.png)\n"
+     << ". This one-force chart times whole runs on this machine against an extrapolated "
+        "reference; the answer to the cost question rests on the 13-force table below "
+        "(full-level reference over rotated triangulations, machine-independent cost).\n\n"
+        "![accuracy vs time, D_A](tradeoff/tradeoff_axial.png)\n"
      << "![accuracy vs time, D_T](tradeoff/tradeoff_transverse.png)\n\n"
      << "| method | vertices | D_A (um) | error D_A | D_T (um) | error D_T | wall (s) | Pareto |\n"
         "|---|---|---|---|---|---|---|---|\n";
