@@ -11,6 +11,7 @@
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
 #include "app/warm_start.hpp"
+#include "compare/accuracy_choice.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "core/defaults.hpp"
 #include "core/geometry.hpp"
@@ -52,6 +53,10 @@ struct StretchCli {
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
   bool json = false, quiet = false, overwrite = false;
+  /// --accuracy P%: choose model and resolution from the trade-off table (compare/
+  /// accuracy_choice.hpp); the choice is stated on stderr and in every JSON point.
+  std::string accuracy;
+  nlohmann::json accuracy_choice;  ///< null unless --accuracy chose
 };
 
 /// Library quantities -> this command's options (errors name the option the user typed).
@@ -225,6 +230,8 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
   nlohmann::json rows = nlohmann::json::array();
   CsvTable csv;
   csv.comments = comments;
+  if (!o.accuracy_choice.is_null())
+    csv.comments.push_back(o.accuracy_choice["reason"].get<std::string>());
   csv.header = {"force_pN",   "axial_um",  "transverse_um", "energy_pNum",
                 "iterations", "converged", "wall_s",        "vertices"};
   if (continuum) csv.header.push_back("elements");
@@ -250,6 +257,7 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
                              p.wall_s,
                              static_cast<double>(p.vertices)};
     if (!o.warm_start.empty()) j["warm_started"] = p.warm;
+    if (!o.accuracy_choice.is_null()) j["accuracy_choice"] = o.accuracy_choice;
     if (continuum) {
       j["elements"] = p.elements;
       r.push_back(p.elements);
@@ -417,6 +425,43 @@ int run_continuum(const StretchCli& o) {
       manifest);
 }
 
+/// --accuracy P%: sets model, resolution and order from the trade-off table, before any
+/// work; refusals (std::invalid_argument -> exit 2) name the reason in one line.
+void choose_stretch_method(StretchCli& o, const std::string& explicit_choice) {
+  const double percent = parse_accuracy_percent(o.accuracy);
+  if (!explicit_choice.empty())
+    throw std::invalid_argument("--accuracy " + o.accuracy + " cannot be combined with " +
+                                explicit_choice + ": the accuracy table chooses the method");
+  const std::vector<double> forces = parse_force_list(o.forces);
+  AccuracyTable table;
+  try {
+    table = load_accuracy_table(default_accuracy_table_path());
+  } catch (const std::runtime_error& e) {
+    throw std::invalid_argument(std::string("--accuracy: cannot read the trade-off table: ") +
+                                e.what());
+  }
+  const AccuracyChoice ch = choose_by_accuracy(table, forces, percent);
+  const Method& m = ch.chosen.method;
+  o.model = m.kind == MethodKind::discrete ? StretchModel::discrete : StretchModel::continuum;
+  if (m.kind == MethodKind::discrete)
+    o.vertices = m.resolution;
+  else
+    o.elements = m.resolution, o.order = m.order;
+  auto pick_json = [](const AccuracyPick& p) {
+    return nlohmann::json{{"method", method_spec(p.method)},
+                          {"error_percent", 100 * p.error},
+                          {"cost_eg", p.cost_eg}};
+  };
+  o.accuracy_choice = {{"requested_percent", percent},
+                       {"chosen", pick_json(ch.chosen)},
+                       {"reference_uncertainty_percent", 100 * ch.reference_relative_se},
+                       {"table", table.source},
+                       {"reason", ch.reason}};
+  if (ch.runner_up) o.accuracy_choice["runner_up"] = pick_json(*ch.runner_up);
+  if (ch.other_kind) o.accuracy_choice["cheapest_other_model"] = pick_json(*ch.other_kind);
+  std::cerr << "rbc: " << ch.reason << "\n";
+}
+
 }  // namespace
 
 void add_stretch_command(CLI::App& app, Action& action) {
@@ -501,9 +546,32 @@ void add_stretch_command(CLI::App& app, Action& action) {
                   "(same model, mesh and forces; e.g. after a small parameter change)");
   cmd->add_flag("--json", o->json, "print a JSON array of points on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, &action, tolerance] {
+  cmd->add_option("--accuracy", o->accuracy,
+                  "choose the cheapest model and resolution whose accuracy over the forces "
+                  "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv; "
+                  "excludes --model, --vertices, --elements, --order");
+  cmd->callback([o, &action, tolerance, cmd] {
     o->tolerance_given = tolerance->count() > 0;
-    action = [o]() -> int {
+    std::string explicit_choice;  // the first method option given with --accuracy
+    for (const char* name : {"--model", "--vertices", "--elements", "--order"})
+      if (explicit_choice.empty() && cmd->get_option(name)->count() > 0) explicit_choice = name;
+    const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
+    std::string changed_physics;  // options that leave the table's default physics
+    for (const char* name : {"--bending", "--dihedral-mapping", "--mesh-quality", "--contact",
+                             "--contact-fraction", "--lbar", "--lmax", "--persistence",
+                             "--temperature", "--kappa", "--h0", "--q", "--eta", "--tolerance"})
+      if (cmd->get_option(name)->count() > 0)
+        changed_physics += (changed_physics.empty() ? "" : ", ") + std::string(name);
+    action = [o, explicit_choice, accuracy_given, changed_physics]() -> int {
+      if (accuracy_given) {
+        choose_stretch_method(*o, explicit_choice);
+        if (!changed_physics.empty()) {
+          std::cerr << "rbc: warning: --accuracy: the table was measured with the default "
+                       "parameters and tolerances; "
+                    << changed_physics << " changes them, so its accuracy is not guaranteed\n";
+          o->accuracy_choice["warning"] = "defaults changed by " + changed_physics;
+        }
+      }
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(kStretchOptionNames, [&]() -> int {
         return o->model == StretchModel::discrete ? run_discrete(*o) : run_continuum(*o);

@@ -6,6 +6,7 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "compare/accuracy_study.hpp"
 #include "compare/mc_convergence.hpp"
 #include "compare/tradeoff.hpp"
 #include "continuum/continuum_model.hpp"
@@ -58,6 +59,13 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     int mc_vertices = 500;
     double mc_budget = 20.0, mc_acceptance = McConvergenceOptions{}.mc_target_acceptance;
     std::string out = "results/tradeoff";
+    // --accuracy-table: the 13-force accuracy-cost study (data/tradeoff/).
+    bool accuracy_table = false, runs_only = false;
+    std::vector<unsigned> reference_seeds = AccuracyStudyOptions{}.reference_seeds;
+    std::vector<unsigned> spread_seeds = AccuracyStudyOptions{}.spread_seeds;
+    int reference_vertices = AccuracyStudyOptions{}.reference_vertices;
+    int spread_max = AccuracyStudyOptions{}.spread_max_resolution;
+    std::string cache;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("tradeoff", "Accuracy against wall time, with the Pareto front");
@@ -91,8 +99,78 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  cmd->add_flag("--accuracy-table", o->accuracy_table,
+                "instead: the accuracy-cost table over the 13 Mills forces against the "
+                "full-level reference (what `rbc stretch --accuracy` reads; regenerate "
+                "data/tradeoff/ with --out data/tradeoff --force-overwrite). Uses --vertices, "
+                "--elements, --orders (defaults here: vertices 250,500,1000,2000,4000,8000,16000; "
+                "elements 500,980,2000,3920,8000,15680,32000; orders 2,full, the full law up "
+                "to 8,000 elements); the forces are the 13 Mills forces");
+  cmd->add_option("--reference-seeds", o->reference_seeds,
+                  "--accuracy-table: triangulation rotations of the reference (0 = default "
+                  "mesh; default 0,1,2,3,4)")
+      ->delimiter(',');
+  cmd->add_option("--spread-seeds", o->spread_seeds,
+                  "--accuracy-table: extra rotations of every size up to --spread-max (default "
+                  "1,2,3)")
+      ->delimiter(',');
+  cmd->add_option("--spread-max", o->spread_max,
+                  "--accuracy-table: largest size (vertices or elements) given the extra "
+                  "rotations")
+      ->check(integer_in(0, 80000))
+      ->capture_default_str();
+  cmd->add_option("--reference-vertices", o->reference_vertices,
+                  "--accuracy-table: reference network size, 100 to 40,000")
+      ->check(integer_in(100, 40000))
+      ->capture_default_str();
+  cmd->add_option("--cache", o->cache,
+                  "--accuracy-table: directory of per-sweep CSV files, reused when present "
+                  "(default OUT/runs)");
+  cmd->add_flag("--runs-only", o->runs_only,
+                "--accuracy-table: only run (and cache) the sweeps, write no table");
   cmd->callback([o, &action] {
     action = [o]() -> int {
+      if (o->accuracy_table) {
+        AccuracyStudyOptions ao;
+        if (!o->vertices.empty()) ao.discrete_vertices = o->vertices;
+        if (!o->elements.empty()) ao.continuum_elements = o->elements;
+        if (!o->orders.empty()) {
+          ao.continuum_orders.clear();
+          for (const auto& s : o->orders)
+            ao.continuum_orders.push_back(wlc_expansion_from_string(s));
+        }
+        if (o->no_continuum) ao.continuum_elements.clear();
+        ao.reference_seeds = o->reference_seeds;
+        ao.spread_seeds = o->spread_seeds;
+        ao.spread_max_resolution = o->spread_max;
+        ao.reference_vertices = o->reference_vertices;
+        ao.cache_dir = o->cache.empty() ? o->out + "/runs" : o->cache;
+        naming_options({{"accuracy study", "--reference-seeds"}}, [&] {
+          ao.validate();
+          return 0;
+        });
+        if (!o->runs_only) check_output_directory(o->out, o->overwrite);
+        if (o->runs_only) {
+          run_accuracy_sweeps(ao, stderr_progress(o->quiet));
+          std::cout << "sweeps cached in " << ao.cache_dir << "\n";
+          return 0;
+        }
+        const AccuracyStudy st = run_accuracy_study(ao, stderr_progress(o->quiet));
+        write_accuracy_study(st, o->out);
+        std::cout << std::defaultfloat << std::setprecision(4);
+        for (const auto& r : st.rows)
+          std::cout << "  " << std::left << std::setw(44) << r.method.label() << std::right
+                    << " error " << 100 * r.error_all << " % (low " << 100 * r.error_low << ", mid "
+                    << 100 * r.error_mid << ", high " << 100 * r.error_high << "), cost "
+                    << r.cost_eg << " evaluations" << (r.converged ? "" : "  NOT CONVERGED")
+                    << "\n";
+        std::cout << accuracy_study_verdict(st);
+        std::cout << "outputs: " << o->out
+                  << "/accuracy_cost.csv, accuracy_by_force.csv, reference.csv, "
+                     "richardson.csv, convergence.csv, accuracy_cost.png, "
+                     "accuracy_resolution.png\n";
+        return 0;
+      }
       TradeoffOptions to;
       to.force_pN = o->force;
       if (!o->vertices.empty()) to.discrete_vertices = o->vertices;

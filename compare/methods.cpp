@@ -1,10 +1,14 @@
 #include "compare/methods.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <ctime>
 #include <sstream>
 #include <stdexcept>
 
 #include "continuum/continuum_stretch.hpp"
+#include "core/geometry.hpp"
 #include "core/rest_shape.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
@@ -12,8 +16,9 @@
 namespace rbc {
 
 std::string Method::name() const {
-  if (kind == MethodKind::discrete) return "discrete_N" + std::to_string(resolution);
-  return "continuum_p" + to_string(order) + "_E" + std::to_string(resolution);
+  const std::string rotated = rotation_seed ? "_r" + std::to_string(rotation_seed) : "";
+  if (kind == MethodKind::discrete) return "discrete_N" + std::to_string(resolution) + rotated;
+  return "continuum_p" + to_string(order) + "_E" + std::to_string(resolution) + rotated;
 }
 
 std::string Method::label() const {
@@ -61,9 +66,45 @@ bool MethodRun::all_converged() const {
 }
 
 Network make_discrete_network(int vertices) {
+  return make_discrete_network(vertices, 0);
+}
+
+Network make_discrete_network(int vertices, unsigned rotation_seed) {
   RestShapeOptions ro;
   ro.target_vertices = vertices;
+  ro.rotation_seed = rotation_seed;
   return build_network(make_rest_shape(ro), NetworkParameters{});
+}
+
+double process_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+double evaluation_cpu_seconds(const std::function<void()>& eval) {
+  std::vector<double> t;
+  for (int b = 0; b < 7; ++b) {
+    int reps = 0;
+    const double t0 = process_cpu_seconds();
+    double used = 0;
+    do {
+      eval();
+      ++reps;
+      used = process_cpu_seconds() - t0;
+    } while (used < 0.02);
+    t.push_back(used / reps);
+  }
+  std::sort(t.begin(), t.end());
+  return t[3];
+}
+
+double network_evaluation_cpu_seconds(const Network& net) {
+  Positions g;
+  LoadState load;
+  load.force_pN = 88.0;
+  // The gradient is written through a pointer in another translation unit: not elided.
+  return evaluation_cpu_seconds([&] { network_energy(net, net.rest, load, &g); });
 }
 
 namespace {
@@ -72,7 +113,8 @@ using Clock = std::chrono::steady_clock;
 
 /// Copies a model's equilibria into the common curve and stamps the total time.
 template <class Point>
-void finish_run(MethodRun& run, const std::vector<Point>& pts, Clock::time_point t0) {
+void finish_run(MethodRun& run, const std::vector<Point>& pts, Clock::time_point t0, double cpu0) {
+  run.cpu_s = process_cpu_seconds() - cpu0;
   for (const auto& p : pts)
     run.points.push_back({p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.residual_pN,
                           p.iterations, p.converged});
@@ -80,38 +122,51 @@ void finish_run(MethodRun& run, const std::vector<Point>& pts, Clock::time_point
 }
 
 MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
-                       const ProgressSink& progress) {
+                       const ProgressSink& progress, const RunMethodOptions& ro) {
   const auto t0 = std::chrono::steady_clock::now();
   MethodRun run;
   run.method = m;
-  const Network net = make_discrete_network(m.resolution);
+  const Network net = make_discrete_network(m.resolution, m.rotation_seed);
   run.vertices = net.topo.num_vertices;
   run.elements = net.topo.num_faces();
+  run.patch_plus_um2 = net.patch.area_plus_um2;
+  run.patch_minus_um2 = net.patch.area_minus_um2;
+  run.surface_um2 = total_area(net.rest, net.topo);
+  if (ro.measure_evaluation) run.eval_cpu_s = network_evaluation_cpu_seconds(net);
   run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu0 = process_cpu_seconds();
   const auto pts = run_stretch(net, forces, StretchOptions{}, [&](const std::string& msg) {
     if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
   });
-  finish_run(run, pts, t0);
+  finish_run(run, pts, t0, cpu0);
   return run;
 }
 
 MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
-                        const ProgressSink& progress) {
+                        const ProgressSink& progress, const RunMethodOptions& ro) {
   const auto t0 = std::chrono::steady_clock::now();
   MethodRun run;
   run.method = m;
-  const TriMesh mesh = make_continuum_mesh(m.resolution);
+  const TriMesh mesh = make_continuum_mesh(m.resolution, m.rotation_seed);
   const NetworkParameters defaults;  // the same spectrin parameters as the discrete model
   const IsotropicMembraneLaw law = make_membrane_law(defaults.wlc, defaults.steric, m.order);
   const ContinuumModel model = build_continuum_model(mesh, law, ContinuumParameters{});
   run.vertices = model.topo.num_vertices;
   run.elements = model.num_elements();
+  run.patch_plus_um2 = model.patch.area_plus_um2;
+  run.patch_minus_um2 = model.patch.area_minus_um2;
+  run.surface_um2 = total_area(model.rest, model.topo);
+  if (ro.measure_evaluation) {
+    Positions g;
+    run.eval_cpu_s = evaluation_cpu_seconds([&] { continuum_energy(model, model.rest, 88.0, &g); });
+  }
   run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu0 = process_cpu_seconds();
   const auto pts =
       run_continuum_stretch(model, forces, ContinuumOptions{}, [&](const std::string& msg) {
         if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
       });
-  finish_run(run, pts, t0);
+  finish_run(run, pts, t0, cpu0);
   return run;
 }
 
@@ -119,8 +174,13 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
 
 MethodRun run_method(const Method& m, const std::vector<double>& forces,
                      const ProgressSink& progress) {
-  return m.kind == MethodKind::discrete ? run_discrete(m, forces, progress)
-                                        : run_continuum(m, forces, progress);
+  return run_method(m, forces, progress, RunMethodOptions{});
+}
+
+MethodRun run_method(const Method& m, const std::vector<double>& forces,
+                     const ProgressSink& progress, const RunMethodOptions& options) {
+  return m.kind == MethodKind::discrete ? run_discrete(m, forces, progress, options)
+                                        : run_continuum(m, forces, progress, options);
 }
 
 }  // namespace rbc

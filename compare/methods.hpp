@@ -1,6 +1,7 @@
 #pragma once
 // The models the comparison runs, behind one call: a method (model + resolution + law)
 // stretched over a list of forces returns a curve of diameters with its cost.
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -16,7 +17,9 @@ struct Method {
   MethodKind kind = MethodKind::discrete;
   int resolution = 2000;                      ///< vertices (discrete) or elements (continuum)
   WlcExpansion order = WlcExpansion::order2;  ///< continuum law (discrete: always the full WLC)
-  /// Short stable name, e.g. "discrete_N2000" or "continuum_p2_E4000".
+  /// Triangulation orientation (RestShapeOptions::rotation_seed; 0 = the default mesh).
+  unsigned rotation_seed = 0;
+  /// Short stable name, e.g. "discrete_N2000" or "continuum_p2_E4000" (+ "_r3" if rotated).
   std::string name() const;
   /// Legend label, e.g. "microscopic model (N = 2000)".
   std::string label() const;
@@ -38,15 +41,36 @@ struct MethodRun {
   std::vector<CurvePoint> points;
   double setup_s = 0;  ///< mesh generation and set-up
   double total_s = 0;  ///< set-up plus all forces
+  double cpu_s = 0;    ///< process CPU time of all forces (s), set-up excluded
+  /// CPU time (s) of one energy+gradient evaluation of this model at its rest shape
+  /// (RunMethodOptions::measure_evaluation; 0 otherwise).
+  double eval_cpu_s = 0;
+  double patch_plus_um2 = 0, patch_minus_um2 = 0;  ///< bead contact patches at rest
+  double surface_um2 = 0;                          ///< rest surface area
   bool all_converged() const;
 };
+
+struct RunMethodOptions {
+  bool measure_evaluation = false;  ///< also time one energy+gradient evaluation (CPU)
+};
+
+/// Process CPU time (s, all threads) since an arbitrary origin.
+double process_cpu_seconds();
+/// CPU time (s) of one call of `eval`: the median of 7 batches of at least 20 ms CPU each.
+double evaluation_cpu_seconds(const std::function<void()>& eval);
+/// CPU time (s) of one energy+gradient evaluation of `net` at its rest shape (88 pN load).
+double network_evaluation_cpu_seconds(const Network& net);
 
 /// The discrete network every comparison uses at a resolution: the Evans-Fung rest shape
 /// triangulated with about `vertices` vertices and the default spectrin parameters.
 Network make_discrete_network(int vertices);
+/// The same on the triangulation turned by `rotation_seed` (0: identical to the above).
+Network make_discrete_network(int vertices, unsigned rotation_seed);
 
 /// Stretches the cell with the method over `forces_pN` (continuation in the given order).
 MethodRun run_method(const Method& method, const std::vector<double>& forces_pN,
                      const ProgressSink& progress);
+MethodRun run_method(const Method& method, const std::vector<double>& forces_pN,
+                     const ProgressSink& progress, const RunMethodOptions& options);
 
 }  // namespace rbc

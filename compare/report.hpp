@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "compare/accuracy_study.hpp"
 #include "compare/fig7.hpp"
 #include "compare/mc_convergence.hpp"
 #include "compare/stability.hpp"
@@ -83,6 +84,11 @@ struct ClaimCheck {
 /// Claim checks from the three studies (any may be partial: missing methods are said so).
 std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResult& tradeoff,
                                      const StabilityResult& stability);
+/// The same; claim 3 (continuum cheaper at equal accuracy) from the committed 13-force
+/// accuracy-cost table when `accuracy` is given, per force range at 1 % and 2 %.
+std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResult& tradeoff,
+                                     const StabilityResult& stability,
+                                     const AccuracyCostTable* accuracy);
 
 /// Runs the three studies into DIR/fig7, DIR/tradeoff, DIR/stability (and the Monte Carlo
 /// convergence study into DIR/tradeoff) and writes DIR/report.md.

@@ -157,6 +157,9 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
     spec.ylabel = std::string("|error| in ") + (axial ? "D_A" : "D_T") + " (um) vs reference";
     spec.log_x = spec.log_y = true;
     spec.key = "outside right top";
+    // Labels literally (no gnuplot enhanced-text subscript in D_A, as in the legend).
+    spec.extra_commands = {"set title noenhanced", "set xlabel noenhanced",
+                           "set ylabel noenhanced"};
     int k = 0;
     for (auto& [name, pts] : series) {
       CsvTable t;

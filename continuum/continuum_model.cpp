@@ -16,17 +16,30 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 }  // namespace
 
-TriMesh make_continuum_mesh(int elements, const EvansFungShape& shape, MeshQualityReport* report) {
+namespace {
+RestShapeOptions continuum_mesh_options(int elements) {
   if (elements < kMinContinuumElements || elements > kMaxContinuumElements)
     throw std::invalid_argument("element count " + std::to_string(elements) +
                                 " is out of range; expected " +
                                 std::to_string(kMinContinuumElements) + " to " +
                                 std::to_string(kMaxContinuumElements) + " triangles");
   RestShapeOptions o;
-  o.shape = shape;
   o.target_vertices = elements / 2 + 2;
   o.quality = RestMeshQuality::phi_minimised;
+  return o;
+}
+}  // namespace
+
+TriMesh make_continuum_mesh(int elements, const EvansFungShape& shape, MeshQualityReport* report) {
+  RestShapeOptions o = continuum_mesh_options(elements);
+  o.shape = shape;
   return make_rest_shape(o, report);
+}
+
+TriMesh make_continuum_mesh(int elements, unsigned rotation_seed) {
+  RestShapeOptions o = continuum_mesh_options(elements);
+  o.rotation_seed = rotation_seed;
+  return make_rest_shape(o);
 }
 
 IsotropicMembraneLaw scaled_law(const IsotropicMembraneLaw& law, double factor) {

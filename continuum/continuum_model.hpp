@@ -30,6 +30,9 @@ inline constexpr int kMaxContinuumElements = 79996;
 /// kMaxContinuumElements].
 TriMesh make_continuum_mesh(int elements, const EvansFungShape& shape = {},
                             MeshQualityReport* report = nullptr);
+/// The same mesh turned by RestShapeOptions::rotation_seed before the Phi minimisation
+/// (0 = the default orientation, identical to the overload above).
+TriMesh make_continuum_mesh(int elements, unsigned rotation_seed);
 
 /// Physics of the continuum model other than the in-plane law. Defaults: kappa = 0.2 pN um
 /// (2e-19 J, paper Table 2), H0 = 0, contact patches of 5 % area per bead.

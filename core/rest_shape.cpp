@@ -1,9 +1,11 @@
 #include "core/rest_shape.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
+#include <random>
 #include <stdexcept>
 
 #include <gsl/gsl_integration.h>
@@ -226,6 +228,18 @@ MeshQualityReport assess_mesh(const TriMesh& mesh) {
   return r;
 }
 
+Eigen::Matrix3d triangulation_rotation(unsigned rotation_seed) {
+  if (rotation_seed == 0) return Eigen::Matrix3d::Identity();
+  std::mt19937_64 rng(rotation_seed);
+  // 53-bit uniforms in [0, 1) from the raw stream: the same numbers on every standard library.
+  auto uniform = [&rng] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  const double u1 = uniform(), u2 = 2 * M_PI * uniform(), u3 = 2 * M_PI * uniform();
+  const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
+  const Eigen::Quaterniond q(a * std::sin(u2), a * std::cos(u2), b * std::sin(u3),
+                             b * std::cos(u3));  // Shoemake 1992: uniform on SO(3)
+  return q.normalized().toRotationMatrix();
+}
+
 TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) {
   if (opt.target_vertices < 100 || opt.target_vertices > 40000)
     throw std::invalid_argument("vertex count " + std::to_string(opt.target_vertices) +
@@ -234,6 +248,7 @@ TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) 
     throw std::invalid_argument("Evans-Fung radius must be positive, got " +
                                 std::to_string(opt.shape.radius_um) + " um");
   TriMesh sphere = make_icosphere(icosphere_frequency_for(opt.target_vertices));
+  if (opt.rotation_seed != 0) sphere.x = triangulation_rotation(opt.rotation_seed) * sphere.x;
   const int n = sphere.topo.num_vertices;
   Positions s = sphere.x;  // points on the unit sphere (the surface parameters)
   if (opt.quality == RestMeshQuality::equal_area) {

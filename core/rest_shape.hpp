@@ -52,7 +52,17 @@ struct RestShapeOptions {
   /// N = 2,000 for near-equilateral triangles, which are coarse across the rim); the scale
   /// factor is reported (1.0018 at N = 2,000, 1.0001 at N = 27,500).
   bool match_volume = true;
+  /// Orientation of the triangulation on the cell: 0 (default) lays the icosphere as
+  /// make_icosphere builds it; any other value first turns the unit icosphere by a
+  /// uniformly distributed random rotation drawn from this seed (Shoemake's quaternion
+  /// method on a std::mt19937_64 stream), so the 12 degree-5 vertices and the rows of
+  /// triangles land elsewhere on the cell. Same seed, same mesh. Used to measure how much
+  /// a result depends on where the triangulation happens to lie (the reference spread).
+  unsigned rotation_seed = 0;
 };
+
+/// The rotation rotation_seed selects (identity for 0): proper orthogonal, det = +1.
+Eigen::Matrix3d triangulation_rotation(unsigned rotation_seed);
 
 /// Exact area (um^2) and volume (um^3) of the Evans-Fung surface by adaptive quadrature
 /// (GSL QAGS) of the surface of revolution: A = 2 int 2 pi r sqrt(1 + z'(r)^2) dr,

@@ -1,0 +1,192 @@
+#include "compare/accuracy_choice.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "compare/experiment.hpp"
+#include "core/io.hpp"
+
+namespace rbc {
+
+namespace {
+
+WlcExpansion order_from_code(double c, const std::string& where) {
+  if (c == 0) return WlcExpansion::full;
+  if (c == 2) return WlcExpansion::order2;
+  if (c == 3) return WlcExpansion::order3;
+  if (c == 4) return WlcExpansion::order4;
+  throw std::runtime_error(where + ": order must be 0 (full), 2, 3 or 4");
+}
+
+std::string percent_text(double fraction) {
+  std::ostringstream s;
+  s.precision(3);
+  s << 100 * fraction << " %";
+  return s.str();
+}
+
+std::string cost_text(double cost) {
+  return std::to_string(std::lround(cost));
+}
+
+}  // namespace
+
+std::string method_spec(const Method& m) {
+  if (m.kind == MethodKind::discrete) return "discrete:" + std::to_string(m.resolution);
+  return "continuum:" + to_string(m.order) + ":" + std::to_string(m.resolution);
+}
+
+std::string default_accuracy_table_path() {
+  return default_data_directory() + "/tradeoff/accuracy_by_force.csv";
+}
+
+AccuracyTable load_accuracy_table(const std::string& path) {
+  const CsvTable t = read_csv(path);
+  const std::vector<std::string> expected = {"kind",    "order",    "resolution", "converged",
+                                             "cost_eg", "force_pN", "error",      "reference_se"};
+  if (t.header != expected)
+    throw std::runtime_error(path +
+                             ": expected the header kind,order,resolution,converged,cost_eg,"
+                             "force_pN,error,reference_se");
+  AccuracyTable table;
+  table.source = path;
+  for (size_t k = 0; k < t.rows.size(); ++k) {
+    const auto& r = t.rows[k];
+    const std::string where = path + " row " + std::to_string(k + 1);
+    if (r.size() != expected.size()) throw std::runtime_error(where + ": wrong number of columns");
+    for (double v : r)
+      if (!std::isfinite(v)) throw std::runtime_error(where + ": non-finite value");
+    if ((r[0] != 0 && r[0] != 1) || r[2] < 1 || r[2] != std::floor(r[2]) || r[4] < 0 || r[5] < 0 ||
+        r[6] < 0 || r[7] < 0)
+      throw std::runtime_error(where +
+                               ": kind must be 0 or 1, resolution a positive integer, "
+                               "cost, force, error and reference_se >= 0");
+    Method m;
+    m.kind = r[0] == 0 ? MethodKind::discrete : MethodKind::continuum;
+    m.order = m.kind == MethodKind::discrete ? WlcExpansion::full : order_from_code(r[1], where);
+    m.resolution = static_cast<int>(r[2]);
+    table.reference_relative_se = std::max(table.reference_relative_se, r[7]);
+    const bool same = !table.entries.empty() && table.entries.back().method.kind == m.kind &&
+                      table.entries.back().method.order == m.order &&
+                      table.entries.back().method.resolution == m.resolution;
+    if (!same) {
+      for (const auto& e : table.entries)
+        if (e.method.kind == m.kind && e.method.order == m.order &&
+            e.method.resolution == m.resolution)
+          throw std::runtime_error(where + ": rows of " + method_spec(m) + " are not contiguous");
+      table.entries.push_back({m, r[3] != 0, r[4], {}, {}});
+    }
+    AccuracyEntry& e = table.entries.back();
+    if (!e.forces_pN.empty() && !(r[5] > e.forces_pN.back()))
+      throw std::runtime_error(where + ": forces of " + method_spec(m) + " must increase");
+    e.forces_pN.push_back(r[5]);
+    e.error.push_back(r[6]);
+  }
+  if (table.entries.empty()) throw std::runtime_error(path + ": the table has no rows");
+  return table;
+}
+
+double parse_accuracy_percent(const std::string& text) {
+  std::string s = text;
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  if (!s.empty() && s.back() == '%') s.pop_back();
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(s, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (s.empty() || used != s.size() || !std::isfinite(v) || !(v > 0) || v > 100)
+    throw std::invalid_argument("--accuracy " + text +
+                                ": expected a finite percentage > 0 and <= 100, e.g. 1%");
+  return v;
+}
+
+double entry_error(const AccuracyEntry& e, const std::vector<double>& forces) {
+  const double lo = e.forces_pN.front(), hi = e.forces_pN.back();
+  double worst = 0;
+  for (double f : forces) {
+    if (!(f >= lo && f <= hi)) {
+      std::ostringstream m;
+      m << "--accuracy: force " << f << " pN lies outside the trade-off table's range [" << lo
+        << ", " << hi << "] pN";
+      throw std::invalid_argument(m.str());
+    }
+    const auto it = std::lower_bound(e.forces_pN.begin(), e.forces_pN.end(), f);
+    const size_t k = static_cast<size_t>(it - e.forces_pN.begin());
+    double err = e.error[k];
+    if (*it != f) err = std::max(err, e.error[k - 1]);  // between table forces k-1 and k
+    worst = std::max(worst, err);
+  }
+  return worst;
+}
+
+AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<double>& forces,
+                                  double percent) {
+  if (!std::isfinite(percent) || !(percent > 0))
+    throw std::invalid_argument("--accuracy: the percentage must be finite and > 0, got " +
+                                std::to_string(percent));
+  if (forces.empty()) throw std::invalid_argument("--accuracy: no forces to choose for");
+  struct Candidate {
+    const AccuracyEntry* entry;
+    double error;
+    size_t index;
+  };
+  std::vector<Candidate> ok;
+  std::optional<Candidate> best_error;
+  for (size_t k = 0; k < table.entries.size(); ++k) {
+    const AccuracyEntry& e = table.entries[k];
+    const double err = entry_error(e, forces);  // throws for forces outside the table
+    if (!e.converged) continue;
+    if (!best_error || err < best_error->error) best_error = Candidate{&e, err, k};
+    if (err + table.reference_relative_se <= percent / 100) ok.push_back({&e, err, k});
+  }
+  if (ok.empty()) {
+    std::ostringstream m;
+    m << "--accuracy " << percent << "%: no method in " << table.source << " reaches it";
+    if (best_error)
+      m << " (the most accurate, " << method_spec(best_error->entry->method) << ", is within "
+        << percent_text(best_error->error) << " of the reference, whose own uncertainty is "
+        << percent_text(table.reference_relative_se) << ")";
+    throw std::invalid_argument(m.str());
+  }
+  std::stable_sort(ok.begin(), ok.end(), [](const Candidate& a, const Candidate& b) {
+    if (a.entry->cost_eg != b.entry->cost_eg) return a.entry->cost_eg < b.entry->cost_eg;
+    return a.error < b.error;
+  });
+  auto pick = [](const Candidate& c) {
+    return AccuracyPick{c.entry->method, c.error, c.entry->cost_eg};
+  };
+  AccuracyChoice ch;
+  ch.percent = percent;
+  ch.reference_relative_se = table.reference_relative_se;
+  ch.chosen = pick(ok[0]);
+  if (ok.size() > 1) ch.runner_up = pick(ok[1]);
+  for (size_t k = 1; k < ok.size(); ++k)
+    if (ok[k].entry->method.kind != ok[0].entry->method.kind) {
+      if (k != 1) ch.other_kind = pick(ok[k]);
+      break;
+    }
+  std::ostringstream r;
+  r << "--accuracy " << percent << "%: chose " << method_spec(ch.chosen.method) << ", within "
+    << percent_text(ch.chosen.error) << " of the reference over the requested forces (+ "
+    << percent_text(ch.reference_relative_se) << " reference uncertainty), cost "
+    << cost_text(ch.chosen.cost_eg) << " evaluations, the cheapest of " << ok.size()
+    << " that qualify";
+  if (ch.runner_up)
+    r << "; runner-up " << method_spec(ch.runner_up->method) << " ("
+      << percent_text(ch.runner_up->error) << ", " << cost_text(ch.runner_up->cost_eg) << ")";
+  if (ch.other_kind)
+    r << "; cheapest "
+      << (ch.other_kind->method.kind == MethodKind::discrete ? "discrete" : "continuum")
+      << " model " << method_spec(ch.other_kind->method) << " ("
+      << percent_text(ch.other_kind->error) << ", " << cost_text(ch.other_kind->cost_eg) << ")";
+  ch.reason = r.str();
+  return ch;
+}
+
+}  // namespace rbc

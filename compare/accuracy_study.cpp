@@ -1,0 +1,632 @@
+#include "compare/accuracy_study.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "compare/accuracy_choice.hpp"
+#include "compare/plot.hpp"
+#include "core/io.hpp"
+
+namespace rbc {
+
+const std::vector<double>& mills_forces_pN() {
+  static const std::vector<double> forces{0,    16,    19.5, 30.6, 38,    46.6, 67.6,
+                                          87.6, 108.8, 130,  151,  172.8, 193};
+  return forces;
+}
+
+void AccuracyStudyOptions::validate() const {
+  if (forces_pN.empty()) throw std::invalid_argument("accuracy study: the force list is empty");
+  for (size_t k = 0; k < forces_pN.size(); ++k)
+    if (!std::isfinite(forces_pN[k]) || forces_pN[k] < 0 ||
+        (k > 0 && !(forces_pN[k] > forces_pN[k - 1])))
+      throw std::invalid_argument(
+          "accuracy study forces must be finite, >= 0 pN and increasing, got " +
+          std::to_string(forces_pN[k]) + " pN at position " + std::to_string(k + 1));
+  if (reference_seeds.empty())
+    throw std::invalid_argument("accuracy study needs at least one reference triangulation");
+  if (reference_vertices < 100 || reference_vertices > 40000)
+    throw std::invalid_argument("reference vertices must be in [100, 40000], got " +
+                                std::to_string(reference_vertices));
+  if (cost_unit_vertices < 100 || cost_unit_vertices > 40000)
+    throw std::invalid_argument("cost-unit vertices must be in [100, 40000], got " +
+                                std::to_string(cost_unit_vertices));
+}
+
+Richardson richardson_chain(double v1, double v2, double v3) {
+  Richardson r;
+  const double d12 = v1 - v2, d23 = v2 - v3;
+  r.limit = v3;
+  if (d12 == 0 || d23 == 0 || (d12 > 0) != (d23 > 0)) return r;  // no observed order
+  r.order = std::log2(d12 / d23);
+  r.clean = r.order >= 0.5 && r.order <= 4.0;
+  if (r.clean) r.limit = v3 + (v3 - v2) / (std::pow(2.0, r.order) - 1.0);
+  return r;
+}
+
+double observed_order(const std::vector<double>& vertices, const std::vector<double>& errors) {
+  const size_t n = std::min(vertices.size(), errors.size());
+  if (n < 2) return 0;
+  double mx = 0, my = 0;
+  for (size_t k = 0; k < n; ++k)
+    mx += -0.5 * std::log(vertices[k]) / n, my += std::log(errors[k]) / n;
+  double sxy = 0, sxx = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const double dx = -0.5 * std::log(vertices[k]) - mx;
+    sxy += dx * (std::log(errors[k]) - my);
+    sxx += dx * dx;
+  }
+  return sxx > 0 ? sxy / sxx : 0;
+}
+
+namespace {
+
+/// Column code of a continuum law: 0 for the full law, else the Taylor order (2, 3, 4).
+int order_code(WlcExpansion o) {
+  return o == WlcExpansion::full ? 0 : std::stoi(to_string(o));
+}
+
+/// accuracy_cost.csv's columns (written and read back).
+const std::vector<std::string>& accuracy_cost_header() {
+  static const std::vector<std::string> h = {"kind",
+                                             "order",
+                                             "resolution",
+                                             "vertices",
+                                             "elements",
+                                             "converged",
+                                             "error_all",
+                                             "error_low",
+                                             "error_mid",
+                                             "error_high",
+                                             "cost_eg",
+                                             "own_eg",
+                                             "cpu_s",
+                                             "wall_s",
+                                             "spread",
+                                             "rotations",
+                                             "error_default",
+                                             "reference_sd",
+                                             "cost_unit_vertices"};
+  return h;
+}
+
+/// Same method and resolution (any rotation).
+bool same_family(const Method& a, const Method& b) {
+  return a.kind == b.kind && a.resolution == b.resolution &&
+         (a.kind == MethodKind::discrete || a.order == b.order);
+}
+
+std::string cache_base(const std::string& dir, const Method& m) {
+  return (std::filesystem::path(dir) / m.name()).string();
+}
+
+void write_cached_run(const std::string& dir, const StudyRun& s) {
+  const MethodRun& r = s.run;
+  CsvTable pts;
+  pts.comments = {"one sweep of the accuracy study: " + r.method.label() + ", rotation seed " +
+                  std::to_string(r.method.rotation_seed)};
+  pts.header = {"force_pN",  "axial_um", "transverse_um", "iterations",
+                "converged", "residual", "wall_s"};
+  for (const auto& p : r.points)
+    pts.rows.push_back({p.force_pN, p.axial_um, p.transverse_um, static_cast<double>(p.iterations),
+                        p.converged ? 1.0 : 0.0, p.residual, p.wall_s});
+  CsvTable meta;
+  meta.comments = {"CPU times in s (process, all threads), areas in um^2"};
+  meta.header = {"vertices",    "elements",        "cpu_s",          "wall_s",
+                 "eval_cpu_s",  "unit_eval_cpu_s", "patch_plus_um2", "patch_minus_um2",
+                 "surface_um2", "setup_s"};
+  meta.rows.push_back({static_cast<double>(r.vertices), static_cast<double>(r.elements), r.cpu_s,
+                       r.total_s - r.setup_s, r.eval_cpu_s, s.unit_eval_cpu_s, r.patch_plus_um2,
+                       r.patch_minus_um2, r.surface_um2, r.setup_s});
+  const std::string base = cache_base(dir, r.method);
+  write_csv(base + ".meta.csv", meta);
+  write_csv(base + ".csv", pts);  // written last: its presence marks a complete entry
+}
+
+bool read_cached_run(const std::string& dir, const Method& m, const std::vector<double>& forces,
+                     StudyRun& out) {
+  const std::string base = cache_base(dir, m);
+  if (!std::filesystem::exists(base + ".csv") || !std::filesystem::exists(base + ".meta.csv"))
+    return false;
+  const CsvTable pts = read_csv(base + ".csv");
+  const CsvTable meta = read_csv(base + ".meta.csv");
+  if (meta.rows.size() != 1 || meta.rows[0].size() < 10 || pts.rows.size() != forces.size())
+    return false;
+  for (size_t k = 0; k < forces.size(); ++k)
+    if (pts.rows[k].size() < 7 || std::abs(pts.rows[k][0] - forces[k]) > 1e-9) return false;
+  MethodRun& r = out.run;
+  r = MethodRun{};
+  r.method = m;
+  const auto& q = meta.rows[0];
+  r.vertices = static_cast<int>(q[0]);
+  r.elements = static_cast<int>(q[1]);
+  r.cpu_s = q[2];
+  r.setup_s = q[9];
+  r.total_s = q[3] + q[9];
+  r.eval_cpu_s = q[4];
+  out.unit_eval_cpu_s = q[5];
+  r.patch_plus_um2 = q[6];
+  r.patch_minus_um2 = q[7];
+  r.surface_um2 = q[8];
+  for (const auto& p : pts.rows)
+    r.points.push_back({p[0], p[1], p[2], p[6], p[5], static_cast<int>(p[3]), p[4] != 0});
+  return true;
+}
+
+/// The list of sweeps the options ask for, cheapest first within each group.
+std::vector<Method> study_methods(const AccuracyStudyOptions& o) {
+  std::vector<Method> out;
+  auto add = [&](MethodKind kind, int resolution, WlcExpansion order, unsigned seed) {
+    Method m{kind, resolution, order, seed};
+    for (const auto& e : out)
+      if (same_family(e, m) && e.rotation_seed == seed) return;
+    out.push_back(m);
+  };
+  for (int n : o.discrete_vertices) {
+    add(MethodKind::discrete, n, WlcExpansion::full, 0);
+    if (n <= o.spread_max_resolution)
+      for (unsigned s : o.spread_seeds) add(MethodKind::discrete, n, WlcExpansion::full, s);
+  }
+  for (WlcExpansion order : o.continuum_orders)
+    for (int e : o.continuum_elements) {
+      if (order != WlcExpansion::order2 && e > o.full_law_max_elements) continue;
+      add(MethodKind::continuum, e, order, 0);
+      if (order == WlcExpansion::order2 && e <= o.spread_max_resolution)
+        for (unsigned s : o.spread_seeds) add(MethodKind::continuum, e, order, s);
+    }
+  for (unsigned s : o.reference_seeds)
+    add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, s);
+  return out;
+}
+
+double max_relative_error(const CurvePoint& p, const ReferencePoint& r) {
+  return std::max(std::abs(p.axial_um - r.axial_um) / r.axial_um,
+                  std::abs(p.transverse_um - r.transverse_um) / r.transverse_um);
+}
+
+}  // namespace
+
+AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector<StudyRun> runs) {
+  AccuracyStudy st;
+  st.options = o;
+  st.runs = std::move(runs);
+  const size_t nf = o.forces_pN.size();
+  // Reference: mean and spread of the full-level runs.
+  std::vector<const StudyRun*> ref;
+  for (const auto& r : st.runs)
+    if (r.run.method.kind == MethodKind::discrete &&
+        r.run.method.resolution == o.reference_vertices)
+      ref.push_back(&r);
+  if (ref.empty()) throw std::runtime_error("accuracy study: no reference run");
+  for (const StudyRun* r : ref)
+    if (!r->run.all_converged() || r->run.points.size() != nf)
+      throw std::runtime_error("accuracy study: reference run " + r->run.method.name() +
+                               " did not converge at every force");
+  for (size_t k = 0; k < nf; ++k) {
+    ReferencePoint p;
+    p.force_pN = o.forces_pN[k];
+    p.samples = static_cast<int>(ref.size());
+    for (const StudyRun* r : ref) {
+      p.axial_um += r->run.points[k].axial_um / p.samples;
+      p.transverse_um += r->run.points[k].transverse_um / p.samples;
+    }
+    if (p.samples > 1) {
+      for (const StudyRun* r : ref) {
+        p.axial_sd_um += std::pow(r->run.points[k].axial_um - p.axial_um, 2);
+        p.transverse_sd_um += std::pow(r->run.points[k].transverse_um - p.transverse_um, 2);
+      }
+      p.axial_sd_um = std::sqrt(p.axial_sd_um / (p.samples - 1));
+      p.transverse_sd_um = std::sqrt(p.transverse_sd_um / (p.samples - 1));
+    }
+    st.reference_relative_sd = std::max({st.reference_relative_sd, p.axial_sd_um / p.axial_um,
+                                         p.transverse_sd_um / p.transverse_um});
+    st.reference.push_back(p);
+  }
+  st.reference_relative_se = st.reference_relative_sd / std::sqrt(static_cast<double>(ref.size()));
+  // Rows: every method and resolution, errors worst over its rotations.
+  for (const auto& s : st.runs) {
+    const MethodRun& r = s.run;
+    if (r.method.rotation_seed != 0 || r.points.size() != nf) continue;
+    AccuracyRow row;
+    row.method = r.method;
+    row.vertices = r.vertices;
+    row.elements = r.elements;
+    row.cpu_s = r.cpu_s;
+    row.wall_s = r.total_s - r.setup_s;
+    row.own_eg = r.eval_cpu_s > 0 ? r.cpu_s / r.eval_cpu_s : 0;
+    row.cost_eg = s.unit_eval_cpu_s > 0 ? r.cpu_s / s.unit_eval_cpu_s : 0;
+    std::vector<const MethodRun*> family;
+    for (const auto& t : st.runs)
+      if (same_family(t.run.method, r.method) && t.run.points.size() == nf)
+        family.push_back(&t.run);
+    row.rotations = static_cast<int>(family.size());
+    row.converged = std::all_of(family.begin(), family.end(),
+                                [](const MethodRun* t) { return t->all_converged(); });
+    row.error_by_force.assign(nf, 0.0);
+    for (size_t k = 0; k < nf; ++k) {
+      for (const MethodRun* t : family)
+        row.error_by_force[k] =
+            std::max(row.error_by_force[k], max_relative_error(t->points[k], st.reference[k]));
+      row.error_default =
+          std::max(row.error_default, max_relative_error(r.points[k], st.reference[k]));
+      const double e = row.error_by_force[k];
+      row.error_all = std::max(row.error_all, e);
+      const double f = o.forces_pN[k];
+      double& range = f < kLowForceLimit_pN    ? row.error_low
+                      : f < kHighForceLimit_pN ? row.error_mid
+                                               : row.error_high;
+      range = std::max(range, e);
+    }
+    // Spread over the rotations of this method and resolution.
+    if (family.size() > 1)
+      for (size_t k = 0; k < nf; ++k) {
+        double ma = 0, mt = 0, va = 0, vt = 0;
+        const double n = static_cast<double>(family.size());
+        for (auto* t : family)
+          ma += t->points[k].axial_um / n, mt += t->points[k].transverse_um / n;
+        for (auto* t : family)
+          va += std::pow(t->points[k].axial_um - ma, 2),
+              vt += std::pow(t->points[k].transverse_um - mt, 2);
+        row.spread =
+            std::max({row.spread, std::sqrt(va / (n - 1)) / ma, std::sqrt(vt / (n - 1)) / mt});
+      }
+    st.rows.push_back(std::move(row));
+  }
+  std::sort(st.rows.begin(), st.rows.end(), [](const AccuracyRow& a, const AccuracyRow& b) {
+    if (a.method.kind != b.method.kind) return a.method.kind < b.method.kind;
+    if (a.method.order != b.method.order)
+      return order_code(a.method.order) > order_code(b.method.order);
+    return a.method.resolution < b.method.resolution;
+  });
+  // Richardson on the nested continuum chains (frequency doubling: elements x 4).
+  for (WlcExpansion order : o.continuum_orders) {
+    auto find = [&](int e) -> const MethodRun* {
+      for (const auto& s : st.runs)
+        if (s.run.method.kind == MethodKind::continuum && s.run.method.order == order &&
+            s.run.method.resolution == e && s.run.method.rotation_seed == 0 &&
+            s.run.points.size() == nf && s.run.all_converged())
+          return &s.run;
+      return nullptr;
+    };
+    for (int e1 : o.continuum_elements) {
+      const MethodRun *a = find(e1), *b = find(4 * e1), *c = find(16 * e1);
+      if (!a || !b || !c) continue;
+      for (size_t k = 0; k < nf; ++k) {
+        ChainExtrapolation ch;
+        ch.order = order;
+        ch.elements[0] = e1, ch.elements[1] = 4 * e1, ch.elements[2] = 16 * e1;
+        ch.force_pN = o.forces_pN[k];
+        ch.axial =
+            richardson_chain(a->points[k].axial_um, b->points[k].axial_um, c->points[k].axial_um);
+        ch.transverse = richardson_chain(a->points[k].transverse_um, b->points[k].transverse_um,
+                                         c->points[k].transverse_um);
+        st.chains.push_back(ch);
+      }
+    }
+  }
+  return st;
+}
+
+std::vector<StudyRun> run_accuracy_sweeps(const AccuracyStudyOptions& o,
+                                          const ProgressSink& progress) {
+  o.validate();
+  if (!o.cache_dir.empty()) ensure_output_directory(o.cache_dir);
+  std::vector<StudyRun> runs;
+  double unit_eval = 0;  // measured once per process, on first need
+  for (const Method& m : study_methods(o)) {
+    StudyRun s;
+    if (!o.cache_dir.empty() && read_cached_run(o.cache_dir, m, o.forces_pN, s)) {
+      runs.push_back(std::move(s));
+      continue;
+    }
+    if (unit_eval == 0)
+      unit_eval = network_evaluation_cpu_seconds(make_discrete_network(o.cost_unit_vertices));
+    report(progress, "accuracy study: " + m.name());
+    s.run = run_method(m, o.forces_pN, progress, RunMethodOptions{true});
+    s.unit_eval_cpu_s = unit_eval;
+    if (!o.cache_dir.empty()) write_cached_run(o.cache_dir, s);
+    runs.push_back(std::move(s));
+  }
+  return runs;
+}
+
+AccuracyStudy run_accuracy_study(const AccuracyStudyOptions& o, const ProgressSink& progress) {
+  return assemble_accuracy_study(o, run_accuracy_sweeps(o, progress));
+}
+
+namespace {
+
+std::string series_name(const Method& m) {
+  if (m.kind == MethodKind::discrete) return "discrete";
+  return m.order == WlcExpansion::full ? "continuum_full" : "continuum_p" + to_string(m.order);
+}
+
+}  // namespace
+
+void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
+  ensure_output_directory(dir);
+  const auto& o = st.options;
+  std::ostringstream refline;
+  refline << "reference: discrete network at the full spectrin level (" << o.reference_vertices
+          << " requested vertices), mean over " << o.reference_seeds.size()
+          << " triangulation rotations; largest relative sd " << st.reference_relative_sd
+          << ", relative standard error of the mean " << st.reference_relative_se;
+  // accuracy_cost.csv: one row per method and resolution.
+  CsvTable t;
+  t.comments = {
+      "accuracy against cost over the forces of the study (pN): Mills et al. 2004",
+      refline.str(),
+      "error = largest relative error of D_A and D_T against the reference (fraction, not %), "
+      "worst over the row's triangulation rotations (column rotations; the default mesh "
+      "included); error_default = the default mesh's alone, all forces",
+      "error_low: F < 50 pN; error_mid: 50 <= F < 120 pN; error_high: F >= 120 pN",
+      "cost_eg = process CPU of the whole sweep / CPU of one energy+gradient evaluation of the "
+      "discrete network with " +
+          std::to_string(o.cost_unit_vertices) +
+          " requested vertices, measured in the same process (machine-independent unit)",
+      "own_eg = the same in evaluations of the method's own model at its size (rbc bench's "
+      "eg_evals); cpu_s, wall_s for information (1 thread, shared machine)",
+      "spread = largest relative sd of D_A, D_T over triangulation rotations (0 = not measured)",
+      "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4 (continuum); converged 0/1"};
+  t.header = accuracy_cost_header();
+  for (const auto& r : st.rows)
+    t.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
+                      r.method.kind == MethodKind::discrete
+                          ? 0.0
+                          : static_cast<double>(order_code(r.method.order)),
+                      static_cast<double>(r.method.resolution), static_cast<double>(r.vertices),
+                      static_cast<double>(r.elements), r.converged ? 1.0 : 0.0, r.error_all,
+                      r.error_low, r.error_mid, r.error_high, r.cost_eg, r.own_eg, r.cpu_s,
+                      r.wall_s, r.spread, static_cast<double>(r.rotations), r.error_default,
+                      st.reference_relative_sd, static_cast<double>(o.cost_unit_vertices)});
+  write_csv(dir + "/accuracy_cost.csv", t);
+  // accuracy_by_force.csv: the per-force errors the --accuracy choice reads.
+  CsvTable bf;
+  bf.comments = {"per-force relative errors of accuracy_cost.csv's rows (same order)",
+                 refline.str(),
+                 "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4; error = max of the "
+                 "relative errors of D_A and D_T (fraction); cost_eg as in accuracy_cost.csv",
+                 "reference_se = relative standard error of the reference mean (fraction)"};
+  bf.header = {"kind",    "order",    "resolution", "converged",
+               "cost_eg", "force_pN", "error",      "reference_se"};
+  for (const auto& r : st.rows)
+    for (size_t k = 0; k < r.error_by_force.size(); ++k)
+      bf.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
+                         r.method.kind == MethodKind::discrete
+                             ? 0.0
+                             : static_cast<double>(order_code(r.method.order)),
+                         static_cast<double>(r.method.resolution), r.converged ? 1.0 : 0.0,
+                         r.cost_eg, o.forces_pN[k], r.error_by_force[k], st.reference_relative_se});
+  write_csv(dir + "/accuracy_by_force.csv", bf);
+  // reference.csv
+  CsvTable rf;
+  rf.comments = {refline.str(), "sd = sample standard deviation over the rotations (um)"};
+  rf.header = {"force_pN",      "axial_um",         "axial_sd_um",
+               "transverse_um", "transverse_sd_um", "samples"};
+  for (const auto& p : st.reference)
+    rf.rows.push_back({p.force_pN, p.axial_um, p.axial_sd_um, p.transverse_um, p.transverse_sd_um,
+                       static_cast<double>(p.samples)});
+  write_csv(dir + "/reference.csv", rf);
+  // convergence.csv: every run (all rotations), with its bead patches.
+  CsvTable cv;
+  cv.comments = {"every sweep of the study: diameters (um) per force, bead patch areas (um^2)",
+                 "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4; seed: rotation"};
+  cv.header = {"kind",        "order",          "resolution",     "seed",          "vertices",
+               "elements",    "force_pN",       "axial_um",       "transverse_um", "converged",
+               "surface_um2", "patch_plus_um2", "patch_minus_um2"};
+  for (const auto& s : st.runs) {
+    const MethodRun& r = s.run;
+    for (const auto& p : r.points)
+      cv.rows.push_back(
+          {r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
+           r.method.kind == MethodKind::discrete ? 0.0
+                                                 : static_cast<double>(order_code(r.method.order)),
+           static_cast<double>(r.method.resolution), static_cast<double>(r.method.rotation_seed),
+           static_cast<double>(r.vertices), static_cast<double>(r.elements), p.force_pN, p.axial_um,
+           p.transverse_um, p.converged ? 1.0 : 0.0, r.surface_um2, r.patch_plus_um2,
+           r.patch_minus_um2});
+  }
+  write_csv(dir + "/convergence.csv", cv);
+  // richardson.csv
+  CsvTable rc;
+  rc.comments = {
+      "Richardson extrapolation of nested continuum chains (elements e, 4e, 16e: "
+      "icosphere frequency f, 2f, 4f), per force",
+      "order: 0 full law, 2, 3, 4; clean = same-sign differences and observed order "
+      "in [0.5, 4]; limit = finest value when not clean"};
+  rc.header = {"order",
+               "e1",
+               "e2",
+               "e3",
+               "force_pN",
+               "axial_limit_um",
+               "axial_order",
+               "axial_clean",
+               "transverse_limit_um",
+               "transverse_order",
+               "transverse_clean"};
+  for (const auto& c : st.chains)
+    rc.rows.push_back({static_cast<double>(order_code(c.order)), static_cast<double>(c.elements[0]),
+                       static_cast<double>(c.elements[1]), static_cast<double>(c.elements[2]),
+                       c.force_pN, c.axial.limit, c.axial.order, c.axial.clean ? 1.0 : 0.0,
+                       c.transverse.limit, c.transverse.order, c.transverse.clean ? 1.0 : 0.0});
+  write_csv(dir + "/richardson.csv", rc);
+  // orders.csv: observed order of each model's error against resolution, over the sizes
+  // whose error exceeds twice the reference spread (smaller errors are not resolved).
+  CsvTable oc;
+  oc.comments = {
+      "observed order p of error ~ h^p (h ~ N^-1/2), least squares over the rows "
+      "with error_all > 2 x reference sd; kind 0 discrete, 1 continuum; order 0 "
+      "full, 2",
+      "points = rows used; smallest/largest = their vertex range"};
+  oc.header = {"kind",          "order", "points", "smallest_vertices", "largest_vertices",
+               "observed_order"};
+  std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> fits;
+  for (const auto& r : st.rows)
+    if (r.converged && r.error_all > 2 * st.reference_relative_sd &&
+        !(r.method.kind == MethodKind::discrete && r.method.resolution == o.reference_vertices)) {
+      auto& f = fits[{r.method.kind == MethodKind::discrete ? 0 : 1,
+                      r.method.kind == MethodKind::discrete ? 0 : order_code(r.method.order)}];
+      f.first.push_back(r.vertices);
+      f.second.push_back(r.error_all);
+    }
+  for (const auto& [key, f] : fits)
+    oc.rows.push_back(
+        {static_cast<double>(key.first), static_cast<double>(key.second),
+         static_cast<double>(f.first.size()), *std::min_element(f.first.begin(), f.first.end()),
+         *std::max_element(f.first.begin(), f.first.end()), observed_order(f.first, f.second)});
+  write_csv(dir + "/orders.csv", oc);
+  // Plots: error against cost, and error against resolution.
+  std::map<std::string, std::vector<const AccuracyRow*>> series;
+  for (const auto& r : st.rows)
+    if (r.converged) series[series_name(r.method)].push_back(&r);
+  static const char* colors[] = {"#1f77b4", "#2ca02c", "#ff7f0e", "#d62728", "#9467bd"};
+  for (const bool by_cost : {true, false}) {
+    PlotSpec spec;
+    spec.title = by_cost ? "Accuracy against cost, 13 Mills forces"
+                         : "Error against resolution, 13 Mills forces";
+    spec.xlabel =
+        by_cost ? "cost (energy+gradient evaluations of the N = 1,002 network)" : "vertices";
+    spec.ylabel = "largest relative error of D_A, D_T";
+    spec.log_x = spec.log_y = true;
+    spec.y_range = "[1e-4:0.1]";
+    spec.key = "outside right top";
+    spec.extra_commands = {"set title noenhanced", "set xlabel noenhanced",
+                           "set ylabel noenhanced"};
+    {
+      std::ostringstream line;  // the reference's own spread: errors below it are not resolved
+      line << "set arrow from graph 0, first " << st.reference_relative_sd << " to graph 1, first "
+           << st.reference_relative_sd << " nohead dt 2 lc rgb '#777777'";
+      spec.extra_commands.push_back(line.str());
+      std::ostringstream label;
+      label << "set label 'reference spread (sd over rotations)' at graph 0.02, first "
+            << 1.15 * st.reference_relative_sd << " noenhanced tc rgb '#777777'";
+      spec.extra_commands.push_back(label.str());
+    }
+    int k = 0;
+    for (const auto& [name, rows] : series) {
+      CsvTable s;
+      s.header = {"x", "error", "spread"};
+      for (auto* r : rows)
+        s.rows.push_back({by_cost ? r->cost_eg : static_cast<double>(r->vertices),
+                          std::max(r->error_all, 1e-6), std::max(r->spread, 1e-6)});
+      std::sort(s.rows.begin(), s.rows.end());
+      const std::string file = (by_cost ? "cost_" : "resolution_") + name + ".csv";
+      write_csv(dir + "/" + file, s);
+      spec.series.push_back({name, file, "1:2", "linespoints", colors[k % 5], 7, 1});
+      CsvTable sp;  // rotation spread, only the sizes that were rotated
+      sp.header = s.header;
+      for (const auto& q : s.rows)
+        if (q[2] > 1e-6) sp.rows.push_back(q);
+      if (!by_cost && !sp.rows.empty()) {
+        write_csv(dir + "/spread_" + name + ".csv", sp);
+        spec.series.push_back({name + " rotation spread (sd)", "spread_" + name + ".csv", "1:3",
+                               "linespoints", colors[k % 5], 6, 2});
+      }
+      ++k;
+    }
+    render_plot(spec, dir, by_cost ? "accuracy_cost" : "accuracy_resolution");
+  }
+}
+
+AccuracyCostTable load_accuracy_cost(const std::string& path) {
+  const CsvTable t = read_csv(path);
+  const std::vector<std::string>& expected = accuracy_cost_header();
+  if (t.header != expected)
+    throw std::runtime_error(path + ": not an accuracy_cost.csv (header differs)");
+  AccuracyCostTable out;
+  for (size_t k = 0; k < t.rows.size(); ++k) {
+    const auto& q = t.rows[k];
+    if (q.size() != expected.size())
+      throw std::runtime_error(path + " row " + std::to_string(k + 1) + ": wrong column count");
+    AccuracyRow r;
+    r.method.kind = q[0] == 0 ? MethodKind::discrete : MethodKind::continuum;
+    r.method.order = q[1] == 2   ? WlcExpansion::order2
+                     : q[1] == 3 ? WlcExpansion::order3
+                     : q[1] == 4 ? WlcExpansion::order4
+                                 : WlcExpansion::full;
+    r.method.resolution = static_cast<int>(q[2]);
+    r.vertices = static_cast<int>(q[3]);
+    r.elements = static_cast<int>(q[4]);
+    r.converged = q[5] != 0;
+    r.error_all = q[6], r.error_low = q[7], r.error_mid = q[8], r.error_high = q[9];
+    r.cost_eg = q[10], r.own_eg = q[11], r.cpu_s = q[12], r.wall_s = q[13], r.spread = q[14];
+    r.rotations = static_cast<int>(q[15]);
+    r.error_default = q[16];
+    out.reference_relative_sd = q[17];
+    out.cost_unit_vertices = static_cast<int>(q[18]);
+    out.rows.push_back(r);
+  }
+  if (out.rows.empty()) throw std::runtime_error(path + ": no rows");
+  return out;
+}
+
+std::string accuracy_verdict(const std::vector<AccuracyRow>& rows, double reference_relative_sd,
+                             int cost_unit_vertices) {
+  std::ostringstream out;
+  out.precision(3);
+  const double levels[] = {0.005, 0.01, 0.02, 0.05};
+  struct Range {
+    const char* name;
+    double AccuracyRow::*error;
+  };
+  const Range ranges[] = {{"all 13 forces (0-193 pN)", &AccuracyRow::error_all},
+                          {"F < 50 pN", &AccuracyRow::error_low},
+                          {"50 <= F < 120 pN", &AccuracyRow::error_mid},
+                          {"F >= 120 pN", &AccuracyRow::error_high}};
+  out << "Is the continuum model cheaper at equal accuracy? Cheapest method of each model "
+         "whose largest relative error of D_A and D_T (worst over the triangulation "
+         "rotations) meets the level; cost in energy+gradient evaluations of the N ~ "
+      << cost_unit_vertices << " network; reference spread " << 100 * reference_relative_sd
+      << " % (sd over rotations).\n\n";
+  for (const auto& range : ranges) {
+    out << "- " << range.name << ":";
+    int continuum_wins = 0, discrete_wins = 0, ties = 0;
+    for (double level : levels) {
+      const AccuracyRow *d = nullptr, *c = nullptr;
+      for (const auto& r : rows) {
+        if (!r.converged || r.*(range.error) > level) continue;
+        const AccuracyRow*& best = r.method.kind == MethodKind::discrete ? d : c;
+        if (!best || r.cost_eg < best->cost_eg) best = &r;
+      }
+      out << " " << 100 * level << " %: ";
+      if (!d && !c) {
+        out << "neither reaches it;";
+      } else if (d && c) {
+        const bool cont = c->cost_eg < d->cost_eg;
+        const double ratio = std::max(c->cost_eg, d->cost_eg) / std::min(c->cost_eg, d->cost_eg);
+        const AccuracyRow *win = cont ? c : d, *lose = cont ? d : c;
+        if (ratio < kAccuracyCostTieRatio) {
+          ++ties;
+          out << "tie, " << method_spec(c->method) << " (" << std::lround(c->cost_eg) << ") vs "
+              << method_spec(d->method) << " (" << std::lround(d->cost_eg) << ");";
+        } else {
+          (cont ? continuum_wins : discrete_wins)++;
+          out << method_spec(win->method) << " (" << std::lround(win->cost_eg) << ") is " << ratio
+              << "x cheaper than " << method_spec(lose->method) << " ("
+              << std::lround(lose->cost_eg) << ");";
+        }
+      } else {
+        (c ? continuum_wins : discrete_wins)++;
+        out << "only " << (c ? "continuum " : "discrete ") << method_spec((d ? d : c)->method)
+            << " (" << std::lround((d ? d : c)->cost_eg) << ");";
+      }
+    }
+    out << " -> continuum cheaper at " << continuum_wins << ", discrete at " << discrete_wins
+        << ", tie at " << ties << " of 4 levels\n";
+  }
+  out << "(tie: costs within a factor " << kAccuracyCostTieRatio
+      << ", the reproducibility of a CPU-time cost on a shared machine)\n";
+  return out.str();
+}
+
+std::string accuracy_study_verdict(const AccuracyStudy& st) {
+  return accuracy_verdict(st.rows, st.reference_relative_sd, st.options.cost_unit_vertices);
+}
+
+}  // namespace rbc

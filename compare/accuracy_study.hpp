@@ -1,0 +1,150 @@
+#pragma once
+// The accuracy-cost study behind `rbc stretch --accuracy` (issue 11): every method and
+// resolution stretched over the 13 Mills forces, measured against a reference built from
+// the full spectrin level on several rotated triangulations, with the cost of each run in
+// equivalent energy+gradient evaluations (CPU time, machine independent to first order).
+#include <string>
+#include <vector>
+
+#include "compare/methods.hpp"
+
+namespace rbc {
+
+/// The 13 forces of Mills et al. (2004), pN (the default of `rbc stretch`).
+const std::vector<double>& mills_forces_pN();
+
+struct AccuracyStudyOptions {
+  std::vector<double> forces_pN = mills_forces_pN();
+  /// Discrete networks of the table (vertices; icosphere counts 252, 492, 1002, ...).
+  std::vector<int> discrete_vertices = {250, 500, 1000, 2000, 4000, 8000, 16000};
+  /// Continuum meshes (elements). Two nested icosphere chains, frequency doubling:
+  /// f = 5, 10, 20, 40 (500, 2000, 8000, 32000) and f = 7, 14, 28 (980, 3920, 15680).
+  std::vector<int> continuum_elements = {500, 980, 2000, 3920, 8000, 15680, 32000};
+  std::vector<WlcExpansion> continuum_orders = {WlcExpansion::order2, WlcExpansion::full};
+  /// Largest mesh the full law is run on (its sweeps cost about as much as p = 2's).
+  int full_law_max_elements = 8000;
+  /// The reference: the discrete model at the full spectrin level (N ~ 27,500, i.e. the
+  /// icosphere with 27,042 vertices) on each of these triangulation rotations
+  /// (RestShapeOptions::rotation_seed; 0 = the default orientation).
+  int reference_vertices = 27500;
+  std::vector<unsigned> reference_seeds = {0, 1, 2, 3, 4};
+  /// Extra rotations of every table size up to spread_max_resolution (vertices or elements):
+  /// how much a result at that size depends on where its triangulation lies.
+  std::vector<unsigned> spread_seeds = {1, 2, 3};
+  int spread_max_resolution = 8000;
+  /// Cost unit: one energy+gradient evaluation of the discrete network with this many
+  /// vertices (the same for every method, so costs compare across methods).
+  int cost_unit_vertices = 1000;
+  /// Directory of per-run CSV files: a run found there is read, not repeated ("" = none).
+  std::string cache_dir;
+  void validate() const;  ///< throws std::invalid_argument naming the field
+};
+
+/// One stretch sweep (one method, one triangulation) with its cost: the run (its
+/// eval_cpu_s measured) and the CPU time of one cost-unit evaluation in the same process.
+struct StudyRun {
+  MethodRun run;
+  double unit_eval_cpu_s = 0;
+};
+
+/// Reference diameters per force: mean and sample standard deviation over triangulations.
+struct ReferencePoint {
+  double force_pN = 0;
+  double axial_um = 0, axial_sd_um = 0, transverse_um = 0, transverse_sd_um = 0;
+  int samples = 0;
+};
+
+/// Richardson extrapolation of a nested chain h, h/2, h/4 (three values v1, v2, v3):
+/// observed order p = log2((v1 - v2)/(v2 - v3)); limit v3 + (v3 - v2)/(2^p - 1).
+/// `clean` when the differences share their sign and 0.5 <= p <= 4.
+struct Richardson {
+  double limit = 0, order = 0;
+  bool clean = false;
+};
+Richardson richardson_chain(double v1, double v2, double v3);
+
+/// Observed order p of error ~ h^p with h ~ N^(-1/2) (N vertices): the least-squares slope
+/// of log(error) against log(h) over the points. Returns 0 for fewer than two points.
+double observed_order(const std::vector<double>& vertices, const std::vector<double>& errors);
+
+/// One row of the trade-off table: a method at one resolution. Its errors are the worst
+/// over the triangulation rotations run at that size (the default one included), so a
+/// ranking does not rest on a lucky orientation; error_default is the default mesh's alone
+/// (what `rbc stretch` computes).
+struct AccuracyRow {
+  Method method;
+  int vertices = 0, elements = 0;
+  bool converged = false;  ///< every rotation converged at every force
+  int rotations = 0;       ///< triangulations behind the errors
+  /// Largest relative error of D_A and D_T against the reference, per force.
+  std::vector<double> error_by_force;
+  double error_all = 0, error_low = 0, error_mid = 0, error_high = 0;  ///< max over ranges
+  double error_default = 0;  ///< the default triangulation's, max over all forces
+  double cost_eg = 0;        ///< CPU of the 13-force sweep / CPU of the cost-unit evaluation
+  double own_eg = 0;         ///< the same in evaluations of its own model (as `rbc bench`)
+  double cpu_s = 0, wall_s = 0;
+  double spread = 0;  ///< largest relative sd of D_A, D_T over rotations (0 if not run)
+};
+
+/// Force ranges of the per-range errors (pN): low < 50 <= mid < 120 <= high.
+inline constexpr double kLowForceLimit_pN = 50.0, kHighForceLimit_pN = 120.0;
+
+/// Richardson extrapolation of one nested continuum chain at one force.
+struct ChainExtrapolation {
+  WlcExpansion order = WlcExpansion::order2;
+  int elements[3] = {0, 0, 0};  ///< requested element counts, h, h/2, h/4
+  double force_pN = 0;
+  Richardson axial, transverse;
+};
+
+struct AccuracyStudy {
+  AccuracyStudyOptions options;
+  std::vector<StudyRun> runs;
+  std::vector<ReferencePoint> reference;
+  double reference_relative_sd = 0;  ///< largest sd/mean of the reference over forces
+  /// Relative standard error of the reference mean (reference_relative_sd / sqrt(samples)).
+  double reference_relative_se = 0;
+  std::vector<AccuracyRow> rows;
+  std::vector<ChainExtrapolation> chains;
+};
+
+/// Runs (or reads from the cache, re-checked before each sweep, so several processes can
+/// share one cache) every sweep the options list: the table sizes with their rotations,
+/// then the reference triangulations.
+std::vector<StudyRun> run_accuracy_sweeps(const AccuracyStudyOptions& options,
+                                          const ProgressSink& progress);
+
+/// Runs (or reads from the cache) every sweep and builds the table.
+AccuracyStudy run_accuracy_study(const AccuracyStudyOptions& options, const ProgressSink& progress);
+
+/// The table part alone, from finished runs (reference runs are the discrete runs at
+/// options.reference_vertices; rows are the seed-0 runs of the other sizes).
+AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& options,
+                                      std::vector<StudyRun> runs);
+
+/// Writes DIR/accuracy_cost.csv (one row per method), accuracy_by_force.csv (the per-force
+/// errors `rbc stretch --accuracy` reads), reference.csv, convergence.csv (every run's
+/// diameters, for the observed orders) and the PNGs accuracy_cost.png, convergence_*.png.
+void write_accuracy_study(const AccuracyStudy& study, const std::string& dir);
+
+/// Cost ratios below this count as a tie in the verdicts: CPU-time costs of the same sweep
+/// repeated in another process on the shared machine came out 0.82-1.08 x the first.
+inline constexpr double kAccuracyCostTieRatio = 1.25;
+
+/// accuracy_cost.csv read back (error_by_force left empty); throws std::runtime_error
+/// naming the file if it is missing or malformed.
+struct AccuracyCostTable {
+  std::vector<AccuracyRow> rows;
+  double reference_relative_sd = 0;
+  int cost_unit_vertices = 0;
+};
+AccuracyCostTable load_accuracy_cost(const std::string& path);
+
+/// The plain-language answer to "is the continuum model cheaper at equal accuracy?" per
+/// force range and accuracy level (0.5, 1, 2, 5 %), from the rows: for each, the cheapest
+/// converged entry of each model meeting it and the cost ratio. Markdown bullet lines.
+std::string accuracy_verdict(const std::vector<AccuracyRow>& rows, double reference_relative_sd,
+                             int cost_unit_vertices);
+std::string accuracy_study_verdict(const AccuracyStudy& study);
+
+}  // namespace rbc

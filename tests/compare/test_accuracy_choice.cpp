@@ -1,0 +1,210 @@
+// The accuracy-cost study's pieces on synthetic data: Richardson chains, the reference
+// statistics, the table file, and the --accuracy choice with each of its refusals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "compare/accuracy_choice.hpp"
+#include "compare/accuracy_study.hpp"
+
+namespace rbc {
+namespace {
+
+TEST(AccuracyStudy, RichardsonRecoversOrderAndLimitOfASmoothChain) {
+  // v(h) = L + c h^p + d h^(p+1) at h = 1, 1/2, 1/4: observed order p to O(h), limit to
+  // O(h^(p+1)); for d = 0 both are exact.
+  for (double p : {1.0, 2.0}) {
+    auto v = [&](double h) { return 11.77 + 0.3 * std::pow(h, p); };
+    const Richardson r = richardson_chain(v(1), v(0.5), v(0.25));
+    EXPECT_TRUE(r.clean);
+    EXPECT_NEAR(r.order, p, 1e-9);
+    EXPECT_NEAR(r.limit, 11.77, 1e-12);
+  }
+  // A scattering chain (differences of opposite sign) has no observed order.
+  const Richardson s = richardson_chain(11.978, 11.704, 11.792);
+  EXPECT_FALSE(s.clean);
+  EXPECT_EQ(s.limit, 11.792);  // falls back to the finest value
+}
+
+TEST(AccuracyStudy, ObservedOrderIsTheSlopeInMeshSize) {
+  // error = 3 h^2 with h = N^-1/2, i.e. 3/N: order 2 exactly; 1/sqrt(N): order 1.
+  const std::vector<double> n = {250, 1000, 4000, 16000};
+  std::vector<double> e2, e1;
+  for (double v : n) e2.push_back(3 / v), e1.push_back(0.1 / std::sqrt(v));
+  EXPECT_NEAR(observed_order(n, e2), 2.0, 1e-12);
+  EXPECT_NEAR(observed_order(n, e1), 1.0, 1e-12);
+  EXPECT_EQ(observed_order({1000}, {0.01}), 0.0);
+}
+
+/// A synthetic run: D_A = a + slope F, D_T = t - 0.01 F at the given forces.
+StudyRun synthetic_run(MethodKind kind, int resolution, unsigned seed, double a, double t,
+                       double cpu_s, const std::vector<double>& forces) {
+  StudyRun s;
+  s.run.method = {kind, resolution,
+                  kind == MethodKind::discrete ? WlcExpansion::full : WlcExpansion::order2, seed};
+  s.run.vertices = resolution;
+  s.run.elements = 2 * resolution - 4;
+  for (double f : forces)
+    s.run.points.push_back({f, a + 0.02 * f, t - 0.01 * f, 0.1, 1e-6, 10, true});
+  s.run.cpu_s = cpu_s;
+  s.run.eval_cpu_s = 1e-4;
+  s.unit_eval_cpu_s = 2e-4;
+  return s;
+}
+
+TEST(AccuracyStudy, ReferenceIsTheMeanOverRotationsAndErrorsAreRelative) {
+  AccuracyStudyOptions o;
+  o.forces_pN = {0, 50, 150};
+  o.reference_vertices = 27500;
+  o.reference_seeds = {0, 1, 2};
+  std::vector<StudyRun> runs;
+  // Reference D_A(0) = 8, 8.1, 7.9 -> mean 8, sd 0.1; D_T(0) = 8 each.
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.0, 8.0, 100, o.forces_pN));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 1, 8.1, 8.0, 100, o.forces_pN));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 2, 7.9, 8.0, 100, o.forces_pN));
+  // A coarse network 2 % long in D_A at 0 pN, and a rotation of it 1 % long.
+  runs.push_back(synthetic_run(MethodKind::discrete, 500, 0, 8.16, 8.0, 1, o.forces_pN));
+  runs.push_back(synthetic_run(MethodKind::discrete, 500, 1, 8.08, 8.0, 1, o.forces_pN));
+  const AccuracyStudy st = assemble_accuracy_study(o, runs);
+  ASSERT_EQ(st.reference.size(), 3u);
+  EXPECT_NEAR(st.reference[0].axial_um, 8.0, 1e-12);
+  EXPECT_NEAR(st.reference[0].axial_sd_um, 0.1, 1e-12);
+  EXPECT_NEAR(st.reference_relative_sd, 0.1 / 8.0, 1e-12);  // largest at F = 0 (smallest D_A)
+  EXPECT_NEAR(st.reference_relative_se, 0.1 / 8.0 / std::sqrt(3.0), 1e-12);
+  ASSERT_EQ(st.rows.size(), 2u);  // N = 500 and the reference's default triangulation
+  const AccuracyRow& r = st.rows[0];
+  EXPECT_EQ(r.method.resolution, 500);
+  EXPECT_NEAR(r.error_by_force[0], 0.16 / 8.0, 1e-12);
+  EXPECT_NEAR(r.error_by_force[2], 0.16 / (8.0 + 3.0), 1e-12);
+  EXPECT_NEAR(r.error_all, 0.02, 1e-12);
+  EXPECT_NEAR(r.error_low, 0.02, 1e-12);
+  EXPECT_NEAR(r.error_mid, 0.16 / 9.0, 1e-12);  // 50 pN is in the middle range
+  EXPECT_NEAR(r.error_high, 0.16 / 11.0, 1e-12);
+  EXPECT_NEAR(r.cost_eg, 1 / 2e-4, 1e-9);
+  EXPECT_NEAR(r.own_eg, 1 / 1e-4, 1e-9);
+  EXPECT_NEAR(r.spread, std::sqrt(0.0032) / 8.12, 1e-9);  // sd of 8.16, 8.08 over their mean
+}
+
+AccuracyEntry entry(MethodKind kind, int resolution, double cost, std::vector<double> error) {
+  AccuracyEntry e;
+  e.method = {kind, resolution,
+              kind == MethodKind::discrete ? WlcExpansion::full : WlcExpansion::order2};
+  e.converged = true;
+  e.cost_eg = cost;
+  e.forces_pN = {0, 50, 100, 200};
+  e.error = std::move(error);
+  return e;
+}
+
+AccuracyTable synthetic_table() {
+  AccuracyTable t;
+  t.source = "synthetic";
+  t.reference_relative_se = 0.001;
+  t.entries.push_back(entry(MethodKind::discrete, 250, 100, {0.010, 0.020, 0.030, 0.040}));
+  t.entries.push_back(entry(MethodKind::continuum, 500, 150, {0.030, 0.008, 0.006, 0.004}));
+  t.entries.push_back(entry(MethodKind::discrete, 1000, 400, {0.004, 0.004, 0.005, 0.005}));
+  t.entries.push_back(entry(MethodKind::continuum, 2000, 900, {0.002, 0.002, 0.002, 0.002}));
+  AccuracyEntry broken = entry(MethodKind::discrete, 100, 1, {0, 0, 0, 0});
+  broken.converged = false;  // never chosen, however cheap and accurate
+  t.entries.push_back(broken);
+  return t;
+}
+
+TEST(AccuracyChoice, PicksTheCheapestEntryMeetingTheAccuracyOverTheForces) {
+  const AccuracyTable t = synthetic_table();
+  // Low forces, 2 %: N = 250 (1 % at 0 pN; 0 and 50 pN -> 2 % at 50 pN > 2 % - 0.1 %).
+  EXPECT_EQ(choose_by_accuracy(t, {0}, 2).chosen.method.resolution, 250);
+  EXPECT_EQ(choose_by_accuracy(t, {0, 50}, 2).chosen.method.resolution, 1000);
+  // High forces, 1 %: the continuum at 500 elements is cheapest.
+  const AccuracyChoice hi = choose_by_accuracy(t, {100, 200}, 1);
+  EXPECT_EQ(hi.chosen.method.kind, MethodKind::continuum);
+  EXPECT_EQ(hi.chosen.method.resolution, 500);
+  EXPECT_NEAR(hi.chosen.error, 0.006, 1e-15);
+  ASSERT_TRUE(hi.runner_up);
+  EXPECT_EQ(hi.runner_up->method.resolution, 1000);  // discrete, the next cheapest
+  EXPECT_FALSE(hi.other_kind);                       // ... which is the runner-up already
+  EXPECT_NE(hi.reason.find("continuum:2:500"), std::string::npos);
+  EXPECT_NE(hi.reason.find("runner-up discrete:1000"), std::string::npos);
+  // A force between table forces takes the larger neighbouring error: 25 pN for the
+  // continuum is max(3 %, 0.8 %) = 3 %.
+  EXPECT_NEAR(entry_error(t.entries[1], {25}), 0.030, 1e-15);
+  EXPECT_NEAR(entry_error(t.entries[1], {50}), 0.008, 1e-15);
+  EXPECT_NEAR(entry_error(t.entries[1], {150, 200}), 0.006, 1e-15);
+  // The reference uncertainty counts: 0.5 % at 100 pN is met by N = 1000 (0.5 %) only
+  // without it; with 0.1 % added, the 2,000-element continuum is needed.
+  EXPECT_EQ(choose_by_accuracy(t, {100}, 0.5).chosen.method.resolution, 2000);
+  AccuracyTable exact = t;
+  exact.reference_relative_se = 0;
+  EXPECT_EQ(choose_by_accuracy(exact, {100}, 0.5).chosen.method.resolution, 1000);
+}
+
+TEST(AccuracyChoice, RefusesWhatTheTableCannotAnswer) {
+  const AccuracyTable t = synthetic_table();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (double p : {0.0, -1.0, inf, std::nan("")})
+    EXPECT_THROW(choose_by_accuracy(t, {50}, p), std::invalid_argument) << p;
+  EXPECT_THROW(choose_by_accuracy(t, {}, 1), std::invalid_argument);
+  try {
+    choose_by_accuracy(t, {50, 250}, 1);
+    ADD_FAILURE() << "force outside the table accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("250 pN lies outside"), std::string::npos) << e.what();
+  }
+  try {
+    choose_by_accuracy(t, {0, 200}, 0.25);  // best is 0.2 % + 0.1 % reference
+    ADD_FAILURE() << "unreachable accuracy accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("no method"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("continuum:2:2000"), std::string::npos) << e.what();
+  }
+}
+
+TEST(AccuracyChoice, ParsesPercentages) {
+  EXPECT_EQ(parse_accuracy_percent("1%"), 1.0);
+  EXPECT_EQ(parse_accuracy_percent("0.5 %"), 0.5);
+  EXPECT_EQ(parse_accuracy_percent("2"), 2.0);
+  for (const char* bad : {"", "%", "abc", "1%%", "0", "-1%", "inf", "nan", "1e999", "101", "1 x"})
+    EXPECT_THROW(parse_accuracy_percent(bad), std::invalid_argument) << bad;
+}
+
+TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "rbc_accuracy_table_test";
+  fs::create_directories(dir);
+  const std::string good = (dir / "good.csv").string();
+  {
+    std::ofstream f(good);
+    f << "# synthetic\nkind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
+         "0,0,250,1,100,0,0.01,0.001\n0,0,250,1,100,193,0.02,0.001\n"
+         "1,2,500,1,150,0,0.03,0.001\n1,2,500,1,150,193,0.004,0.001\n";
+  }
+  const AccuracyTable t = load_accuracy_table(good);
+  ASSERT_EQ(t.entries.size(), 2u);
+  EXPECT_EQ(t.entries[1].method.kind, MethodKind::continuum);
+  EXPECT_EQ(t.entries[1].method.order, WlcExpansion::order2);
+  EXPECT_EQ(t.entries[1].forces_pN.back(), 193);
+  EXPECT_EQ(t.reference_relative_se, 0.001);
+  EXPECT_EQ(method_spec(choose_by_accuracy(t, {150}, 2.5).chosen.method), "discrete:250");
+  const std::vector<std::string> bad = {
+      "kind,order,resolution,converged,cost_eg,force_pN,error\n0,0,250,1,100,0,0.01\n",
+      "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
+      "0,0,250,1,100,50,0.01,0\n0,0,250,1,100,0,0.01,0\n",  // decreasing forces
+      "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
+      "1,5,500,1,100,0,0.01,0\n",  // unknown order
+      "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
+      "0,0,250,1,100,0,0.01,0\n1,2,500,1,1,0,0.1,0\n0,0,250,1,100,50,0.01,0\n",  // split
+      "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"};  // no rows
+  for (size_t k = 0; k < bad.size(); ++k) {
+    const std::string path = (dir / ("bad" + std::to_string(k) + ".csv")).string();
+    std::ofstream(path) << bad[k];
+    EXPECT_THROW(load_accuracy_table(path), std::runtime_error) << bad[k];
+  }
+  EXPECT_THROW(load_accuracy_table((dir / "missing.csv").string()), std::runtime_error);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace rbc
