@@ -22,7 +22,11 @@ struct CliRun {
 };
 
 CliRun rbc(const std::string& args) {
-  const fs::path err_file = fs::path(RBC_BINARY_DIR) / "test_output" / "cli_accuracy_stderr.txt";
+  // One stderr file per test case: ctest runs the cases of this file as parallel processes.
+  const fs::path err_file =
+      fs::path(RBC_BINARY_DIR) / "test_output" /
+      ("cli_accuracy_stderr_" +
+       std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + ".txt");
   fs::create_directories(err_file.parent_path());
   const std::string cmd =
       std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2>'" + err_file.string() + "'";

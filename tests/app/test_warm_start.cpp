@@ -21,7 +21,10 @@ struct CommandRun {
 };
 
 CommandRun rbc(const std::string& args) {
-  const std::string err = std::string(RBC_BINARY_DIR) + "/test_output/warm_stderr.txt";
+  // One stderr file per test case: ctest runs the cases of this file as parallel processes,
+  // and a shared file let one case read the other's messages.
+  const std::string err = std::string(RBC_BINARY_DIR) + "/test_output/warm_stderr_" +
+                          ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".txt";
   const std::string cmd = std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2>" + err;
   FILE* p = popen(cmd.c_str(), "r");
   std::string out;
