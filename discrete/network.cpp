@@ -85,30 +85,39 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
   std::vector<NetworkTerm> t;
   t.push_back({"in-plane",
                [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
-                  EnergyBreakdown& e) { return inplane_energy(n, x, grad, &e.links, &e.steric); }});
+                  EnergyBreakdown& e) { return inplane_energy(n, x, grad, &e.links, &e.steric); },
+               TermKind::in_plane});
   if (model == BendingModel::juelicher)
-    t.push_back({"bending (juelicher)", [](const Network& n, const Positions& x, const LoadState&,
-                                           Positions* grad, EnergyBreakdown& e) {
+    t.push_back({"bending (juelicher)",
+                 [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
+                    EnergyBreakdown& e) {
                    return e.bending = juelicher_bending_energy(x, n.topo, n.bending, grad);
-                 }});
+                 },
+                 TermKind::juelicher_bending});
   else
-    t.push_back({"bending (dihedral)", [](const Network& n, const Positions& x, const LoadState&,
-                                          Positions* grad, EnergyBreakdown& e) {
+    t.push_back({"bending (dihedral)",
+                 [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
+                    EnergyBreakdown& e) {
                    return e.bending =
                               dihedral_bending_energy(x, n.topo, n.dihedral_kb_pNum, 0.0, grad);
-                 }});
-  t.push_back({"area/volume", [](const Network& n, const Positions& x, const LoadState& load,
-                                 Positions* grad, EnergyBreakdown& e) {
+                 },
+                 TermKind::dihedral_bending});
+  t.push_back({"area/volume",
+               [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
+                  EnergyBreakdown& e) {
                  ConstraintParameters penalty = n.constraints;
                  penalty.area_stiffness_pN_per_um3 *= load.stiffness_scale;
                  penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
                  return e.constraints = constraint_energy(x, n.topo, n.area0_um2, n.volume0_um3,
                                                           penalty, load.multipliers, grad);
-               }});
-  t.push_back({"tweezers", [](const Network& n, const Positions& x, const LoadState& load,
-                              Positions* grad, EnergyBreakdown& e) {
+               },
+               TermKind::area_volume});
+  t.push_back({"tweezers",
+               [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
+                  EnergyBreakdown& e) {
                  return e.tweezers = tweezers_energy(n.patch, load.force_pN, x, n.rest, grad);
-               }});
+               },
+               TermKind::tweezers});
   return t;
 }
 
@@ -122,6 +131,16 @@ const std::vector<NetworkTerm>& production_terms(BendingModel model) {
 
 std::vector<NetworkTerm> network_terms(const Network& net) {
   return production_terms(net.bending_model);
+}
+
+const std::vector<NetworkTerm>& model_terms(const Network& net) {
+  return net.terms.empty() ? production_terms(net.bending_model) : net.terms;
+}
+
+bool has_term(const Network& net, TermKind kind) {
+  for (const NetworkTerm& t : model_terms(net))
+    if (t.kind == kind) return true;
+  return false;
 }
 
 double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& net,
@@ -138,8 +157,7 @@ double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& n
 
 double network_energy(const Network& net, const Positions& x, const LoadState& load,
                       Positions* grad, EnergyBreakdown* parts) {
-  return sum_network_terms(net.terms.empty() ? production_terms(net.bending_model) : net.terms, net,
-                           x, load, grad, parts);
+  return sum_network_terms(model_terms(net), net, x, load, grad, parts);
 }
 
 double largest_rest_inplane_force_pN(const Network& net) {
