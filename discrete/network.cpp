@@ -86,14 +86,16 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
   t.push_back({"in-plane",
                [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
                   EnergyBreakdown& e) { return inplane_energy(n, x, grad, &e.links, &e.steric); },
-               TermKind::in_plane, {}});
+               TermKind::in_plane,
+               {}});
   if (model == BendingModel::juelicher)
     t.push_back({"bending (juelicher)",
                  [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
                     EnergyBreakdown& e) {
                    return e.bending = juelicher_bending_energy(x, n.topo, n.bending, grad);
                  },
-                 TermKind::juelicher_bending, {}});
+                 TermKind::juelicher_bending,
+                 {}});
   else
     t.push_back({"bending (dihedral)",
                  [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
@@ -101,7 +103,8 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
                    return e.bending =
                               dihedral_bending_energy(x, n.topo, n.dihedral_kb_pNum, 0.0, grad);
                  },
-                 TermKind::dihedral_bending, {}});
+                 TermKind::dihedral_bending,
+                 {}});
   t.push_back({"area/volume",
                [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
                   EnergyBreakdown& e) {
@@ -111,13 +114,15 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
                  return e.constraints = constraint_energy(x, n.topo, n.area0_um2, n.volume0_um3,
                                                           penalty, load.multipliers, grad);
                },
-               TermKind::area_volume, {}});
+               TermKind::area_volume,
+               {}});
   t.push_back({"tweezers",
                [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
                   EnergyBreakdown& e) {
                  return e.tweezers = tweezers_energy(n.patch, load.force_pN, x, n.rest, grad);
                },
-               TermKind::tweezers, {}});
+               TermKind::tweezers,
+               {}});
   return t;
 }
 
