@@ -287,7 +287,8 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   auto line = [](const char* name, const BlockingResult& b, const char* unit) {
     std::cout << "  " << std::left << std::setw(8) << name << std::right << b.mean << " +- "
               << b.error << " " << unit << "  (std " << std::sqrt(b.variance) << ", g "
-              << b.inefficiency << (b.converged ? "" : ", blocking not converged") << ")\n";
+              << b.inefficiency << (b.converged ? "" : ", error not converged: run longer")
+              << ")\n";
   };
   std::cout << "production samples " << s.samples << ", transient discarded " << s.discarded
             << ", acceptance " << s.acceptance << ", step " << run->sampler().step_um() << " um\n";

@@ -81,9 +81,7 @@ NewtonResult solve_equilibrium_lbfgs(const ContinuumModel& model, double force_p
       res.status = NewtonStatus::converged;
       break;
     case AugmentedLagrangianStop::minimiser_failed:
-      res.status = r.last.status == MinimiserStatus::infeasible_start
-                       ? NewtonStatus::infeasible_start
-                       : NewtonStatus::line_search_failed;
+      res.status = newton_status(r.last.status);
       break;
     case AugmentedLagrangianStop::budget_spent:
     case AugmentedLagrangianStop::max_updates:

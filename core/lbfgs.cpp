@@ -18,6 +18,8 @@ std::string to_string(MinimiserStatus status) {
       return "line search failed";
     case MinimiserStatus::infeasible_start:
       return "infeasible starting point";
+    case MinimiserStatus::factorisation_failed:
+      return "factorisation failed";
   }
   return "unknown";
 }

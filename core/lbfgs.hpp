@@ -58,7 +58,15 @@ struct LbfgsOptions {
   }
 };
 
-enum class MinimiserStatus { converged, max_iterations, line_search_failed, infeasible_start };
+enum class MinimiserStatus {
+  converged,
+  max_iterations,
+  line_search_failed,
+  infeasible_start,
+  /// A Newton-type minimiser found no definite (shifted) factorisation of its Hessian. L-BFGS
+  /// never returns it; the cell problem (homogenise/periodic_network.hpp) does.
+  factorisation_failed,
+};
 
 std::string to_string(MinimiserStatus status);
 

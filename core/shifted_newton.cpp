@@ -57,6 +57,39 @@ std::string to_string(NewtonStatus s) {
   return "unknown";
 }
 
+MinimiserStatus minimiser_status(NewtonStatus s) {
+  switch (s) {
+    case NewtonStatus::converged:
+      return MinimiserStatus::converged;
+    case NewtonStatus::max_iterations:
+    case NewtonStatus::time_budget:
+      return MinimiserStatus::max_iterations;
+    case NewtonStatus::line_search_failed:
+      return MinimiserStatus::line_search_failed;
+    case NewtonStatus::infeasible_start:
+      return MinimiserStatus::infeasible_start;
+    case NewtonStatus::factorisation_failed:
+      return MinimiserStatus::factorisation_failed;
+  }
+  return MinimiserStatus::line_search_failed;
+}
+
+NewtonStatus newton_status(MinimiserStatus s) {
+  switch (s) {
+    case MinimiserStatus::converged:
+      return NewtonStatus::converged;
+    case MinimiserStatus::max_iterations:
+      return NewtonStatus::max_iterations;
+    case MinimiserStatus::line_search_failed:
+      return NewtonStatus::line_search_failed;
+    case MinimiserStatus::infeasible_start:
+      return NewtonStatus::infeasible_start;
+    case MinimiserStatus::factorisation_failed:
+      return NewtonStatus::factorisation_failed;
+  }
+  return NewtonStatus::line_search_failed;
+}
+
 double largest_block_norm(const Eigen::VectorXd& v, int block_size) {
   if (v.size() == 0) return 0.0;
   const Eigen::Map<const Eigen::MatrixXd> m(v.data(), block_size, v.size() / block_size);

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "core/lbfgs.hpp"  // MinimiserStatus
 #include "core/progress.hpp"
 #include "core/sparse_cholesky.hpp"
 
@@ -93,6 +94,13 @@ enum class NewtonStatus {
   factorisation_failed,  ///< K stayed indefinite up to the largest shift
 };
 std::string to_string(NewtonStatus s);
+/// The MinimiserStatus (core/lbfgs.hpp) of a shifted-Newton outcome, for callers that report
+/// minimiser statuses (the periodic cell problem): each value maps to its namesake, time_budget
+/// to max_iterations (MinimiserStatus has no deadline value).
+MinimiserStatus minimiser_status(NewtonStatus s);
+/// The NewtonStatus of a minimiser outcome (the continuum L-BFGS path): each value to its
+/// namesake.
+NewtonStatus newton_status(MinimiserStatus s);
 
 /// f, its gradient and the constraints at one point.
 struct NewtonPoint {

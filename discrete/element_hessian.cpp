@@ -118,5 +118,6 @@ void project_positive_semidefinite(Eigen::Matrix<double, K, K>& h) {
 template void project_positive_semidefinite<9>(Eigen::Matrix<double, 9, 9>&);
 template void project_positive_semidefinite<12>(Eigen::Matrix<double, 12, 12>&);
 template void project_positive_semidefinite<3>(Eigen::Matrix<double, 3, 3>&);
+template void project_positive_semidefinite<Eigen::Dynamic>(Eigen::MatrixXd&);  // custom pieces
 
 }  // namespace rbc

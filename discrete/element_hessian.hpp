@@ -44,7 +44,8 @@ double hinge_length_angle_hessian(const Vec3& a, const Vec3& b, const Vec3& c, c
                                   Eigen::Matrix<double, 3, 4>* grad, Matrix12d* hess);
 
 /// Replaces the symmetric matrix h by its projection onto the positive semidefinite cone
-/// (negative eigenvalues set to zero), as in projected Newton (Teran et al. 2005).
+/// (negative eigenvalues set to zero), as in projected Newton (Teran et al. 2005). Instantiated
+/// for K = 3, 9, 12 and Eigen::Dynamic.
 template <int K>
 void project_positive_semidefinite(Eigen::Matrix<double, K, K>& h);
 

@@ -2,8 +2,12 @@
 
 #include <gsl/gsl_cdf.h>
 
+#include <unsupported/Eigen/FFT>
+
 #include <algorithm>
 #include <cmath>
+#include <complex>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -64,6 +68,45 @@ BlockingResult blocking_analysis(const std::vector<double>& series) {
   r.level = k;
   r.error = std::sqrt(s2[k] / double(n[k] - 1 > 0 ? n[k] - 1 : 1));
   r.inefficiency = double(r.samples) * r.error * r.error / r.variance;
+  r.blocking_error = r.error;
+  return r;
+}
+
+BlockingResult correlated_mean(const std::vector<double>& series) {
+  BlockingResult r = blocking_analysis(series);  // mean, variance, level (same sums)
+  r.window = 0;
+  const std::size_t n = series.size();
+  if (!(r.variance > 0)) return r;  // constant: zero error (blocking_analysis's answer)
+  // Autocovariances by FFT, zero-padded to a power of two >= 2n (no wrap-around).
+  std::size_t len = 1;
+  while (len < 2 * n) len <<= 1;
+  std::vector<double> y(len, 0.0);
+  for (std::size_t i = 0; i < n; ++i) y[i] = series[i] - r.mean;
+  Eigen::FFT<double> fft;
+  fft.SetFlag(Eigen::FFT<double>::HalfSpectrum);
+  std::vector<std::complex<double>> f;
+  fft.fwd(f, y);
+  for (std::complex<double>& z : f) z = std::norm(z);
+  std::vector<double> c;
+  fft.inv(c, f, static_cast<Eigen::Index>(len));  // c[k] = sum_i y_i y_{i+k}
+  const auto cov = [&](std::size_t k) { return k < n ? c[k] / double(n) : 0.0; };
+  double sum = 0, last = std::numeric_limits<double>::infinity();
+  bool ended = false;
+  std::size_t j = 0;
+  for (; 2 * j + 1 < n; ++j) {
+    const double pair = cov(2 * j) + cov(2 * j + 1);
+    if (!(pair > 0)) {
+      ended = true;
+      break;
+    }
+    last = std::min(last, pair);
+    sum += last;
+  }
+  const double var_mean = std::max(2.0 * sum - cov(0), 0.0) / double(n);
+  r.window = static_cast<int>(2 * j);
+  r.error = std::sqrt(var_mean);
+  r.inefficiency = double(n) * var_mean / r.variance;
+  r.converged = ended && double(n) >= kMinEffectiveSamples * r.inefficiency;
   return r;
 }
 

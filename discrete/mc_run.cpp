@@ -131,7 +131,7 @@ McSummary McRun::summarise() const {
   auto column = [&](double McSample::*field) {
     std::vector<double> c;
     for (std::size_t i = m.discarded; i < prod.size(); ++i) c.push_back(prod[i].*field);
-    return blocking_analysis(c);
+    return correlated_mean(c);
   };
   m.energy = column(&McSample::energy_pNum);
   m.axial = column(&McSample::axial_um);

@@ -49,7 +49,7 @@ struct McRunSetup {
   void validate() const;
 };
 
-/// Means with errors over the production samples.
+/// Means with errors over the production samples (correlated_mean of each column).
 struct McSummary {
   std::size_t samples = 0;    ///< recorded production samples
   std::size_t discarded = 0;  ///< of those, discarded as the transient (equilibration)
@@ -86,7 +86,9 @@ class McRun {
   const std::vector<McSample>& series() const { return series_; }
   McChainState state() const { return sampler_->state(); }
   /// Statistics over the samples after the adaptive phase, with the transient detected on the
-  /// energy series (detect_equilibration) discarded. Needs >= 8 production samples.
+  /// energy series (detect_equilibration) discarded; means and errors by correlated_mean
+  /// (integrated autocorrelation time, discrete/mc_observables.hpp). Needs >= 8 production
+  /// samples.
   McSummary summarise() const;
 
  private:

@@ -94,8 +94,53 @@ BendingTerms hinge_stencil(const Topology& t) {
 }
 
 BendingTerms bending_terms(const Network& net) {
-  return net.bending_model == BendingModel::juelicher ? vertex_cell_stencil(net.topo)
-                                                      : hinge_stencil(net.topo);
+  // The production bending term of the model's list (model_terms), if any.
+  if (has_term(net, TermKind::juelicher_bending)) return vertex_cell_stencil(net.topo);
+  if (has_term(net, TermKind::dihedral_bending)) return hinge_stencil(net.topo);
+  BendingTerms none;
+  none.offsets.assign(net.topo.num_vertices + 1, 0);
+  return none;
+}
+
+BendingTerms piece_stencil(const Topology& t, const PieceLayout& layout) {
+  const int n = t.num_vertices;
+  std::vector<std::vector<int>> of(n);
+  for (int p = 0; p < layout.count(); ++p)
+    for (int k = layout.offsets[p]; k < layout.offsets[p + 1]; ++k) {
+      const int v = layout.vertices[k];
+      if (v < 0 || v >= n)
+        throw std::invalid_argument("piece " + std::to_string(p) + " lists vertex " +
+                                    std::to_string(v) + ", not in [0, " + std::to_string(n) + ")");
+      if (of[v].empty() || of[v].back() != p) of[v].push_back(p);
+    }
+  // Same-colour moves (graph distance >= 3) must never share a piece.
+  std::vector<int> near(n, -1);
+  for (int p = 0; p < layout.count(); ++p)
+    for (int k = layout.offsets[p]; k < layout.offsets[p + 1]; ++k) {
+      const int a = layout.vertices[k];
+      const int stamp = -2 - k;  // marks the distance <= 2 ball of vertex slot k
+      near[a] = stamp;
+      for (const int* b = t.vertex_neighbours.begin(a); b != t.vertex_neighbours.end(a); ++b) {
+        near[*b] = stamp;
+        for (const int* c = t.vertex_neighbours.begin(*b); c != t.vertex_neighbours.end(*b); ++c)
+          near[*c] = stamp;
+      }
+      for (int l = layout.offsets[p]; l < layout.offsets[p + 1]; ++l)
+        if (near[layout.vertices[l]] != stamp)
+          throw std::invalid_argument("piece " + std::to_string(p) + " couples vertices " +
+                                      std::to_string(a) + " and " +
+                                      std::to_string(layout.vertices[l]) +
+                                      " more than two edges apart (the sampler's colouring "
+                                      "needs pieces within graph distance 2)");
+    }
+  BendingTerms bt;
+  bt.count = layout.count();
+  bt.offsets.assign(n + 1, 0);
+  for (int v = 0; v < n; ++v) {
+    bt.terms.insert(bt.terms.end(), of[v].begin(), of[v].end());
+    bt.offsets[v + 1] = static_cast<int>(bt.terms.size());
+  }
+  return bt;
 }
 
 std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,
@@ -157,9 +202,31 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
   // Distance >= 3: see the header (Juelicher terms of a move at v read positions up to distance 2).
   colours_ = colour_vertices(net.topo, 3, opt_.mobile);
   const int n = net.topo.num_vertices;
+  // The model's list (model_terms): the production kinds the sampler's kernels cover, plus
+  // custom terms with local pieces.
+  for (TermKind k : {TermKind::in_plane, TermKind::area_volume, TermKind::tweezers})
+    if (!has_term(net, k))
+      throw std::invalid_argument(
+          "the Monte Carlo sampler needs the in-plane, area/volume and tweezers terms; the "
+          "model's list lacks one");
+  juelicher_ = has_term(net, TermKind::juelicher_bending);
+  if (juelicher_ && has_term(net, TermKind::dihedral_bending))
+    throw std::invalid_argument("the Monte Carlo sampler takes one production bending term");
+  for (const NetworkTerm& term : model_terms(net)) {
+    if (term.kind != TermKind::custom) continue;
+    if (!term.pieces.layout || !term.pieces.energy)
+      throw std::invalid_argument("term \"" + term.name +
+                                  "\" has no local pieces (LocalPieces::layout, energy): the "
+                                  "Monte Carlo sampler needs its local energy changes");
+    CustomPieces c;
+    c.term = &term;
+    c.stencil = piece_stencil(net.topo, term.pieces.layout(net));
+    c.pending.assign(c.stencil.terms.size(), 0.0);
+    custom_.push_back(std::move(c));
+  }
   bend_terms_ = bending_terms(net);
   bend_new_.assign(bend_terms_.terms.size(), 0.0);
-  if (net.bending_model == BendingModel::juelicher) {
+  if (juelicher_) {
     hinges_ = hinge_stencil(net.topo);
     lt_new_.assign(hinges_.terms.size(), 0.0);
   }
@@ -202,6 +269,8 @@ double McSampler::energy() const {
   for (double v : link_e_) e += v;
   for (double v : steric_) e += v;
   for (double v : bend_) e += v;
+  for (const CustomPieces& c : custom_)
+    for (double v : c.cache) e += v;
   e += tweezers_energy(net_.patch, load_.force_pN, x_, net_.rest);
   return e + constraint_energy_of_totals(net_, load_, area_, volume_);
 }
@@ -261,7 +330,7 @@ void McSampler::restore(const McChainState& s) {
     steric_[f] = steric_of_area(f, face_area_[f]);
   }
   bend_.resize(bend_terms_.count);
-  if (net_.bending_model == BendingModel::juelicher) {
+  if (juelicher_) {
     lt_.resize(ne);
 #pragma omp parallel for schedule(static)
     for (int e = 0; e < ne; ++e) lt_[e] = hinge_length_angle(x_, t, e);
@@ -272,10 +341,15 @@ void McSampler::restore(const McChainState& s) {
                      [&](int f) { return face_area_[f]; })
                      .energy_pNum;
     }
-  } else {
+  } else {  // dihedral hinges (bend_terms_.count = 0 without a production bending term)
 #pragma omp parallel for schedule(static)
     for (int e = 0; e < bend_terms_.count; ++e)
       bend_[e] = dihedral_hinge_energy(x_, t, net_.dihedral_kb_pNum, 0.0, e);
+  }
+  for (CustomPieces& c : custom_) {
+    c.cache.resize(c.stencil.count);
+#pragma omp parallel for schedule(static)
+    for (int p = 0; p < c.stencil.count; ++p) c.cache[p] = c.term->pieces.energy(net_, x_, p);
   }
   recompute_totals();
 }
@@ -364,7 +438,7 @@ void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d) {
 
   double bend_change = 0;
   const int b_lo = bend_terms_.offsets[v], b_hi = bend_terms_.offsets[v + 1];
-  if (net_.bending_model == BendingModel::juelicher) {
+  if (juelicher_) {
     // New L theta of the changed hinges, then the cells of v and its ring from their sums with
     // the changed hinges and faces substituted (juelicher_vertex_cell: the one home of the M_v, A_v
     // sums).
@@ -390,6 +464,12 @@ void McSampler::propose(int v, const Eigen::Vector3d& to, McMoveDelta& d) {
       bend_change += bend_new_[k] - bend_[e];
     }
   }
+  for (CustomPieces& c : custom_)  // custom terms: the pieces that read x_v
+    for (int k = c.stencil.offsets[v]; k < c.stencil.offsets[v + 1]; ++k) {
+      const int p = c.stencil.terms[k];
+      c.pending[k] = c.term->pieces.energy(net_, x_, p);
+      bend_change += c.pending[k] - c.cache[p];
+    }
   x_.col(v) = from;
   if (!std::isfinite(bend_change)) {
     d.feasible = false;
@@ -411,11 +491,14 @@ void McSampler::commit(int v, const Eigen::Vector3d& to) {
     face_volume_[f] = volume_new_[k];
     steric_[f] = steric_new_[k];
   }
-  if (net_.bending_model == BendingModel::juelicher)
+  if (juelicher_)
     for (int k = hinges_.offsets[v]; k < hinges_.offsets[v + 1]; ++k)
       lt_[hinges_.terms[k]] = lt_new_[k];
   for (int k = bend_terms_.offsets[v]; k < bend_terms_.offsets[v + 1]; ++k)
     bend_[bend_terms_.terms[k]] = bend_new_[k];
+  for (CustomPieces& c : custom_)
+    for (int k = c.stencil.offsets[v]; k < c.stencil.offsets[v + 1]; ++k)
+      c.cache[c.stencil.terms[k]] = c.pending[k];
 }
 
 McMoveDelta McSampler::move_delta(int v, const Eigen::Vector3d& to) {

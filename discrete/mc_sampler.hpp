@@ -3,8 +3,9 @@
 // moves with O(1) local energy differences, on exactly the free energy network_energy() gives
 // the minimiser (MODEL.md section 2), sampled at beta = 1/(kB T), kB T from core/units.hpp.
 //
-// What the chain samples. pi(x) ~ exp(-beta F(x)) with
-//   F = links + steric + bending (Juelicher or dihedral) - tweezer work
+// What the chain samples. pi(x) ~ exp(-beta F(x)) with F the model's list (model_terms):
+//   F = links + steric + bending (Juelicher, dihedral, or custom terms' local pieces,
+//       discrete/network.hpp LocalPieces) - tweezer work
 //     + lambda_A (A - A0) + s kA/2 (A - A0)^2 + lambda_V (V - V0) + s kV/2 (V - V0)^2,
 // the multipliers lambda held FIXED (typically those of the zero-temperature equilibrium, so
 // that as T -> 0 the chain collapses onto the minimiser's equilibrium), kA, kV the network's
@@ -113,7 +114,13 @@ struct BendingTerms {
   int count = 0;  ///< number of terms (N or E)
   std::vector<int> offsets, terms;
 };
+/// The production bending term of the model's list (model_terms): Juelicher cells, dihedral
+/// hinges, or none (count 0) when the list has no production bending term.
 BendingTerms bending_terms(const Network& net);
+/// A custom term's pieces as a stencil: term = piece, v's terms are the pieces listing v.
+/// Throws std::invalid_argument for a vertex out of range or a piece whose vertices are not
+/// pairwise within graph distance 2.
+BendingTerms piece_stencil(const Topology& topo, const PieceLayout& layout);
 /// Juelicher stencil: term = vertex cell; v's terms are v and its neighbours.
 BendingTerms vertex_cell_stencil(const Topology& topo);
 /// Hinge stencil: term = edge; v's terms are its incident edges (vertex_edges order), then the
@@ -213,6 +220,14 @@ class McSampler {
   std::vector<Proposal> proposal_;                          ///< per vertex
   std::vector<int> tweezer_slot_;                           ///< index into tweezer_single_ or -1
   std::vector<TweezerPatch> tweezer_single_;
+  bool juelicher_ = false;  ///< the list's production bending term is Juelicher's
+  struct CustomPieces {     ///< a custom term's local pieces (NetworkTerm::pieces)
+    const NetworkTerm* term = nullptr;
+    BendingTerms stencil;         ///< piece_stencil
+    std::vector<double> cache;    ///< e_p at x_ (pN um)
+    std::vector<double> pending;  ///< aligned with stencil.terms
+  };
+  std::vector<CustomPieces> custom_;
 };
 
 }  // namespace rbc

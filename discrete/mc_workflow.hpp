@@ -87,7 +87,8 @@ std::string check_mc_resume(const McCheckpoint& checkpoint, const McResumeReques
 
 /// The statistics keys of `rbc mc --json` and Python's MonteCarlo.summary(): samples,
 /// discarded_transient, acceptance, energy_pNum / axial_um / transverse_um / area_um2 /
-/// volume_um3 ({mean, error, std, inefficiency, blocking_converged}), thermal_shift_axial_um,
+/// volume_um3 ({mean, error, std, inefficiency, blocking_converged}: correlated_mean's error,
+/// inefficiency 2 tau_int and converged flag, the key name kept), thermal_shift_axial_um,
 /// thermal_shift_transverse_um, max_area_drift, max_volume_drift.
 nlohmann::json to_json(const McSummary& summary, const McRunSetup& setup);
 

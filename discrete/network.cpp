@@ -138,9 +138,10 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
                [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
                   EnergyBreakdown& e) { return inplane_energy(n, x, grad, &e.links, &e.steric); },
                [](const Network& n, const Positions&, const NetworkGeometry& geo, const LoadState&,
-                  GeometricGradient* grad, EnergyBreakdown& e) {
-                 return inplane_energy(n, geo, grad, &e.links, &e.steric);
-               }});
+                  GeometricGradient* grad,
+                  EnergyBreakdown& e) { return inplane_energy(n, geo, grad, &e.links, &e.steric); },
+               TermKind::in_plane,
+               {}});
   if (model == BendingModel::juelicher)
     t.push_back({"bending (juelicher)",
                  [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
@@ -150,13 +151,19 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
                  [](const Network& n, const Positions&, const NetworkGeometry& geo,
                     const LoadState&, GeometricGradient* grad, EnergyBreakdown& e) {
                    return e.bending = juelicher_bending_energy(n.topo, n.bending, geo, grad);
-                 }});
+                 },
+                 TermKind::juelicher_bending,
+                 {}});
   else
-    t.push_back({"bending (dihedral)", [](const Network& n, const Positions& x, const LoadState&,
-                                          Positions* grad, EnergyBreakdown& e) {
+    t.push_back({"bending (dihedral)",
+                 [](const Network& n, const Positions& x, const LoadState&, Positions* grad,
+                    EnergyBreakdown& e) {
                    return e.bending =
                               dihedral_bending_energy(x, n.topo, n.dihedral_kb_pNum, 0.0, grad);
-                 }});
+                 },
+                 {},
+                 TermKind::dihedral_bending,
+                 {}});
   t.push_back({"area/volume",
                [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
                   EnergyBreakdown& e) {
@@ -173,7 +180,9 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
                  penalty.volume_stiffness_pN_per_um5 *= load.stiffness_scale;
                  return e.constraints = constraint_energy(geo, n.area0_um2, n.volume0_um3, penalty,
                                                           load.multipliers, grad);
-               }});
+               },
+               TermKind::area_volume,
+               {}});
   t.push_back({"tweezers",
                [](const Network& n, const Positions& x, const LoadState& load, Positions* grad,
                   EnergyBreakdown& e) {
@@ -183,7 +192,9 @@ std::vector<NetworkTerm> make_production_terms(BendingModel model) {
                   const LoadState& load, GeometricGradient* grad, EnergyBreakdown& e) {
                  return e.tweezers = tweezers_energy(n.patch, load.force_pN, x, n.rest,
                                                      grad ? grad->direct : nullptr);
-               }});
+               },
+               TermKind::tweezers,
+               {}});
   return t;
 }
 
@@ -197,6 +208,16 @@ const std::vector<NetworkTerm>& production_terms(BendingModel model) {
 
 std::vector<NetworkTerm> network_terms(const Network& net) {
   return production_terms(net.bending_model);
+}
+
+const std::vector<NetworkTerm>& model_terms(const Network& net) {
+  return net.terms.empty() ? production_terms(net.bending_model) : net.terms;
+}
+
+bool has_term(const Network& net, TermKind kind) {
+  for (const NetworkTerm& t : model_terms(net))
+    if (t.kind == kind) return true;
+  return false;
 }
 
 double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& net,
@@ -227,8 +248,7 @@ double sum_network_terms(const std::vector<NetworkTerm>& terms, const Network& n
 
 double network_energy(const Network& net, const Positions& x, const LoadState& load,
                       Positions* grad, EnergyBreakdown* parts) {
-  return sum_network_terms(net.terms.empty() ? production_terms(net.bending_model) : net.terms, net,
-                           x, load, grad, parts);
+  return sum_network_terms(model_terms(net), net, x, load, grad, parts);
 }
 
 double largest_rest_inplane_force_pN(const Network& net) {

@@ -37,10 +37,47 @@ struct EnergyBreakdown;
 struct NetworkGeometry;    // discrete/network_energy.hpp
 struct GeometricGradient;  // discrete/network_energy.hpp
 
+/// What a term is to the solvers that need more than its value and gradient: the Newton
+/// preconditioner (discrete/network_hessian.hpp) and the Monte Carlo sampler
+/// (discrete/mc_sampler.hpp) walk the model's list and assemble each production term with its
+/// own kernels (the in-plane, bending and area/volume Hessians share face elements that are
+/// projected together; the sampler caches per-edge and per-face values they share); a custom
+/// term brings its Hessian blocks and local energies through LocalPieces.
+enum class TermKind {
+  custom,
+  in_plane,
+  juelicher_bending,
+  dihedral_bending,
+  area_volume,
+  tweezers
+};
+
+/// Vertex lists of a term's pieces: piece p reads vertices[offsets[p] .. offsets[p+1]).
+struct PieceLayout {
+  std::vector<int> offsets{0};
+  std::vector<int> vertices;
+  int count() const { return static_cast<int>(offsets.size()) - 1; }
+};
+
+/// A custom term written as a sum of local pieces, E = sum_p e_p(x), each reading only its own
+/// vertices, listed pairwise within graph distance 2 (so that same-colour Monte Carlo moves,
+/// at distance >= 3, never change one piece together). The hooks the Newton preconditioner
+/// (hessian) and the Monte Carlo sampler (energy) call; an unset hook means the term offers
+/// no such part (the preconditioner then leaves the term out, the sampler refuses the model).
+struct LocalPieces {
+  std::function<PieceLayout(const Network& net)> layout;  ///< fixed per topology
+  /// e_p at x (pN um; +infinity outside the domain); the pieces sum to the term's energy.
+  std::function<double(const Network& net, const Positions& x, int piece)> energy;
+  /// d2 e_p / dx dx (3k x 3k, k the piece's vertices in layout order; pN/um).
+  std::function<Eigen::MatrixXd(const Network& net, const Positions& x, int piece)> hessian;
+};
+
 /// One energy term of a network model (the interface every term of the sum implements):
 /// returns its energy at x under `load` (pN um; +infinity outside its domain, grad then
 /// unspecified), adds its gradient (pN) into *grad when non-null, and adds its value into its
-/// field(s) of `parts`. A model is the list of its terms; network_energy sums the list.
+/// field(s) of `parts`. A model is the list of its terms; network_energy sums the list, and
+/// the Newton preconditioner and the Monte Carlo sampler assemble their parts from it (kind,
+/// pieces).
 struct NetworkTerm {
   std::string name;  ///< e.g. "in-plane", "bending (juelicher)"
   std::function<double(const Network& net, const Positions& x, const LoadState& load,
@@ -54,6 +91,8 @@ struct NetworkTerm {
   std::function<double(const Network& net, const Positions& x, const NetworkGeometry& geo,
                        const LoadState& load, GeometricGradient* grad, EnergyBreakdown& parts)>
       from_geometry = {};
+  TermKind kind = TermKind::custom;
+  LocalPieces pieces;  ///< custom terms: Hessian blocks and local energies
 };
 
 struct Network {
@@ -72,8 +111,8 @@ struct Network {
   TweezerPatch patch;
   /// The model's terms; empty (the default) = network_terms(*this), the production list. A
   /// model with its own list (e.g. another bending law: one NetworkTerm) is set here; the
-  /// stretch drivers then minimise that sum (the Newton preconditioner and the Monte Carlo
-  /// sampler use the production terms only).
+  /// stretch drivers then minimise that sum, the Newton preconditioner assembles its Hessian
+  /// and the Monte Carlo sampler its local energies from it (model_terms).
   std::vector<NetworkTerm> terms;
 };
 
@@ -106,6 +145,11 @@ inline constexpr double kCollapsedFaceRatio = 1e-3;
 /// (parts.bending), "area/volume" (parts.constraints, penalties times load.stiffness_scale),
 /// "tweezers" (parts.tweezers).
 std::vector<NetworkTerm> network_terms(const Network& net);
+
+/// The list a network's model is: net.terms, or the production list when that is empty.
+const std::vector<NetworkTerm>& model_terms(const Network& net);
+/// Whether the model's list holds a term of this kind.
+bool has_term(const Network& net, TermKind kind);
 
 /// The terms' sum at x: grad (when given) is zeroed, then each term adds its gradient; returns
 /// +infinity as soon as a term is not finite-below-infinity. parts receives the breakdown.

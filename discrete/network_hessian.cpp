@@ -25,11 +25,12 @@ int find_edge(const Topology& t, int a, int b) {
   throw std::logic_error("face side is not an edge");  // topology invariant
 }
 
+// The bending blocks come from the model's list (model_terms), not from net.bending_model.
 bool juelicher_active(const Network& net) {
-  return net.bending_model == BendingModel::juelicher && net.bending.kappa_pNum > 0;
+  return has_term(net, TermKind::juelicher_bending) && net.bending.kappa_pNum > 0;
 }
 bool dihedral_active(const Network& net) {
-  return net.bending_model == BendingModel::dihedral && net.dihedral_kb_pNum > 0;
+  return has_term(net, TermKind::dihedral_bending) && net.dihedral_kb_pNum > 0;
 }
 
 /// Lower block pattern: diagonal + edges (+ every pair of a rank-one group for two_ring).
@@ -56,7 +57,19 @@ std::vector<std::vector<int>> lower_columns(const Topology& t, bool two_ring,
 NetworkHessian::NetworkHessian(const Network& net, const NetworkHessianOptions& options)
     : net_(&net), opt_((options.validate(), options)), m_({}, BlockStorage::lower) {
   const Topology& t = net.topo;
+  for (TermKind k : {TermKind::in_plane, TermKind::area_volume})
+    if (!has_term(net, k))
+      throw std::invalid_argument(
+          "the Newton preconditioner needs the in-plane and area/volume terms; the model's list "
+          "lacks the " +
+          std::string(k == TermKind::in_plane ? "in-plane" : "area/volume") + " term");
   const bool juelicher = juelicher_active(net), dihedral = dihedral_active(net);
+  juelicher_ = juelicher;
+  dihedral_ = dihedral;
+  // Custom terms' pieces (LocalPieces::hessian): every vertex pair of a piece is coupled.
+  for (const NetworkTerm& term : model_terms(net))
+    if (term.kind == TermKind::custom && term.pieces.layout && term.pieces.hessian)
+      custom_.push_back({&term, term.pieces.layout(net), {}, {}});
 
   // Rank-one groups: Juelicher vertex stars or Kantor-Nelson hinges.
   std::vector<int> offsets(1, 0);
@@ -73,9 +86,23 @@ NetworkHessian::NetworkHessian(const Network& net, const NetworkHessianOptions& 
   }
   for (size_t g = 0; g + 1 < offsets.size(); ++g)
     groups_.push_back({offsets[g], offsets[g + 1] - offsets[g]});
-  m_ = BlockMatrix(lower_columns(t, opt_.bending_coupling == BendingCoupling::two_ring,
-                                 group_vertices_, offsets),
-                   BlockStorage::lower);
+  std::vector<std::vector<int>> columns = lower_columns(
+      t, opt_.bending_coupling == BendingCoupling::two_ring, group_vertices_, offsets);
+  for (const CustomTerm& c : custom_)
+    for (int p = 0; p < c.layout.count(); ++p)
+      for (int k = c.layout.offsets[p]; k < c.layout.offsets[p + 1]; ++k)
+        for (int l = c.layout.offsets[p]; l < c.layout.offsets[p + 1]; ++l) {
+          const int i = c.layout.vertices[k], j = c.layout.vertices[l];
+          if (i > j) columns[j].push_back(i);
+        }
+  m_ = BlockMatrix(std::move(columns), BlockStorage::lower);
+  for (CustomTerm& c : custom_) {
+    for (int p = 0; p < c.layout.count(); ++p)
+      for (int k = c.layout.offsets[p]; k < c.layout.offsets[p + 1]; ++k)
+        for (int l = c.layout.offsets[p]; l < c.layout.offsets[p + 1]; ++l)
+          c.codes.push_back(m_.block_code(c.layout.vertices[k], c.layout.vertices[l]));
+    c.matrices.resize(c.layout.count());
+  }
 
   // Element placements.
   face_edges_.resize(3 * static_cast<size_t>(t.num_faces()));
@@ -122,8 +149,8 @@ const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
   const Network& net = *net_;
   const Topology& t = net.topo;
   const int n = t.num_vertices, ne = t.num_edges(), nf = t.num_faces();
-  const bool juelicher = net.bending_model == BendingModel::juelicher && !groups_.empty();
-  const bool dihedral = net.bending_model == BendingModel::dihedral && !groups_.empty();
+  const bool juelicher = juelicher_ && !groups_.empty();
+  const bool dihedral = dihedral_ && !groups_.empty();
 
   // Per edge: the link term's exact Hessian H_e (zero outside its domain).
   std::vector<Eigen::Matrix3d> link_h(ne);
@@ -238,6 +265,23 @@ const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
           m_.add_diagonal(group_vertices_[g.first + l], w * ul * ul.transpose());
         }
       }
+    }
+  }
+  // Custom terms: each piece's own Hessian (projected when `project`), in list order.
+  for (CustomTerm& c : custom_) {
+    const int np = c.layout.count();
+#pragma omp parallel for schedule(static)
+    for (int p = 0; p < np; ++p) {
+      c.matrices[p] = c.term->pieces.hessian(net, x, p);
+      if (project) project_positive_semidefinite<Eigen::Dynamic>(c.matrices[p]);
+    }
+    const int* code = c.codes.data();
+    for (int p = 0; p < np; ++p) {
+      const int size = c.layout.offsets[p + 1] - c.layout.offsets[p];
+      for (int k = 0; k < size; ++k)
+        for (int l = 0; l <= k; ++l)
+          m_.add(code[size * k + l], c.matrices[p].block<3, 3>(3 * k, 3 * l));
+      code += size * size;
     }
   }
   m_.shift_diagonal(opt_.shift_fraction * m_.trace() / (3.0 * n));

@@ -63,8 +63,13 @@ struct ConstraintCurvature {
 ///    the hinge curvature term (kappa/2)(h_a + h_b) d2(L theta) is optional (small: |h| L
 ///    << 1); Kantor-Nelson bending: k_b max(cos(theta - theta0), 0) dtheta dtheta^T;
 ///  - the diagonal shift.
+///  - each custom term's pieces (NetworkTerm::pieces, LocalPieces::hessian), projected one
+///    by one when projecting (a custom bending law replaces Juelicher's blocks: the blocks
+///    present are those of the model's list, model_terms(net));
 /// The penalty's rank-two part k_A dA dA^T + k_V dV dV^T is not included (apply it by
-/// Woodbury); tweezers work is linear and contributes nothing.
+/// Woodbury); tweezers work is linear and contributes nothing. The list must hold the
+/// in-plane and area/volume terms (std::invalid_argument otherwise); a custom term without a
+/// Hessian hook contributes nothing.
 class NetworkHessian {
  public:
   NetworkHessian(const Network& net, const NetworkHessianOptions& options = {});
@@ -82,8 +87,17 @@ class NetworkHessian {
     int first = 0, size = 0;  ///< range in group_vertices_
   };
 
+  struct CustomTerm {  ///< a custom term's pieces (LocalPieces::hessian)
+    const NetworkTerm* term = nullptr;
+    PieceLayout layout;
+    std::vector<int> codes;  ///< per piece, size^2 codes (k, l) row-major
+    std::vector<Eigen::MatrixXd> matrices;
+  };
+
   const Network* net_;
   NetworkHessianOptions opt_;
+  bool juelicher_ = false, dihedral_ = false;  ///< bending kinds in the model's list
+  std::vector<CustomTerm> custom_;
   BlockMatrix m_;                ///< lower block storage (core/block_pattern.hpp)
   VertexStars stars_;            ///< Juelicher cells' closed stars
   std::vector<int> face_edges_;  ///< 3 per face: edges (0,1), (1,2), (2,0)

@@ -45,6 +45,8 @@ std::string to_string(StretchStatus s) {
       return "time budget exhausted";
     case StretchStatus::constraints_not_held:
       return "constraints not held after multiplier updates";
+    case StretchStatus::factorisation_failed:
+      return "factorisation failed";
   }
   return "unknown";
 }
@@ -63,6 +65,8 @@ StretchStatus stretch_status(MinimiserStatus s) {
       return StretchStatus::line_search_failed;
     case MinimiserStatus::infeasible_start:
       return StretchStatus::infeasible_start;
+    case MinimiserStatus::factorisation_failed:
+      return StretchStatus::factorisation_failed;
   }
   return StretchStatus::line_search_failed;
 }

@@ -28,6 +28,7 @@ enum class StretchStatus {
   infeasible_start,      ///< the start is outside the energy's domain
   time_budget,           ///< StretchOptions::time_budget_s passed
   constraints_not_held,  ///< converged, but area/volume not held after the updates
+  factorisation_failed,  ///< the minimiser found no definite factorisation (not L-BFGS)
 };
 std::string to_string(StretchStatus s);
 std::ostream& operator<<(std::ostream& os, StretchStatus s);

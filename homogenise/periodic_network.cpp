@@ -280,6 +280,7 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
   no.shift_scale = ShiftScale::max_abs_diagonal;
   no.max_factor_reuse = 0;
   no.stall_iterations = options.stall_iterations;
+  no.max_shift_attempts = options.max_shift_attempts;
   no.floor_factor = options.floor_factor;
   no.cholesky.ordering = FillOrdering::amd;
   no.cholesky.supernodal_min_unknowns = std::numeric_limits<int>::max();  // simplicial
@@ -312,22 +313,7 @@ RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
   r.iterations = nr.iterations;
   r.residual_pN = nr.residual;
   r.at_roundoff_floor = nr.at_roundoff_floor;
-  switch (nr.status) {
-    case NewtonStatus::converged:
-      r.status = MinimiserStatus::converged;
-      break;
-    case NewtonStatus::max_iterations:
-    case NewtonStatus::time_budget:
-      r.status = MinimiserStatus::max_iterations;
-      break;
-    case NewtonStatus::infeasible_start:
-      r.status = MinimiserStatus::infeasible_start;
-      break;
-    case NewtonStatus::line_search_failed:
-    case NewtonStatus::factorisation_failed:  // MinimiserStatus has no such value
-      r.status = MinimiserStatus::line_search_failed;
-      break;
-  }
+  r.status = minimiser_status(nr.status);
   r.U = full(xr);
   E = nr.point.value;
   r.energy_pNum = E;

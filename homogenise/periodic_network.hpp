@@ -103,6 +103,10 @@ struct RelaxOptions {
   /// disables the rule.
   int stall_iterations = 4;
   double floor_factor = 1e3;
+  /// Factorisations tried per Newton iteration (shift 0, then 1e-8 x the largest |H_ii| growing
+  /// tenfold) before the relaxation ends with MinimiserStatus::factorisation_failed; >= 1
+  /// (ShiftedNewtonOptions::validate). 30 reaches shifts far above any diagonal entry.
+  int max_shift_attempts = 30;
   /// Polled once per Newton iteration; true stops the relaxation by throwing Cancelled.
   CancelCheck cancel;
 };

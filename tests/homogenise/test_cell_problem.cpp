@@ -3,6 +3,7 @@
 // closed forms, and the assembled gradient/Hessian pass finite differences.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <random>
 
@@ -159,6 +160,38 @@ TEST(CellProblem, InfeasibleDeformationsAreRejectedOrInfinite) {
   EXPECT_TRUE(std::isinf(patch_energy(net, m, F, Eigen::Matrix2Xd::Zero(2, 4))));
   EXPECT_EQ(relax_patch(net, m, F).status, MinimiserStatus::infeasible_start);
   EXPECT_THROW(make_hexagonal_patch(0, 0.075), std::invalid_argument);
+}
+
+TEST(CellProblem, AnIndefiniteHessianYieldsFactorisationFailed) {
+  // Under strong equibiaxial compression (F = 0.2 I) the steric pressure's d2A term makes the
+  // internal Hessian indefinite. With two factorisations per iteration (shift 0, then 1e-8 x the
+  // largest diagonal entry) no shift can make it definite when its smallest eigenvalue lies below
+  // -1e-8 x max|H_ii| (checked with a dense eigensolver, the independent truth), so the
+  // relaxation must say factorisation_failed (it said line_search_failed before).
+  const NetworkMaterial m = make_network_material(WlcParameters{}, StericParameters{});
+  const PeriodicNetwork net = make_hexagonal_patch(3, 0.075);
+  const Eigen::Matrix2Xd U0 = random_displacements(net.vertex_count(), 1e-3 * 0.075, 5);
+  bool found = false;
+  for (double s : {0.3, 0.25, 0.2, 0.15, 0.1}) {  // measured: indefinite from 0.2 on
+    const Eigen::Matrix2d F = s * Eigen::Matrix2d::Identity();
+    Eigen::Matrix2Xd U = U0;
+    for (int v = net.vertex_count() - 1; v >= 0; --v) U.col(v) -= U.col(0);
+    if (!std::isfinite(patch_energy(net, m, F, U))) continue;
+    const Eigen::MatrixXd H(patch_hessian(net, m, F, U).uu);
+    const double lmin = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(H).eigenvalues()(0);
+    if (!(lmin < -1e-4 * H.diagonal().cwiseAbs().maxCoeff())) continue;
+    found = true;
+    RelaxOptions o;
+    o.max_shift_attempts = 2;
+    const RelaxResult r = relax_patch(net, m, F, U0, o);
+    EXPECT_EQ(r.status, MinimiserStatus::factorisation_failed) << "F = " << s << " I";
+    EXPECT_EQ(to_string(r.status), "factorisation failed");
+    EXPECT_FALSE(r.converged());
+    // With the default attempts the shift grows until the matrix is definite: not this status.
+    EXPECT_NE(relax_patch(net, m, F, U0).status, MinimiserStatus::factorisation_failed);
+    break;
+  }
+  ASSERT_TRUE(found) << "no compression in [0.1, 0.3] made the cell Hessian indefinite";
 }
 
 }  // namespace
