@@ -220,9 +220,8 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
       }
       std::ostringstream status;
       status << (out.diameter_converged ? "diameters converged" : to_string(r.status)) << " ("
-             << factorisations << " factorisations, largest shift " << shift
-             << " x mean diagonal, " << krylov << " Krylov iterations, " << fallbacks
-             << " shifted steps)";
+             << factorisations << " factorisations, largest shift " << shift << " x mean diagonal, "
+             << krylov << " Krylov iterations, " << fallbacks << " shifted steps)";
       out.status = status.str();
       return out;
     };

@@ -71,8 +71,8 @@ namespace {
 /// The element's energy with its gradient and the Hessian's parts d2E = rest + coef d2A
 /// (coef = Psi_1 in pN/um: the term Abar Psi_1 d2J with d2J = d2A / Abar).
 double membrane_element_parts(const IsotropicMembraneLaw& law, const MembraneReference& ref,
-                              const Vec3& x0, const Vec3& x1, const Vec3& x2,
-                              ElementGradient* grad, ElementHessian* rest, double* area_coef) {
+                              const Vec3& x0, const Vec3& x1, const Vec3& x2, ElementGradient* grad,
+                              ElementHessian* rest, double* area_coef) {
   const Vec3 e1 = x1 - x0, e2 = x2 - x0;
   const Eigen::Matrix2d& gi = ref.metric_inverse;
   const double g11 = e1.squaredNorm(), g12 = e1.dot(e2), g22 = e2.squaredNorm();
@@ -124,10 +124,9 @@ double membrane_element_energy(const IsotropicMembraneLaw& law, const MembraneRe
   return e;
 }
 
-double membrane_element_hessian_parts(const IsotropicMembraneLaw& law,
-                                      const MembraneReference& ref, const Vec3& x0,
-                                      const Vec3& x1, const Vec3& x2, ElementHessian& rest,
-                                      double& area_coef) {
+double membrane_element_hessian_parts(const IsotropicMembraneLaw& law, const MembraneReference& ref,
+                                      const Vec3& x0, const Vec3& x1, const Vec3& x2,
+                                      ElementHessian& rest, double& area_coef) {
   return membrane_element_parts(law, ref, x0, x1, x2, nullptr, &rest, &area_coef);
 }
 

@@ -166,11 +166,11 @@ struct NewtonLimitsCore {
 struct ShiftedNewtonResult {
   NewtonStatus status = NewtonStatus::max_iterations;
   int iterations = 0;
-  int factorisations = 0;  ///< numeric factorisations, including retries with larger shifts
-  int chord_steps = 0;     ///< iterations that reused an earlier factorisation
+  int factorisations = 0;     ///< numeric factorisations, including retries with larger shifts
+  int chord_steps = 0;        ///< iterations that reused an earlier factorisation
   int krylov_iterations = 0;  ///< CG iterations of the Krylov correction, summed
   int krylov_fallbacks = 0;   ///< Newton iterations that took the shifted step instead
-  double residual = 0;     ///< largest block norm of r at the returned point
+  double residual = 0;        ///< largest block norm of r at the returned point
   double largest_shift = 0;
   bool at_roundoff_floor = false;
   NewtonPoint point;  ///< f, gradient and constraints at the returned x
