@@ -89,7 +89,7 @@ void ShiftedNewton::prepare_pattern(const Eigen::SparseMatrix<double>& h) {
   have_factor_ = false;
 }
 
-int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h,
+int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h, double diag_shift,
                                   const Eigen::MatrixXd& c_grad, const Eigen::MatrixXd& ym,
                                   const Eigen::FullPivLU<Eigen::MatrixXd>& sc,
                                   const Eigen::VectorXd& r, const Eigen::VectorXd& y0,
@@ -108,7 +108,7 @@ int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h,
   const auto hs = h.selfadjointView<Eigen::Lower>();
   const double reference = r.dot(y0);  // r' P^-1 r > 0
   const double tol2 = options_.krylov_tolerance * options_.krylov_tolerance * reference;
-  Eigen::VectorXd g = hs * dx + r;  // gradient of the quadratic model at dx
+  Eigen::VectorXd g = hs * dx - diag_shift * dx + r;  // gradient of the quadratic model at dx
   Eigen::VectorXd z = project(g);
   double rz = g.dot(z);
   Eigen::VectorXd p = -z, hp;
@@ -126,7 +126,7 @@ int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h,
       dl = m > 0 ? Eigen::VectorXd(-w) : Eigen::VectorXd();
       return k;
     }
-    hp = hs * p;
+    hp = hs * p - diag_shift * p;
     const double php = p.dot(hp);
     if (!(php > 0)) {
       if (k == 0) return -1;
@@ -229,16 +229,18 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     // (chord step: the last full step cut the residual by reuse_contraction), which saves the
     // dominant cost on nearby iterates.
     const bool krylov = o.krylov_iterations > 0;
+    const bool lagged = krylov && o.krylov_lagged_hessian;
+    const bool contracted = last_full_step && (first || resid < o.reuse_contraction * last_resid);
     const bool reuse =
         have_factor_ && reuse_count < o.max_factor_reuse &&
-        (krylov ? last_krylov_iterations_ >= 0 &&
-                      last_krylov_iterations_ <= o.krylov_refactor_iterations
-                : last_full_step && (first || resid < o.reuse_contraction * last_resid));
+        (krylov && !lagged ? last_krylov_iterations_ >= 0 &&
+                                 last_krylov_iterations_ <= o.krylov_refactor_iterations
+                           : contracted && last_krylov_iterations_ >= 0);
     first = false;
     // The exact Hessian: for the factorisation, and with the Krylov correction at every
-    // iteration (the chord steps' too).
+    // iteration (the chord steps' too) unless it uses the factorised one (lagged).
     const Eigen::SparseMatrix<double>* hk = nullptr;
-    if (krylov || !reuse) {
+    if ((krylov && !lagged) || !reuse) {
       hk = &pb.hessian(x, lambda);
       if (hk->rows() != n) throw std::logic_error("shifted Newton: Hessian size mismatch");
     }
@@ -266,6 +268,7 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
         ++res.factorisations;
         if (cholesky_.factorize(k_)) {  // fails unless K is positive definite
           have_factor_ = true;
+          factor_shift_ = sigma > 0 ? sigma * s : 0.0;
           break;
         }
         sigma = std::max(o.shift_growth * sigma, o.retry_shift);
@@ -298,7 +301,9 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
       dx_shifted = dx;
       l_shifted = lnew;
       Eigen::VectorXd dl_exact;
-      const int its = krylov_correct(*hk, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact);
+      const int its =
+          lagged ? krylov_correct(k_, factor_shift_, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact)
+                 : krylov_correct(*hk, 0.0, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact);
       res.krylov_iterations += std::abs(its);
       last_krylov_iterations_ = its;
       if (its >= 0) {

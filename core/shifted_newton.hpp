@@ -93,6 +93,11 @@ struct ShiftedNewtonOptions {
   /// preconditioner, up to max_factor_reuse times) while the last correction converged in at
   /// most this many CG iterations; reuse_contraction is then not used.
   int krylov_refactor_iterations = 10;
+  /// Lagged Hessian: the correction undoes only the shift of the factorised d2L (chord steps
+  /// then assemble nothing: a Shamanskii-type chord iteration on the unshifted Hessian of the
+  /// last factorisation, refactorised by the reuse_contraction rule); false: the correction
+  /// uses the current d2L, assembled every iteration (exact Newton steps).
+  bool krylov_lagged_hessian = false;
   /// Round-off floor: after stall_iterations iterations without the best residual halving,
   /// and with the best residual <= floor_factor x force_tolerance, stop converged at the best
   /// iterate (stall_iterations 0 or floor_factor 0 = off).
@@ -195,10 +200,11 @@ class ShiftedNewton {
   /// Krylov correction of the shifted step dx (C' dx = -c) to the Newton step of h on the
   /// tangent space; dl: the multiplier increment of the corrected step. Returns the CG
   /// iterations (>= 0) on convergence, -(iterations + 1) on failure (dx, dl then unusable).
-  int krylov_correct(const Eigen::SparseMatrix<double>& h, const Eigen::MatrixXd& c_grad,
-                     const Eigen::MatrixXd& ym, const Eigen::FullPivLU<Eigen::MatrixXd>& sc,
-                     const Eigen::VectorXd& r, const Eigen::VectorXd& y0, Eigen::VectorXd& dx,
-                     Eigen::VectorXd& dl) const;
+  /// h - diag_shift I is the Hessian the step is exact for.
+  int krylov_correct(const Eigen::SparseMatrix<double>& h, double diag_shift,
+                     const Eigen::MatrixXd& c_grad, const Eigen::MatrixXd& ym,
+                     const Eigen::FullPivLU<Eigen::MatrixXd>& sc, const Eigen::VectorXd& r,
+                     const Eigen::VectorXd& y0, Eigen::VectorXd& dx, Eigen::VectorXd& dl) const;
   ShiftedNewtonOptions options_;
   SparseCholesky cholesky_;
   Eigen::SparseMatrix<double> k_;  ///< shifted copy of the Hessian
@@ -207,6 +213,7 @@ class ShiftedNewton {
   bool have_factor_ = false;
   double shift_hint_ = 0.0;
   int last_krylov_iterations_ = 0;  ///< of the last correction (-1: it failed)
+  double factor_shift_ = 0.0;       ///< sigma s of the kept factorisation
 };
 
 /// Largest Euclidean norm over consecutive blocks of block_size entries of v.
