@@ -76,7 +76,7 @@ struct NewtonOptions {
   int krylov_refactor_iterations = 10;
   /// Chord steps correct only the shift of the last factorised d2L and assemble nothing
   /// (core/shifted_newton.hpp krylov_lagged_hessian).
-  bool krylov_lagged_hessian = false;
+  bool krylov_lagged_hessian = true;
   /// With the correction, the shift's start (x mean diagonal; replaces 1e-8): a shift the
   /// correction undoes costs a few CG iterations, a failed factorisation a whole one.
   double krylov_initial_shift = 1e-4;
