@@ -36,6 +36,8 @@ void ShiftedNewtonOptions::validate() const {
   require_integer_in_range("Krylov correction iterations (0 = off)", krylov_iterations, 0, 100000);
   require_finite_in_range("Krylov correction tolerance", "", krylov_tolerance, 0.0, 1.0,
                           Ends::open_open);
+  require_finite_in_range("Krylov kept shift", "", krylov_kept_shift, 0.0, 1.0,
+                          Ends::closed_closed);
   require_integer_in_range("Krylov refactorisation iterations", krylov_refactor_iterations, 0,
                            100000);
   require_integer_in_range("Newton stall iterations (0 = off)", stall_iterations, 0, 1000000);
@@ -269,6 +271,7 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
         if (cholesky_.factorize(k_)) {  // fails unless K is positive definite
           have_factor_ = true;
           factor_shift_ = sigma > 0 ? sigma * s : 0.0;
+          factor_scale_ = s;
           break;
         }
         sigma = std::max(o.shift_growth * sigma, o.retry_shift);
@@ -301,9 +304,13 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
       dx_shifted = dx;
       l_shifted = lnew;
       Eigen::VectorXd dl_exact;
+      // The correction keeps krylov_kept_shift of the shift (the rigid null modes stay
+      // regularised as with the smallest shift alone).
+      const double kept = o.krylov_kept_shift * factor_scale_;
       const int its =
-          lagged ? krylov_correct(k_, factor_shift_, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact)
-                 : krylov_correct(*hk, 0.0, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact);
+          lagged
+              ? krylov_correct(k_, factor_shift_ - kept, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact)
+              : krylov_correct(*hk, -kept, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact);
       res.krylov_iterations += std::abs(its);
       last_krylov_iterations_ = its;
       if (its >= 0) {

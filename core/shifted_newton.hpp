@@ -98,6 +98,11 @@ struct ShiftedNewtonOptions {
   /// last factorisation, refactorised by the reuse_contraction rule); false: the correction
   /// uses the current d2L, assembled every iteration (exact Newton steps).
   bool krylov_lagged_hessian = false;
+  /// The part of the shift (relative to s) the correction keeps: the step is exact for
+  /// d2L + krylov_kept_shift s I, so the rigid null modes stay regularised as with the
+  /// smallest shift alone (without it a warm and a cold solve at 0 pN end in rotations
+  /// 3e-8 apart).
+  double krylov_kept_shift = 1e-8;
   /// Round-off floor: after stall_iterations iterations without the best residual halving,
   /// and with the best residual <= floor_factor x force_tolerance, stop converged at the best
   /// iterate (stall_iterations 0 or floor_factor 0 = off).
@@ -214,6 +219,7 @@ class ShiftedNewton {
   double shift_hint_ = 0.0;
   int last_krylov_iterations_ = 0;  ///< of the last correction (-1: it failed)
   double factor_shift_ = 0.0;       ///< sigma s of the kept factorisation
+  double factor_scale_ = 0.0;       ///< its s
 };
 
 /// Largest Euclidean norm over consecutive blocks of block_size entries of v.
