@@ -181,6 +181,7 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
       SolveOutcome out;
       out.iterations = r.iterations;
       int factorisations = r.factorisations;
+      int krylov = r.krylov_iterations, fallbacks = r.krylov_fallbacks;
       double shift = r.largest_shift;
       // Continuation passes of a slow but converging solve (ForwardOptions).
       Diameters d = measure_diameters(x);
@@ -193,6 +194,8 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
         r = w->newton->solve(f, x, l, trace, limits);
         out.iterations += r.iterations;
         factorisations += r.factorisations;
+        krylov += r.krylov_iterations;
+        fallbacks += r.krylov_fallbacks;
         shift = std::max(shift, r.largest_shift);
         if (r.status != NewtonStatus::max_iterations) break;  // converged or failed
         const Diameters dn = measure_diameters(x);
@@ -217,7 +220,8 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
       }
       std::ostringstream status;
       status << (out.diameter_converged ? "diameters converged" : to_string(r.status)) << " ("
-             << factorisations << " factorisations, largest shift " << shift << " x mean diagonal)";
+             << factorisations << " factorisations, largest shift " << shift << " x mean diagonal, "
+             << krylov << " Krylov iterations, " << fallbacks << " shifted steps)";
       out.status = status.str();
       return out;
     };
@@ -255,6 +259,9 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
     net.patch = smooth_tweezer_patch(net.rest, net.topo, p.contact_fraction);
     rest = &net.rest;
   } else {
+    // A factorisation kept from another sample's run would make this run's result depend on
+    // which workspace it borrowed: start afresh (reuse across this run's forces only).
+    ws->newton->forget_factorisation();
     ContinuumModel& m = ws->continuum;
     m.law = make_membrane_law(wlc, StericParameters{}, options_.method.order);
     m.bending.kappa_pNum = kappa;

@@ -2,17 +2,46 @@
 // The continuum Newton Hessian's pattern: core/block_pattern.hpp's BlockMatrix (the one
 // block assembler) over every vertex pair that shares a closed vertex star, the reach of
 // the energies whose terms each live in one star (membrane elements, hinges, Juelicher
-// vertex cells, area and volume).
+// vertex cells, area and volume). The block codes of every face (3 x 3 vertex pairs), hinge
+// (4 x 4) and vertex star (s x s) are looked up once per mesh, so assembly adds through them
+// without a search (add_face, add_hinge, add_star_outer).
+#include <vector>
+
 #include "core/block_pattern.hpp"
 #include "core/mesh.hpp"
+#include "discrete/bending_energy.hpp"
+#include "discrete/element_hessian.hpp"
 
 namespace rbc {
 
 class BlockHessian : public BlockMatrix {
  public:
-  /// Pattern: every vertex pair (i, j) within two edges of each other, both triangles
-  /// stored. Size 3N x 3N.
-  explicit BlockHessian(const Topology& topo);
+  /// Pattern: every vertex pair (i, j) within two edges of each other; both triangles
+  /// stored (full) or the blocks on and below the diagonal only (lower: what the sparse
+  /// Cholesky reads). Size 3N x 3N.
+  explicit BlockHessian(const Topology& topo, BlockStorage storage = BlockStorage::full);
+
+  /// Adds the symmetric 9 x 9 matrix h of face f (vertex order of topo.faces).
+  void add_face(int f, const Matrix9d& h) { add_codes<3>(&face_codes_[9 * f], h); }
+  /// Adds the symmetric 12 x 12 matrix h of hinge e (a, b, opposite0, opposite1).
+  void add_hinge(int e, const Matrix12d& h) { add_codes<4>(&hinge_codes_[16 * e], h); }
+  /// Adds coef u u^T, u: 3 entries per vertex of the closed star of v (stars() order).
+  void add_star_outer(int v, const double* u, double coef);
+  /// The closed vertex stars (v first), as discrete/bending_energy.hpp's Juelicher terms use.
+  const VertexStars& stars() const { return stars_; }
+
+ private:
+  template <int K>
+  void add_codes(const int* codes, const Eigen::Matrix<double, 3 * K, 3 * K>& h) {
+    for (int a = 0; a < K; ++a)
+      for (int b = 0; b < K; ++b)
+        if (codes[K * a + b] >= 0) add(codes[K * a + b], h.template block<3, 3>(3 * a, 3 * b));
+  }
+  /// Code of the pair (i, j) of a local matrix, -1 where lower storage keeps only (j, i).
+  int local_code(int i, int j) const;
+  std::vector<int> face_codes_, hinge_codes_;
+  VertexStars stars_;
+  std::vector<int> star_code_offsets_, star_codes_;
 };
 
 }  // namespace rbc

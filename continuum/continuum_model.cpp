@@ -1,5 +1,7 @@
 #include "continuum/continuum_model.hpp"
 
+#include <omp.h>
+
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -13,6 +15,7 @@ namespace rbc {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kParallelHessianFaces = 256;
 
 }  // namespace
 
@@ -202,6 +205,75 @@ void add_constraint_hessian(const Positions& x, const Topology& topo, double are
   for (int f = 0; f < nf; ++f) {
     const int verts[3] = {topo.faces(0, f), topo.faces(1, f), topo.faces(2, f)};
     h.add_local<3>(verts, hf[f]);
+  }
+}
+
+void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, double area_coef,
+                            double volume_coef, BlockHessian& h) {
+  const Topology& t = model.topo;
+  const int nv = t.num_vertices, ne = t.num_edges(), nf = t.num_faces();
+  // Element matrices on the threads from a few hundred faces on (the assembly is most of a
+  // Newton iteration with the Krylov correction); the scatter is serial either way, so the
+  // matrix does not depend on the thread count.
+  const bool parallel = nf > kParallelHessianFaces && omp_get_max_threads() > 1;
+  const JuelicherHessianTerms terms = juelicher_hessian_terms(x, t, model.bending);
+  // Faces: membrane element + (Psi_1 + area_coef + Juelicher beta_f) d2A + volume_coef d2V,
+  // with d2A evaluated once.
+  auto face = [&](int f, Matrix9d& hf) {
+    const auto v = t.faces.col(f);
+    const Vec3 a = x.col(v(0)), b = x.col(v(1)), c = x.col(v(2));
+    double coef = terms.add_face_coef(t, f, area_coef);
+    hf.setZero();
+    if (model.inplane()) {
+      double psi1 = 0.0;
+      if (std::isfinite(
+              membrane_element_hessian_parts(model.law, model.reference[f], a, b, c, hf, psi1)))
+        coef += psi1;
+      else
+        hf.setZero();  // callers only assemble at feasible states
+    }
+    Matrix9d d2a;
+    triangle_area_hessian(a, b, c, nullptr, &d2a);
+    hf += coef * d2a;
+    if (volume_coef != 0.0) hf += volume_coef * tetra_volume_hessian(a, b, c);
+  };
+  auto hinge = [&](int e, Matrix12d& he) {
+    hinge_length_angle_hessian(x.col(t.edges(0, e)), x.col(t.edges(1, e)),
+                               x.col(t.edge_opposite(0, e)), x.col(t.edge_opposite(1, e)), nullptr,
+                               &he);
+    he *= terms.hinge_coef(t, e);
+  };
+  if (!parallel) {  // serial, without the per-element buffers
+    Matrix9d hf;
+    for (int f = 0; f < nf; ++f) {
+      face(f, hf);
+      h.add_face(f, hf);
+    }
+    Matrix12d he;
+    for (int e = 0; e < ne; ++e) {
+      hinge(e, he);
+      h.add_hinge(e, he);
+    }
+  } else {  // element matrices in parallel, added in a fixed order (thread-count independent)
+    std::vector<Matrix9d> hf(nf);
+    std::vector<Matrix12d> he(ne);
+#pragma omp parallel
+    {
+#pragma omp for schedule(static)
+      for (int f = 0; f < nf; ++f) face(f, hf[f]);
+#pragma omp for schedule(static)
+      for (int e = 0; e < ne; ++e) hinge(e, he[e]);
+    }
+    for (int f = 0; f < nf; ++f) h.add_face(f, hf[f]);
+    for (int e = 0; e < ne; ++e) h.add_hinge(e, he[e]);
+  }
+  // Rank-one Juelicher cell terms (kappa/A_v) u_v u_v^T over each closed star.
+  const VertexStars& stars = h.stars();
+  std::vector<double> u;
+  for (int v = 0; v < nv; ++v) {
+    u.resize(3 * static_cast<size_t>(stars.size(v)));
+    terms.cell_gradient(t, stars, v, u.data());
+    h.add_star_outer(v, u.data(), terms.cell_weight(v));
   }
 }
 

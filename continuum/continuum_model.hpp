@@ -93,6 +93,14 @@ ConstraintValues evaluate_constraints(const Positions& x, const Topology& topo);
 void add_constraint_hessian(const Positions& x, const Topology& topo, double area_coef,
                             double volume_coef, BlockHessian& h);
 
+/// Adds the Hessian of the Lagrangian, d2E + area_coef d2A + volume_coef d2V (pN/um; the
+/// coefficients are the multipliers lambda_A in pN/um and lambda_V in pN/um^2), into h in one
+/// pass: each face's membrane element, Juelicher face term and constraint terms share one
+/// triangle area Hessian, and every block is added through h's cached codes. Equal to
+/// add_continuum_hessian + add_constraint_hessian up to rounding.
+void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, double area_coef,
+                            double volume_coef, BlockHessian& h);
+
 /// Per-element output fields: invariants and principal surface tensions (pN/um).
 struct ElementFields {
   Eigen::VectorXd i1, i2, tension_max_pN_per_um, tension_min_pN_per_um;

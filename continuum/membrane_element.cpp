@@ -66,9 +66,13 @@ SurfaceInvariants surface_invariants(const MembraneReference& ref, const Vec3& x
   return inv;
 }
 
-double membrane_element_energy(const IsotropicMembraneLaw& law, const MembraneReference& ref,
-                               const Vec3& x0, const Vec3& x1, const Vec3& x2,
-                               ElementGradient* grad, ElementHessian* hess) {
+namespace {
+
+/// The element's energy with its gradient and the Hessian's parts d2E = rest + coef d2A
+/// (coef = Psi_1 in pN/um: the term Abar Psi_1 d2J with d2J = d2A / Abar).
+double membrane_element_parts(const IsotropicMembraneLaw& law, const MembraneReference& ref,
+                              const Vec3& x0, const Vec3& x1, const Vec3& x2, ElementGradient* grad,
+                              ElementHessian* rest, double* area_coef) {
   const Vec3 e1 = x1 - x0, e2 = x2 - x0;
   const Eigen::Matrix2d& gi = ref.metric_inverse;
   const double g11 = e1.squaredNorm(), g12 = e1.dot(e2), g22 = e2.squaredNorm();
@@ -79,30 +83,51 @@ double membrane_element_energy(const IsotropicMembraneLaw& law, const MembraneRe
   const double i2 = gi(0, 0) * g11 + 2.0 * gi(0, 1) * g12 + gi(1, 1) * g22 - 2.0;
   const InvariantDerivatives d = law.evaluate(jac - 1.0, i2);
   if (!std::isfinite(d.psi)) return kInf;
-  if (!grad && !hess) return ref.area_um2 * d.psi;
+  if (!grad && !rest) return ref.area_um2 * d.psi;
 
   // dJ, d2J from the area derivatives (J = A/Abar); I2 in edge variables (e1, e2), whose
   // Hessian 2 G^-1 (x) I3 is constant.
   Vector9d dA;
-  Matrix9d d2A;
-  triangle_area_hessian(x0, x1, x2, &dA, hess ? &d2A : nullptr);
+  triangle_area_hessian(x0, x1, x2, &dA, nullptr);
   const ElementGradient dJ = dA / ref.area_um2;
   Edge6 dI2e;
   dI2e.segment<3>(0) = 2.0 * (gi(0, 0) * e1 + gi(0, 1) * e2);
   dI2e.segment<3>(3) = 2.0 * (gi(1, 0) * e1 + gi(1, 1) * e2);
   const ElementGradient dI2 = edge_to_vertex(dI2e);
   if (grad) *grad = ref.area_um2 * (d.d1 * dJ + d.d2 * dI2);
-  if (hess) {
+  if (rest) {
     Edge66 d2I2e;
     for (int a = 0; a < 2; ++a)
       for (int b = 0; b < 2; ++b)
         d2I2e.block<3, 3>(3 * a, 3 * b) = 2.0 * gi(a, b) * Eigen::Matrix3d::Identity();
-    *hess = ref.area_um2 * (d.d11 * dJ * dJ.transpose() +
+    *rest = ref.area_um2 * (d.d11 * dJ * dJ.transpose() +
                             d.d12 * (dJ * dI2.transpose() + dI2 * dJ.transpose()) +
-                            d.d22 * dI2 * dI2.transpose() + (d.d1 / ref.area_um2) * d2A) +
+                            d.d22 * dI2 * dI2.transpose()) +
             ref.area_um2 * d.d2 * edge_to_vertex(d2I2e);
+    *area_coef = d.d1;
   }
   return ref.area_um2 * d.psi;
+}
+
+}  // namespace
+
+double membrane_element_energy(const IsotropicMembraneLaw& law, const MembraneReference& ref,
+                               const Vec3& x0, const Vec3& x1, const Vec3& x2,
+                               ElementGradient* grad, ElementHessian* hess) {
+  double coef = 0.0;
+  const double e = membrane_element_parts(law, ref, x0, x1, x2, grad, hess, &coef);
+  if (hess && std::isfinite(e)) {
+    Matrix9d d2A;
+    triangle_area_hessian(x0, x1, x2, nullptr, &d2A);
+    *hess += coef * d2A;
+  }
+  return e;
+}
+
+double membrane_element_hessian_parts(const IsotropicMembraneLaw& law, const MembraneReference& ref,
+                                      const Vec3& x0, const Vec3& x1, const Vec3& x2,
+                                      ElementHessian& rest, double& area_coef) {
+  return membrane_element_parts(law, ref, x0, x1, x2, nullptr, &rest, &area_coef);
 }
 
 PrincipalTensions principal_tensions(const IsotropicMembraneLaw& law, const MembraneReference& ref,

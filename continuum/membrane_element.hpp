@@ -55,6 +55,15 @@ double membrane_element_energy(const IsotropicMembraneLaw& law, const MembraneRe
                                const Vec3& x0, const Vec3& x1, const Vec3& x2,
                                ElementGradient* grad = nullptr, ElementHessian* hess = nullptr);
 
+/// The element Hessian split as d2E = rest + area_coef d2A (d2A: core triangle area
+/// Hessian, discrete/element_hessian.hpp; area_coef = Psi_1 in pN/um), so a caller adding
+/// other multiples of d2A (area constraint, bending face terms) evaluates d2A once. Same
+/// return value and infeasibility rule as membrane_element_energy (rest, area_coef untouched
+/// when +infinity).
+double membrane_element_hessian_parts(const IsotropicMembraneLaw& law, const MembraneReference& ref,
+                                      const Vec3& x0, const Vec3& x1, const Vec3& x2,
+                                      ElementHessian& rest, double& area_coef);
+
 /// Principal surface tensions (pN/um) of the Cauchy surface stress of paper Sec. 4.1,
 /// tau = 2/J Psi_2 F F^T + Psi_1 P: tau_i = 2 Psi_2 l_i^2 / J + Psi_1, largest first,
 /// with l_i^2 the eigenvalues of C. NaN-free: +infinity where the law is infinite.

@@ -29,6 +29,15 @@ void NewtonOptions::validate() const {
   require_finite_in_range("merit penalty", "pN um", penalty_pNum, 0.0, kUnbounded,
                           Ends::closed_open);
   require_integer_in_range("Newton BLAS threads (0 = OpenBLAS default)", blas_threads, 0, 1024);
+  require_integer_in_range("Newton Krylov correction iterations (0 = off)", krylov_iterations, 0,
+                           100000);
+  require_finite_in_range("Newton Krylov correction tolerance", "", krylov_tolerance, 0.0, 1.0,
+                          Ends::open_open);
+  require_integer_in_range("Newton Krylov refactorisation iterations", krylov_refactor_iterations,
+                           0, 100000);
+  require_finite_in_range("Newton Krylov initial shift", "", krylov_initial_shift, 0.0, 1.0,
+                          Ends::closed_closed);
+  require_integer_in_range("Newton Krylov factorisation reuse", krylov_max_factor_reuse, 0, 1000);
   require_integer_in_range("Newton supernodal threshold (unknowns)", supernodal_min_unknowns, 0,
                            std::numeric_limits<int>::max());
 }
@@ -49,6 +58,14 @@ ShiftedNewtonOptions shifted_newton_options(const NewtonOptions& o) {
   c.max_factor_reuse = o.max_factor_reuse;
   c.reuse_contraction = o.reuse_contraction;
   c.reuse_across_calls = o.reuse_across_solves;
+  c.krylov_iterations = o.krylov_iterations;
+  c.krylov_tolerance = o.krylov_tolerance;
+  c.krylov_refactor_iterations = o.krylov_refactor_iterations;
+  c.krylov_lagged_hessian = o.krylov_lagged_hessian;
+  if (o.krylov_iterations > 0) {
+    c.initial_shift = o.krylov_initial_shift;
+    c.max_factor_reuse = o.krylov_max_factor_reuse;
+  }
   c.shift_scale = ShiftScale::mean_abs_diagonal;
   c.cholesky.ordering = o.ordering;
   c.cholesky.supernodal_min_unknowns = o.supernodal_min_unknowns;
@@ -78,7 +95,7 @@ bool any_face_flipped(const Eigen::VectorXd& from, const Eigen::VectorXd& to,
 NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& options)
     : model_(model),
       options_((options.validate(), options)),
-      hessian_(model.topo),
+      hessian_(model.topo, BlockStorage::lower),
       newton_(shifted_newton_options(options)) {}
 
 NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
@@ -110,9 +127,8 @@ NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force
                    const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
     flat(s->x) = xf;
     hp->set_zero();
-    add_continuum_hessian(*m, s->x, *hp);
+    add_lagrangian_hessian(*m, s->x, l(0), l(1), *hp);
     if (extra.hessian) extra.hessian(s->x, *hp);
-    add_constraint_hessian(s->x, m->topo, l(0), l(1), *hp);
     return hp->matrix();
   };
   pb.feasible = [m](const Eigen::VectorXd& from, const Eigen::VectorXd& to) {
@@ -144,6 +160,8 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
   res.iterations = r.iterations;
   res.factorisations = r.factorisations;
   res.chord_steps = r.chord_steps;
+  res.krylov_iterations = r.krylov_iterations;
+  res.krylov_fallbacks = r.krylov_fallbacks;
   res.residual_pN = r.residual;
   res.largest_shift = r.largest_shift;
   if (r.status == NewtonStatus::infeasible_start) return res;

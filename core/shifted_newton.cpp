@@ -33,6 +33,13 @@ void ShiftedNewtonOptions::validate() const {
   require_integer_in_range("Newton shift attempts", max_shift_attempts, 1, 1000);
   require_integer_in_range("factorisation reuse", max_factor_reuse, 0, 1000);
   require_finite_in_range("reuse contraction", "", reuse_contraction, 0.0, 1.0, Ends::open_open);
+  require_integer_in_range("Krylov correction iterations (0 = off)", krylov_iterations, 0, 100000);
+  require_finite_in_range("Krylov correction tolerance", "", krylov_tolerance, 0.0, 1.0,
+                          Ends::open_open);
+  require_finite_in_range("Krylov kept shift", "", krylov_kept_shift, 0.0, 1.0,
+                          Ends::closed_closed);
+  require_integer_in_range("Krylov refactorisation iterations", krylov_refactor_iterations, 0,
+                           100000);
   require_integer_in_range("Newton stall iterations (0 = off)", stall_iterations, 0, 1000000);
   require_finite_in_range("Newton round-off floor factor", "", floor_factor, 0.0, kUnbounded,
                           Ends::closed_open);
@@ -117,6 +124,60 @@ void ShiftedNewton::prepare_pattern(const Eigen::SparseMatrix<double>& h) {
   have_factor_ = false;
 }
 
+int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h, double diag_shift,
+                                  const Eigen::MatrixXd& c_grad, const Eigen::MatrixXd& ym,
+                                  const Eigen::FullPivLU<Eigen::MatrixXd>& sc,
+                                  const Eigen::VectorXd& r, const Eigen::VectorXd& y0,
+                                  Eigen::VectorXd& dx, Eigen::VectorXd& dl) const {
+  const Eigen::Index m = c_grad.cols();
+  // Projected preconditioned residual: [P C; C' 0] [z; w] = [g; 0], P the factorised K.
+  Eigen::VectorXd w(m);
+  auto project = [&](const Eigen::VectorXd& g) {
+    Eigen::VectorXd z = cholesky_.solve(g);
+    if (m > 0) {
+      w = sc.solve(Eigen::VectorXd(c_grad.transpose() * z));
+      z -= ym * w;
+    }
+    return z;
+  };
+  const auto hs = h.selfadjointView<Eigen::Lower>();
+  const double reference = r.dot(y0);  // r' P^-1 r > 0
+  const double tol2 = options_.krylov_tolerance * options_.krylov_tolerance * reference;
+  Eigen::VectorXd g = hs * dx - diag_shift * dx + r;  // gradient of the quadratic model at dx
+  Eigen::VectorXd z = project(g);
+  double rz = g.dot(z);
+  Eigen::VectorXd p = -z, hp;
+  for (int k = 0;; ++k) {
+    if (!(rz > tol2)) {  // converged (rz is >= 0 in exact arithmetic)
+      // g = H dx + r = C w on convergence: H dx + C dl = -r with dl = -w.
+      dl = m > 0 ? Eigen::VectorXd(-w) : Eigen::VectorXd();
+      return k;
+    }
+    if (!std::isfinite(rz)) return -(k + 1);
+    // Truncated (Steihaug): at the iteration limit, or on negative curvature on the tangent
+    // space after the first iteration, the current iterate (a descent direction of the
+    // quadratic model there) is the step.
+    if (k >= options_.krylov_iterations) {
+      dl = m > 0 ? Eigen::VectorXd(-w) : Eigen::VectorXd();
+      return k;
+    }
+    hp = hs * p - diag_shift * p;
+    const double php = p.dot(hp);
+    if (!(php > 0)) {
+      if (k == 0) return -1;
+      dl = m > 0 ? Eigen::VectorXd(-w) : Eigen::VectorXd();
+      return k;
+    }
+    const double alpha = rz / php;
+    dx += alpha * p;
+    g += alpha * hp;
+    z = project(g);
+    const double rz_new = g.dot(z);
+    p = -z + (rz_new / rz) * p;
+    rz = rz_new;
+  }
+}
+
 ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorXd& x,
                                          Eigen::VectorXd& lambda,
                                          const std::function<void(const NewtonIterate&)>& on_it,
@@ -143,6 +204,9 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
   if (m > 0 && scale.size() != m)
     throw std::logic_error("shifted Newton: one constraint scale per constraint needed");
   if (!o.reuse_across_calls) have_factor_ = false;
+  if (o.krylov_iterations > 0 && pb.add_unshifted)
+    throw std::logic_error("shifted Newton: the Krylov correction needs the whole Hessian");
+  last_krylov_iterations_ = 0;
   double shift_hint = 0.0, last_resid = 0.0;
   // A factorisation kept from the previous call counts as a full step's: the first
   // iteration may be a chord step on it.
@@ -199,17 +263,28 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     // Factorise K = H + sigma s I afresh, unless the last factorisation is still doing well
     // (chord step: the last full step cut the residual by reuse_contraction), which saves the
     // dominant cost on nearby iterates.
-    const bool reuse = have_factor_ && last_full_step &&
-                       (first || resid < o.reuse_contraction * last_resid) &&
-                       reuse_count < o.max_factor_reuse;
+    const bool krylov = o.krylov_iterations > 0;
+    const bool lagged = krylov && o.krylov_lagged_hessian;
+    const bool contracted = last_full_step && (first || resid < o.reuse_contraction * last_resid);
+    const bool reuse =
+        have_factor_ && reuse_count < o.max_factor_reuse &&
+        (krylov && !lagged ? last_krylov_iterations_ >= 0 &&
+                                 last_krylov_iterations_ <= o.krylov_refactor_iterations
+                           : contracted && last_krylov_iterations_ >= 0);
     first = false;
+    // The exact Hessian: for the factorisation, and with the Krylov correction at every
+    // iteration (the chord steps' too) unless it uses the factorised one (lagged).
+    const Eigen::SparseMatrix<double>* hk = nullptr;
+    if ((krylov && !lagged) || !reuse) {
+      hk = &pb.hessian(x, lambda);
+      if (hk->rows() != n) throw std::logic_error("shifted Newton: Hessian size mismatch");
+    }
     if (reuse) {
       ++reuse_count;
       ++res.chord_steps;
     } else {
       reuse_count = 0;
-      const Eigen::SparseMatrix<double>& h = pb.hessian(x, lambda);
-      if (h.rows() != n) throw std::logic_error("shifted Newton: Hessian size mismatch");
+      const Eigen::SparseMatrix<double>& h = *hk;
       prepare_pattern(h);
       double s = 0;
       if (o.shift_scale == ShiftScale::mean_abs_diagonal) {
@@ -228,6 +303,8 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
         ++res.factorisations;
         if (cholesky_.factorize(k_)) {  // fails unless K is positive definite
           have_factor_ = true;
+          factor_shift_ = sigma > 0 ? sigma * s : 0.0;
+          factor_scale_ = s;
           break;
         }
         sigma = std::max(o.shift_growth * sigma, o.retry_shift);
@@ -242,54 +319,91 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     const Eigen::VectorXd y0 = cholesky_.solve(r);
     Eigen::VectorXd dx;
     Eigen::VectorXd lnew = lambda;
+    Eigen::MatrixXd ym;
+    Eigen::FullPivLU<Eigen::MatrixXd> sc_lu;
     if (m > 0) {
-      const Eigen::MatrixXd ym = cholesky_.solve(cur.c_grad);
-      const Eigen::MatrixXd sc = cur.c_grad.transpose() * ym;
-      const Eigen::VectorXd dl = sc.fullPivLu().solve(cur.c - cur.c_grad.transpose() * y0);
+      ym = cholesky_.solve(cur.c_grad);
+      sc_lu.compute(Eigen::MatrixXd(cur.c_grad.transpose() * ym));
+      const Eigen::VectorXd dl = sc_lu.solve(cur.c - cur.c_grad.transpose() * y0);
       dx = -y0 - ym * dl;
       lnew += dl;
     } else {
       dx = -y0;
     }
-    if (pb.project_step) pb.project_step(x, dx);
-    const double largest = largest_block_norm(dx, o.block_size);
-    if (largest > o.max_step) dx *= o.max_step / largest;
-
-    // Merit phi = f + lnew'c + rho/2 |c/G|^2 and its slope along dx.
-    const double rho = o.penalty;
-    auto merit = [&](const NewtonPoint& p) {
-      double phi = p.value;
-      for (Eigen::Index k = 0; k < m; ++k) phi += lnew(k) * p.c(k);
-      if (m > 0) phi += 0.5 * rho * p.c.cwiseQuotient(scale).squaredNorm();
-      return phi;
-    };
-    Eigen::VectorXd gm = cur.grad;
-    if (m > 0) {  // (grad f + C lnew) + C rho c/G^2, in this order
-      gm += cur.c_grad * lnew;
-      gm += cur.c_grad * Eigen::VectorXd(rho * chat.cwiseQuotient(scale));
-    }
-    const double slope = gm.dot(dx);
-    const double phi0 = merit(cur);
-    double t = 1.0;
-    bool accepted = false;
-    Eigen::VectorXd xt;
-    for (int ls = 0; ls < o.max_line_search; ++ls, t *= 0.5) {
-      xt = x + t * dx;
-      if ((pb.feasible && !pb.feasible(x, xt)) || !evaluate(xt, trial))
-        continue;  // infeasible: halve
-      const double phi = merit(trial);
-      const bool armijo =
-          slope < 0 && phi <= phi0 + o.armijo * t * slope + o.armijo_slack_rel * std::abs(phi0);
-      // Near convergence phi changes at the level of round-off: accept a step that does
-      // not raise phi beyond that and reduces the residual.
-      bool roundoff_ok = false;
-      if (!armijo && o.roundoff_merit_rel > 0 &&
-          phi <= phi0 + o.roundoff_merit_rel * std::abs(phi0))
-        roundoff_ok = largest_block_norm(residual_vector(trial, lnew), o.block_size) < resid;
-      if (armijo || roundoff_ok) {
-        accepted = true;
-        break;
+    // The shifted (or chord) step, kept as the fallback of the Krylov correction.
+    Eigen::VectorXd dx_shifted, l_shifted;
+    bool corrected = false;
+    if (krylov) {
+      dx_shifted = dx;
+      l_shifted = lnew;
+      Eigen::VectorXd dl_exact;
+      // The correction keeps krylov_kept_shift of the shift (the rigid null modes stay
+      // regularised as with the smallest shift alone).
+      const double kept = o.krylov_kept_shift * factor_scale_;
+      const int its =
+          lagged
+              ? krylov_correct(k_, factor_shift_ - kept, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact)
+              : krylov_correct(*hk, -kept, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact);
+      res.krylov_iterations += std::abs(its);
+      last_krylov_iterations_ = its;
+      if (its >= 0) {
+        corrected = true;
+        lnew = lambda + dl_exact;
+      } else {
+        dx = dx_shifted;
+        ++res.krylov_fallbacks;
       }
+    }
+    // Capped step along dx with multipliers ln, backtracked on the merit
+    //   phi = f + ln'c + rho/2 |c/G|^2;
+    // true (xt, trial, t set) when a trial point is accepted.
+    Eigen::VectorXd xt;
+    double t = 1.0;
+    auto line_search = [&](Eigen::VectorXd d, const Eigen::VectorXd& ln) {
+      if (pb.project_step) pb.project_step(x, d);
+      const double largest = largest_block_norm(d, o.block_size);
+      if (largest > o.max_step) d *= o.max_step / largest;
+      const double rho = o.penalty;
+      auto merit = [&](const NewtonPoint& p) {
+        double phi = p.value;
+        for (Eigen::Index k = 0; k < m; ++k) phi += ln(k) * p.c(k);
+        if (m > 0) phi += 0.5 * rho * p.c.cwiseQuotient(scale).squaredNorm();
+        return phi;
+      };
+      Eigen::VectorXd gm = cur.grad;
+      if (m > 0) {  // (grad f + C ln) + C rho c/G^2, in this order
+        gm += cur.c_grad * ln;
+        gm += cur.c_grad * Eigen::VectorXd(rho * chat.cwiseQuotient(scale));
+      }
+      const double slope = gm.dot(d);
+      // The corrected step of an indefinite d2L need not descend: the caller falls back.
+      if (corrected && !(slope < 0)) return false;
+      const double phi0 = merit(cur);
+      t = 1.0;
+      for (int ls = 0; ls < o.max_line_search; ++ls, t *= 0.5) {
+        xt = x + t * d;
+        if ((pb.feasible && !pb.feasible(x, xt)) || !evaluate(xt, trial))
+          continue;  // infeasible: halve
+        const double phi = merit(trial);
+        const bool armijo =
+            slope < 0 && phi <= phi0 + o.armijo * t * slope + o.armijo_slack_rel * std::abs(phi0);
+        // Near convergence phi changes at the level of round-off: accept a step that does
+        // not raise phi beyond that and reduces the residual.
+        bool roundoff_ok = false;
+        if (!armijo && o.roundoff_merit_rel > 0 &&
+            phi <= phi0 + o.roundoff_merit_rel * std::abs(phi0))
+          roundoff_ok = largest_block_norm(residual_vector(trial, ln), o.block_size) < resid;
+        if (armijo || roundoff_ok) return true;
+      }
+      return false;
+    };
+    bool accepted = line_search(dx, lnew);
+    if (!accepted && corrected) {  // the shifted step instead
+      corrected = false;
+      ++res.krylov_fallbacks;
+      last_krylov_iterations_ = -1;
+      lnew = l_shifted;
+      accepted = line_search(dx_shifted, lnew);
     }
     if (!accepted) {
       if (reuse) {  // a stale factorisation may give a poor direction: retry with a fresh one

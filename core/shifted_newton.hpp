@@ -20,6 +20,7 @@
 // steps, continuation): then the first iteration of a call is a chord step on the previous
 // call's factorisation.
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 #include <chrono>
 #include <functional>
@@ -73,6 +74,36 @@ struct ShiftedNewtonOptions {
   /// Keep the factorisation between calls: the first iteration of the next call is a chord
   /// step on it (the Hessian changes little between time steps or nearby forces).
   bool reuse_across_calls = false;
+  /// Krylov correction (0 = off): at most this many projected preconditioned CG iterations
+  /// (Gould, Hribar & Nocedal 2001) per Newton iteration turn the shifted (or chord) step into
+  /// the exact Newton step of the unshifted d2L on the constraints' tangent space, with the
+  /// factorisation of K (and the Schur complement) as the constraint preconditioner. Only the
+  /// reduced Hessian Z' d2L Z must be positive definite, not d2L: the Levenberg shift needed
+  /// where the constraint curvature (lambda_A d2A at high tension) makes d2L indefinite no
+  /// longer slows Newton to a linear rate, and a factorisation may serve many iterations
+  /// (assembling d2L each iteration). Negative curvature on the tangent space, no convergence
+  /// within the limit, or a step that is no descent direction of the merit: the shifted step
+  /// is taken as without the correction. Needs the Hessian at every iteration; not combined
+  /// with add_unshifted terms.
+  int krylov_iterations = 0;
+  /// The correction stops when (g' Pz)/(r' P r) <= krylov_tolerance^2 (g: the quadratic
+  /// model's gradient at the step, Pz its projected preconditioned image, r the residual:
+  /// the relative error of the step in the preconditioner's norm).
+  double krylov_tolerance = 1e-6;
+  /// With the correction on, the factorisation is kept for the next iteration (a chord
+  /// preconditioner, up to max_factor_reuse times) while the last correction converged in at
+  /// most this many CG iterations; reuse_contraction is then not used.
+  int krylov_refactor_iterations = 10;
+  /// Lagged Hessian: the correction undoes only the shift of the factorised d2L (chord steps
+  /// then assemble nothing: a Shamanskii-type chord iteration on the unshifted Hessian of the
+  /// last factorisation, refactorised by the reuse_contraction rule); false: the correction
+  /// uses the current d2L, assembled every iteration (exact Newton steps).
+  bool krylov_lagged_hessian = false;
+  /// The part of the shift (relative to s) the correction keeps: the step is exact for
+  /// d2L + krylov_kept_shift s I, so the rigid null modes stay regularised as with the
+  /// smallest shift alone (without it a warm and a cold solve at 0 pN end in rotations
+  /// 3e-8 apart).
+  double krylov_kept_shift = 1e-8;
   /// Round-off floor: after stall_iterations iterations without the best residual halving,
   /// and with the best residual <= floor_factor x force_tolerance, stop converged at the best
   /// iterate (stall_iterations 0 or floor_factor 0 = off).
@@ -153,9 +184,11 @@ struct NewtonLimitsCore {
 struct ShiftedNewtonResult {
   NewtonStatus status = NewtonStatus::max_iterations;
   int iterations = 0;
-  int factorisations = 0;  ///< numeric factorisations, including retries with larger shifts
-  int chord_steps = 0;     ///< iterations that reused an earlier factorisation
-  double residual = 0;     ///< largest block norm of r at the returned point
+  int factorisations = 0;     ///< numeric factorisations, including retries with larger shifts
+  int chord_steps = 0;        ///< iterations that reused an earlier factorisation
+  int krylov_iterations = 0;  ///< CG iterations of the Krylov correction, summed
+  int krylov_fallbacks = 0;   ///< Newton iterations that took the shifted step instead
+  double residual = 0;        ///< largest block norm of r at the returned point
   double largest_shift = 0;
   bool at_roundoff_floor = false;
   NewtonPoint point;  ///< f, gradient and constraints at the returned x
@@ -177,6 +210,14 @@ class ShiftedNewton {
 
  private:
   void prepare_pattern(const Eigen::SparseMatrix<double>& h);
+  /// Krylov correction of the shifted step dx (C' dx = -c) to the Newton step of h on the
+  /// tangent space; dl: the multiplier increment of the corrected step. Returns the CG
+  /// iterations (>= 0) on convergence, -(iterations + 1) on failure (dx, dl then unusable).
+  /// h - diag_shift I is the Hessian the step is exact for.
+  int krylov_correct(const Eigen::SparseMatrix<double>& h, double diag_shift,
+                     const Eigen::MatrixXd& c_grad, const Eigen::MatrixXd& ym,
+                     const Eigen::FullPivLU<Eigen::MatrixXd>& sc, const Eigen::VectorXd& r,
+                     const Eigen::VectorXd& y0, Eigen::VectorXd& dx, Eigen::VectorXd& dl) const;
   ShiftedNewtonOptions options_;
   SparseCholesky cholesky_;
   Eigen::SparseMatrix<double> k_;  ///< shifted copy of the Hessian
@@ -184,6 +225,9 @@ class ShiftedNewton {
   Eigen::Index analysed_rows_ = -1, analysed_nonzeros_ = -1;
   bool have_factor_ = false;
   double shift_hint_ = 0.0;
+  int last_krylov_iterations_ = 0;  ///< of the last correction (-1: it failed)
+  double factor_shift_ = 0.0;       ///< sigma s of the kept factorisation
+  double factor_scale_ = 0.0;       ///< its s
 };
 
 /// Largest Euclidean norm over consecutive blocks of block_size entries of v.

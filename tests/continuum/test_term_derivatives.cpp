@@ -109,5 +109,40 @@ TEST(ContinuumTermDerivatives, AreaVolumeCurvature) {
       "area/volume curvature");
 }
 
+// The fused Lagrangian Hessian (one pass, shared triangle area Hessian, cached block codes):
+// second order against the Lagrangian's gradient, and equal to the separate terms' sum to
+// rounding in lower storage (what the Newton solver factorises) as in full.
+TEST(ContinuumTermDerivatives, FusedLagrangianHessian) {
+  const Model s;
+  const double sigma = 1.7, p = -0.6, force = 40.0;  // pN/um, pN/um^2, pN
+  const auto lagrangian = [&](const Positions& x, Positions* g) {
+    const double e = continuum_energy(s.m, x, force, g);
+    const ConstraintValues c = evaluate_constraints(x, s.m.topo);
+    if (g) *g += sigma * c.grad_area + p * c.grad_volume;
+    return e + sigma * c.area_um2 + p * c.volume_um3;
+  };
+  expect_term_second_order(
+      s, lagrangian,
+      [&](const Positions& x, BlockHessian& h) { add_lagrangian_hessian(s.m, x, sigma, p, h); },
+      "fused Lagrangian");
+  BlockHessian separate(s.m.topo);
+  separate.set_zero();
+  add_continuum_hessian(s.m, s.x, separate);
+  add_constraint_hessian(s.x, s.m.topo, sigma, p, separate);
+  const Eigen::MatrixXd reference = Eigen::MatrixXd(separate.matrix());
+  for (const BlockStorage storage : {BlockStorage::full, BlockStorage::lower}) {
+    BlockHessian fused(s.m.topo, storage);
+    fused.set_zero();
+    add_lagrangian_hessian(s.m, s.x, sigma, p, fused);
+    const Eigen::SparseMatrix<double>& f = fused.matrix();
+    const Eigen::MatrixXd dense =
+        storage == BlockStorage::full
+            ? Eigen::MatrixXd(f)
+            : Eigen::MatrixXd(Eigen::SparseMatrix<double>(f.selfadjointView<Eigen::Lower>()));
+    EXPECT_LT((dense - reference).cwiseAbs().maxCoeff(), 1e-12 * reference.cwiseAbs().maxCoeff())
+        << (storage == BlockStorage::full ? "full" : "lower") << " storage";
+  }
+}
+
 }  // namespace
 }  // namespace rbc

@@ -32,9 +32,11 @@ TEST(WarmStretch, ContinuumWarmReSolveEqualsColdSolve) {
     ASSERT_TRUE(cold[k].converged) << to_string(cold[k].status);
     ASSERT_TRUE(warm[k].converged) << to_string(warm[k].status);
     EXPECT_TRUE(warm[k].warm);
-    // Newton converges to 1e-6 pN per vertex: the two equilibria agree to round-off level.
-    EXPECT_NEAR(warm[k].axial_um, cold[k].axial_um, 1e-8 * cold[k].axial_um);
-    EXPECT_NEAR(warm[k].transverse_um, cold[k].transverse_um, 1e-8 * cold[k].transverse_um);
+    // Newton converges to 1e-6 pN per vertex: the two equilibria agree to that tolerance over
+    // the softest stiffness (~1 pN/um at 0 pN: ~1e-6 um; measured 2.9e-7 um with the lagged
+    // Krylov chord steps, which stop nearer the tolerance than full Newton steps).
+    EXPECT_NEAR(warm[k].axial_um, cold[k].axial_um, 1e-7 * cold[k].axial_um);
+    EXPECT_NEAR(warm[k].transverse_um, cold[k].transverse_um, 1e-7 * cold[k].transverse_um);
     EXPECT_NEAR(warm[k].multipliers.area_pN_per_um, cold[k].multipliers.area_pN_per_um,
                 1e-6 * (1 + std::abs(cold[k].multipliers.area_pN_per_um)));
     EXPECT_GT(std::abs(before[k].axial_um - cold[k].axial_um) +
