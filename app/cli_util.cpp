@@ -37,16 +37,11 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
     if (item.find_first_not_of(" \t") == std::string::npos)
       throw std::invalid_argument(option + " '" + text + "': the " + list_noun(option) +
                                   " list has an empty item; " + expected);
-    size_t used = 0;
-    double v = 0;
-    try {
-      v = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos)
+    const std::optional<double> parsed = parse_number(item);
+    if (!parsed)
       throw std::invalid_argument(option + " " + text + ": '" + item + "' is not a number; " +
                                   expected);
+    const double v = *parsed;
     if (!std::isfinite(v) || (!allow_negative && v < 0))
       throw std::invalid_argument(option + " " + text + ": " + item + " is not allowed; " +
                                   expected);
@@ -90,7 +85,7 @@ std::string check_integer(const std::string& text, Int lo, Int hi) {
       "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
   Int v{};
   const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+  const auto [ptr, ec] = std::from_chars(text.data(), end, v);  // no blanks, no '+': as typed
   if (text.empty() || ec != std::errc() || ptr != end || v < lo || v > hi)
     return text + ": " + expected;
   return {};

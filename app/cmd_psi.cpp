@@ -60,16 +60,10 @@ Eigen::Matrix2d parse_deformation(const std::string& text) {
   std::vector<double> v;
   std::stringstream ss(text);
   for (std::string item; std::getline(ss, item, ',');) {
-    std::size_t used = 0;
-    double x = 0;
-    try {
-      x = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(x))
+    const std::optional<double> x = parse_finite_number(item);
+    if (!x)
       throw std::invalid_argument("--deformation entry '" + item + "' is not a finite number");
-    v.push_back(x);
+    v.push_back(*x);
   }
   if (v.size() != 4)
     throw std::invalid_argument("--deformation needs 4 numbers F11,F12,F21,F22, got " +

@@ -2,7 +2,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
+
+#include "core/validation.hpp"
 
 namespace rbc {
 
@@ -20,16 +23,9 @@ std::string known_names() {
 }
 
 double parse_bound(const std::string& s, const std::string& text) {
-  size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(s, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (s.empty() || used != s.size() || !std::isfinite(v))
-    throw std::invalid_argument("--prior '" + text + "': '" + s + "' is not a finite number");
-  return v;
+  const std::optional<double> v = parse_finite_number(s);
+  if (!v) throw std::invalid_argument("--prior '" + text + "': '" + s + "' is not a finite number");
+  return *v;
 }
 
 std::string number(double v) {

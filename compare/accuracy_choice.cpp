@@ -7,6 +7,7 @@
 
 #include "compare/experiment.hpp"
 #include "core/io.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
@@ -93,14 +94,8 @@ double parse_accuracy_percent(const std::string& text) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
   if (!s.empty() && s.back() == '%') s.pop_back();
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
-  size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(s, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (s.empty() || used != s.size() || !std::isfinite(v) || !(v > 0) || v > 100)
+  const double v = parse_finite_number(s).value_or(0.0);  // unreadable -> refused below
+  if (!(v > 0) || v > 100)
     throw std::invalid_argument("--accuracy " + text +
                                 ": expected a finite percentage > 0 and <= 100, e.g. 1%");
   return v;

@@ -4,12 +4,15 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "continuum/continuum_stretch.hpp"
 #include "core/geometry.hpp"
 #include "core/rest_shape.hpp"
+#include "core/validation.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
 
@@ -32,16 +35,10 @@ Method parse_method(const std::string& text) {
   std::stringstream ss(text);
   for (std::string p; std::getline(ss, p, ':');) parts.push_back(p);
   auto number = [&](const std::string& s) {
-    size_t used = 0;
-    int v = 0;
-    try {
-      v = std::stoi(s, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != s.size() || v <= 0)
+    const std::optional<long long> v = parse_integer(s);
+    if (!v || *v <= 0 || *v > std::numeric_limits<int>::max())
       throw std::invalid_argument("method '" + text + "': '" + s + "' is not a positive count");
-    return v;
+    return static_cast<int>(*v);
   };
   Method m;
   if (parts.size() == 2 && parts[0] == "discrete") {

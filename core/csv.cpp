@@ -2,6 +2,7 @@
 #include <stdexcept>
 
 #include "core/io.hpp"
+#include "core/validation.hpp"
 
 // The CSV reader on a stream, apart from io.cpp so the fuzz target (fuzz/) links it alone.
 namespace rbc {
@@ -33,17 +34,11 @@ CsvTable parse_csv(std::istream& in, const std::string& path) {
                                std::to_string(t.header.size()));
     std::vector<double> row;
     for (const auto& c : cells) {
-      size_t used = 0;
-      double v = 0;
-      try {
-        v = std::stod(c, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || c.find_first_not_of(" \t", used) != std::string::npos)
+      const std::optional<double> v = parse_number(c);
+      if (!v)
         throw std::runtime_error("CSV file '" + path + "' line " + std::to_string(lineno) + ": '" +
                                  c + "' is not a number");
-      row.push_back(v);
+      row.push_back(*v);
     }
     t.rows.push_back(std::move(row));
   }

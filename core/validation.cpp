@@ -1,11 +1,22 @@
 #include "core/validation.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 
 namespace rbc {
 
 namespace {
+/// text without surrounding blanks and without one leading '+' (from_chars takes neither).
+std::string_view number_body(std::string_view text) {
+  const auto first = text.find_first_not_of(" \t");
+  if (first == std::string_view::npos) return {};
+  text = text.substr(first, text.find_last_not_of(" \t") - first + 1);
+  if (text.size() > 1 && text.front() == '+' && text[1] != '-' && text[1] != '+')
+    text.remove_prefix(1);
+  return text;
+}
+
 std::string value_with_unit(const std::string& value, const std::string& unit) {
   const bool number = value != "inf" && value != "-inf" && value != "nan";
   return unit.empty() || !number ? value : value + " " + unit;
@@ -72,6 +83,32 @@ void require_integer_in_range(const std::string& quantity, long long value, long
     throw InvalidParameter(
         quantity, std::to_string(value),
         "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+}
+
+std::optional<double> parse_number(std::string_view text) {
+  const std::string_view body = number_body(text);
+  if (body.empty()) return std::nullopt;
+  double v = 0;
+  const char* end = body.data() + body.size();
+  const auto [ptr, ec] = std::from_chars(body.data(), end, v);
+  if (ec != std::errc() || ptr != end) return std::nullopt;
+  return v;
+}
+
+std::optional<double> parse_finite_number(std::string_view text) {
+  const std::optional<double> v = parse_number(text);
+  if (!v || !std::isfinite(*v)) return std::nullopt;
+  return v;
+}
+
+std::optional<long long> parse_integer(std::string_view text) {
+  const std::string_view body = number_body(text);
+  if (body.empty()) return std::nullopt;
+  long long v = 0;
+  const char* end = body.data() + body.size();
+  const auto [ptr, ec] = std::from_chars(body.data(), end, v);
+  if (ec != std::errc() || ptr != end) return std::nullopt;
+  return v;
 }
 
 }  // namespace rbc

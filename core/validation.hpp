@@ -10,8 +10,10 @@
 // quantity ("--persistence inf: persistence length must be finite and in (0, 1000] nm").
 // Comparisons are written so that NaN fails every check (a NaN is never "in range").
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace rbc {
 
@@ -52,6 +54,21 @@ void require_integer_in_range(const std::string& quantity, long long value, long
                               long long hi);
 
 /// +infinity, for an unbounded end of range_expectation / require_finite_in_range.
+/// The whole of `text` read as a real number, independently of the C locale (std::from_chars):
+/// blanks (space, tab) around it and one leading '+' are accepted, as are "inf" and "nan"; an
+/// empty text, trailing characters and out-of-range values give std::nullopt.
+std::optional<double> parse_number(std::string_view text);
+
+/// The whole of `text` read as a finite real number, independently of the C locale
+/// (std::from_chars): blanks (space, tab) around it and one leading '+' are accepted; an empty
+/// text, trailing characters, "inf", "nan" and out-of-range values give std::nullopt. The one
+/// number reader of every front end (option lists, prior boxes, accuracy percentages).
+std::optional<double> parse_finite_number(std::string_view text);
+
+/// The whole of `text` read as a decimal integer (blanks around it and one leading '+'
+/// accepted); anything else, or a value outside long long, gives std::nullopt.
+std::optional<long long> parse_integer(std::string_view text);
+
 inline constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 
 }  // namespace rbc

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
 namespace {
 using rbc::Ends;
@@ -85,6 +86,39 @@ TEST(Validation, EveryEndOfTheIntervalAsDocumented) {
             "finite and >= 0 pN um");
   // An InvalidParameter is a std::invalid_argument: existing callers keep catching it.
   EXPECT_THROW(rbc::require_finite_in_range("x", "", nan, 0, 1), std::invalid_argument);
+}
+
+// The one number reader of the front ends: the whole text or nothing, locale-independent.
+TEST(Validation, NumberReadersTakeTheWholeTextOrNothing) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::pair<const char*, double> good[] = {
+      {"1.5", 1.5}, {" 2 ", 2.0},     {"\t+3", 3.0},        {"1e3", 1000.0},
+      {".5", 0.5},  {"-0.25", -0.25}, {"6.02e-5", 6.02e-5}, {"5.", 5.0}};
+  for (const auto& [text, value] : good) {
+    SCOPED_TRACE(text);
+    ASSERT_TRUE(rbc::parse_finite_number(text).has_value());
+    EXPECT_EQ(*rbc::parse_finite_number(text), value);
+    EXPECT_EQ(*rbc::parse_number(text), value);
+  }
+  for (const char* bad : {"", " ", "1x", "1,5", "1 2", "--1", "+-1", "++1", "+", "0x10", "1e",
+                          "1e999", "abc", "1%"}) {
+    SCOPED_TRACE(bad);
+    EXPECT_FALSE(rbc::parse_number(bad).has_value());
+    EXPECT_FALSE(rbc::parse_finite_number(bad).has_value());
+  }
+  // inf and nan are numbers (a CSV cell may hold one; its reader's caller refuses it by name)
+  // but not finite ones.
+  EXPECT_EQ(*rbc::parse_number("inf"), inf);
+  EXPECT_EQ(*rbc::parse_number("-inf"), -inf);
+  EXPECT_TRUE(std::isnan(*rbc::parse_number("nan")));
+  for (const char* nonfinite : {"inf", "-inf", "nan", "infinity"})
+    EXPECT_FALSE(rbc::parse_finite_number(nonfinite).has_value()) << nonfinite;
+
+  EXPECT_EQ(*rbc::parse_integer(" 42 "), 42);
+  EXPECT_EQ(*rbc::parse_integer("+7"), 7);
+  EXPECT_EQ(*rbc::parse_integer("-3"), -3);
+  for (const char* bad : {"", "4.0", "1e3", "12a", "99999999999999999999", "--1", "0x1F"})
+    EXPECT_FALSE(rbc::parse_integer(bad).has_value()) << bad;
 }
 
 }  // namespace
