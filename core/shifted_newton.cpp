@@ -315,25 +315,39 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     }
     last_resid = resid;
 
-    // Bordered solve with the m x m Schur complement.
-    const Eigen::VectorXd y0 = cholesky_.solve(r);
+    // Bordered solve with the m x m Schur complement; K^-1 [r C] in one pass over the factor
+    // (one multi-column solve costs little more than one column: measured at 3,000 unknowns).
+    Eigen::VectorXd y0;
     Eigen::VectorXd dx;
     Eigen::VectorXd lnew = lambda;
     Eigen::MatrixXd ym;
     Eigen::FullPivLU<Eigen::MatrixXd> sc_lu;
     if (m > 0) {
-      ym = cholesky_.solve(cur.c_grad);
+      rhs_.resize(n, m + 1);
+      rhs_.col(0) = r;
+      rhs_.rightCols(m) = cur.c_grad;
+      const Eigen::MatrixXd sol = cholesky_.solve(rhs_);
+      y0 = sol.col(0);
+      ym = sol.rightCols(m);
       sc_lu.compute(Eigen::MatrixXd(cur.c_grad.transpose() * ym));
       const Eigen::VectorXd dl = sc_lu.solve(cur.c - cur.c_grad.transpose() * y0);
       dx = -y0 - ym * dl;
       lnew += dl;
     } else {
+      y0 = cholesky_.solve(r);
       dx = -y0;
     }
     // The shifted (or chord) step, kept as the fallback of the Krylov correction.
     Eigen::VectorXd dx_shifted, l_shifted;
     bool corrected = false;
-    if (krylov) {
+    // Lagged correction of a factorisation made at no more than the kept shift: the step is
+    // already exact for the Hessian the correction would use (it would stop after one
+    // projection, a wasted solve).
+    const bool exact_already =
+        lagged && !(factor_shift_ - o.krylov_kept_shift * factor_scale_ > 0);
+    if (krylov && exact_already) {
+      last_krylov_iterations_ = 0;
+    } else if (krylov) {
       dx_shifted = dx;
       l_shifted = lnew;
       Eigen::VectorXd dl_exact;
