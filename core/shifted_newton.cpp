@@ -223,9 +223,19 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     for (Eigen::Index k = 0; k < m; ++k) v += l(k) * p.c_grad.col(k);
     return v;
   };
+  Eigen::VectorXd l_best;
   auto finish = [&](NewtonStatus s) {
     res.status = s;
     res.residual = largest_block_norm(r, o.block_size);
+    // Not converged: return the best iterate seen (smallest residual), not a diverging last
+    // one (a 5,120-element solve at 130 pN ended at 1e57 pN after passing 4 pN).
+    if (s != NewtonStatus::converged && std::isfinite(best) && !(res.residual <= best)) {
+      x = x_best;
+      cur = p_best;
+      lambda = l_best;
+      r = residual_vector(cur, lambda);
+      res.residual = largest_block_norm(r, o.block_size);
+    }
     return res;
   };
   for (int iter = 0;; ++iter) {
@@ -239,13 +249,14 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     if (on_it) on_it(NewtonIterate{iter, cur.value, resid, violation, chat});
     if (resid <= tolerance && violation < o.constraint_tolerance)
       return finish(NewtonStatus::converged);
+    if (resid < best) {
+      if (resid <= 0.5 * best) stalled = -1;
+      best = resid;
+      x_best = x;
+      p_best = cur;
+      l_best = lambda;
+    }
     if (o.stall_iterations > 0) {
-      if (resid < best) {
-        if (resid <= 0.5 * best) stalled = -1;
-        best = resid;
-        x_best = x;
-        p_best = cur;
-      }
       if (++stalled >= o.stall_iterations && best <= o.floor_factor * tolerance &&
           violation < o.constraint_tolerance) {
         // At the floor: the best iterate seen (later steps only wander within round-off).
