@@ -1,11 +1,11 @@
 // `rbc infer`: Bayesian calibration of the spectrin parameters from force-diameter data
 // (MODEL.md section 7; calibrate/infer.hpp). Under mpirun every rank runs this command; rank 0
 // samples and writes, the others serve forward runs (calibrate/mpi_executor.hpp).
+#include <malloc.h>
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
-#include <malloc.h>
 #include <fstream>
 #include <iomanip>
 #include <iostream>

@@ -315,7 +315,7 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
       }
       return o;
     };
-    SolveOutcome o = attempt(f, predicted  ? "the predicted start"
+    SolveOutcome o = attempt(f, predicted   ? "the predicted start"
                                 : have_warm ? "the parent's equilibrium"
                                             : "the previous force");
     if (predicted && !o.converged) {  // the plain parent's equilibrium before any retry

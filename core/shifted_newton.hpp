@@ -228,7 +228,6 @@ class ShiftedNewton {
   int last_krylov_iterations_ = 0;  ///< of the last correction (-1: it failed)
   double factor_shift_ = 0.0;       ///< sigma s of the kept factorisation
   double factor_scale_ = 0.0;       ///< its s
-  Eigen::MatrixXd rhs_;             ///< [r C] of the bordered solve (kept: no allocation)
 };
 
 /// Largest Euclidean norm over consecutive blocks of block_size entries of v.
