@@ -285,11 +285,23 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
     const double f = options_.forces_pN[k];
     Positions x = x_prev;
     ConstraintMultipliers l = l_prev;
-    if (have_warm) {
+    bool predicted = false;
+    const auto parent_start = [&] {
       const double* w = warm.data() + static_cast<size_t>(k) * per_force;
       x = Eigen::Map<const Positions>(w, 3, n);
       l.area_pN_per_um = w[3 * n];
       l.volume_pN_per_um2 = w[3 * n + 1];
+    };
+    if (have_warm) {
+      parent_start();
+      if (options_.predict_from_previous_force && k > 0) {
+        // The parent's equilibrium plus this run's correction at the previous force.
+        const double* wp = warm.data() + static_cast<size_t>(k - 1) * per_force;
+        x += x_prev - Eigen::Map<const Positions>(wp, 3, n);
+        l.area_pN_per_um += l_prev.area_pN_per_um - wp[3 * n];
+        l.volume_pN_per_um2 += l_prev.volume_pN_per_um2 - wp[3 * n + 1];
+        predicted = true;
+      }
     }
     const auto attempt = [&](double force, const char* start) {
       const SolveOutcome o = ws->solve(force, x, l, trace);
@@ -303,7 +315,13 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
       }
       return o;
     };
-    SolveOutcome o = attempt(f, have_warm ? "the parent's equilibrium" : "the previous force");
+    SolveOutcome o = attempt(f, predicted   ? "the predicted start"
+                                : have_warm ? "the parent's equilibrium"
+                                            : "the previous force");
+    if (predicted && !o.converged) {  // the plain parent's equilibrium before any retry
+      parent_start();
+      o = attempt(f, "the parent's equilibrium");
+    }
     if (!o.converged) {
       // Retry: from this run's previous equilibrium through 2^b equal increments.
       out.retried = true;

@@ -223,9 +223,19 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     for (Eigen::Index k = 0; k < m; ++k) v += l(k) * p.c_grad.col(k);
     return v;
   };
+  Eigen::VectorXd l_best;
   auto finish = [&](NewtonStatus s) {
     res.status = s;
     res.residual = largest_block_norm(r, o.block_size);
+    // Not converged: return the best iterate seen (smallest residual), not a diverging last
+    // one (a 5,120-element solve at 130 pN ended at 1e57 pN after passing 4 pN).
+    if (s != NewtonStatus::converged && std::isfinite(best) && !(res.residual <= best)) {
+      x = x_best;
+      cur = p_best;
+      lambda = l_best;
+      r = residual_vector(cur, lambda);
+      res.residual = largest_block_norm(r, o.block_size);
+    }
     return res;
   };
   for (int iter = 0;; ++iter) {
@@ -239,13 +249,14 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     if (on_it) on_it(NewtonIterate{iter, cur.value, resid, violation, chat});
     if (resid <= tolerance && violation < o.constraint_tolerance)
       return finish(NewtonStatus::converged);
+    if (resid < best) {
+      if (resid <= 0.5 * best) stalled = -1;
+      best = resid;
+      x_best = x;
+      p_best = cur;
+      l_best = lambda;
+    }
     if (o.stall_iterations > 0) {
-      if (resid < best) {
-        if (resid <= 0.5 * best) stalled = -1;
-        best = resid;
-        x_best = x;
-        p_best = cur;
-      }
       if (++stalled >= o.stall_iterations && best <= o.floor_factor * tolerance &&
           violation < o.constraint_tolerance) {
         // At the floor: the best iterate seen (later steps only wander within round-off).
@@ -315,25 +326,34 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     }
     last_resid = resid;
 
-    // Bordered solve with the m x m Schur complement.
-    const Eigen::VectorXd y0 = cholesky_.solve(r);
+    // Bordered solve with the m x m Schur complement (r and C solved apart: one multi-column
+    // solve of [r C] rounds differently enough to stall round-off-level tests).
+    Eigen::VectorXd y0;
     Eigen::VectorXd dx;
     Eigen::VectorXd lnew = lambda;
     Eigen::MatrixXd ym;
     Eigen::FullPivLU<Eigen::MatrixXd> sc_lu;
     if (m > 0) {
+      y0 = cholesky_.solve(r);
       ym = cholesky_.solve(cur.c_grad);
       sc_lu.compute(Eigen::MatrixXd(cur.c_grad.transpose() * ym));
       const Eigen::VectorXd dl = sc_lu.solve(cur.c - cur.c_grad.transpose() * y0);
       dx = -y0 - ym * dl;
       lnew += dl;
     } else {
+      y0 = cholesky_.solve(r);
       dx = -y0;
     }
     // The shifted (or chord) step, kept as the fallback of the Krylov correction.
     Eigen::VectorXd dx_shifted, l_shifted;
     bool corrected = false;
-    if (krylov) {
+    // Lagged correction of a factorisation made at no more than the kept shift: the step is
+    // already exact for the Hessian the correction would use (it would stop after one
+    // projection, a wasted solve).
+    const bool exact_already = lagged && !(factor_shift_ - o.krylov_kept_shift * factor_scale_ > 0);
+    if (krylov && exact_already) {
+      last_krylov_iterations_ = 0;
+    } else if (krylov) {
       dx_shifted = dx;
       l_shifted = lnew;
       Eigen::VectorXd dl_exact;

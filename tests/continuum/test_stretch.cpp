@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "continuum/continuum_stretch.hpp"
+#include "core/units.hpp"
 #include "fixtures.hpp"
 #include "hessian_check.hpp"
 #include "homogenise/invariant_laws.hpp"
@@ -171,6 +172,24 @@ TEST(ContinuumStretch, LargeJumpStaysFeasibleAndNonConvergenceIsReported) {
   EXPECT_TRUE(std::isfinite(p[0].residual_pN));
   EXPECT_EQ(p[0].status, NewtonStatus::max_iterations);
   EXPECT_THROW(run_continuum_stretch(m, {-1.0}, {}), std::invalid_argument);
+}
+
+TEST(ContinuumStretch, LongForceStepAfterAShortOneConvergesToTheRefinedShape) {
+  // 0 -> 38 -> 130 pN at kappa = 4e-20 J: the secant predictor once extrapolated the 0-38 pN
+  // increment 2.4 times (35 % area drift at the start) and the bisection sub-steps restarted
+  // from that guess, so 5,120 elements ended at a 1e57 pN residual. The shape must agree with
+  // the coarser mesh's (the discretisation error between 2,000 and 5,120 elements is 0.3 %).
+  BendingParameters b;
+  b.kappa_pNum = units::joule_to_pNum(4e-20);
+  std::vector<double> da;
+  for (int el : {2000, 5120}) {
+    const auto p = run_continuum_stretch(small_model(el, b), {0.0, 38.0, 130.0}, {});
+    ASSERT_TRUE(p.back().converged) << el << ": " << to_string(p.back().status) << ", residual "
+                                    << p.back().residual_pN << " pN";
+    EXPECT_LT(p.back().residual_pN, ContinuumOptions{}.newton.force_tolerance_pN);
+    da.push_back(p.back().axial_um);
+  }
+  EXPECT_NEAR(da[1], da[0], 0.01 * da[0]);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -166,6 +167,47 @@ TEST(ShiftedNewton, ShiftsThroughANegativeCurvatureStart) {
   EXPECT_LT((x.cwiseAbs().array() - 1.0).abs().maxCoeff(), 1e-12);
   EXPECT_GT(r.largest_shift, 1.0);  // the first Hessian needed a shift above its own scale
   EXPECT_GT(r.factorisations, r.iterations);
+}
+
+TEST(ShiftedNewton, ANonConvergedSolveReturnsItsBestIterate) {
+  // Double well from x_i = 0.1 as above: the residual |x (x^2 - 1)| rises from 0.099 while
+  // the shifted steps descend towards the minimum (it peaks at x = 1/sqrt3). Stopped within a
+  // few iterations, the solve must hand back the iterate with the smallest residual and that
+  // iterate's residual, not the last one.
+  const int n = 10;
+  Eigen::SparseMatrix<double> h;
+  NewtonProblem p;
+  p.evaluate = [](const Eigen::VectorXd& x, NewtonPoint& pt) {
+    const Eigen::ArrayXd s = x.array().square() - 1.0;
+    pt.value = (s.square() / 4).sum();
+    pt.grad = (s * x.array()).matrix();
+    return true;
+  };
+  p.hessian = [&](const Eigen::VectorXd& x,
+                  const Eigen::VectorXd&) -> const Eigen::SparseMatrix<double>& {
+    h = tridiagonal((3 * x.array().square() - 1).matrix());
+    return h;
+  };
+  const auto residual_at = [](const Eigen::VectorXd& x) {
+    return (x.array() * (x.array().square() - 1.0)).abs().maxCoeff();
+  };
+  const double start_residual = residual_at(Eigen::VectorXd::Constant(n, 0.1));
+  for (const int iterations : {1, 3}) {
+    ShiftedNewtonOptions o;
+    o.block_size = 1;
+    o.max_step = 0.5;
+    o.max_iterations = iterations;
+    ShiftedNewton newton(o);
+    Eigen::VectorXd x = Eigen::VectorXd::Constant(n, 0.1), lambda;
+    std::vector<double> seen;
+    const ShiftedNewtonResult r =
+        newton.solve(p, x, lambda, [&](const NewtonIterate& it) { seen.push_back(it.residual); });
+    ASSERT_EQ(r.status, NewtonStatus::max_iterations) << iterations;
+    ASSERT_GT(seen.back(), seen.front()) << "the residual must have risen for this test to bite";
+    EXPECT_DOUBLE_EQ(r.residual, *std::min_element(seen.begin(), seen.end())) << iterations;
+    EXPECT_DOUBLE_EQ(r.residual, residual_at(x)) << iterations;
+    EXPECT_LE(r.residual, start_residual) << iterations;
+  }
 }
 
 TEST(ShiftedNewton, ReportsAFactorisationFailureAsSuch) {
