@@ -258,7 +258,10 @@ void BM_Discrete88From0(benchmark::State& state) {
   }
 }
 
-/// Discrete warm re-solve of the 13 forces after a 1 % persistence-length change.
+/// Discrete warm re-solve of the 13 forces after a 1 % persistence-length change; range(1) = 0
+/// keeps the factorisation across forces in the warm run (StretchOptions::
+/// refactorise_at_force_start = false), 1 refactorises at every force start (the default).
+/// The cold run keeps the defaults.
 void BM_DiscreteWarm(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const Network& n0 = cached_network_p(n, 1.0);
@@ -266,10 +269,12 @@ void BM_DiscreteWarm(benchmark::State& state) {
   const StretchState before = stretch_state(run_stretch(n0, kMillsForces, StretchOptions{}));
   const double eval_s = network_eval_seconds(n1);
   const double cold_s = seconds_of([&] { run_stretch(n1, kMillsForces, StretchOptions{}); });
+  StretchOptions warm_options;
+  warm_options.refactorise_at_force_start = state.range(1) != 0;
   for (auto _ : state) {
     std::vector<StretchPoint> pts;
     const double s =
-        seconds_of([&] { pts = run_stretch(n1, kMillsForces, StretchOptions{}, {}, before); });
+        seconds_of([&] { pts = run_stretch(n1, kMillsForces, warm_options, {}, before); });
     int it = 0;
     bool ok = true;
     for (const auto& p : pts) it += p.iterations, ok = ok && p.converged;
@@ -406,7 +411,8 @@ void add_bench_command(CLI::App& app, Action& action) {
                  ->Args({250, 0})
                  ->Args({250, 1 << 30}));
         once(benchmark::RegisterBenchmark("discrete/warm13_persistence_1pc", BM_DiscreteWarm)
-                 ->Arg(250));
+                 ->Args({250, 1})
+                 ->Args({250, 0}));
         once(
             benchmark::RegisterBenchmark("discrete/88pN_from_0pN", BM_Discrete88From0)->Arg(27500));
         benchmark::RegisterBenchmark("continuum/energy_gradient", BM_ContinuumEnergyGradient)

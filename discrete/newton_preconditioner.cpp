@@ -5,6 +5,7 @@
 #include <Eigen/CholmodSupport>
 
 #include <chrono>
+#include <ctime>
 #include "core/blas_threads.hpp"
 
 #include "core/geometry.hpp"
@@ -14,9 +15,25 @@ namespace rbc {
 
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
+/// Wall and calling-thread CPU clocks started together (statistics only).
+struct Stopwatch {
+  std::chrono::steady_clock::time_point wall = std::chrono::steady_clock::now();
+  double cpu = thread_cpu_seconds();
+  static double thread_cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  }
+  /// Adds the wall and CPU seconds since the start (or the last lap) and restarts.
+  void lap(double& wall_s, double& cpu_s) {
+    const auto now = std::chrono::steady_clock::now();
+    const double c = thread_cpu_seconds();
+    wall_s += std::chrono::duration<double>(now - wall).count();
+    cpu_s += c - cpu;
+    wall = now;
+    cpu = c;
+  }
+};
 
 int cholmod_ordering(FillOrdering o) {
   switch (o) {
@@ -81,7 +98,7 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
   Impl& s = *impl_;
   const Network& net = *s.net;
   const int n = net.topo.num_vertices;
-  auto start = std::chrono::steady_clock::now();
+  Stopwatch clock;
   // Constraint gradients and the tension/pressure of the augmented Lagrangian at x.
   Positions ga = Positions::Zero(3, n), gv = Positions::Zero(3, n);
   const Topology& t = net.topo;
@@ -106,14 +123,13 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
   cc.pressure_pN_per_um2 =
       lambda.volume_pN_per_um2 +
       stiffness_scale * net.constraints.volume_stiffness_pN_per_um5 * (volume - net.volume0_um3);
-  s.stats.assembly_s += seconds_since(start);
+  clock.lap(s.stats.assembly_s, s.stats.assembly_cpu_s);
   const BlasThreads threads(s.blas_threads);
   auto factorise = [&](bool project) {
-    auto t0 = std::chrono::steady_clock::now();
     const Eigen::SparseMatrix<double>& h = s.hessian.assemble(x, cc, project);
-    s.stats.assembly_s += seconds_since(t0);
-    t0 = std::chrono::steady_clock::now();
+    clock.lap(s.stats.assembly_s, s.stats.assembly_cpu_s);
     if (!s.analysed) {
+      double analysis_wall_s = 0;
       const int method = cholmod_ordering(s.ordering);
       if (method >= 0) {
         s.factor.cholmod().nmethods = 1;
@@ -122,10 +138,15 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
       s.factor.analyzePattern(h);
       s.analysed = true;
       s.stats.factor_nonzeros = s.factor.cholmod().lnz;
+      ++s.stats.analyses;
+      Stopwatch copy = clock;
+      copy.lap(analysis_wall_s, s.stats.analysis_cpu_s);
     }
     s.factor.factorize(h);
-    s.stats.factorisation_s += seconds_since(t0);
-    return s.factor.info() == Eigen::Success;
+    clock.lap(s.stats.factorisation_s, s.stats.factorisation_cpu_s);
+    const bool ok = s.factor.info() == Eigen::Success;
+    if (!ok) ++s.stats.failed_attempts;
+    return ok;
   };
   s.factored = false;
   if (s.choice == HessianChoice::exact_when_definite) {
@@ -133,7 +154,6 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
     if (s.factored) ++s.stats.exact_factorisations;
   }
   if (!s.factored) s.factored = factorise(true);
-  start = std::chrono::steady_clock::now();
   if (s.factored) {
     s.u.resize(3 * n, 2);
     s.u.col(0) = flat(ga);
@@ -143,7 +163,7 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
     ++s.stats.factorisations;
     set_stiffness_scale(stiffness_scale);
   }
-  s.stats.factorisation_s += seconds_since(start);
+  clock.lap(s.stats.factorisation_s, s.stats.factorisation_cpu_s);
   return s.factored;
 }
 
@@ -158,13 +178,13 @@ void NewtonPreconditioner::set_stiffness_scale(double scale) {
 void NewtonPreconditioner::apply(Eigen::VectorXd& v) const {
   const Impl& s = *impl_;
   if (!s.factored) return;
-  const auto start = std::chrono::steady_clock::now();
+  Stopwatch clock;
   const BlasThreads threads(s.blas_threads);
   // (P + U K U^T)^{-1} v = w - Z (K^{-1} + U^T Z)^{-1} U^T w,  w = P^{-1} v, Z = P^{-1} U.
   v = s.factor.solve(v);
   const Eigen::Vector2d utv = s.u.transpose() * v;
   v -= s.z * (s.m_inv * utv);
-  s.stats.solve_s += seconds_since(start);
+  clock.lap(s.stats.solve_s, s.stats.solve_cpu_s);
 }
 
 }  // namespace rbc

@@ -55,8 +55,14 @@ class NewtonPreconditioner {
   struct Statistics {
     int factorisations = 0;
     int exact_factorisations = 0;  ///< of which the exact (unprojected) Hessian
+    int failed_attempts = 0;       ///< numeric factorisations that found the matrix indefinite
+    int analyses = 0;              ///< symbolic analyses (ordering): one per network
     double assembly_s = 0, factorisation_s = 0, solve_s = 0;  ///< accumulated wall time
-    double factor_nonzeros = 0;                               ///< nonzeros of the Cholesky factor L
+    /// The same on the calling thread's CPU clock (the factorisation and the solves run on
+    /// it alone with one BLAS thread; assembly also uses the OpenMP team).
+    double assembly_cpu_s = 0, factorisation_cpu_s = 0, solve_cpu_s = 0;
+    double analysis_cpu_s = 0;   ///< of factorisation_cpu_s: the symbolic analyses
+    double factor_nonzeros = 0;  ///< nonzeros of the Cholesky factor L
   };
   const Statistics& statistics() const;
 

@@ -118,7 +118,10 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
              "  preconditioner factorisation failed; plain L-BFGS until the next refresh");
     }
   };
-  if (pre) refresh();
+  if (pre && pre->ready() && !opt.refactorise_at_force_start)
+    lo.precondition = [pre](Eigen::VectorXd& v) { pre->apply(v); };
+  else if (pre)
+    refresh();
 
   Objective f = [&](const Eigen::VectorXd& v, Eigen::VectorXd& g) {
     Positions p = Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
@@ -227,9 +230,12 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
     const auto& s = pre->statistics();
     pt.factorisations = s.factorisations - factorisations_before;
     std::ostringstream msg;
-    msg << "  preconditioner: " << pt.factorisations
-        << " factorisations, |L| = " << s.factor_nonzeros << ", totals: assembly " << s.assembly_s
-        << " s, factorisation " << s.factorisation_s << " s, solves " << s.solve_s << " s";
+    msg << "  preconditioner: " << pt.factorisations << " factorisations (" << s.failed_attempts
+        << " indefinite attempts in all), |L| = " << s.factor_nonzeros
+        << ", totals (wall / main-thread CPU): assembly " << s.assembly_s << " / "
+        << s.assembly_cpu_s << " s, factorisation " << s.factorisation_s << " / "
+        << s.factorisation_cpu_s << " s (analysis " << s.analysis_cpu_s << " s CPU), solves "
+        << s.solve_s << " / " << s.solve_cpu_s << " s";
     report(progress, msg.str());
   }
   LoadState plain;

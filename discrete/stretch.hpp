@@ -65,6 +65,12 @@ struct StretchOptions {
   /// factorisation have not reduced the largest vertex force tenfold (0 = factorise once
   /// per force, at its start).
   int refresh_interval = 10;
+  /// Whether a force starts with a fresh factorisation when the shared preconditioner
+  /// (run_stretch) already holds one from the previous force: true = always refactorise at
+  /// the start of each force (the default); false = keep the previous factorisation and
+  /// refactorise only when L-BFGS stalls (refresh_interval). The tweezers work is linear,
+  /// so the Hessian does not depend on the force itself, only on the shape and multipliers.
+  bool refactorise_at_force_start = true;
   /// Largest vertex displacement per line-search trial, in units of the shortest rest link,
   /// when minimiser.max_step <= 0: plain L-BFGS steps are capped at 0.25 (its first steps
   /// are poorly scaled); Newton-like preconditioned steps at 4 (measured at N = 27,000,
