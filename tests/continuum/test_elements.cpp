@@ -247,6 +247,44 @@ TEST(HingeHessian, MatchesFiniteDifferencesOfTheAnalyticGradient) {
   EXPECT_LT((h * tr).norm(), 1e-12 * h.norm());
 }
 
+// The closed form against the automatic-differentiation reference on random hinges: folded
+// both ways, nearly flat (theta ~ 0, where atan2 is least forgiving), sharp, and with an
+// apex far outside the edge (t_c, t_d outside [0, 1]). Both are exact up to rounding, so they
+// agree to a few ulps of the largest entry; a wrong term would show at O(1) relative.
+TEST(HingeHessian, ClosedFormMatchesAutomaticDifferentiation) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const auto rnd = [&] { return Vec3(u(rng), u(rng), u(rng)); };
+  int checked = 0;
+  double largest_theta = 0.0, smallest_theta = 10.0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Vec3 a = rnd(), b = a + Vec3(0.8, 0.1, -0.2) + 0.3 * rnd();
+    const Vec3 mid = 0.5 * (a + b);
+    const Vec3 n = (b - a).cross(Vec3(0.1, 0.9, 0.3)).normalized();
+    const Vec3 s = (b - a).cross(n).normalized();  // in-plane, perpendicular to the edge
+    // c on one side, d on the other, folded out of plane by a random amount (flat at fold 0).
+    const double fold = trial % 4 == 0 ? 1e-6 * u(rng) : 1.2 * u(rng);
+    const double along = trial % 5 == 0 ? 2.5 : 0.4;  // apex beyond the edge's ends
+    const Vec3 c = mid + along * u(rng) * (b - a) + 0.6 * s + fold * n;
+    const Vec3 d = mid + along * u(rng) * (b - a) - 0.5 * s + 0.7 * fold * n;
+    Eigen::Matrix<double, 3, 4> g, g_ad;
+    Matrix12d h, h_ad;
+    const double q = hinge_length_angle_hessian(a, b, c, d, &g, &h);
+    const double q_ad = hinge_length_angle_hessian_autodiff(a, b, c, d, &g_ad, &h_ad);
+    const double theta = std::abs(q) / (b - a).norm();
+    largest_theta = std::max(largest_theta, theta);
+    smallest_theta = std::min(smallest_theta, theta);
+    EXPECT_NEAR(q, q_ad, 1e-15 * (1.0 + std::abs(q_ad)));
+    EXPECT_LT((g - g_ad).norm(), 1e-14 * (1.0 + g_ad.norm())) << "trial " << trial;
+    EXPECT_LT((h - h_ad).norm(), 1e-13 * h_ad.norm()) << "trial " << trial;
+    EXPECT_EQ((h - h.transpose()).norm(), 0.0);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 200);
+  EXPECT_LT(smallest_theta, 1e-5);  // the nearly-flat hinges were exercised
+  EXPECT_GT(largest_theta, 0.5);    // and strongly folded ones
+}
+
 TEST(HelfrichHessian, JuelicherHessianMatchesFiniteDifferencesWithSpontaneousCurvature) {
   TriMesh m = testing::sphere_mesh(3, 2.0);
   testing::perturb(m.x, 0.05, 21);
