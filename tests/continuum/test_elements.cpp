@@ -2,10 +2,13 @@
 // geometry Hessians, hinge and Juelicher-Helfrich Hessians (STYLE.md 2-3).
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <Eigen/Geometry>
 #include <random>
 
 #include "continuum/block_hessian.hpp"
+#include "continuum/continuum_model.hpp"
 #include "continuum/membrane_element.hpp"
 #include "discrete/bending_energy.hpp"
 #include "discrete/element_hessian.hpp"
@@ -307,6 +310,35 @@ TEST(HelfrichHessian, JuelicherHessianMatchesFiniteDifferencesWithSpontaneousCur
             grad_of, flat(m.x), [&](const Eigen::VectorXd& d) -> Eigen::VectorXd { return hm * d; },
             0.7, s),
         "Juelicher Helfrich energy");
+}
+
+// The fused Lagrangian Hessian on 1 thread (serial path) and on 2 and 3 threads (element
+// matrices on the threads, every thread adding into its share of the blocks): the same bits,
+// in both storages. 3 threads split the blocks unevenly, so a share boundary that dropped or
+// doubled a block would show.
+TEST(HelfrichHessian, LagrangianHessianBitIdenticalWithOneTwoThreeThreads) {
+  TriMesh mesh = testing::sphere_mesh(6, 3.0);  // 720 faces
+  const ContinuumModel m = build_continuum_model(mesh, testing::closed_form_p2_law(), {});
+  ASSERT_GT(m.num_elements(), 256);  // above the serial threshold of add_lagrangian_hessian
+  Positions x = m.rest;
+  testing::perturb(x, 0.05, 9);
+  const int saved = omp_get_max_threads();
+  for (BlockStorage storage : {BlockStorage::full, BlockStorage::lower}) {
+    std::vector<Eigen::VectorXd> values;
+    for (int t = 1; t <= 3; ++t) {
+      omp_set_num_threads(t);
+      BlockHessian h(m.topo, storage);
+      for (int rep = 0; rep < 2; ++rep) {  // the second assembly reuses the kept buffers
+        h.set_zero();
+        add_lagrangian_hessian(m, x, 0.3, -0.02, h);
+      }
+      values.emplace_back(
+          Eigen::Map<const Eigen::VectorXd>(h.matrix().valuePtr(), h.matrix().nonZeros()));
+    }
+    omp_set_num_threads(saved);
+    EXPECT_GT(values[0].norm(), 0.0);
+    for (int t = 1; t < 3; ++t) EXPECT_TRUE((values[t].array() == values[0].array()).all());
+  }
 }
 
 }  // namespace
