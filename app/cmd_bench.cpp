@@ -294,6 +294,26 @@ void BM_ContinuumEnergyGradient(benchmark::State& state) {
       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+/// One continuum Newton Hessian assembly (add_lagrangian_hessian into the solver's lower
+/// BlockHessian, after set_zero) at the 88 pN equilibrium, range(0) elements: the per-iteration
+/// cost the Newton solve adds on top of its factorisation; also in energy+gradient evaluations.
+void BM_ContinuumLagrangianHessian(benchmark::State& state) {
+  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  const auto pts = run_continuum_stretch(m, {88.0}, ContinuumOptions{});
+  BlockHessian h(m.topo, BlockStorage::lower);
+  const double la = pts[0].multipliers.area_pN_per_um, lv = pts[0].multipliers.volume_pN_per_um2;
+  double total_s = 0.0;
+  for (auto _ : state)
+    total_s += seconds_of([&] {
+      h.set_zero();
+      add_lagrangian_hessian(m, pts[0].x, la, lv, h);
+      benchmark::DoNotOptimize(h.matrix().valuePtr());
+    });
+  const double eval_s = continuum_eval_seconds(m);
+  state.counters["eg_evals"] = total_s / static_cast<double>(state.iterations()) / eval_s;
+  state.counters["vertices"] = static_cast<double>(m.rest.cols());
+}
+
 /// Metropolis sweeps at 300 K, zero force, from the rest shape, on state.range(1) OpenMP threads.
 /// Two RNG streams whatever the thread count, so both thread counts run the SAME chain and the
 /// ratio of their rates is the parallel speed-up. 20 adaptive sweeps first bring the acceptance
@@ -419,6 +439,11 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Arg(1000)
             ->Arg(9680)
             ->Unit(benchmark::kMicrosecond);
+        benchmark::RegisterBenchmark("continuum/lagrangian_hessian", BM_ContinuumLagrangianHessian)
+            ->Arg(1000)
+            ->Arg(5120)
+            ->Arg(9680)
+            ->Unit(benchmark::kMillisecond);
         benchmark::RegisterBenchmark("discrete/energy_gradient", BM_DiscreteEnergyGradient)
             ->Arg(250)
             ->Arg(27500)

@@ -63,4 +63,50 @@ void BlockHessian::add_star_outer(int v, const double* u, double coef) {
   }
 }
 
+BlockHessian::ElementBuffers& BlockHessian::element_buffers() {
+  const size_t nf = face_codes_.size() / 9, ne = hinge_codes_.size() / 16;
+  const size_t nv = star_code_offsets_.size() - 1;
+  buffers_.faces.resize(nf);
+  buffers_.hinges.resize(ne);
+  buffers_.star_vectors.resize(3 * stars_.vertices.size());
+  buffers_.star_coefs.resize(nv);
+  return buffers_;
+}
+
+void BlockHessian::add_elements_share(const ElementBuffers& b, int part, int parts) {
+  // Stored blocks [lo, hi) belong to this share; a code c addresses block c >> 1.
+  const long long nb = num_blocks();
+  const int lo = static_cast<int>(nb * part / parts),
+            hi = static_cast<int>(nb * (part + 1) / parts);
+  const auto mine = [lo, hi](int code) {
+    return code >= 0 && (code >> 1) >= lo && (code >> 1) < hi;
+  };
+  const int nf = static_cast<int>(b.faces.size()), ne = static_cast<int>(b.hinges.size());
+  for (int f = 0; f < nf; ++f) {
+    const int* codes = &face_codes_[9 * f];
+    for (int k = 0; k < 9; ++k)
+      if (mine(codes[k])) add(codes[k], b.faces[f].block<3, 3>(3 * (k / 3), 3 * (k % 3)));
+  }
+  for (int e = 0; e < ne; ++e) {
+    const int* codes = &hinge_codes_[16 * e];
+    for (int k = 0; k < 16; ++k)
+      if (mine(codes[k])) add(codes[k], b.hinges[e].block<3, 3>(3 * (k / 4), 3 * (k % 4)));
+  }
+  const int nv = static_cast<int>(b.star_coefs.size());
+  for (int v = 0; v < nv; ++v) {
+    const int s = stars_.size(v);
+    const int* codes = star_codes_.data() + star_code_offsets_[v];
+    const double* u = b.star_vectors.data() + star_vector_offset(v);
+    const double coef = b.star_coefs[v];
+    for (int a = 0; a < s; ++a) {
+      const Eigen::Map<const Eigen::Vector3d> ua(u + 3 * a);
+      for (int c = 0; c < s; ++c)
+        if (mine(codes[s * a + c]))
+          add(codes[s * a + c],
+              Eigen::Matrix3d(coef * ua *
+                              Eigen::Map<const Eigen::Vector3d>(u + 3 * c).transpose()));
+    }
+  }
+}
+
 }  // namespace rbc

@@ -30,6 +30,26 @@ class BlockHessian : public BlockMatrix {
   /// The closed vertex stars (v first), as discrete/bending_energy.hpp's Juelicher terms use.
   const VertexStars& stars() const { return stars_; }
 
+  /// Element matrices of one assembly, laid out for add_elements_share: face f's 9 x 9,
+  /// hinge e's 12 x 12, and vertex v's star vector u_v (3 stars().size(v) entries from
+  /// star_vector_offset(v)) with its coefficient. Kept between assemblies so that a Newton
+  /// solve allocates them once (they hold no state: every assembly overwrites them).
+  struct ElementBuffers {
+    std::vector<Matrix9d> faces;
+    std::vector<Matrix12d> hinges;
+    std::vector<double> star_vectors, star_coefs;
+  };
+  /// The buffers sized for this mesh (contents unspecified).
+  ElementBuffers& element_buffers();
+  /// Offset of vertex v's star vector in ElementBuffers::star_vectors.
+  int star_vector_offset(int v) const { return 3 * (stars_.offsets[v]); }
+  /// Adds every face matrix, then every hinge matrix, then every star's coef u u^T of b, each
+  /// in index order, into the stored blocks of share `part` of `parts` (a contiguous range of
+  /// block indices). Calling it for parts 0 .. parts-1 (one per thread, concurrently) adds
+  /// each block's terms in the serial order, so the matrix is bit-identical to parts = 1 and
+  /// does not depend on the thread count.
+  void add_elements_share(const ElementBuffers& b, int part, int parts);
+
  private:
   template <int K>
   void add_codes(const int* codes, const Eigen::Matrix<double, 3 * K, 3 * K>& h) {
@@ -42,6 +62,7 @@ class BlockHessian : public BlockMatrix {
   std::vector<int> face_codes_, hinge_codes_;
   VertexStars stars_;
   std::vector<int> star_code_offsets_, star_codes_;
+  ElementBuffers buffers_;
 };
 
 }  // namespace rbc

@@ -213,8 +213,8 @@ void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, dou
   const Topology& t = model.topo;
   const int nv = t.num_vertices, ne = t.num_edges(), nf = t.num_faces();
   // Element matrices on the threads from a few hundred faces on (the assembly is most of a
-  // Newton iteration with the Krylov correction); the scatter is serial either way, so the
-  // matrix does not depend on the thread count.
+  // Newton iteration with the Krylov correction); each block's terms are added in the same
+  // order on either path, so the matrix does not depend on the thread count.
   const bool parallel = nf > kParallelHessianFaces && omp_get_max_threads() > 1;
   const JuelicherHessianTerms terms = juelicher_hessian_terms(x, t, model.bending);
   // Faces: membrane element + (Psi_1 + area_coef + Juelicher beta_f) d2A + volume_coef d2V,
@@ -243,6 +243,7 @@ void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, dou
                                &he);
     he *= terms.hinge_coef(t, e);
   };
+  const VertexStars& stars = h.stars();
   if (!parallel) {  // serial, without the per-element buffers
     Matrix9d hf;
     for (int f = 0; f < nf; ++f) {
@@ -254,26 +255,31 @@ void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, dou
       hinge(e, he);
       h.add_hinge(e, he);
     }
-  } else {  // element matrices in parallel, added in a fixed order (thread-count independent)
-    std::vector<Matrix9d> hf(nf);
-    std::vector<Matrix12d> he(ne);
-#pragma omp parallel
-    {
-#pragma omp for schedule(static)
-      for (int f = 0; f < nf; ++f) face(f, hf[f]);
-#pragma omp for schedule(static)
-      for (int e = 0; e < ne; ++e) hinge(e, he[e]);
+    // Rank-one Juelicher cell terms (kappa/A_v) u_v u_v^T over each closed star.
+    std::vector<double> u;
+    for (int v = 0; v < nv; ++v) {
+      u.resize(3 * static_cast<size_t>(stars.size(v)));
+      terms.cell_gradient(t, stars, v, u.data());
+      h.add_star_outer(v, u.data(), terms.cell_weight(v));
     }
-    for (int f = 0; f < nf; ++f) h.add_face(f, hf[f]);
-    for (int e = 0; e < ne; ++e) h.add_hinge(e, he[e]);
+    return;
   }
-  // Rank-one Juelicher cell terms (kappa/A_v) u_v u_v^T over each closed star.
-  const VertexStars& stars = h.stars();
-  std::vector<double> u;
-  for (int v = 0; v < nv; ++v) {
-    u.resize(3 * static_cast<size_t>(stars.size(v)));
-    terms.cell_gradient(t, stars, v, u.data());
-    h.add_star_outer(v, u.data(), terms.cell_weight(v));
+  // Element matrices on the threads into the Hessian's kept buffers; then every thread adds
+  // all of them into its own share of the stored blocks, in the serial order (bit-identical
+  // to the serial path, whatever the thread count).
+  BlockHessian::ElementBuffers& buf = h.element_buffers();
+#pragma omp parallel
+  {
+#pragma omp for schedule(static) nowait
+    for (int f = 0; f < nf; ++f) face(f, buf.faces[f]);
+#pragma omp for schedule(static) nowait
+    for (int e = 0; e < ne; ++e) hinge(e, buf.hinges[e]);
+#pragma omp for schedule(static)
+    for (int v = 0; v < nv; ++v) {
+      terms.cell_gradient(t, stars, v, buf.star_vectors.data() + h.star_vector_offset(v));
+      buf.star_coefs[v] = terms.cell_weight(v);
+    }
+    h.add_elements_share(buf, omp_get_thread_num(), omp_get_num_threads());
   }
 }
 

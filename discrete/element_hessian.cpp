@@ -41,8 +41,9 @@ T hinge_value_gradient(const Eigen::Matrix<T, 3, 1>& a, const Eigen::Matrix<T, 3
 
 }  // namespace
 
-double hinge_length_angle_hessian(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
-                                  Eigen::Matrix<double, 3, 4>* grad, Matrix12d* hess) {
+double hinge_length_angle_hessian_autodiff(const Vec3& a, const Vec3& b, const Vec3& c,
+                                           const Vec3& d, Eigen::Matrix<double, 3, 4>* grad,
+                                           Matrix12d* hess) {
   using Jet = Eigen::AutoDiffScalar<Eigen::Matrix<double, 12, 1>>;
   using JV = Eigen::Matrix<Jet, 3, 1>;
   const Vec3* p[4] = {&a, &b, &c, &d};
@@ -59,6 +60,75 @@ double hinge_length_angle_hessian(const Vec3& a, const Vec3& b, const Vec3& c, c
     }
   if (hess) *hess = 0.5 * (h + h.transpose());
   return q.value();
+}
+
+double hinge_length_angle_hessian(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                                  Eigen::Matrix<double, 3, 4>* grad, Matrix12d* hess) {
+  using M3 = Eigen::Matrix3d;
+  const Vec3 e = b - a, w = c - a, w2 = d - a, wb = d - b;
+  const Vec3 m0 = e.cross(w);
+  const Vec3 m1 = (a - b).cross(wb);
+  const double e2 = e.squaredNorm(), el = std::sqrt(e2);
+  const double theta = std::atan2(m0.cross(m1).dot(e) / el, m0.dot(m1));
+  const double s0 = m0.squaredNorm(), s1 = m1.squaredNorm();
+  const Vec3 gc = -(el / s0) * m0, gd = -(el / s1) * m1;  // dtheta/dc, dtheta/dd
+  const double tc = w.dot(e) / e2, td = w2.dot(e) / e2;
+  const Vec3 ga = -(1.0 - tc) * gc - (1.0 - td) * gd, gb = -tc * gc - td * gd;
+  const Vec3 eh = e / el;
+  if (grad) {
+    grad->col(0) = el * ga - (theta / el) * e;
+    grad->col(1) = el * gb + (theta / el) * e;
+    grad->col(2) = el * gc;
+    grad->col(3) = el * gd;
+  }
+  if (hess) {
+    // Jacobians of gc(a, b, c) and gd(a, b, d): g = -L m/|m|^2 gives
+    // dg = -(m/|m|^2) dL - (L/|m|^2)(I - 2 m m^T/|m|^2) dm, with dL = eh.(db - da),
+    // dm0 = [c - b]_x da - [c - a]_x db + [e]_x dc, dm1 = -[d - b]_x da + [d - a]_x db - [e]_x dd.
+    const Vec3 u0 = m0 / s0, u1 = m1 / s1;
+    const M3 p0 = (el / s0) * (M3::Identity() - 2.0 * u0 * m0.transpose());
+    const M3 p1 = (el / s1) * (M3::Identity() - 2.0 * u1 * m1.transpose());
+    const M3 u0e = u0 * eh.transpose(), u1e = u1 * eh.transpose();
+    const M3 ex = cross_matrix(e);
+    const M3 jc[3] = {u0e - p0 * cross_matrix(c - b), p0 * cross_matrix(w) - u0e, -p0 * ex};
+    const M3 jd[3] = {u1e + p1 * cross_matrix(wb), -u1e - p1 * cross_matrix(w2), p1 * ex};
+    // Gradients of tc = (c - a).e/|e|^2 and td = (d - a).e/|e|^2 (columns a, b, c or d).
+    const Vec3 rw = e / e2, rc = (w - 2.0 * tc * e) / e2, rd = (w2 - 2.0 * td * e) / e2;
+    const Vec3 dtc[3] = {-rc - rw, rc, rw};
+    const Vec3 dtd[3] = {-rd - rw, rd, rw};
+    // d2theta, block rows a, b, c, d; column k of jc is vertex (a, b, c)[k], of jd (a, b, d)[k].
+    M3 ht[4][4];
+    const int col_c[3] = {0, 1, 2}, col_d[3] = {0, 1, 3};
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) ht[i][j].setZero();
+    for (int k = 0; k < 3; ++k) {
+      const int kc = col_c[k], kd = col_d[k];
+      ht[2][kc] = jc[k];
+      ht[3][kd] = jd[k];
+      ht[0][kc] += -(1.0 - tc) * jc[k] + gc * dtc[k].transpose();
+      ht[0][kd] += -(1.0 - td) * jd[k] + gd * dtd[k].transpose();
+      ht[1][kc] += -tc * jc[k] - gc * dtc[k].transpose();
+      ht[1][kd] += -td * jd[k] - gd * dtd[k].transpose();
+    }
+    // d2q = L d2theta + theta d2L + dL dtheta^T + dtheta dL^T, with dL = (-eh, eh, 0, 0) and
+    // d2L = (I - eh eh^T)/L on the (a, b) blocks with signs (+ -; - +).
+    const M3 d2l = (theta / el) * (M3::Identity() - eh * eh.transpose());
+    const Vec3 gt[4] = {ga, gb, gc, gd};
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j <= i; ++j) {
+        M3 blk = 0.5 * el * (ht[i][j] + ht[j][i].transpose());
+        if (i < 2 && j < 2) blk += (i == j ? 1.0 : -1.0) * d2l;
+        if (j < 2) blk += (j == 0 ? -1.0 : 1.0) * gt[i] * eh.transpose();
+        if (i < 2) blk += (i == 0 ? -1.0 : 1.0) * eh * gt[j].transpose();
+        if (i == j) {
+          hess->block<3, 3>(3 * i, 3 * i) = 0.5 * (blk + blk.transpose());  // exactly symmetric
+        } else {
+          hess->block<3, 3>(3 * i, 3 * j) = blk;
+          hess->block<3, 3>(3 * j, 3 * i) = blk.transpose();
+        }
+      }
+  }
+  return el * theta;
 }
 
 double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector9d* grad,

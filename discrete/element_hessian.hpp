@@ -36,12 +36,27 @@ Matrix9d tetra_volume_hessian(const Vec3& a, const Vec3& b, const Vec3& c);
 /// q = |b - a| theta(a, b, c, d) (um) of the hinge (a, b) with opposite vertices c (in the
 /// face traversing a -> b) and d; theta is core/geometry.hpp's exterior dihedral angle
 /// (Juelicher 1996's integrated mean curvature per edge). Gradient (3 x 4 columns a, b, c, d;
-/// dimensionless) and Hessian (12 x 12, vertex-major a, b, c, d; 1/um) by forward-mode
-/// automatic differentiation (Eigen AutoDiff, 12 directions) of the analytic gradient, so
-/// exact to rounding. The value and gradient agree with bending_energy.hpp's
-/// hinge_length_angle to rounding.
+/// dimensionless) and Hessian (12 x 12, vertex-major a, b, c, d; 1/um) in closed form, the
+/// chain rule of the analytic gradient (Bridson et al. 2003's dtheta; cf. Tamstorf & Grinspun
+/// 2013): with L = |e|, e = b - a, m0 = e x (c - a), m1 = (a - b) x (d - b),
+///   dtheta/dc = -L m0/|m0|^2,  dtheta/dd = -L m1/|m1|^2,
+///   dtheta/da = -(1 - t_c) dtheta/dc - (1 - t_d) dtheta/dd,
+///   dtheta/db = -t_c dtheta/dc - t_d dtheta/dd,   t_k = (k - a).e/L^2,
+///   d(-L m/|m|^2) = -(m/|m|^2) dL - (L/|m|^2)(I - 2 m m^T/|m|^2) dm,
+///   d2q = L d2theta + theta d2L + dL dtheta^T + dtheta dL^T,  d2L = +-(I - e e^T/L^2)/L,
+/// symmetrised (the exact Hessian is symmetric; the chain rule is so up to rounding). Equal
+/// to hinge_length_angle_hessian_autodiff to rounding; value and gradient agree with
+/// bending_energy.hpp's hinge_length_angle to rounding. The hinge must be non-degenerate
+/// (L > 0, both faces of positive area).
 double hinge_length_angle_hessian(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
                                   Eigen::Matrix<double, 3, 4>* grad, Matrix12d* hess);
+
+/// The same q, gradient and Hessian by forward-mode automatic differentiation (Eigen
+/// AutoDiff, 12 directions) of the analytic gradient: exact to rounding, several times slower;
+/// the independent reference the closed form is tested against.
+double hinge_length_angle_hessian_autodiff(const Vec3& a, const Vec3& b, const Vec3& c,
+                                           const Vec3& d, Eigen::Matrix<double, 3, 4>* grad,
+                                           Matrix12d* hess);
 
 /// Replaces the symmetric matrix h by its projection onto the positive semidefinite cone
 /// (negative eigenvalues set to zero), as in projected Newton (Teran et al. 2005). Instantiated

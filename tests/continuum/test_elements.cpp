@@ -2,10 +2,13 @@
 // geometry Hessians, hinge and Juelicher-Helfrich Hessians (STYLE.md 2-3).
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <Eigen/Geometry>
 #include <random>
 
 #include "continuum/block_hessian.hpp"
+#include "continuum/continuum_model.hpp"
 #include "continuum/membrane_element.hpp"
 #include "discrete/bending_energy.hpp"
 #include "discrete/element_hessian.hpp"
@@ -247,6 +250,44 @@ TEST(HingeHessian, MatchesFiniteDifferencesOfTheAnalyticGradient) {
   EXPECT_LT((h * tr).norm(), 1e-12 * h.norm());
 }
 
+// The closed form against the automatic-differentiation reference on random hinges: folded
+// both ways, nearly flat (theta ~ 0, where atan2 is least forgiving), sharp, and with an
+// apex far outside the edge (t_c, t_d outside [0, 1]). Both are exact up to rounding, so they
+// agree to a few ulps of the largest entry; a wrong term would show at O(1) relative.
+TEST(HingeHessian, ClosedFormMatchesAutomaticDifferentiation) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const auto rnd = [&] { return Vec3(u(rng), u(rng), u(rng)); };
+  int checked = 0;
+  double largest_theta = 0.0, smallest_theta = 10.0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Vec3 a = rnd(), b = a + Vec3(0.8, 0.1, -0.2) + 0.3 * rnd();
+    const Vec3 mid = 0.5 * (a + b);
+    const Vec3 n = (b - a).cross(Vec3(0.1, 0.9, 0.3)).normalized();
+    const Vec3 s = (b - a).cross(n).normalized();  // in-plane, perpendicular to the edge
+    // c on one side, d on the other, folded out of plane by a random amount (flat at fold 0).
+    const double fold = trial % 4 == 0 ? 1e-6 * u(rng) : 1.2 * u(rng);
+    const double along = trial % 5 == 0 ? 2.5 : 0.4;  // apex beyond the edge's ends
+    const Vec3 c = mid + along * u(rng) * (b - a) + 0.6 * s + fold * n;
+    const Vec3 d = mid + along * u(rng) * (b - a) - 0.5 * s + 0.7 * fold * n;
+    Eigen::Matrix<double, 3, 4> g, g_ad;
+    Matrix12d h, h_ad;
+    const double q = hinge_length_angle_hessian(a, b, c, d, &g, &h);
+    const double q_ad = hinge_length_angle_hessian_autodiff(a, b, c, d, &g_ad, &h_ad);
+    const double theta = std::abs(q) / (b - a).norm();
+    largest_theta = std::max(largest_theta, theta);
+    smallest_theta = std::min(smallest_theta, theta);
+    EXPECT_NEAR(q, q_ad, 1e-15 * (1.0 + std::abs(q_ad)));
+    EXPECT_LT((g - g_ad).norm(), 1e-14 * (1.0 + g_ad.norm())) << "trial " << trial;
+    EXPECT_LT((h - h_ad).norm(), 1e-13 * h_ad.norm()) << "trial " << trial;
+    EXPECT_EQ((h - h.transpose()).norm(), 0.0);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 200);
+  EXPECT_LT(smallest_theta, 1e-5);  // the nearly-flat hinges were exercised
+  EXPECT_GT(largest_theta, 0.5);    // and strongly folded ones
+}
+
 TEST(HelfrichHessian, JuelicherHessianMatchesFiniteDifferencesWithSpontaneousCurvature) {
   TriMesh m = testing::sphere_mesh(3, 2.0);
   testing::perturb(m.x, 0.05, 21);
@@ -269,6 +310,35 @@ TEST(HelfrichHessian, JuelicherHessianMatchesFiniteDifferencesWithSpontaneousCur
             grad_of, flat(m.x), [&](const Eigen::VectorXd& d) -> Eigen::VectorXd { return hm * d; },
             0.7, s),
         "Juelicher Helfrich energy");
+}
+
+// The fused Lagrangian Hessian on 1 thread (serial path) and on 2 and 3 threads (element
+// matrices on the threads, every thread adding into its share of the blocks): the same bits,
+// in both storages. 3 threads split the blocks unevenly, so a share boundary that dropped or
+// doubled a block would show.
+TEST(HelfrichHessian, LagrangianHessianBitIdenticalWithOneTwoThreeThreads) {
+  TriMesh mesh = testing::sphere_mesh(6, 3.0);  // 720 faces
+  const ContinuumModel m = build_continuum_model(mesh, testing::closed_form_p2_law(), {});
+  ASSERT_GT(m.num_elements(), 256);  // above the serial threshold of add_lagrangian_hessian
+  Positions x = m.rest;
+  testing::perturb(x, 0.05, 9);
+  const int saved = omp_get_max_threads();
+  for (BlockStorage storage : {BlockStorage::full, BlockStorage::lower}) {
+    std::vector<Eigen::VectorXd> values;
+    for (int t = 1; t <= 3; ++t) {
+      omp_set_num_threads(t);
+      BlockHessian h(m.topo, storage);
+      for (int rep = 0; rep < 2; ++rep) {  // the second assembly reuses the kept buffers
+        h.set_zero();
+        add_lagrangian_hessian(m, x, 0.3, -0.02, h);
+      }
+      values.emplace_back(
+          Eigen::Map<const Eigen::VectorXd>(h.matrix().valuePtr(), h.matrix().nonZeros()));
+    }
+    omp_set_num_threads(saved);
+    EXPECT_GT(values[0].norm(), 0.0);
+    for (int t = 1; t < 3; ++t) EXPECT_TRUE((values[t].array() == values[0].array()).all());
+  }
 }
 
 }  // namespace
