@@ -139,11 +139,9 @@ TEST(ShiftedNewton, ClosestPointOfASphereWithItsLagrangeMultiplier) {
   EXPECT_NEAR(lambda(0), 0.5 * (a.norm() - 1.0), 1e-12);
 }
 
-TEST(ShiftedNewton, ShiftsThroughANegativeCurvatureStart) {
-  // Double well f = sum (x_i^2 - 1)^2 / 4 from x_i = 0.1 (f'' = 3 x^2 - 1 < 0): the shifted
-  // steps still descend, and the minimum |x_i| = 1 is reached.
-  const int n = 10;
-  Eigen::SparseMatrix<double> h;
+/// The double well f = sum (x_i^2 - 1)^2 / 4 (minima |x_i| = 1, f'' = 3 x^2 - 1), its Hessian
+/// assembled into `h`.
+NewtonProblem double_well(Eigen::SparseMatrix<double>& h) {
   NewtonProblem p;
   p.evaluate = [](const Eigen::VectorXd& x, NewtonPoint& pt) {
     const Eigen::ArrayXd s = x.array().square() - 1.0;
@@ -151,11 +149,20 @@ TEST(ShiftedNewton, ShiftsThroughANegativeCurvatureStart) {
     pt.grad = (s * x.array()).matrix();
     return true;
   };
-  p.hessian = [&](const Eigen::VectorXd& x,
-                  const Eigen::VectorXd&) -> const Eigen::SparseMatrix<double>& {
+  p.hessian = [&h](const Eigen::VectorXd& x,
+                   const Eigen::VectorXd&) -> const Eigen::SparseMatrix<double>& {
     h = tridiagonal((3 * x.array().square() - 1).matrix());
     return h;
   };
+  return p;
+}
+
+TEST(ShiftedNewton, ShiftsThroughANegativeCurvatureStart) {
+  // Double well f = sum (x_i^2 - 1)^2 / 4 from x_i = 0.1 (f'' = 3 x^2 - 1 < 0): the shifted
+  // steps still descend, and the minimum |x_i| = 1 is reached.
+  const int n = 10;
+  Eigen::SparseMatrix<double> h;
+  const NewtonProblem p = double_well(h);
   ShiftedNewtonOptions o;
   o.block_size = 1;
   o.force_tolerance = 1e-12;
@@ -176,18 +183,7 @@ TEST(ShiftedNewton, ANonConvergedSolveReturnsItsBestIterate) {
   // iterate's residual, not the last one.
   const int n = 10;
   Eigen::SparseMatrix<double> h;
-  NewtonProblem p;
-  p.evaluate = [](const Eigen::VectorXd& x, NewtonPoint& pt) {
-    const Eigen::ArrayXd s = x.array().square() - 1.0;
-    pt.value = (s.square() / 4).sum();
-    pt.grad = (s * x.array()).matrix();
-    return true;
-  };
-  p.hessian = [&](const Eigen::VectorXd& x,
-                  const Eigen::VectorXd&) -> const Eigen::SparseMatrix<double>& {
-    h = tridiagonal((3 * x.array().square() - 1).matrix());
-    return h;
-  };
+  const NewtonProblem p = double_well(h);
   const auto residual_at = [](const Eigen::VectorXd& x) {
     return (x.array() * (x.array().square() - 1.0)).abs().maxCoeff();
   };
