@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
-#include <ctime>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -16,6 +15,7 @@
 #include "app/commands.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
+#include "core/cpu_time.hpp"
 
 namespace rbc::app {
 
@@ -96,13 +96,6 @@ void apply_at(const std::string& text, ForwardParameters& p) {
 void keep_freed_memory() {
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
-}
-
-/// CPU time of this process (all threads), seconds.
-double process_cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
 /// --forward-check: one cold and one warm forward sweep at the --at parameters, with times.

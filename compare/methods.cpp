@@ -73,12 +73,6 @@ Network make_discrete_network(int vertices, unsigned rotation_seed) {
   return build_network(make_rest_shape(ro), NetworkParameters{});
 }
 
-double process_cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
 double evaluation_cpu_seconds(const std::function<void()>& eval) {
   std::vector<double> t;
   for (int b = 0; b < 7; ++b) {

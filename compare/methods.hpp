@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "core/cpu_time.hpp"  // process_cpu_seconds, used with these timings
 #include "core/progress.hpp"
 #include "discrete/network.hpp"
 #include "discrete/wlc.hpp"
@@ -54,8 +55,6 @@ struct RunMethodOptions {
   bool measure_evaluation = false;  ///< also time one energy+gradient evaluation (CPU)
 };
 
-/// Process CPU time (s, all threads) since an arbitrary origin.
-double process_cpu_seconds();
 /// CPU time (s) of one call of `eval`: the median of 7 batches of at least 20 ms CPU each.
 double evaluation_cpu_seconds(const std::function<void()>& eval);
 /// CPU time (s) of one energy+gradient evaluation of `net` at its rest shape (88 pN load).

@@ -328,20 +328,18 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
 
     // Bordered solve with the m x m Schur complement (r and C solved apart: one multi-column
     // solve of [r C] rounds differently enough to stall round-off-level tests).
-    Eigen::VectorXd y0;
+    const Eigen::VectorXd y0 = cholesky_.solve(r);
     Eigen::VectorXd dx;
     Eigen::VectorXd lnew = lambda;
     Eigen::MatrixXd ym;
     Eigen::FullPivLU<Eigen::MatrixXd> sc_lu;
     if (m > 0) {
-      y0 = cholesky_.solve(r);
       ym = cholesky_.solve(cur.c_grad);
       sc_lu.compute(Eigen::MatrixXd(cur.c_grad.transpose() * ym));
       const Eigen::VectorXd dl = sc_lu.solve(cur.c - cur.c_grad.transpose() * y0);
       dx = -y0 - ym * dl;
       lnew += dl;
     } else {
-      y0 = cholesky_.solve(r);
       dx = -y0;
     }
     // The shifted (or chord) step, kept as the fallback of the Krylov correction.
