@@ -20,13 +20,15 @@ if ((${#targets[@]} == 0)); then
 fi
 ((${#targets[@]})) || { echo "fuzz: no targets in build-fuzz/fuzz/" >&2; exit 1; }
 mkdir -p build-fuzz/artifacts
-failed=()
-for t in "${targets[@]}"; do
-  seeds="fuzz/corpus/$t"
-  [ -d "$seeds" ] || { echo "fuzz: $t has no seed corpus $seeds" >&2; failed+=("$t"); continue; }
+# One target: fuzzes it, then prints one line; its status goes to build-fuzz/artifacts/<t>.status.
+fuzz_one() {
+  local t=$1 seeds="fuzz/corpus/$1" log="build-fuzz/artifacts/$1.log" start=$SECONDS runs
+  if [ ! -d "$seeds" ]; then
+    echo "fuzz: $t has no seed corpus $seeds" >&2
+    echo 1 >"build-fuzz/artifacts/$t.status"
+    return
+  fi
   mkdir -p "build-fuzz/corpus/$t"
-  log="build-fuzz/artifacts/$t.log"
-  start=$SECONDS
   if ASAN_OPTIONS="detect_leaks=1:abort_on_error=1" \
      UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
      "build-fuzz/fuzz/$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
@@ -34,11 +36,30 @@ for t in "${targets[@]}"; do
        "build-fuzz/corpus/$t" "$seeds" >"$log" 2>&1; then
     runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo '?')
     echo "fuzz: $t clean ($runs inputs in $((SECONDS - start)) s)"
+    echo 0 >"build-fuzz/artifacts/$t.status"
   else
     echo "fuzz: $t FAILED after $((SECONDS - start)) s; log $log, input build-fuzz/artifacts/$t-*:" >&2
     grep -E 'ERROR|SUMMARY|runtime error|deadly|Test unit written' "$log" | head -20 >&2 || true
-    failed+=("$t")
+    echo 1 >"build-fuzz/artifacts/$t.status"
   fi
+}
+# The targets run side by side, one per core (each fuzzer is single-threaded), so the job takes
+# about ceil(targets / cores) * RBC_FUZZ_SECONDS.
+slots=$(nproc 2>/dev/null || echo 2)
+running=0
+for t in "${targets[@]}"; do
+  rm -f "build-fuzz/artifacts/$t.status"
+  fuzz_one "$t" &
+  running=$((running + 1))
+  if ((running >= slots)); then
+    wait -n || true
+    running=$((running - 1))
+  fi
+done
+wait
+failed=()
+for t in "${targets[@]}"; do
+  [ "$(cat "build-fuzz/artifacts/$t.status" 2>/dev/null)" = 0 ] || failed+=("$t")
 done
 if ((${#failed[@]})); then
   echo "fuzz: FAILED: ${failed[*]}" >&2

@@ -14,7 +14,8 @@
 namespace rbc {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
+// The energy of an infeasible (collapsed or overstretched) state, pN*um.
+constexpr double kInfeasibleEnergy_pNum = std::numeric_limits<double>::infinity();
 constexpr int kParallelHessianFaces = 256;
 
 }  // namespace
@@ -140,11 +141,11 @@ double continuum_energy(const ContinuumModel& model, const Positions& x, double 
     const double a = triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
     collapsed = collapsed || !(a >= kCollapsedElementRatio * model.reference[f].area_um2);
   }
-  if (collapsed) return kInf;
+  if (collapsed) return kInfeasibleEnergy_pNum;
   ContinuumEnergyParts p;
   if (model.inplane()) {
     p.inplane = membrane_energy(model, x, grad);
-    if (!std::isfinite(p.inplane)) return kInf;
+    if (!std::isfinite(p.inplane)) return kInfeasibleEnergy_pNum;
   }
   p.bending = juelicher_bending_energy(x, model.topo, model.bending, grad);
   p.tweezers = tweezers_energy(model.patch, force_pN, x, model.rest, grad);

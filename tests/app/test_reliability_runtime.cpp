@@ -12,6 +12,7 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -64,11 +65,31 @@ pid_t spawn(const std::vector<std::string>& args, const std::string& log) {
   return pid;
 }
 
-/// Exit code of a child, or -signal if a signal killed it.
-int wait_for(pid_t pid) {
+/// What wait_for() returns for a child that did not end in time.
+constexpr int kHung = -1000;
+
+/// Exit code of a child, or -signal if a signal killed it. An interrupted run must end, so a
+/// child still running after `limit` is a hang: the stacks of its threads are appended to `log`
+/// (by gdb, when installed), it is killed and the result is kHung.
+int wait_for(pid_t pid, const std::string& log,
+             std::chrono::seconds limit = std::chrono::seconds(120)) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
   int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+  while (true) {
+    const pid_t r = waitpid(pid, &status, WNOHANG);
+    if (r == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+    if (r < 0) return kHung;
+    if (std::chrono::steady_clock::now() > deadline) {
+      const std::string gdb = "gdb -p " + std::to_string(pid) +
+                              " -batch -ex 'thread apply all bt' >> '" + log + "' 2>&1";
+      if (std::system("command -v gdb > /dev/null 2>&1") == 0)
+        (void)!std::system(gdb.c_str());  // best effort: the kill below does not depend on it
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return kHung;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
 }
 
 struct CommandRun {
@@ -226,13 +247,14 @@ TEST(ReliabilityRuntime, HundredRandomInterruptsLeaveOnlyCompleteOutputs) {
     const fs::path ckpt = root / ("mc_" + tag + ".h5");
     const int ssig = rng() % 2 ? SIGINT : SIGTERM, msig = rng() % 2 ? SIGINT : SIGTERM;
     const double sdelay = stretch_delay_s(rng), mdelay = mc_delay_s(rng);
-    const pid_t s =
-        spawn({"stretch", "--vertices", "300", "--force", "0,16,38", "--out", sdir.string(), "-q"},
-              (root / ("stretch_" + tag + ".log")).string());
+    const std::string slog = (root / ("stretch_" + tag + ".log")).string(),
+                      mlog = (root / ("mc_" + tag + ".log")).string();
+    const pid_t s = spawn(
+        {"stretch", "--vertices", "300", "--force", "0,16,38", "--out", sdir.string(), "-q"}, slog);
     const pid_t m =
         spawn({"mc", "--vertices", "300", "--sweeps", "100000", "--checkpoint", ckpt.string(),
                "--checkpoint-every", "1", "--out", mdir.string(), "--snapshot-every", "3", "-q"},
-              (root / ("mc_" + tag + ".log")).string());
+              mlog);
     const auto t0 = std::chrono::steady_clock::now();
     auto at = [&](double sec) {
       std::this_thread::sleep_until(t0 + std::chrono::duration<double>(sec));
@@ -248,11 +270,17 @@ TEST(ReliabilityRuntime, HundredRandomInterruptsLeaveOnlyCompleteOutputs) {
       at(sdelay);
       kill(s, ssig);
     }
-    const int scode = wait_for(s), mcode = wait_for(m);
+    const int scode = wait_for(s, slog), mcode = wait_for(m, mlog);
     const std::string strial = "stretch trial " + tag + ", signal " + std::to_string(ssig) +
                                " after " + std::to_string(sdelay) + " s";
     const std::string mtrial = "mc trial " + tag + ", signal " + std::to_string(msig) + " after " +
                                std::to_string(mdelay) + " s";
+    if (scode == kHung || mcode == kHung) {
+      ADD_FAILURE() << (scode == kHung ? strial : mtrial)
+                    << ": the run did not end within 120 s; killed. Its log and stacks:\n"
+                    << slurp(scode == kHung ? slog : mlog);
+      continue;
+    }
     EXPECT_EQ(temporaries_in(sdir), std::vector<std::string>{}) << strial;
     EXPECT_EQ(temporaries_in(mdir), std::vector<std::string>{}) << mtrial;
     check_stretch_outputs(sdir, scode, ssig, strial);
