@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -18,8 +19,10 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "core/h5file.hpp"
@@ -65,20 +68,20 @@ pid_t spawn(const std::vector<std::string>& args, const std::string& log) {
   return pid;
 }
 
-/// What wait_for() returns for a child that did not end in time.
+/// What wait_for() returns for a child that did not end in time, and that time.
 constexpr int kHung = -1000;
+constexpr std::chrono::seconds kRunLimit{120};
 
 /// Exit code of a child, or -signal if a signal killed it. An interrupted run must end, so a
-/// child still running after `limit` is a hang: the stacks of its threads are appended to `log`
-/// (by gdb, when installed), it is killed and the result is kHung.
-int wait_for(pid_t pid, const std::string& log,
-             std::chrono::seconds limit = std::chrono::seconds(120)) {
-  const auto deadline = std::chrono::steady_clock::now() + limit;
+/// child still running after kRunLimit is a hang: the stacks of its threads are appended to
+/// `log` (by gdb, when installed), it is killed and the result is kHung.
+int wait_for(pid_t pid, const std::string& log) {
+  const auto deadline = std::chrono::steady_clock::now() + kRunLimit;
   int status = 0;
   while (true) {
     const pid_t r = waitpid(pid, &status, WNOHANG);
     if (r == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
-    if (r < 0) return kHung;
+    if (r < 0 && errno != EINTR) throw std::runtime_error("waitpid failed for a spawned rbc");
     if (std::chrono::steady_clock::now() > deadline) {
       const std::string gdb = "gdb -p " + std::to_string(pid) +
                               " -batch -ex 'thread apply all bt' >> '" + log + "' 2>&1";
@@ -275,12 +278,13 @@ TEST(ReliabilityRuntime, HundredRandomInterruptsLeaveOnlyCompleteOutputs) {
                                " after " + std::to_string(sdelay) + " s";
     const std::string mtrial = "mc trial " + tag + ", signal " + std::to_string(msig) + " after " +
                                std::to_string(mdelay) + " s";
-    if (scode == kHung || mcode == kHung) {
-      ADD_FAILURE() << (scode == kHung ? strial : mtrial)
-                    << ": the run did not end within 120 s; killed. Its log and stacks:\n"
-                    << slurp(scode == kHung ? slog : mlog);
-      continue;
-    }
+    const std::pair<int, const std::string*> runs[] = {{scode, &slog}, {mcode, &mlog}};
+    for (const auto& [code, log] : runs)
+      if (code == kHung)
+        ADD_FAILURE() << (log == &slog ? strial : mtrial) << ": the run did not end within "
+                      << kRunLimit.count() << " s; killed. Its log and stacks:\n"
+                      << slurp(*log);
+    if (scode == kHung || mcode == kHung) continue;
     EXPECT_EQ(temporaries_in(sdir), std::vector<std::string>{}) << strial;
     EXPECT_EQ(temporaries_in(mdir), std::vector<std::string>{}) << mtrial;
     check_stretch_outputs(sdir, scode, ssig, strial);
