@@ -141,6 +141,14 @@ double network_eval_seconds(const Network& net) {
       [&] { benchmark::DoNotOptimize(network_energy(net, net.rest, load, &g)); });
 }
 
+/// Continuum options of a bench row: range(index) = 1 solves on the mirror-symmetric states
+/// (NewtonOptions::symmetry), 0 (or no such argument) the full problem.
+ContinuumOptions continuum_options(const benchmark::State& state, int index) {
+  ContinuumOptions o;
+  if (state.range(index) == 1) o.newton.symmetry = Symmetry::mirror;
+  return o;
+}
+
 /// Issue 11 rows: continuum p = 2 over forces from rest (continuation), range(0) elements,
 /// range(1) = number of leading Mills forces (13 = all; 8 = 0..87.6 pN is not the issue's
 /// 8-force list, which is {0,16,38,67.6,87.6,130,172.8,193}: range(1) = 0 selects that).
@@ -148,11 +156,11 @@ void BM_ContinuumSweep(benchmark::State& state) {
   const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
   std::vector<double> forces = kMillsForces;
   if (state.range(1) == 0) forces = {0, 16, 38, 67.6, 87.6, 130, 172.8, 193};
+  const ContinuumOptions co = continuum_options(state, 2);
   const double eval_s = continuum_eval_seconds(m);
   for (auto _ : state) {
     std::vector<ContinuumStretchPoint> pts;
-    const double s =
-        seconds_of([&] { pts = run_continuum_stretch(m, forces, ContinuumOptions{}); });
+    const double s = seconds_of([&] { pts = run_continuum_stretch(m, forces, co); });
     int it = 0;
     bool ok = true;
     for (const auto& p : pts) it += p.iterations, ok = ok && p.converged;
@@ -160,15 +168,16 @@ void BM_ContinuumSweep(benchmark::State& state) {
   }
 }
 
-/// Continuum 88 pN from the 0 pN equilibrium (range(0) elements).
+/// Continuum 88 pN from the 0 pN equilibrium (range(0) elements; range(1) symmetry).
 void BM_Continuum88From0(benchmark::State& state) {
   const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
-  const auto rest = run_continuum_stretch(m, {0.0}, ContinuumOptions{});
+  const ContinuumOptions co = continuum_options(state, 1);
+  const auto rest = run_continuum_stretch(m, {0.0}, co);
   const double eval_s = continuum_eval_seconds(m);
   for (auto _ : state) {
     std::vector<ContinuumStretchPoint> pts;
     const double s = seconds_of([&] {
-      pts = run_continuum_stretch(m, {88.0}, ContinuumOptions{}, {},
+      pts = run_continuum_stretch(m, {88.0}, co, {},
                                   StretchState{{88.0}, {rest[0].x}, {rest[0].multipliers}});
     });
     set_sweep_counters(state, s, eval_s, pts[0].iterations, pts[0].converged,
@@ -180,15 +189,16 @@ void BM_Continuum88From0(benchmark::State& state) {
 /// parameters' equilibria; `cold_ratio` is its time over the cold 13-force sweep's.
 void BM_ContinuumWarm(benchmark::State& state) {
   const int e = static_cast<int>(state.range(0));
+  const ContinuumOptions co = continuum_options(state, 1);
   const ContinuumModel& m0 = cached_continuum(e, 1.0);
   const ContinuumModel& m1 = cached_continuum(e, 1.01);
-  const StretchState before = stretch_state(run_continuum_stretch(m0, kMillsForces, {}));
+  const StretchState before = stretch_state(run_continuum_stretch(m0, kMillsForces, co));
   const double eval_s = continuum_eval_seconds(m1);
-  const double cold_s = seconds_of([&] { run_continuum_stretch(m1, kMillsForces, {}); });
+  const double cold_s = seconds_of([&] { run_continuum_stretch(m1, kMillsForces, co); });
   for (auto _ : state) {
     std::vector<ContinuumStretchPoint> pts;
     const double s =
-        seconds_of([&] { pts = run_continuum_stretch(m1, kMillsForces, {}, {}, before); });
+        seconds_of([&] { pts = run_continuum_stretch(m1, kMillsForces, co, {}, before); });
     int it = 0;
     bool ok = true;
     for (const auto& p : pts) it += p.iterations, ok = ok && p.converged;
@@ -226,11 +236,20 @@ void BM_ContinuumRecovery(benchmark::State& state) {
   }
 }
 
-/// Discrete 13-force sweep from rest (range(0) vertices).
+/// Discrete stretch options of a bench row: range(index) = 1 solves on the mirror-symmetric
+/// states (StretchOptions::symmetry), 0 the full problem.
+StretchOptions discrete_options(const benchmark::State& state, int index) {
+  StretchOptions o;
+  if (state.range(index) == 1) o.symmetry = Symmetry::mirror;
+  return o;
+}
+
+/// Discrete 13-force sweep from rest (range(0) vertices, range(1) preconditioner threshold,
+/// range(2) symmetry).
 void BM_DiscreteSweep(benchmark::State& state) {
   const Network& net = cached_network_p(static_cast<int>(state.range(0)), 1.0);
   const double eval_s = network_eval_seconds(net);
-  StretchOptions so;
+  StretchOptions so = discrete_options(state, 2);
   if (state.range(1) >= 0) so.precondition_min_vertices = static_cast<int>(state.range(1));
   for (auto _ : state) {
     std::vector<StretchPoint> pts;
@@ -242,15 +261,17 @@ void BM_DiscreteSweep(benchmark::State& state) {
   }
 }
 
-/// Discrete 88 pN from the 0 pN equilibrium (range(0) vertices).
+/// Discrete 88 pN from the 0 pN equilibrium (range(0) vertices; range(1) symmetry, of both
+/// solves).
 void BM_Discrete88From0(benchmark::State& state) {
   const Network& net = cached_network_p(static_cast<int>(state.range(0)), 1.0);
-  const auto rest = run_stretch(net, {0.0}, StretchOptions{});
+  const StretchOptions so = discrete_options(state, 1);
+  const auto rest = run_stretch(net, {0.0}, so);
   const double eval_s = network_eval_seconds(net);
   for (auto _ : state) {
     std::vector<StretchPoint> pts;
     const double s = seconds_of([&] {
-      pts = run_stretch(net, {88.0}, StretchOptions{}, {},
+      pts = run_stretch(net, {88.0}, so, {},
                         StretchState{{88.0}, {rest[0].x}, {rest[0].multipliers}});
     });
     set_sweep_counters(state, s, eval_s, pts[0].iterations, pts[0].converged,
@@ -414,27 +435,36 @@ void add_bench_command(CLI::App& app, Action& action) {
         const auto once = [](benchmark::internal::Benchmark* b) {
           return b->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
         };
+        // Continuum rows: last argument 0 = the full problem, 1 = the mirror-symmetric states
+        // (--symmetry mirror).
         once(benchmark::RegisterBenchmark("continuum/sweep13_from_rest", BM_ContinuumSweep)
-                 ->Args({1000, 13}));
+                 ->Args({1000, 13, 0})
+                 ->Args({1000, 13, 1}));
         once(benchmark::RegisterBenchmark("continuum/88pN_from_0pN", BM_Continuum88From0)
-                 ->Arg(9680));
+                 ->Args({9680, 0})
+                 ->Args({9680, 1}));
         once(benchmark::RegisterBenchmark("continuum/sweep8_from_rest", BM_ContinuumSweep)
-                 ->Args({5120, 0}));
+                 ->Args({5120, 0, 0})
+                 ->Args({5120, 0, 1}));
         once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc", BM_ContinuumWarm)
-                 ->Arg(1000));
+                 ->Args({1000, 0})
+                 ->Args({1000, 1}));
         // Issue 14: 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
         once(benchmark::RegisterBenchmark("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)
                  ->Args({1000, 1000}));
-        // range(1): preconditioner threshold (-1: the default; 0: always; huge: never).
+        // range(1): preconditioner threshold (-1: the default; 0: always; huge: never); last
+        // argument, as the continuum rows: 0 = the full problem, 1 = --symmetry mirror.
         once(benchmark::RegisterBenchmark("discrete/sweep13_from_rest", BM_DiscreteSweep)
-                 ->Args({250, -1})
-                 ->Args({250, 0})
-                 ->Args({250, 1 << 30}));
+                 ->Args({250, -1, 0})
+                 ->Args({250, -1, 1})
+                 ->Args({250, 0, 0})
+                 ->Args({250, 1 << 30, 0}));
         once(benchmark::RegisterBenchmark("discrete/warm13_persistence_1pc", BM_DiscreteWarm)
                  ->Args({250, 1})
                  ->Args({250, 0}));
-        once(
-            benchmark::RegisterBenchmark("discrete/88pN_from_0pN", BM_Discrete88From0)->Arg(27500));
+        once(benchmark::RegisterBenchmark("discrete/88pN_from_0pN", BM_Discrete88From0)
+                 ->Args({27500, 0})
+                 ->Args({27500, 1}));
         benchmark::RegisterBenchmark("continuum/energy_gradient", BM_ContinuumEnergyGradient)
             ->Arg(1000)
             ->Arg(9680)

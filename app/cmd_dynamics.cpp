@@ -151,8 +151,8 @@ struct SceneRun {
   bool relax_static_converged = false;
 };
 
-SceneRun run_discrete(const DynamicsCli& o, Scene sc, const ProgressSink& progress,
-                      int sample_every) {
+SceneRun run_discrete_scene(const DynamicsCli& o, Scene sc, const ProgressSink& progress,
+                            int sample_every) {
   SceneRun out;
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
@@ -199,8 +199,8 @@ SceneRun run_discrete(const DynamicsCli& o, Scene sc, const ProgressSink& progre
   return out;
 }
 
-SceneRun run_continuum(const DynamicsCli& o, Scene sc, const ProgressSink& progress,
-                       int sample_every) {
+SceneRun run_continuum_scene(const DynamicsCli& o, Scene sc, const ProgressSink& progress,
+                             int sample_every) {
   SceneRun out;
   const TriMesh mesh = make_continuum_mesh(o.elements);
   const NetworkParameters np;
@@ -360,8 +360,8 @@ int run(const DynamicsCli& o) {
   const ProgressSink progress = stderr_progress(o.quiet);
   const long steps = std::lround(std::ceil(o.duration_s / o.dt_s - 1e-9));
   const int sample_every = static_cast<int>(std::max<long>(1, steps / 1000));
-  SceneRun r = o.model == "discrete" ? run_discrete(o, sc, progress, sample_every)
-                                     : run_continuum(o, sc, progress, sample_every);
+  SceneRun r = o.model == "discrete" ? run_discrete_scene(o, sc, progress, sample_every)
+                                     : run_continuum_scene(o, sc, progress, sample_every);
   if (!r.static_converged) {
     std::cerr << "rbc: error: the static equilibrium did not converge (" << r.static_status
               << "): largest vertex force residual " << std::scientific << r.static_residual_pN

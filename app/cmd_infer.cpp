@@ -1,7 +1,6 @@
 // `rbc infer`: Bayesian calibration of the spectrin parameters from force-diameter data
 // (MODEL.md section 7; calibrate/infer.hpp). Under mpirun every rank runs this command; rank 0
 // samples and writes, the others serve forward runs (calibrate/mpi_executor.hpp).
-#include <malloc.h>
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -32,6 +31,7 @@ struct InferCli {
   std::uint64_t seed = 1;
   int threads = 0;
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
+  Symmetry symmetry = ForwardOptions::default_newton().symmetry;
   std::string out;
   bool json = false, overwrite = false, quiet = false, forward_check = false, trace = false;
   int repeat = 1;  ///< --forward-check: warm sweeps timed (median reported)
@@ -86,16 +86,6 @@ void apply_at(const std::string& text, ForwardParameters& p) {
       throw std::invalid_argument("--at sigma-scale: not a forward-model parameter");
   }
   p.validate();
-}
-
-/// glibc malloc: keep freed blocks instead of returning them to the kernel. Each Newton
-/// solve allocates and frees the same multi-megabyte buffers (CHOLMOD's factor and permuted
-/// matrix, Eigen vectors); above the default thresholds glibc maps and unmaps them every
-/// time, and the page faults of re-mapping cost 15-30 % of a warm 2,000-element sweep
-/// (measured CPU 0.42-0.54 s -> 0.36 s). Process-wide, so set by the command, not the library.
-void keep_freed_memory() {
-  mallopt(M_MMAP_THRESHOLD, 256 << 20);
-  mallopt(M_TRIM_THRESHOLD, 512 << 20);
 }
 
 /// --forward-check: one cold and one warm forward sweep at the --at parameters, with times.
@@ -162,6 +152,7 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.seed = c.seed;
   o.threads = c.threads;
   o.force_tolerance_pN = c.force_tolerance_pN;
+  o.symmetry = c.symmetry;
   o.validate();
   return o;
 }
@@ -222,6 +213,12 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_option("--force-tolerance", c->force_tolerance_pN,
                   "Newton tolerance of the continuum forward runs: largest net vertex force (pN)")
       ->capture_default_str();
+  cmd->add_option("--symmetry", c->symmetry,
+                  "continuum forward runs: none | mirror (solve on the mirror-symmetric states, "
+                  "NewtonOptions::symmetry)")
+      ->transform(enum_choice<Symmetry>({{"none", Symmetry::none}, {"mirror", Symmetry::mirror}}))
+      ->type_name("TEXT")
+      ->default_str(to_string(ForwardOptions::default_newton().symmetry));
   cmd->add_option("--out", c->out,
                   "output directory (summary, samples, corner and predictive plots)");
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
@@ -255,7 +252,6 @@ void add_infer_command(CLI::App& app, Action& action) {
         throw;
       }
       use_single_threaded_blas();  // also on MPI workers, which never call run_inference
-      keep_freed_memory();
       if (c->forward_check) {
         ForwardParameters at = o.fixed;
         for (const auto& a : c->at) apply_at(a, at);

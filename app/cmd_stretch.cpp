@@ -50,6 +50,8 @@ struct StretchCli {
   int max_iterations = 50000;
   WlcExpansion order = WlcExpansion::order2;
   int elements = 4000;
+  /// --symmetry mirror: solve on the mirror-symmetric configurations (core/mirror_symmetry.hpp)
+  Symmetry symmetry = Symmetry::none;
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
   bool json = false, quiet = false, overwrite = false;
@@ -102,6 +104,7 @@ StretchOptions to_stretch_options(const StretchCli& o) {
   StretchOptions so;
   so.minimiser.force_tolerance = o.tolerance_pN;
   so.minimiser.max_iterations = o.max_iterations;
+  so.symmetry = o.symmetry;
   so.validate();
   return so;
 }
@@ -148,14 +151,17 @@ struct StretchRow {
   int vertices = 0, elements = 0;
   double residual_pN = 0, area_drift = 0, volume_drift = 0;
   std::string status;
-  bool warm = false;  ///< solved from its --warm-start equilibrium
+  bool warm = false;             ///< solved from its --warm-start equilibrium
+  int symmetry_order = 1;        ///< --symmetry mirror: order of the group of the last solve
+  bool symmetry_broken = false;  ///< --symmetry mirror: the equilibrium is not symmetric
 };
 
 template <class Point>
 StretchRow to_row(const Point& p, int elements) {
-  return {p.force_pN,   p.axial_um,     p.transverse_um,     p.energy_pNum, p.iterations,
-          p.converged,  p.wall_s,       p.vertices,          elements,      p.residual_pN,
-          p.area_drift, p.volume_drift, to_string(p.status), p.warm};
+  return {p.force_pN,       p.axial_um,     p.transverse_um,     p.energy_pNum, p.iterations,
+          p.converged,      p.wall_s,       p.vertices,          elements,      p.residual_pN,
+          p.area_drift,     p.volume_drift, to_string(p.status), p.warm,        p.symmetry_order,
+          p.symmetry_broken};
 }
 
 /// DIR/run.json, the manifest of `stretch --out`: rewritten (atomically) when the run starts,
@@ -257,6 +263,10 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
                              p.wall_s,
                              static_cast<double>(p.vertices)};
     if (!o.warm_start.empty()) j["warm_started"] = p.warm;
+    if (o.symmetry == Symmetry::mirror) {
+      j["symmetry_order"] = p.symmetry_order;
+      j["symmetry_broken"] = p.symmetry_broken;
+    }
     if (!o.accuracy_choice.is_null()) j["accuracy_choice"] = o.accuracy_choice;
     if (continuum) {
       j["elements"] = p.elements;
@@ -371,6 +381,7 @@ int run_continuum(const StretchCli& o) {
   co.newton.max_iterations = std::min(o.max_iterations, 1000);
   co.max_iterations_per_force = std::min(o.max_iterations, co.max_iterations_per_force);
   if (o.tolerance_given) co.newton.force_tolerance_pN = o.tolerance_pN;
+  co.newton.symmetry = o.symmetry;
   co.validate();
   const bool created_out = prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
@@ -534,6 +545,15 @@ void add_stretch_command(CLI::App& app, Action& action) {
                                              {"full", WlcExpansion::full}}))
       ->type_name("TEXT")
       ->default_str("2");
+  cmd->add_option("--symmetry", o->symmetry,
+                  "none | mirror (both models): solve on the states symmetric under the mirrors "
+                  "the mesh and the bead load share (2 or 4 on the default meshes: |G| times "
+                  "fewer unknowns; each symmetric equilibrium is checked and, where it is a "
+                  "saddle at which the cell buckles, solved in full); --json points then carry "
+                  "symmetry_order and symmetry_broken")
+      ->transform(enum_choice<Symmetry>({{"none", Symmetry::none}, {"mirror", Symmetry::mirror}}))
+      ->type_name("TEXT")
+      ->default_str("none");
   cmd->add_option("--elements", o->elements, "continuum: triangles (200 to 79,996)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();

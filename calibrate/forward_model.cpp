@@ -21,7 +21,14 @@ extern "C" void openblas_set_num_threads(int) __attribute__((weak));
 namespace rbc {
 
 void use_single_threaded_blas() {
-  if (openblas_set_num_threads) openblas_set_num_threads(1);
+  if (!openblas_set_num_threads) return;
+  // OpenBLAS's OpenMP build (Debian's libopenblas0-openmp, what .ci/bootstrap.sh installs) also
+  // sets OpenMP's thread count here: without restoring it every later parallel region, the
+  // forward runs' executor included, ran on one thread (measured: `rbc infer` used one core
+  // of two whatever OMP_NUM_THREADS said).
+  const int omp_threads = omp_get_max_threads();
+  openblas_set_num_threads(1);
+  omp_set_num_threads(omp_threads);
 }
 
 void ForwardParameters::validate() const {
@@ -104,6 +111,9 @@ struct ForwardModel::Workspace {
   Network network;
   ContinuumModel continuum;
   std::unique_ptr<NewtonSolver> newton;
+  /// Without the symmetry (a run whose symmetric equilibria were saddles); made on first use.
+  std::unique_ptr<NewtonSolver> newton_full;
+  bool full = false;  ///< solve with newton_full
   /// Equilibrium at force F from x, lambda (updated in place; left at the start on failure).
   std::function<SolveOutcome(double, Positions&, ConstraintMultipliers&, const ProgressSink&)>
       solve;
@@ -177,7 +187,8 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
                        const ProgressSink& trace) {
       const Positions x0 = x;
       const ConstraintMultipliers l0 = l;
-      NewtonResult r = w->newton->solve(f, x, l, trace);
+      NewtonSolver& solver = w->full ? *w->newton_full : *w->newton;
+      NewtonResult r = solver.solve(f, x, l, trace);
       SolveOutcome out;
       out.iterations = r.iterations;
       int factorisations = r.factorisations;
@@ -191,7 +202,7 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
         NewtonLimits limits;
         limits.max_iterations =
             std::min(o.pass_iterations, o.max_total_iterations - out.iterations);
-        r = w->newton->solve(f, x, l, trace, limits);
+        r = solver.solve(f, x, l, trace, limits);
         out.iterations += r.iterations;
         factorisations += r.factorisations;
         krylov += r.krylov_iterations;
@@ -262,6 +273,7 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
     // A factorisation kept from another sample's run would make this run's result depend on
     // which workspace it borrowed: start afresh (reuse across this run's forces only).
     ws->newton->forget_factorisation();
+    if (ws->newton_full) ws->newton_full->forget_factorisation();
     ContinuumModel& m = ws->continuum;
     m.law = make_membrane_law(wlc, StericParameters{}, options_.method.order);
     m.bending.kappa_pNum = kappa;
@@ -275,87 +287,116 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
   if (!warm.empty() && !have_warm)
     throw std::invalid_argument("warm state of " + std::to_string(warm.size()) +
                                 " values does not fit this forward model");
-  ForwardRun out;
-  out.state.resize(static_cast<size_t>(nf) * per_force);
-  Positions x_prev = *rest;
-  ConstraintMultipliers l_prev;
-  double f_prev = 0;
-  out.converged = true;
-  for (int k = 0; k < nf; ++k) {
-    const double f = options_.forces_pN[k];
-    Positions x = x_prev;
-    ConstraintMultipliers l = l_prev;
-    bool predicted = false;
-    const auto parent_start = [&] {
-      const double* w = warm.data() + static_cast<size_t>(k) * per_force;
-      x = Eigen::Map<const Positions>(w, 3, n);
-      l.area_pN_per_um = w[3 * n];
-      l.volume_pN_per_um2 = w[3 * n + 1];
-    };
-    if (have_warm) {
-      parent_start();
-      if (options_.predict_from_previous_force && k > 0) {
-        // The parent's equilibrium plus this run's correction at the previous force.
-        const double* wp = warm.data() + static_cast<size_t>(k - 1) * per_force;
-        x += x_prev - Eigen::Map<const Positions>(wp, 3, n);
-        l.area_pN_per_um += l_prev.area_pN_per_um - wp[3 * n];
-        l.volume_pN_per_um2 += l_prev.volume_pN_per_um2 - wp[3 * n + 1];
-        predicted = true;
+  const auto sweep = [&]() {
+    ForwardRun out;
+    out.state.resize(static_cast<size_t>(nf) * per_force);
+    Positions x_prev = *rest;
+    ConstraintMultipliers l_prev;
+    double f_prev = 0;
+    out.converged = true;
+    for (int k = 0; k < nf; ++k) {
+      const double f = options_.forces_pN[k];
+      Positions x = x_prev;
+      ConstraintMultipliers l = l_prev;
+      bool predicted = false;
+      const auto parent_start = [&] {
+        const double* w = warm.data() + static_cast<size_t>(k) * per_force;
+        x = Eigen::Map<const Positions>(w, 3, n);
+        l.area_pN_per_um = w[3 * n];
+        l.volume_pN_per_um2 = w[3 * n + 1];
+      };
+      if (have_warm) {
+        parent_start();
+        if (options_.predict_from_previous_force && k > 0) {
+          // The parent's equilibrium plus this run's correction at the previous force.
+          const double* wp = warm.data() + static_cast<size_t>(k - 1) * per_force;
+          x += x_prev - Eigen::Map<const Positions>(wp, 3, n);
+          l.area_pN_per_um += l_prev.area_pN_per_um - wp[3 * n];
+          l.volume_pN_per_um2 += l_prev.volume_pN_per_um2 - wp[3 * n + 1];
+          predicted = true;
+        }
       }
-    }
-    const auto attempt = [&](double force, const char* start) {
-      const SolveOutcome o = ws->solve(force, x, l, trace);
-      ++out.solves;
-      if (trace) {
+      const auto attempt = [&](double force, const char* start) {
+        const SolveOutcome o = ws->solve(force, x, l, trace);
+        ++out.solves;
+        if (trace) {
+          std::ostringstream m;
+          m << "solve F = " << force << " pN from " << start << ": " << o.status << " after "
+            << o.iterations << " iterations, residual " << std::scientific << std::setprecision(3)
+            << o.residual_pN << " pN";
+          trace(m.str());
+        }
+        return o;
+      };
+      SolveOutcome o = attempt(f, predicted   ? "the predicted start"
+                                  : have_warm ? "the parent's equilibrium"
+                                              : "the previous force");
+      if (predicted && !o.converged) {  // the plain parent's equilibrium before any retry
+        parent_start();
+        o = attempt(f, "the parent's equilibrium");
+      }
+      if (!o.converged) {
+        // Retry: from this run's previous equilibrium through 2^b equal increments.
+        out.retried = true;
+        for (int b = 1; b <= options_.retry_bisections && !o.converged; ++b) {
+          x = x_prev;
+          l = l_prev;
+          const int steps = 1 << b;
+          o.converged = true;
+          for (int s = 1; s <= steps && o.converged; ++s)
+            o = attempt(f_prev + (f - f_prev) * s / steps, "a retry sub-step");
+        }
+      }
+      out.residual_pN = std::max(out.residual_pN, o.residual_pN);
+      out.diameter_converged += o.diameter_converged;
+      if (!o.converged) {
+        out.converged = false;
+        out.failed_force_pN = f;
         std::ostringstream m;
-        m << "solve F = " << force << " pN from " << start << ": " << o.status << " after "
-          << o.iterations << " iterations, residual " << std::scientific << std::setprecision(3)
-          << o.residual_pN << " pN";
-        trace(m.str());
+        m << o.status << ", residual " << std::scientific << std::setprecision(3) << o.residual_pN
+          << " pN";
+        out.failure = m.str();
+        out.state.clear();
+        return out;
       }
-      return o;
-    };
-    SolveOutcome o = attempt(f, predicted   ? "the predicted start"
-                                : have_warm ? "the parent's equilibrium"
-                                            : "the previous force");
-    if (predicted && !o.converged) {  // the plain parent's equilibrium before any retry
-      parent_start();
-      o = attempt(f, "the parent's equilibrium");
+      const Diameters d = measure_diameters(x);
+      out.diameters.axial_um.push_back(d.axial_um);
+      out.diameters.transverse_um.push_back(d.transverse_um);
+      double* w = out.state.data() + static_cast<size_t>(k) * per_force;
+      Eigen::Map<Positions>(w, 3, n) = x;
+      w[3 * n] = l.area_pN_per_um;
+      w[3 * n + 1] = l.volume_pN_per_um2;
+      x_prev = std::move(x);
+      l_prev = l;
+      f_prev = f;
     }
-    if (!o.converged) {
-      // Retry: from this run's previous equilibrium through 2^b equal increments.
-      out.retried = true;
-      for (int b = 1; b <= options_.retry_bisections && !o.converged; ++b) {
-        x = x_prev;
-        l = l_prev;
-        const int steps = 1 << b;
-        o.converged = true;
-        for (int s = 1; s <= steps && o.converged; ++s)
-          o = attempt(f_prev + (f - f_prev) * s / steps, "a retry sub-step");
+    return out;
+  };
+  ForwardRun out = sweep();
+  // The symmetric equilibria must be minima (ForwardOptions::check_symmetry_at_top_force).
+  if (out.converged && options_.method.kind != MethodKind::discrete &&
+      options_.newton.symmetry == Symmetry::mirror && options_.check_symmetry_at_top_force &&
+      nf > 0) {
+    const double* w = out.state.data() + static_cast<size_t>(nf - 1) * per_force;
+    const Positions x = Eigen::Map<const Positions>(w, 3, n);
+    const ConstraintMultipliers l{w[3 * n], w[3 * n + 1]};
+    if (!ws->newton->check_symmetric_state(options_.forces_pN[nf - 1], x, l).stable) {
+      if (trace) trace("the symmetric equilibrium at the top force is a saddle: solving in full");
+      if (!ws->newton_full) {
+        NewtonOptions full = options_.newton;
+        full.symmetry = Symmetry::none;
+        ws->newton_full = std::make_unique<NewtonSolver>(ws->continuum, full);
       }
+      ws->full = true;
+      struct Back {  // back to the symmetric solver on every path
+        bool& flag;
+        ~Back() { flag = false; }
+      } back{ws->full};
+      const int solves = out.solves;
+      out = sweep();
+      out.solves += solves;
+      out.symmetry_broken = true;
     }
-    out.residual_pN = std::max(out.residual_pN, o.residual_pN);
-    out.diameter_converged += o.diameter_converged;
-    if (!o.converged) {
-      out.converged = false;
-      out.failed_force_pN = f;
-      std::ostringstream m;
-      m << o.status << ", residual " << std::scientific << std::setprecision(3) << o.residual_pN
-        << " pN";
-      out.failure = m.str();
-      out.state.clear();
-      return out;
-    }
-    const Diameters d = measure_diameters(x);
-    out.diameters.axial_um.push_back(d.axial_um);
-    out.diameters.transverse_um.push_back(d.transverse_um);
-    double* w = out.state.data() + static_cast<size_t>(k) * per_force;
-    Eigen::Map<Positions>(w, 3, n) = x;
-    w[3 * n] = l.area_pN_per_um;
-    w[3 * n + 1] = l.volume_pN_per_um2;
-    x_prev = std::move(x);
-    l_prev = l;
-    f_prev = f;
   }
   return out;
 }

@@ -75,8 +75,21 @@ struct ForwardOptions {
     n.krylov_max_factor_reuse = 4;
     n.krylov_lagged_hessian = true;
     n.reuse_across_solves = false;
+    // On the mirror-symmetric states (continuum/newton_solver.hpp), checked once per run at
+    // the highest force (check_symmetry_at_top_force) rather than at every force.
+    n.symmetry = Symmetry::mirror;
+    n.symmetry_check = false;
     return n;
   }
+  /// With newton.symmetry = mirror: after a run whose equilibria are symmetric, check that the
+  /// one at the highest force is a minimum of the full problem (one full Hessian and |G| - 1
+  /// sector factorisations, ~10 % of a warm run); if it is a saddle (the cell buckles: soft
+  /// cells far out in the prior box, e.g. p = 25 nm, Lmax = 364 nm from ~50 pN on) the whole
+  /// run is solved again without the symmetry. Buckling grows with the stretch: in the soft
+  /// cell measured, once broken at 67.6 pN the symmetry stayed broken at every higher force,
+  /// and no lower force of a run whose top force was stable was found unstable (tested on the
+  /// recovery test's and the default prior's corners).
+  bool check_symmetry_at_top_force = true;
   /// Slow but converging solves (continuum). Soft networks far out in the prior box (e.g.
   /// p = 25 nm, Lmax = 364 nm at 100 pN, D_A = 26 um) carry a large membrane tension lambda_A
   /// whose constraint curvature lambda_A d2A makes d2L indefinite; the solver's shift then
@@ -109,7 +122,9 @@ struct ForwardRun {
   /// Forces accepted at the diameter tolerance (ForwardOptions) rather than the force one.
   int diameter_converged = 0;
   double residual_pN = 0;  ///< largest final residual over the forces
-  WarmState state;         ///< per force: 3N positions (um) and two multipliers
+  /// The symmetric equilibria were saddles (check_symmetry_at_top_force): solved in full.
+  bool symmetry_broken = false;
+  WarmState state;  ///< per force: 3N positions (um) and two multipliers
   // Diagnostics of a failed run (empty/zero when converged):
   double failed_force_pN = 0;  ///< the force that failed after every retry
   std::string failure;         ///< solver status and residual of the last attempt, in words
@@ -121,7 +136,8 @@ struct ForwardRun {
 /// regions, so a factorisation could sum in an order that depends on OMP_NUM_THREADS; the
 /// difference measured at 1e-12 in the log-evidence came from the rest mesh, built on one
 /// thread now). With forward solves run one per thread, BLAS threads buy nothing.
-/// run_inference() calls it; a no-op when the BLAS is not OpenBLAS.
+/// run_inference() calls it; a no-op when the BLAS is not OpenBLAS. OpenMP's thread count is
+/// left as it was (OpenBLAS's OpenMP build changes it too).
 void use_single_threaded_blas();
 
 class ForwardModel {

@@ -1,5 +1,7 @@
 #include "calibrate/infer.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -28,6 +30,7 @@ class DiameterLikelihood final : public Likelihood {
     const ForwardRun run = problem_.forward().run(problem_.physical(theta), warm);
     LikelihoodValue v;
     v.retried = run.retried;
+    v.symmetry_broken = run.symmetry_broken;
     if (!run.converged) {
       v.failed = true;
       v.log_likelihood = -kInf;
@@ -116,6 +119,7 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
   ForwardOptions fo;
   fo.method = options_.method;
   fo.newton.force_tolerance_pN = options_.force_tolerance_pN;
+  fo.newton.symmetry = options_.symmetry;
   fo.forces_pN = data_.force_pN;
   forward_ = std::make_unique<ForwardModel>(fo);
   likelihood_ = std::make_unique<DiameterLikelihood>(*this);
@@ -256,7 +260,8 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   r.elements = problem.forward().elements();
   r.samples_per_stage = o.sampler.samples;
   r.seed = o.sampler.seed;
-  r.threads = o.threads;
+  // The threads the forward runs used (the executor's count; MPI: per rank).
+  r.threads = factory ? o.threads : (o.threads > 0 ? o.threads : omp_get_max_threads());
   return r;
 }
 
@@ -301,8 +306,10 @@ std::string inference_json(const InferenceResult& r) {
                       {"distinct_parents", s.unique_fraction},
                       {"forward_runs", s.forward_runs}});
   j["stage_log"] = stages;
-  j["forward_runs"] = {
-      {"made", r.counts.runs}, {"retried", r.counts.retried}, {"failed", r.counts.failed}};
+  j["forward_runs"] = {{"made", r.counts.runs},
+                       {"retried", r.counts.retried},
+                       {"failed", r.counts.failed},
+                       {"symmetry_broken", r.counts.symmetry_broken}};
   json pred = json::array();
   for (size_t k = 0; k < r.axial_q50.size(); ++k)
     pred.push_back(

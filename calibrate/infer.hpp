@@ -49,6 +49,8 @@ struct InferOptions {
   /// Newton force tolerance of the continuum forward runs (pN; ForwardOptions documents
   /// the default 1e-4 pN).
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
+  /// Continuum forward runs on the mirror-symmetric states (NewtonOptions::symmetry).
+  Symmetry symmetry = ForwardOptions::default_newton().symmetry;
   /// Throws std::invalid_argument naming the value: repeated parameters, a prior for a
   /// parameter not inferred or given twice, an invalid prior box, reading uncertainty < 0,
   /// invalid sampler options or fixed parameters. Does not read the data file.

@@ -60,9 +60,11 @@ void unpack_task(const std::vector<double>& b, StageSetup& s, ChainTask& t) {
 }
 
 std::vector<double> pack_result(const ChainTask& t) {
-  std::vector<double> b = {double(t.index),         t.log_likelihood,      double(t.proposed),
-                           double(t.accepted),      double(t.counts.runs), double(t.counts.retried),
-                           double(t.counts.failed), double(t.theta.size())};
+  std::vector<double> b = {double(t.index),         t.log_likelihood,
+                           double(t.proposed),      double(t.accepted),
+                           double(t.counts.runs),   double(t.counts.retried),
+                           double(t.counts.failed), double(t.counts.symmetry_broken),
+                           double(t.theta.size())};
   b.insert(b.end(), t.theta.begin(), t.theta.end());
   b.push_back(double(t.state.size()));
   b.insert(b.end(), t.state.begin(), t.state.end());
@@ -78,6 +80,7 @@ void unpack_result(const std::vector<double>& b, std::vector<ChainTask>& tasks) 
   t.counts.runs = static_cast<long long>(b[p++]);
   t.counts.retried = static_cast<long long>(b[p++]);
   t.counts.failed = static_cast<long long>(b[p++]);
+  t.counts.symmetry_broken = static_cast<long long>(b[p++]);
   const size_t d = size_t(b[p++]);
   t.theta.assign(b.begin() + p, b.begin() + p + d);
   p += d;

@@ -128,6 +128,7 @@ void run_chain(const StageSetup& setup, const PriorBox& prior, const Likelihood&
     ++task.counts.runs;
     task.counts.retried += v.retried;
     task.counts.failed += v.failed;
+    task.counts.symmetry_broken += v.symmetry_broken;
     return;
   }
   NormalStream rng(stream_seed(setup.seed, setup.stage, task.index, kChain));
@@ -146,6 +147,7 @@ void run_chain(const StageSetup& setup, const PriorBox& prior, const Likelihood&
     ++task.counts.runs;
     task.counts.retried += v.retried;
     task.counts.failed += v.failed;
+    task.counts.symmetry_broken += v.symmetry_broken;
     if (v.failed || !std::isfinite(v.log_likelihood)) continue;
     const double log_ratio = setup.beta * (v.log_likelihood - task.log_likelihood);
     if (!(task.log_likelihood > -kInf) || std::log(u) < log_ratio) {

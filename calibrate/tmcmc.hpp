@@ -58,10 +58,13 @@ struct ForwardCounts {
   long long runs = 0;     ///< likelihood evaluations (forward sweeps)
   long long retried = 0;  ///< evaluations that needed a retry with smaller steps
   long long failed = 0;   ///< evaluations that failed even after retrying (zero likelihood)
+  /// evaluations whose symmetric equilibria were saddles, solved again in full
+  long long symmetry_broken = 0;
   ForwardCounts& operator+=(const ForwardCounts& o) {
     runs += o.runs;
     retried += o.retried;
     failed += o.failed;
+    symmetry_broken += o.symmetry_broken;
     return *this;
   }
 };
@@ -69,7 +72,7 @@ struct ForwardCounts {
 /// One likelihood evaluation.
 struct LikelihoodValue {
   double log_likelihood = 0;  ///< log L(theta); -infinity for a failed forward run
-  bool retried = false, failed = false;
+  bool retried = false, failed = false, symmetry_broken = false;
 };
 
 /// A log-likelihood. evaluate() must be safe to call concurrently from several threads and

@@ -209,6 +209,39 @@ void add_constraint_hessian(const Positions& x, const Topology& topo, double are
   }
 }
 
+void lagrangian_face_hessian(const ContinuumModel& model, const Positions& x,
+                             const JuelicherHessianTerms& terms, int f, double area_coef,
+                             double volume_coef, Matrix9d& hf) {
+  // Membrane element + (Psi_1 + area_coef + Juelicher beta_f) d2A + volume_coef d2V, with d2A
+  // evaluated once.
+  const Topology& t = model.topo;
+  const auto v = t.faces.col(f);
+  const Vec3 a = x.col(v(0)), b = x.col(v(1)), c = x.col(v(2));
+  double coef = terms.add_face_coef(t, f, area_coef);
+  hf.setZero();
+  if (model.inplane()) {
+    double psi1 = 0.0;
+    if (std::isfinite(
+            membrane_element_hessian_parts(model.law, model.reference[f], a, b, c, hf, psi1)))
+      coef += psi1;
+    else
+      hf.setZero();  // callers only assemble at feasible states
+  }
+  Matrix9d d2a;
+  triangle_area_hessian(a, b, c, nullptr, &d2a);
+  hf += coef * d2a;
+  if (volume_coef != 0.0) hf += volume_coef * tetra_volume_hessian(a, b, c);
+}
+
+void lagrangian_hinge_hessian(const ContinuumModel& model, const Positions& x,
+                              const JuelicherHessianTerms& terms, int e, Matrix12d& he) {
+  const Topology& t = model.topo;
+  hinge_length_angle_hessian(x.col(t.edges(0, e)), x.col(t.edges(1, e)),
+                             x.col(t.edge_opposite(0, e)), x.col(t.edge_opposite(1, e)), nullptr,
+                             &he);
+  he *= terms.hinge_coef(t, e);
+}
+
 void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, double area_coef,
                             double volume_coef, BlockHessian& h) {
   const Topology& t = model.topo;
@@ -218,32 +251,10 @@ void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, dou
   // order on either path, so the matrix does not depend on the thread count.
   const bool parallel = nf > kParallelHessianFaces && omp_get_max_threads() > 1;
   const JuelicherHessianTerms terms = juelicher_hessian_terms(x, t, model.bending);
-  // Faces: membrane element + (Psi_1 + area_coef + Juelicher beta_f) d2A + volume_coef d2V,
-  // with d2A evaluated once.
   auto face = [&](int f, Matrix9d& hf) {
-    const auto v = t.faces.col(f);
-    const Vec3 a = x.col(v(0)), b = x.col(v(1)), c = x.col(v(2));
-    double coef = terms.add_face_coef(t, f, area_coef);
-    hf.setZero();
-    if (model.inplane()) {
-      double psi1 = 0.0;
-      if (std::isfinite(
-              membrane_element_hessian_parts(model.law, model.reference[f], a, b, c, hf, psi1)))
-        coef += psi1;
-      else
-        hf.setZero();  // callers only assemble at feasible states
-    }
-    Matrix9d d2a;
-    triangle_area_hessian(a, b, c, nullptr, &d2a);
-    hf += coef * d2a;
-    if (volume_coef != 0.0) hf += volume_coef * tetra_volume_hessian(a, b, c);
+    lagrangian_face_hessian(model, x, terms, f, area_coef, volume_coef, hf);
   };
-  auto hinge = [&](int e, Matrix12d& he) {
-    hinge_length_angle_hessian(x.col(t.edges(0, e)), x.col(t.edges(1, e)),
-                               x.col(t.edge_opposite(0, e)), x.col(t.edge_opposite(1, e)), nullptr,
-                               &he);
-    he *= terms.hinge_coef(t, e);
-  };
+  auto hinge = [&](int e, Matrix12d& he) { lagrangian_hinge_hessian(model, x, terms, e, he); };
   const VertexStars& stars = h.stars();
   if (!parallel) {  // serial, without the per-element buffers
     Matrix9d hf;

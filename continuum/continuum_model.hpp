@@ -101,6 +101,17 @@ void add_constraint_hessian(const Positions& x, const Topology& topo, double are
 void add_lagrangian_hessian(const ContinuumModel& model, const Positions& x, double area_coef,
                             double volume_coef, BlockHessian& h);
 
+/// The element matrices add_lagrangian_hessian sums (pN/um), one element at a time, for
+/// assemblies over a subset of elements (continuum/reduced_hessian.hpp): face f's 9 x 9
+/// (membrane element + (Psi_1 + area_coef + Juelicher beta_f) d2A + volume_coef d2V; vertex
+/// order of topo.faces) and hinge e's 12 x 12 (c_e d2(L theta); a, b, opposite0, opposite1).
+/// `terms` is juelicher_hessian_terms at x.
+void lagrangian_face_hessian(const ContinuumModel& model, const Positions& x,
+                             const JuelicherHessianTerms& terms, int f, double area_coef,
+                             double volume_coef, Matrix9d& hf);
+void lagrangian_hinge_hessian(const ContinuumModel& model, const Positions& x,
+                              const JuelicherHessianTerms& terms, int e, Matrix12d& he);
+
 /// Per-element output fields: invariants and principal surface tensions (pN/um).
 struct ElementFields {
   Eigen::VectorXd i1, i2, tension_max_pN_per_um, tension_min_pN_per_um;

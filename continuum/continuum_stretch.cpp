@@ -244,6 +244,8 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
     p.converged = r.converged();
     p.status = r.status;
     p.residual_pN = r.residual_pN;
+    p.symmetry_order = r.symmetry_order;
+    p.symmetry_broken = r.symmetry_broken;
     p.area_drift = r.area_drift;
     p.volume_drift = r.volume_drift;
     p.energy_pNum = r.energy_pNum;

@@ -85,6 +85,10 @@ struct ContinuumStretchPoint {
   Positions x;                        ///< equilibrium positions (um)
   ElementFields fields;               ///< per-element I1, I2, principal tensions
   bool warm = false;                  ///< solved from a given StretchState entry
+  /// NewtonOptions::symmetry = mirror: the order of the mirror group of the last solve (1 =
+  /// solved in full) and whether its symmetric state was unstable (then solved in full).
+  int symmetry_order = 1;
+  bool symmetry_broken = false;
 };
 
 /// Continuation over the forces (pN, in the given order) from the rest shape.

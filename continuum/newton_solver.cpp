@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/lbfgs.hpp"
+#include "core/reduced_problem.hpp"
 #include "core/validation.hpp"
 
 namespace rbc {
@@ -96,7 +97,42 @@ NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& opt
     : model_(model),
       options_((options.validate(), options)),
       hessian_(model.topo, BlockStorage::lower),
-      newton_(shifted_newton_options(options)) {}
+      newton_(shifted_newton_options(options)) {
+  if (options.symmetry == Symmetry::mirror) {
+    mesh_symmetry_ = find_mirror_symmetry(model.rest, model.topo);
+    update_reduction();
+  }
+}
+
+void NewtonSolver::update_reduction() {
+  const MeshSymmetry g = keep_invariant(mesh_symmetry_, model_.patch.vertex, model_.patch.share, 0,
+                                        kTweezersShareTolerance);
+  if (g.reflections == reduced_group_) return;
+  reduced_group_ = g.reflections;
+  reduction_.reset();
+  reduced_cache_.reset();
+  reduced_hessian_.reset();
+  stability_.reset();
+  newton_.forget_factorisation();  // of the other problem size
+  if (g.order() > 1) {
+    reduction_ = std::make_shared<const SymmetryReduction>(make_symmetry_reduction(g));
+    reduced_cache_ = std::make_shared<ReducedProblemCache>();
+    reduced_hessian_ = std::make_unique<ReducedLagrangianHessian>(model_, g, *reduction_, hessian_);
+    reduced_group_symmetry_ = g;
+  }
+}
+
+namespace {
+
+/// Relative shift of the symmetry check's sector factorisations: the rigid rotations (zero
+/// modes) stay definite, as with the Newton method's smallest shift.
+constexpr double kSectorShift = 1e-8;
+/// Largest vertex displacement (um) of the push off an unstable symmetric state.
+constexpr double kSymmetryPushUm = 1e-3;
+/// A start farther than this (um, any coordinate) from its symmetric part is not symmetric.
+constexpr double kSymmetricStartUm = 1e-6;
+
+}  // namespace
 
 NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
                                        BlockHessian& h, const ContinuumExtraTerms& extra) {
@@ -138,10 +174,69 @@ NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force
   return pb;
 }
 
+SectorStability NewtonSolver::check_sectors(const NewtonProblem& full, const Eigen::VectorXd& xf,
+                                            const Eigen::VectorXd& l) {
+  if (!reduction_) return {};
+  if (!stability_) {
+    stability_ = std::make_unique<SymmetryStabilityCheck>(
+        reduced_group_symmetry_, shifted_newton_options(options_).cholesky);
+    for (int k = 0; k < stability_->sectors(); ++k)
+      reduced_hessian_->add_sector(stability_->sector_reduction(k));
+  }
+  // Every sector from one pass over the representative elements' matrices.
+  const Positions xs = Eigen::Map<const Positions>(xf.data(), 3, xf.size() / 3);
+  reduced_hessian_->assemble_sectors(xs, l(0), l(1));
+  // The force tolerance's residual fakes a negative curvature along the free rigid turns
+  // (rigid_turn_residual_curvature): allowed for twice over.
+  double allowance = 0.0;
+  NewtonPoint p;
+  if (full.evaluate(xf, p)) {
+    const Eigen::VectorXd r = p.grad + p.c_grad * l;
+    allowance = 2.0 * rigid_turn_residual_curvature(
+                          xs, Eigen::Map<const Positions>(r.data(), 3, r.size() / 3));
+  }
+  return stability_->check_sectors(
+      [&](int k) -> const Eigen::SparseMatrix<double>& { return reduced_hessian_->sector(k); },
+      kSectorShift, allowance);
+}
+
+SectorStability NewtonSolver::check_symmetric_state(double force_pN, const Positions& x,
+                                                    const ConstraintMultipliers& lambda) {
+  if (options_.symmetry == Symmetry::mirror) update_reduction();
+  if (!reduction_) return {};
+  const Eigen::VectorXd xf = flat(x);
+  if ((expand(*reduction_, symmetric_part(*reduction_, xf)) - xf).cwiseAbs().maxCoeff() >
+      kSymmetricStartUm)
+    return {};  // not a symmetric state: a full solve's minimum, nothing to check
+  const NewtonProblem full = continuum_newton_problem(model_, force_pN, hessian_);
+  return check_sectors(full, xf, Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2));
+}
+
 NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
                                  const ProgressSink& progress, const NewtonLimits& limits) {
   const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
-  const NewtonProblem pb = continuum_newton_problem(model_, force_pN, hessian_);
+  if (options_.symmetry == Symmetry::mirror) update_reduction();
+  const NewtonProblem full = continuum_newton_problem(model_, force_pN, hessian_);
+  // A start off the symmetric states (a buckled equilibrium) is solved in full.
+  bool reduced = static_cast<bool>(reduction_);
+  Eigen::VectorXd xf;
+  if (reduced) {
+    xf = symmetric_part(*reduction_, flat(x));
+    reduced = (expand(*reduction_, xf) - flat(x)).cwiseAbs().maxCoeff() <= kSymmetricStartUm;
+  }
+  if (!reduced) xf = flat(x);
+  if (!reduced && reduction_ && !full_newton_)
+    full_newton_ = std::make_unique<ShiftedNewton>(shifted_newton_options(options_));
+  ShiftedNewton& method = reduced || !reduction_ ? newton_ : *full_newton_;
+  ReducedHessian assemble_reduced;
+  if (reduced)
+    assemble_reduced = [this](const Eigen::VectorXd& xf_full,
+                              const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
+      const Positions xs = Eigen::Map<const Positions>(xf_full.data(), 3, xf_full.size() / 3);
+      return reduced_hessian_->assemble(xs, l(0), l(1));
+    };
+  const NewtonProblem pb =
+      reduced ? reduce_newton_problem(full, reduction_, reduced_cache_, assemble_reduced) : full;
   auto on_iteration = [&](const NewtonIterate& it) {
     if (!progress) return;
     std::ostringstream m;
@@ -152,10 +247,10 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
   NewtonLimitsCore lim;
   lim.max_iterations = limits.max_iterations;
   lim.deadline = limits.deadline;
-  Eigen::VectorXd xf = flat(x);
   Eigen::VectorXd l = Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2);
-  const ShiftedNewtonResult r = newton_.solve(pb, xf, l, on_iteration, lim);
+  ShiftedNewtonResult r = method.solve(pb, xf, l, on_iteration, lim);
   NewtonResult res;
+  res.symmetry_order = reduced ? symmetry_order() : 1;
   res.status = r.status;
   res.iterations = r.iterations;
   res.factorisations = r.factorisations;
@@ -165,7 +260,52 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
   res.residual_pN = r.residual;
   res.largest_shift = r.largest_shift;
   if (r.status == NewtonStatus::infeasible_start) return res;
+  if (reduced) {
+    // The full residual at the symmetric state (equal to the reduced one's per-vertex force up
+    // to the rest mesh's asymmetry, ~1e-10 um), reported instead of the reduced one.
+    xf = expand(*reduction_, xf);
+    NewtonPoint p;
+    if (full.evaluate(xf, p)) {
+      r.point = p;
+      res.residual_pN = largest_block_norm(p.grad + p.c_grad * l, 3);
+    }
+    if (r.status == NewtonStatus::converged && options_.symmetry_check) {
+      const SectorStability st = check_sectors(full, xf, l);
+      res.stability_factorisations = st.factorisations;
+      if (!st.stable) {
+        // A saddle: pushed off along the unstable sector and solved in full.
+        res.symmetry_broken = true;
+        if (progress)
+          report(progress, "  symmetric state unstable (sector " +
+                               std::to_string(st.unstable_character) +
+                               "): solving without the symmetry");
+        Eigen::VectorXd push = stability_->sector_direction(st.unstable_character, 1);
+        xf += (kSymmetryPushUm / push.cwiseAbs().maxCoeff()) * push;
+        if (!full_newton_)
+          full_newton_ = std::make_unique<ShiftedNewton>(shifted_newton_options(options_));
+        const int before = r.iterations, fact = r.factorisations;
+        r = full_newton_->solve(full, xf, l, on_iteration, lim);
+        r.iterations += before;
+        r.factorisations += fact;
+        res.symmetry_order = 1;
+        res.status = r.status;
+        res.iterations = r.iterations;
+        res.factorisations = r.factorisations;
+        res.chord_steps += r.chord_steps;
+        res.krylov_iterations += r.krylov_iterations;
+        res.krylov_fallbacks += r.krylov_fallbacks;
+        res.residual_pN = r.residual;
+        res.largest_shift = std::max(res.largest_shift, r.largest_shift);
+        if (r.status == NewtonStatus::infeasible_start) return res;
+      }
+    }
+  }
   flat(x) = xf;
+  // Broken: the answer is not symmetric (a saddle left, or a buckled start followed).
+  if (reduction_)
+    res.symmetry_broken =
+        (expand(*reduction_, symmetric_part(*reduction_, xf)) - xf).cwiseAbs().maxCoeff() >
+        kSymmetricStartUm;
   lambda = {l(0), l(1)};
   res.area_drift = r.point.c(0) / a0;
   res.volume_drift = r.point.c(1) / v0;

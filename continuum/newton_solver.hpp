@@ -19,12 +19,17 @@
 // so no NaN ever enters the iterate.
 #include <chrono>
 #include <functional>
+#include <memory>
 #include <string>
 
 #include "continuum/block_hessian.hpp"
 #include "continuum/continuum_model.hpp"
+#include "continuum/reduced_hessian.hpp"
+#include "core/mirror_symmetry.hpp"
 #include "core/progress.hpp"
+#include "core/reduced_problem.hpp"
 #include "core/shifted_newton.hpp"
+#include "core/symmetry_stability.hpp"
 #include "discrete/constraint_energy.hpp"
 #include "discrete/newton_preconditioner.hpp"
 
@@ -82,6 +87,21 @@ struct NewtonOptions {
   double krylov_initial_shift = 1e-4;
   /// With the correction, the chord steps per factorisation (replaces max_factor_reuse).
   int krylov_max_factor_reuse = 20;
+  /// Symmetry::mirror: solve on the configurations symmetric under the mirrors the mesh and
+  /// the bead load share (discrete/tweezers.hpp tweezers_scene_symmetry; 4 on the default
+  /// meshes, see core/mirror_symmetry.hpp), with |G| times fewer unknowns. The result is a
+  /// critical point of the full problem (its reported residual is the full one, evaluated at
+  /// the end), but a symmetric equilibrium may be a saddle where the cell would buckle: an
+  /// option, not the default.
+  Symmetry symmetry = Symmetry::none;
+  /// With Symmetry::mirror: after each converged symmetric solve, check that the state is a
+  /// minimum of the full problem (core/symmetry_stability.hpp: one full Hessian and |G| - 1
+  /// sector factorisations); where it is not (the cell buckles: measured for a soft cell,
+  /// p = 25 nm, Lmax = 364 nm, at 67.6 pN, the y -> -y mirror breaks by 0.48 um), the state
+  /// is pushed 1e-3 um along the unstable sector and solved in full. A start that is itself
+  /// not symmetric (a buckled state of the previous force) is solved in full. Off: trust the
+  /// symmetry (faster; a saddle is then reported as an equilibrium).
+  bool symmetry_check = true;
   /// Polled once per Newton iteration; returning true stops the solve by throwing Cancelled.
   CancelCheck cancel;
   /// Throws rbc::InvalidParameter: force tolerance finite in (0, 10] pN, constraint tolerance in
@@ -102,6 +122,11 @@ struct NewtonLimits {
 
 struct NewtonResult {
   NewtonStatus status = NewtonStatus::max_iterations;
+  int symmetry_order = 1;  ///< order of the mirror group the solve was reduced by (1: full)
+  /// Symmetry::mirror: the answer is not mirror-symmetric (the symmetric state was a saddle,
+  /// or the start was already a buckled state; both solved in full).
+  bool symmetry_broken = false;
+  int stability_factorisations = 0;  ///< sector factorisations of the symmetry check
   int iterations = 0;
   int factorisations = 0;                   ///< including retries with a larger shift
   int chord_steps = 0;                      ///< iterations that reused an earlier factorisation
@@ -125,12 +150,36 @@ class NewtonSolver {
                      const ProgressSink& progress = {}, const NewtonLimits& limits = {});
   /// Drops a factorisation kept for reuse_across_solves (the next solve factorises afresh).
   void forget_factorisation() { newton_.forget_factorisation(); }
+  /// Symmetry::mirror: whether the symmetric equilibrium x (3 x N, um) at force F with its
+  /// multipliers is a minimum of the full problem (core/symmetry_stability.hpp; one full
+  /// Hessian and |G| - 1 sector factorisations). Always stable without a reduction or for a
+  /// state that is not symmetric (a full solve's).
+  SectorStability check_symmetric_state(double force_pN, const Positions& x,
+                                        const ConstraintMultipliers& lambda);
+  /// Order of the mirror group the solves are reduced by (1: the full problem).
+  int symmetry_order() const { return reduction_ ? reduction_->group_order : 1; }
 
  private:
   const ContinuumModel& model_;
   NewtonOptions options_;
   BlockHessian hessian_;
   ShiftedNewton newton_;
+  /// Symmetry::mirror: the rest mesh's mirrors (found once), the subgroup the current bead
+  /// patch keeps (re-checked every solve: a caller may change model.patch, e.g. the
+  /// calibration's contact fraction) and its reduction; null reduction: the full problem.
+  MeshSymmetry mesh_symmetry_;
+  std::vector<int> reduced_group_{0};
+  std::shared_ptr<const SymmetryReduction> reduction_;
+  std::shared_ptr<ReducedProblemCache> reduced_cache_;
+  std::unique_ptr<ReducedLagrangianHessian> reduced_hessian_;
+  std::unique_ptr<SymmetryStabilityCheck> stability_;
+  std::unique_ptr<ShiftedNewton> full_newton_;  ///< solves that leave the symmetric states
+  MeshSymmetry reduced_group_symmetry_;         ///< the group reduction_ is of
+  void update_reduction();
+  /// The sector check at the symmetric state xf (3N) with multipliers l, every sector
+  /// assembled from the representative elements.
+  SectorStability check_sectors(const NewtonProblem& full, const Eigen::VectorXd& xf,
+                                const Eigen::VectorXd& l);
 };
 
 /// The core method's options for the continuum equilibrium (tolerances in pN and relative

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include "core/parallel.hpp"
 
@@ -48,44 +50,39 @@ Eigen::VectorXd edge_lengths(const Positions& x, const Topology& topo) {
 
 Diameters measure_diameters(const Positions& x) {
   Diameters d;
+  if (x.cols() == 0) return d;
   d.axial_um = x.row(0).maxCoeff() - x.row(0).minCoeff();
-  // Extent along (0, cos phi, sin phi): scan phi in [0, pi) by 2 degrees, then refine the
-  // best bracket by golden-section search (the width is smooth near its maximum).
-  auto extent = [&](double phi) {
-    const Eigen::RowVectorXd p = std::cos(phi) * x.row(1) + std::sin(phi) * x.row(2);
-    return p.maxCoeff() - p.minCoeff();
+  // The largest extent over directions u in the y-z plane, max_u (max u.p - min u.p), is the
+  // largest distance between two projected points p = (y, z): the diameter of their convex
+  // hull (Andrew's monotone chain), found over pairs of hull vertices. Exact, where a scan of
+  // directions is not; O(N log N).
+  std::vector<std::pair<double, double>> p(static_cast<size_t>(x.cols()));
+  for (Eigen::Index i = 0; i < x.cols(); ++i) p[static_cast<size_t>(i)] = {x(1, i), x(2, i)};
+  std::sort(p.begin(), p.end());
+  p.erase(std::unique(p.begin(), p.end()), p.end());
+  auto cross = [](const std::pair<double, double>& o, const std::pair<double, double>& a,
+                  const std::pair<double, double>& b) {
+    return (a.first - o.first) * (b.second - o.second) -
+           (a.second - o.second) * (b.first - o.first);
   };
-  constexpr int kScan = 90;
-  const double step = 3.14159265358979323846 / kScan;
-  int best = 0;
-  double best_width = -1.0;
-  for (int k = 0; k < kScan; ++k) {
-    const double w = extent(k * step);
-    if (w > best_width) {
-      best_width = w;
-      best = k;
-    }
+  std::vector<std::pair<double, double>> hull(2 * p.size());
+  size_t k = 0;
+  for (size_t i = 0; i < p.size(); ++i) {  // lower hull
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
+    hull[k++] = p[i];
   }
-  double lo = (best - 1) * step, hi = (best + 1) * step;
-  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-  double m1 = hi - g * (hi - lo), m2 = lo + g * (hi - lo);
-  double w1 = extent(m1), w2 = extent(m2);
-  for (int it = 0; it < 30; ++it) {
-    if (w1 > w2) {
-      hi = m2;
-      m2 = m1;
-      w2 = w1;
-      m1 = hi - g * (hi - lo);
-      w1 = extent(m1);
-    } else {
-      lo = m1;
-      m1 = m2;
-      w1 = w2;
-      m2 = lo + g * (hi - lo);
-      w2 = extent(m2);
-    }
+  for (size_t i = p.size() - 1, t = k + 1; i-- > 0;) {  // upper hull
+    while (k >= t && cross(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
+    hull[k++] = p[i];
   }
-  d.transverse_um = std::max({best_width, w1, w2});
+  hull.resize(k > 1 ? k - 1 : k);
+  double best2 = 0.0;
+  for (size_t i = 0; i < hull.size(); ++i)
+    for (size_t j = i + 1; j < hull.size(); ++j) {
+      const double dy = hull[i].first - hull[j].first, dz = hull[i].second - hull[j].second;
+      best2 = std::max(best2, dy * dy + dz * dz);
+    }
+  d.transverse_um = std::sqrt(best2);
   return d;
 }
 

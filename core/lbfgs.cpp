@@ -49,7 +49,10 @@ MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const Lbf
   };
   std::deque<Pair> history;
   std::vector<double> alpha(opt.memory);
-  double residual = max_block_norm(g, opt.block);
+  auto residual_norm = [&](const Eigen::VectorXd& v) {
+    return opt.residual_norm ? opt.residual_norm(v) : max_block_norm(v, opt.block);
+  };
+  double residual = residual_norm(g);
   for (int it = 0;; ++it) {
     throw_if_cancelled(opt.cancel);
     res.iterations = it;
@@ -91,7 +94,7 @@ MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const Lbf
     }
     double step = 1.0;
     if (opt.max_step > 0.0) {
-      const double longest = max_block_norm(d, opt.block);
+      const double longest = opt.step_norm ? opt.step_norm(d) : max_block_norm(d, opt.block);
       if (longest > opt.max_step) step = opt.max_step / longest;
     }
     // Backtracking: infeasible trials are halved, Armijo failures interpolated.
@@ -131,7 +134,7 @@ MinimiserResult minimise_lbfgs(const Objective& f, Eigen::VectorXd& x, const Lbf
     x.swap(x_new);
     g.swap(g_new);
     fx = f_new;
-    residual = max_block_norm(g, opt.block);
+    residual = residual_norm(g);
     if (sy > 1e-16 * p.y.squaredNorm()) {  // keep the update positive definite
       p.rho = 1.0 / sy;
       history.push_back(std::move(p));

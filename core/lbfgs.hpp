@@ -44,6 +44,11 @@ struct LbfgsOptions {
   std::function<void(Eigen::VectorXd& v)> precondition;
   /// Polled once per iteration; returning true stops the minimiser by throwing Cancelled.
   CancelCheck cancel;
+  /// Optional: the gradient's size for the convergence test (default: its largest block
+  /// norm) and a step's for max_step (default: its largest block norm), for unknowns that are
+  /// not blocks (a symmetry-reduced problem: core/reduced_problem.hpp).
+  std::function<double(const Eigen::VectorXd& g)> residual_norm;
+  std::function<double(const Eigen::VectorXd& d)> step_norm;
   /// Throws rbc::InvalidParameter: memory in [1, 1000], max_iterations in [1, kMaxIterations],
   /// force_tolerance finite and > 0, block >= 1, max_step finite, armijo in (0, 1),
   /// max_line_search in [1, 1000].

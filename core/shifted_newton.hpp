@@ -164,6 +164,12 @@ struct NewtonProblem {
   std::function<bool(const Eigen::VectorXd& from, const Eigen::VectorXd& to)> feasible;
   /// Scale G_k of each constraint (m entries; c_k/G_k is the relative violation).
   Eigen::VectorXd constraint_scale;
+  /// Optional: the residual's size (largest net force of a vertex, units of grad f) and a
+  /// step's (largest vertex displacement, units of x) when the unknowns are not blocks of
+  /// block_size (a symmetry-reduced problem, core/reduced_problem.hpp); empty = the largest
+  /// block norm of the vector.
+  std::function<double(const Eigen::VectorXd& r)> residual_norm;
+  std::function<double(const Eigen::VectorXd& dx)> step_norm;
 };
 
 /// Per-iteration report.

@@ -123,19 +123,22 @@ NetworkHessian::NetworkHessian(const Network& net, const NetworkHessianOptions& 
             m_.block_code(group_vertices_[gr.first + k], group_vertices_[gr.first + l]));
     group_code_offsets_[g + 1] = static_cast<int>(group_codes_.size());
   }
-  if (juelicher && opt_.hinge_curvature) {
-    hinge_codes_.resize(16 * static_cast<size_t>(t.num_edges()));
-    for (int e = 0; e < t.num_edges(); ++e) {
-      const int id[4] = {t.edges(0, e), t.edges(1, e), t.edge_opposite(0, e),
-                         t.edge_opposite(1, e)};
-      for (int k = 0; k < 4; ++k)
-        for (int l = 0; l < 4; ++l) hinge_codes_[16 * e + 4 * k + l] = m_.block_code(id[k], id[l]);
-    }
-    hinge_k_.resize(t.num_edges());
-  }
+  if (juelicher && opt_.hinge_curvature) prepare_hinges();
   face_k_.resize(t.num_faces());
   group_u_.resize(3 * group_vertices_.size());
   group_w_.resize(groups_.size());
+}
+
+void NetworkHessian::prepare_hinges() {
+  if (!hinge_codes_.empty()) return;
+  const Topology& t = net_->topo;
+  hinge_codes_.resize(16 * static_cast<size_t>(t.num_edges()));
+  for (int e = 0; e < t.num_edges(); ++e) {
+    const int id[4] = {t.edges(0, e), t.edges(1, e), t.edge_opposite(0, e), t.edge_opposite(1, e)};
+    for (int k = 0; k < 4; ++k)
+      for (int l = 0; l < 4; ++l) hinge_codes_[16 * e + 4 * k + l] = m_.block_code(id[k], id[l]);
+  }
+  hinge_k_.resize(t.num_edges());
 }
 
 const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
@@ -146,6 +149,22 @@ const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
 const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
                                                             const ConstraintCurvature& cc,
                                                             bool project) {
+  return assemble_terms(x, cc, project, opt_.hinge_curvature, -1.0);
+}
+
+const Eigen::SparseMatrix<double>& NetworkHessian::assemble_exact(const Positions& x,
+                                                                  const ConstraintCurvature& cc,
+                                                                  double diagonal_shift) {
+  if (opt_.bending_coupling != BendingCoupling::two_ring)
+    throw std::logic_error("the exact network Hessian needs the two-ring pattern");
+  if (juelicher_) prepare_hinges();
+  return assemble_terms(x, cc, false, true, diagonal_shift);
+}
+
+const Eigen::SparseMatrix<double>& NetworkHessian::assemble_terms(const Positions& x,
+                                                                  const ConstraintCurvature& cc,
+                                                                  bool project, bool hinge_term,
+                                                                  double shift) {
   const Network& net = *net_;
   const Topology& t = net.topo;
   const int n = t.num_vertices, ne = t.num_edges(), nf = t.num_faces();
@@ -163,7 +182,7 @@ const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
   // Juelicher: the cells and the element derivatives, from the bending term itself.
   const JuelicherHessianTerms bend =
       juelicher ? juelicher_hessian_terms(x, t, net.bending) : JuelicherHessianTerms{};
-  const bool hinges = juelicher && !hinge_codes_.empty();
+  const bool hinges = juelicher && hinge_term && !hinge_codes_.empty();
   // Face elements (links split between their two faces), projected.
 #pragma omp parallel for schedule(static)
   for (int f = 0; f < nf; ++f) {
@@ -284,7 +303,8 @@ const Eigen::SparseMatrix<double>& NetworkHessian::assemble(const Positions& x,
       code += size * size;
     }
   }
-  m_.shift_diagonal(opt_.shift_fraction * m_.trace() / (3.0 * n));
+  // shift < 0: the options' fraction of the mean diagonal.
+  m_.shift_diagonal(shift >= 0 ? shift : opt_.shift_fraction * m_.trace() / (3.0 * n));
   return m_.matrix();
 }
 

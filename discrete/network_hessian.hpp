@@ -80,12 +80,27 @@ class NetworkHessian {
   /// As above, with the projection chosen per call (overrides options.project).
   const Eigen::SparseMatrix<double>& assemble(const Positions& x,
                                               const ConstraintCurvature& constraints, bool project);
+  /// The exact Hessian whatever the options (unprojected, with the Juelicher hinge curvature
+  /// term, without options.shift_fraction) plus diagonal_shift_pN_per_um times the identity,
+  /// into the same matrix (e.g. for the stretch's symmetry check, between two refreshes of the
+  /// preconditioner that owns it). Needs BendingCoupling::two_ring (std::logic_error
+  /// otherwise: the one-ring pattern drops the pairs two edges apart).
+  const Eigen::SparseMatrix<double>& assemble_exact(const Positions& x,
+                                                    const ConstraintCurvature& constraints,
+                                                    double diagonal_shift_pN_per_um = 0.0);
   const Eigen::SparseMatrix<double>& matrix() const { return m_.matrix(); }
 
  private:
   struct Group {              ///< vertices of a rank-one term (a vertex star or a hinge)
     int first = 0, size = 0;  ///< range in group_vertices_
   };
+
+  /// project: per element; hinges: with the hinge curvature term; shift: the diagonal shift
+  /// added (pN/um).
+  const Eigen::SparseMatrix<double>& assemble_terms(const Positions& x,
+                                                    const ConstraintCurvature& constraints,
+                                                    bool project, bool hinges, double shift);
+  void prepare_hinges();  ///< hinge_codes_ and hinge_k_ (built when first needed)
 
   struct CustomTerm {  ///< a custom term's pieces (LocalPieces::hessian)
     const NetworkTerm* term = nullptr;
@@ -106,7 +121,7 @@ class NetworkHessian {
   std::vector<int> group_vertices_;
   std::vector<int> group_codes_;  ///< per group, size^2 codes (k, l) row-major
   std::vector<int> group_code_offsets_;
-  std::vector<int> hinge_codes_;  ///< 16 per edge (a, b, c, d), when hinge_curvature
+  std::vector<int> hinge_codes_;  ///< 16 per edge (a, b, c, d), once the hinge term is used
   // Work buffers reused across assemblies.
   std::vector<Matrix9d> face_k_;
   std::vector<double> group_u_;  ///< 3 x group size per group

@@ -5,6 +5,8 @@
 #include <Eigen/CholmodSupport>
 
 #include <chrono>
+#include <stdexcept>
+
 #include "core/blas_threads.hpp"
 #include "core/cpu_time.hpp"
 
@@ -52,31 +54,44 @@ using BlasThreads = ScopedBlasThreads;
 struct NewtonPreconditioner::Impl {
   const Network* net;
   NetworkHessian hessian;
+  /// Mirror reduction x = P q (null: the full problem) and the P'HP map of the Hessian's
+  /// pattern (built on the first refresh).
+  std::shared_ptr<const SymmetryReduction> reduction;
+  std::unique_ptr<ReducedMatrix> reduced;
   FillOrdering ordering;
   HessianChoice choice;
   int blas_threads;
   Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> factor;
   bool analysed = false, factored = false;
-  Eigen::MatrixXd u, z;  ///< 3N x 2: constraint gradients and P^{-1} U
+  Eigen::MatrixXd u, z;  ///< 3N (or reduced) x 2: constraint gradients (P'U) and M^{-1} U
   Eigen::Matrix2d utz = Eigen::Matrix2d::Zero(), m_inv = Eigen::Matrix2d::Zero();
   mutable Statistics stats;
 
-  Impl(const Network& n, const NewtonPreconditionerOptions& o)
+  Impl(const Network& n, const NewtonPreconditionerOptions& o,
+       std::shared_ptr<const SymmetryReduction> r)
       : net(&n),
         hessian(n, o.hessian),
+        reduction(r && !r->trivial() ? std::move(r) : nullptr),
         ordering(o.ordering),
         choice(o.choice),
         blas_threads(o.blas_threads) {
-    factor.setMode(3 * n.topo.num_vertices >= o.supernodal_min_unknowns
-                       ? Eigen::CholmodSupernodalLLt
-                       : Eigen::CholmodSimplicialLLt);
+    if (reduction && reduction->full_size != 3 * n.topo.num_vertices)
+      throw std::invalid_argument("NewtonPreconditioner: the reduction is not of this network");
+    stats.unknowns = reduction ? reduction->reduced_size : 3 * n.topo.num_vertices;
+    factor.setMode(stats.unknowns >= o.supernodal_min_unknowns ? Eigen::CholmodSupernodalLLt
+                                                               : Eigen::CholmodSimplicialLLt);
     factor.cholmod().print = 0;  // a failed (indefinite) attempt is expected, not news
   }
 };
 
 NewtonPreconditioner::NewtonPreconditioner(const Network& net,
                                            const NewtonPreconditionerOptions& options)
-    : impl_(std::make_unique<Impl>(net, options)) {}
+    : impl_(std::make_unique<Impl>(net, options, nullptr)) {}
+
+NewtonPreconditioner::NewtonPreconditioner(const Network& net,
+                                           const NewtonPreconditionerOptions& options,
+                                           std::shared_ptr<const SymmetryReduction> reduction)
+    : impl_(std::make_unique<Impl>(net, options, std::move(reduction))) {}
 
 NewtonPreconditioner::~NewtonPreconditioner() = default;
 
@@ -86,6 +101,10 @@ bool NewtonPreconditioner::ready() const {
 
 const NewtonPreconditioner::Statistics& NewtonPreconditioner::statistics() const {
   return impl_->stats;
+}
+
+NetworkHessian& NewtonPreconditioner::hessian() {
+  return impl_->hessian;
 }
 
 bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultipliers& lambda,
@@ -121,7 +140,12 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
   clock.lap(s.stats.assembly_s, s.stats.assembly_cpu_s);
   const BlasThreads threads(s.blas_threads);
   auto factorise = [&](bool project) {
-    const Eigen::SparseMatrix<double>& h = s.hessian.assemble(x, cc, project);
+    const Eigen::SparseMatrix<double>* hp = &s.hessian.assemble(x, cc, project);
+    if (s.reduction) {  // P'HP (the projection counts as assembly)
+      if (!s.reduced) s.reduced = std::make_unique<ReducedMatrix>(*s.reduction, *hp);
+      hp = &s.reduced->reduce(*hp);
+    }
+    const Eigen::SparseMatrix<double>& h = *hp;
     clock.lap(s.stats.assembly_s, s.stats.assembly_cpu_s);
     if (!s.analysed) {
       const double analysis_start_cpu_s = thread_cpu_seconds();
@@ -152,6 +176,7 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
     s.u.resize(3 * n, 2);
     s.u.col(0) = flat(ga);
     s.u.col(1) = flat(gv);
+    if (s.reduction) s.u = reduce(*s.reduction, s.u);  // P'U
     s.z = s.factor.solve(s.u);
     s.utz = s.u.transpose() * s.z;
     ++s.stats.factorisations;
@@ -174,7 +199,8 @@ void NewtonPreconditioner::apply(Eigen::VectorXd& v) const {
   if (!s.factored) return;
   Stopwatch clock;
   const BlasThreads threads(s.blas_threads);
-  // (P + U K U^T)^{-1} v = w - Z (K^{-1} + U^T Z)^{-1} U^T w,  w = P^{-1} v, Z = P^{-1} U.
+  // (M + U K U^T)^{-1} v = w - Z (K^{-1} + U^T Z)^{-1} U^T w,  w = M^{-1} v, Z = M^{-1} U
+  // (reduced: M = P'HP and U = P'U).
   v = s.factor.solve(v);
   const Eigen::Vector2d utv = s.u.transpose() * v;
   v -= s.z * (s.m_inv * utv);

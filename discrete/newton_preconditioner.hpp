@@ -3,8 +3,11 @@
 // (discrete/network_hessian.hpp) factorised by CHOLMOD (supernodal, symbolic analysis done
 // once per network), plus the augmented-Lagrangian penalties' rank-two part applied by
 // Sherman-Morrison-Woodbury. Used as L-BFGS's initial inverse Hessian (core/lbfgs.hpp).
+// With a mirror symmetry (core/mirror_symmetry.hpp) it preconditions the problem on the
+// symmetric states x = P q: it factorises P'HP and applies the Woodbury correction with P'U.
 #include <memory>
 
+#include "core/mirror_symmetry.hpp"
 #include "core/sparse_cholesky.hpp"  // FillOrdering
 #include "discrete/network_hessian.hpp"
 
@@ -29,7 +32,8 @@ struct NewtonPreconditionerOptions {
   /// BLAS calls scale poorly and collapse on a loaded machine, and one thread keeps the
   /// rounding independent of the core count.
   int blas_threads = 1;
-  /// CHOLMOD's simplicial LL' (no BLAS) below this many unknowns (3N), supernodal from it
+  /// CHOLMOD's simplicial LL' (no BLAS) below this many unknowns (3N, or the reduced
+  /// problem's), supernodal from it
   /// on (0 = always supernodal: measured faster from 750 unknowns on, once BLAS runs on one
   /// thread).
   int supernodal_min_unknowns = 0;
@@ -38,17 +42,23 @@ struct NewtonPreconditionerOptions {
 class NewtonPreconditioner {
  public:
   NewtonPreconditioner(const Network& net, const NewtonPreconditionerOptions& options = {});
+  /// On the symmetric states x = P q of `reduction` (a reduction of net's 3N coordinates):
+  /// refresh() factorises P'HP + P'U K U'P, apply() acts on reduced vectors (reduced_size).
+  /// nullptr or the trivial group: the full problem, as the constructor above.
+  NewtonPreconditioner(const Network& net, const NewtonPreconditionerOptions& options,
+                       std::shared_ptr<const SymmetryReduction> reduction);
   ~NewtonPreconditioner();
   NewtonPreconditioner(const NewtonPreconditioner&) = delete;
   NewtonPreconditioner& operator=(const NewtonPreconditioner&) = delete;
 
-  /// Assembles the Hessian at x (feasible, 3 x N um) with the augmented-Lagrangian state
-  /// (multipliers, penalty stiffness scale) and factorises it. Returns false when the
-  /// factorisation fails (then apply() is the identity).
+  /// Assembles the Hessian at x (feasible, 3 x N um; symmetric when reduced) with the
+  /// augmented-Lagrangian state (multipliers, penalty stiffness scale) and factorises it (or
+  /// P'HP). Returns false when the factorisation fails (then apply() is the identity).
   bool refresh(const Positions& x, const ConstraintMultipliers& lambda, double stiffness_scale);
   /// Changes only the penalty stiffness scale of the Woodbury correction (cheap).
   void set_stiffness_scale(double stiffness_scale);
-  /// v <- P^{-1} v, P = Hessian + U diag(k_A, k_V) U^T, U = [dA/dx, dV/dx] at the refresh x.
+  /// v <- M^{-1} v, M = Hessian + U diag(k_A, k_V) U^T, U = [dA/dx, dV/dx] at the refresh x
+  /// (3N entries; reduced: M = P'HP + P'U diag(k_A, k_V) U'P, v of reduced_size entries).
   void apply(Eigen::VectorXd& v) const;
   bool ready() const;
 
@@ -63,8 +73,13 @@ class NewtonPreconditioner {
     double assembly_cpu_s = 0, factorisation_cpu_s = 0, solve_cpu_s = 0;
     double analysis_cpu_s = 0;   ///< of factorisation_cpu_s: the symbolic analyses
     double factor_nonzeros = 0;  ///< nonzeros of the Cholesky factor L
+    int unknowns = 0;            ///< order of the factorised matrix: 3N, or q's entries
   };
   const Statistics& statistics() const;
+  /// The network Hessian refresh() assembles (3N x 3N, its pattern fixed per network). Its
+  /// values may be overwritten between refreshes (e.g. by NetworkHessian::assemble_exact for
+  /// the stretch's symmetry check): the factorisation does not read them again.
+  NetworkHessian& hessian();
 
  private:
   struct Impl;

@@ -8,7 +8,10 @@
 #include <sstream>
 
 #include "core/geometry.hpp"
+#include "core/reduced_problem.hpp"
+#include "core/symmetry_stability.hpp"
 #include "discrete/augmented_lagrangian.hpp"
+#include "discrete/tweezers.hpp"
 
 namespace rbc {
 
@@ -77,17 +80,131 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-}  // namespace
+/// Relative shift of the symmetry check's sector factorisations (SymmetryStabilityCheck::
+/// check): the rigid modes of the non-trivial sectors (translations along x, y, z, the turns
+/// about x and z), which cost no energy, stay definite. The continuum's NewtonSolver uses the
+/// same value.
+constexpr double kSectorShift = 1e-8;
+/// Largest coordinate displacement (um) of the push off an unstable symmetric state.
+constexpr double kSymmetryPushUm = 1e-3;
+/// A state farther than this (um, any coordinate) from its symmetric part is not symmetric
+/// (the default rest meshes are symmetric to 4e-10 um).
+constexpr double kSymmetricUm = 1e-6;
 
-StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
-                               ConstraintMultipliers& lambda, const StretchOptions& opt,
-                               const ProgressSink& progress) {
-  return solve_equilibrium(net, force_pN, x, lambda, opt, progress, nullptr);
+/// Largest coordinate distance (um) of x from its symmetric part under a reduction.
+double asymmetry_um(const SymmetryReduction& r, const Positions& x) {
+  return (expand(r, symmetric_part(r, flat(x))) - flat(x)).cwiseAbs().maxCoeff();
 }
 
-StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
-                               ConstraintMultipliers& lambda, const StretchOptions& opt,
-                               const ProgressSink& progress, NewtonPreconditioner* shared) {
+Positions positions_of(const Eigen::VectorXd& v, int n) {
+  return Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, n);
+}
+
+/// Prepared state of one network's stretch, shared by the forces of a run: the Newton
+/// preconditioners of the full and (Symmetry::mirror) the reduced problem, each built when
+/// first needed (their symbolic analyses are done once), and the scene's mirror group with its
+/// reduction, the exact Hessian and the sector check of the symmetric equilibria.
+class StretchWorkspace {
+ public:
+  /// shared: a full-problem preconditioner of net to use (nullptr: one is built when needed).
+  StretchWorkspace(const Network& net, const StretchOptions& opt, NewtonPreconditioner* shared)
+      : net_(net), opt_(opt), shared_(shared) {
+    if (opt.symmetry != Symmetry::mirror) return;
+    const MeshSymmetry g = tweezers_scene_symmetry(net.rest, net.topo, net.patch);
+    if (g.order() == 1) return;  // the full problem, computed as with Symmetry::none
+    reduction_ = std::make_shared<const SymmetryReduction>(make_symmetry_reduction(g));
+    if (opt.symmetry_check) {
+      SparseCholeskyOptions co;
+      co.ordering = opt.preconditioner.ordering;
+      co.supernodal_min_unknowns = opt.preconditioner.supernodal_min_unknowns;
+      co.blas_threads = opt.preconditioner.blas_threads;
+      stability_ = std::make_unique<SymmetryStabilityCheck>(g, co);
+    }
+  }
+
+  /// The reduction of the scene's mirror group (null: the full problem).
+  const std::shared_ptr<const SymmetryReduction>& reduction() const { return reduction_; }
+
+  /// The preconditioner of the full or the reduced problem.
+  NewtonPreconditioner* preconditioner(bool reduced) {
+    if (reduced) {
+      if (!reduced_pre_)
+        reduced_pre_ =
+            std::make_unique<NewtonPreconditioner>(net_, opt_.preconditioner, reduction_);
+      return reduced_pre_.get();
+    }
+    if (shared_) return shared_;
+    if (!full_pre_) full_pre_ = std::make_unique<NewtonPreconditioner>(net_, opt_.preconditioner);
+    return full_pre_.get();
+  }
+
+  bool checking() const { return static_cast<bool>(stability_); }
+
+  /// The sector check at a symmetric equilibrium x (force F) of the augmented Lagrangian at
+  /// multipliers lambda and penalty scale s: the exact network Hessian with the constraints'
+  /// curvature (sigma d2A + p d2V, sigma = lambda_A + s k_A (A - A0), p likewise); the
+  /// penalty's rank-two part s k dA dA' has symmetric gradients, so it vanishes on the
+  /// non-trivial sectors. The rigid turns about x and z lie in a non-trivial sector of the
+  /// four-mirror group, and the residual makes their zero curvature slightly negative
+  /// (turn_residual_curvature): the Hessian is shifted by twice that curvature (a multiple of
+  /// the identity, which shifts every curvature per um^2 by the same amount), so a turn does not
+  /// count as buckling while a shape change does.
+  SectorStability check(const Positions& x, double force_pN, const ConstraintMultipliers& lambda,
+                        double scale) {
+    // The exact Hessian goes into the reduced preconditioner's matrix (same network, already
+    // built; its factorisation does not read the values again) unless that one drops the
+    // two-ring pairs.
+    NetworkHessian* exact = nullptr;
+    if (opt_.preconditioner.hessian.bending_coupling == BendingCoupling::two_ring) {
+      exact = &preconditioner(true)->hessian();
+    } else {
+      if (!exact_) {
+        NetworkHessianOptions o = opt_.preconditioner.hessian;
+        o.bending_coupling = BendingCoupling::two_ring;
+        exact_ = std::make_unique<NetworkHessian>(net_, o);
+      }
+      exact = exact_.get();
+    }
+    const ConstraintParameters& k = net_.constraints;
+    ConstraintCurvature cc;
+    cc.tension_pN_per_um = lambda.area_pN_per_um + scale * k.area_stiffness_pN_per_um3 *
+                                                       (total_area(x, net_.topo) - net_.area0_um2);
+    cc.pressure_pN_per_um2 =
+        lambda.volume_pN_per_um2 +
+        scale * k.volume_stiffness_pN_per_um5 * (enclosed_volume(x, net_.topo) - net_.volume0_um3);
+    LoadState load;
+    load.force_pN = force_pN;
+    load.multipliers = lambda;
+    load.stiffness_scale = scale;
+    Positions r;
+    const double allowance = std::isfinite(network_energy(net_, x, load, &r))
+                                 ? 2.0 * rigid_turn_residual_curvature(x, r)
+                                 : 0.0;
+    return stability_->check(exact->assemble_exact(x, cc, allowance), kSectorShift);
+  }
+
+  /// The push off an unstable symmetric state: a unit vector of the sector (3N).
+  Eigen::VectorXd sector_direction(int character) const {
+    return stability_->sector_direction(character, 1);
+  }
+
+ private:
+  const Network& net_;
+  const StretchOptions& opt_;
+  NewtonPreconditioner* shared_ = nullptr;
+  std::unique_ptr<NewtonPreconditioner> full_pre_, reduced_pre_;
+  std::shared_ptr<const SymmetryReduction> reduction_;
+  std::unique_ptr<SymmetryStabilityCheck> stability_;
+  std::unique_ptr<NetworkHessian> exact_;  ///< only for a one-ring preconditioner
+};
+
+/// One force from x (updated in place), carrying the multipliers along: L-BFGS (preconditioned
+/// by `pre` unless null) with the augmented-Lagrangian updates, on all 3N coordinates or, with
+/// a reduction, on q with x = P q (x must then be symmetric; its symmetric part is the start).
+StretchPoint minimise_force(const Network& net, double force_pN, Positions& x,
+                            ConstraintMultipliers& lambda, const StretchOptions& opt,
+                            const ProgressSink& progress, NewtonPreconditioner* pre,
+                            const std::shared_ptr<const SymmetryReduction>& red) {
   const auto start = std::chrono::steady_clock::now();
   StretchPoint pt;
   pt.force_pN = force_pN;
@@ -95,21 +212,19 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   const int n = net.topo.num_vertices;
   LoadState load;
   load.force_pN = force_pN;
-  Eigen::VectorXd u = flat(x);
+  // The unknowns: x, or q of x = P q.
+  Eigen::VectorXd u = red ? symmetric_part(*red, flat(x)) : Eigen::VectorXd(flat(x));
+  auto positions = [&] { return positions_of(red ? expand(*red, u) : u, n); };
   LbfgsOptions lo = opt.minimiser;
   // Preconditioner: factorised at the start of the force and again whenever L-BFGS stalls.
-  std::unique_ptr<NewtonPreconditioner> owned;
-  NewtonPreconditioner* pre = nullptr;
-  if (preconditioned(opt, n, force_pN)) {
-    if (!shared) owned = std::make_unique<NewtonPreconditioner>(net, opt.preconditioner);
-    pre = shared ? shared : owned.get();
-  }
   if (lo.max_step <= 0)
     lo.max_step = (pre ? opt.preconditioned_max_step_links : opt.plain_max_step_links) *
                   net.lbar_um.minCoeff();
+  // Reduced: the tolerance and the step cap measure full per-vertex forces and displacements.
+  if (red) lo = reduce_lbfgs_options(lo, red);
   const int factorisations_before = pre ? pre->statistics().factorisations : 0;
   auto refresh = [&] {
-    const Positions p = Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n);
+    const Positions p = positions();
     if (pre->refresh(p, lambda, load.stiffness_scale)) {
       lo.precondition = [pre](Eigen::VectorXd& v) { pre->apply(v); };
     } else {
@@ -130,6 +245,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
     if (std::isfinite(e)) g = flat(gp);
     return e;
   };
+  if (red) f = reduce_objective(std::move(f), red);  // f(P q), gradient P' grad f
   // One minimisation at fixed multipliers; with a preconditioner it is restarted from a
   // fresh factorisation whenever refresh_interval iterations cut the residual < 10x.
   // Budgets of the whole force: minimiser.max_iterations over all updates and segments,
@@ -199,6 +315,10 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
     return minimise();
   };
   al.measure = [&] {
+    if (red) {
+      const Positions p = positions();
+      return ConstraintState{total_area(p, net.topo), enclosed_volume(p, net.topo)};
+    }
     Eigen::Map<const Eigen::Matrix3Xd> p(u.data(), 3, n);
     return ConstraintState{total_area(p, net.topo), enclosed_volume(p, net.topo)};
   };
@@ -217,11 +337,19 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   pt.iterations = res.iterations;
   pt.area_drift = res.area_drift;
   pt.volume_drift = res.volume_drift;
-  x = Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n);
+  x = positions();
   pt.stiffness_scale = load.stiffness_scale;
   const bool held = res.held();
   pt.converged = r.converged() && held;
   pt.residual_pN = r.residual;
+  if (red) {
+    // The full problem's largest net vertex force at P q, at the last minimisation's
+    // multipliers and scale (equal to the reduced one's per-vertex force up to the rest
+    // mesh's asymmetry).
+    Positions g;
+    if (std::isfinite(network_energy(net, x, load, &g)))
+      pt.residual_pN = g.colwise().norm().maxCoeff();
+  }
   pt.status = out_of_time      ? StretchStatus::time_budget
               : !r.converged() ? stretch_status(r.status)
               : held           ? StretchStatus::converged
@@ -231,8 +359,9 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
     pt.factorisations = s.factorisations - factorisations_before;
     std::ostringstream msg;
     msg << "  preconditioner: " << pt.factorisations << " factorisations (" << s.failed_attempts
-        << " indefinite attempts in all), |L| = " << s.factor_nonzeros
-        << ", totals (wall / main-thread CPU): assembly " << s.assembly_s << " / "
+        << " indefinite attempts in all), |L| = " << s.factor_nonzeros;
+    if (red) msg << " (" << s.unknowns << " of " << 3 * n << " unknowns: mirror-reduced)";
+    msg << ", totals (wall / main-thread CPU): assembly " << s.assembly_s << " / "
         << s.assembly_cpu_s << " s, factorisation " << s.factorisation_s << " / "
         << s.factorisation_cpu_s << " s (analysis " << s.analysis_cpu_s << " s CPU), solves "
         << s.solve_s << " / " << s.solve_cpu_s << " s";
@@ -252,6 +381,73 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
   return pt;
 }
 
+/// One force with the workspace's preconditioners and symmetry: the full problem (no
+/// reduction, or a start that is not symmetric), or the reduced one followed by the sector
+/// check and, at a saddle, a full solve from the pushed state.
+StretchPoint solve_force(StretchWorkspace& ws, const Network& net, double force_pN, Positions& x,
+                         ConstraintMultipliers& lambda, const StretchOptions& opt,
+                         const ProgressSink& progress) {
+  const bool pre = preconditioned(opt, net.topo.num_vertices, force_pN);
+  const std::shared_ptr<const SymmetryReduction>& red = ws.reduction();
+  if (!red)
+    return minimise_force(net, force_pN, x, lambda, opt, progress,
+                          pre ? ws.preconditioner(false) : nullptr, nullptr);
+  const auto start = std::chrono::steady_clock::now();
+  const bool symmetric = asymmetry_um(*red, x) <= kSymmetricUm;
+  if (!symmetric) report(progress, "  start not mirror-symmetric: solving without the symmetry");
+  StretchPoint pt =
+      minimise_force(net, force_pN, x, lambda, opt, progress,
+                     pre ? ws.preconditioner(symmetric) : nullptr, symmetric ? red : nullptr);
+  if (symmetric) {
+    pt.symmetry_order = red->group_order;
+    if (pt.converged && ws.checking()) {
+      const auto check_start = std::chrono::steady_clock::now();
+      const SectorStability st = ws.check(pt.x, force_pN, pt.multipliers, pt.stiffness_scale);
+      std::ostringstream msg;
+      msg << "  mirror symmetry check: " << st.factorisations << " sector factorisations, "
+          << seconds_since(check_start) << " s: "
+          << (st.stable ? "stable"
+                        : "unstable in sector " + std::to_string(st.unstable_character) +
+                              ", solving without the symmetry");
+      report(progress, msg.str());
+      if (!st.stable) {
+        // A saddle: pushed off along the unstable sector and solved in full, within what is
+        // left of the force's iteration and time budgets.
+        const Eigen::VectorXd push = ws.sector_direction(st.unstable_character);
+        flat(x) += (kSymmetryPushUm / push.cwiseAbs().maxCoeff()) * push;
+        StretchOptions rest = opt;
+        rest.minimiser.max_iterations = std::max(opt.minimiser.max_iterations - pt.iterations, 1);
+        if (opt.time_budget_s > 0)
+          rest.time_budget_s = std::max(opt.time_budget_s - seconds_since(start), 1e-9);
+        StretchPoint full = minimise_force(net, force_pN, x, lambda, rest, progress,
+                                           pre ? ws.preconditioner(false) : nullptr, nullptr);
+        full.iterations += pt.iterations;
+        full.factorisations += pt.factorisations;
+        pt = std::move(full);
+        pt.symmetry_order = 1;
+      }
+    }
+  }
+  pt.symmetry_broken = asymmetry_um(*red, pt.x) > kSymmetricUm;
+  pt.wall_s = seconds_since(start);
+  return pt;
+}
+
+}  // namespace
+
+StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
+                               ConstraintMultipliers& lambda, const StretchOptions& opt,
+                               const ProgressSink& progress) {
+  return solve_equilibrium(net, force_pN, x, lambda, opt, progress, nullptr);
+}
+
+StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
+                               ConstraintMultipliers& lambda, const StretchOptions& opt,
+                               const ProgressSink& progress, NewtonPreconditioner* shared) {
+  StretchWorkspace ws(net, opt, shared);
+  return solve_force(ws, net, force_pN, x, lambda, opt, progress);
+}
+
 std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces,
                                       const StretchOptions& opt, const ProgressSink& progress) {
   return run_stretch(net, forces, opt, progress, StretchState{});
@@ -264,10 +460,8 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
   std::vector<StretchPoint> out;
   Positions x = net.rest;
   ConstraintMultipliers lambda;
-  std::unique_ptr<NewtonPreconditioner> pre;
-  if (std::any_of(forces.begin(), forces.end(),
-                  [&](double f) { return preconditioned(opt, net.topo.num_vertices, f); }))
-    pre = std::make_unique<NewtonPreconditioner>(net, opt.preconditioner);
+  // One workspace for the run: the preconditioners' analyses and the symmetry are done once.
+  StretchWorkspace ws(net, opt, nullptr);
   for (size_t k = 0; k < forces.size(); ++k) {
     throw_if_cancelled(opt.minimiser.cancel);
     const double f = forces[k];
@@ -276,7 +470,7 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
     if (!warm.empty()) {
       Positions xw = warm.x[k];
       ConstraintMultipliers lw = warm.multipliers[k];
-      p = solve_equilibrium(net, f, xw, lw, opt, progress, pre.get());
+      p = solve_force(ws, net, f, xw, lw, opt, progress);
       p.warm = true;
       solved = p.converged;
       if (solved) {
@@ -290,7 +484,7 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
     if (!solved) {
       const int warm_iterations = p.iterations;
       const double warm_s = p.wall_s;
-      p = solve_equilibrium(net, f, x, lambda, opt, progress, pre.get());
+      p = solve_force(ws, net, f, x, lambda, opt, progress);
       p.iterations += warm_iterations;
       p.wall_s += warm_s;
     }

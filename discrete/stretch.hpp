@@ -1,13 +1,15 @@
 #pragma once
 // Zero-temperature optical-tweezers stretch of the discrete network: for each force, the
 // free energy is minimised (L-BFGS) from the previous equilibrium (continuation in force),
-// with area and volume held by augmented-Lagrangian outer updates.
+// with area and volume held by augmented-Lagrangian outer updates. Optionally on the
+// mirror-symmetric states only (StretchOptions::symmetry, core/mirror_symmetry.hpp).
 #include <functional>
 #include <iosfwd>
 #include <string>
 #include <vector>
 
 #include "core/lbfgs.hpp"
+#include "core/mirror_symmetry.hpp"
 #include "core/progress.hpp"
 #include "core/validation.hpp"
 #include "discrete/augmented_lagrangian.hpp"
@@ -83,6 +85,30 @@ struct StretchOptions {
   /// searches that keep hitting the infeasible domain cost many evaluations per iteration:
   /// measured at 1e6 pN, N = 300, 600 s without this budget).
   int evaluations_per_iteration_budget = 4;
+  /// Symmetry::mirror: minimise on the configurations symmetric under the mirrors the rest
+  /// mesh and the bead load share (discrete/tweezers.hpp tweezers_scene_symmetry; 4 on most
+  /// default meshes, 2 where the contact patch's edge splits a mirror pair, e.g. N = 500 and
+  /// 8,000; see core/mirror_symmetry.hpp), with |G| times fewer unknowns: L-BFGS on q
+  /// (x = P q), the Newton preconditioner on P'HP. The force tolerance and the step cap still
+  /// measure full per-vertex forces and displacements, and the reported residual is the full
+  /// problem's, evaluated at the end. A symmetric equilibrium may be a saddle where the cell
+  /// would buckle: an option, not the default. A group of order 1 is the full problem (the
+  /// same computation as Symmetry::none).
+  Symmetry symmetry = Symmetry::none;
+  /// With Symmetry::mirror: after each converged symmetric force, check that the state is a
+  /// minimum of the full problem (core/symmetry_stability.hpp: the exact network Hessian and
+  /// |G| - 1 sector factorisations); where it is not, the state is pushed 1e-3 um along the
+  /// unstable sector and that force is solved in full (StretchPoint::symmetry_broken). A
+  /// start that is itself not symmetric to 1e-6 um (a buckled state of the previous force, or
+  /// a warm start from a run without the option, symmetric only to its tolerance) is solved
+  /// in full. The rigid turns about x (and about z at 0 pN) cost nothing, and the force
+  /// tolerance's residual gives them a slightly negative curvature: the check allows twice
+  /// that (computed from the residual), so a turn is not taken for buckling. With the
+  /// dihedral bending model the checked Hessian holds only its Gauss-Newton bending term.
+  /// Cost at N = 27,042: one exact Hessian and three sector factorisations of ~20,000
+  /// unknowns, 0.7 to 1.3 s per force (loaded 2-core machine). Off: trust the symmetry (a
+  /// saddle is then reported as an equilibrium).
+  bool symmetry_check = true;
   StretchOptions() {
     minimiser.force_tolerance = 1e-3;
     minimiser.max_iterations = 50000;
@@ -136,6 +162,12 @@ struct StretchPoint {
   ConstraintMultipliers multipliers;
   double stiffness_scale = 1.0;
   bool warm = false;  ///< solved from a given StretchState entry
+  /// StretchOptions::symmetry = mirror: the order of the mirror group the force's final solve
+  /// was reduced by (1 = solved in full) and whether the equilibrium is not mirror-symmetric
+  /// (its symmetric state was a saddle, or it started from a buckled state; both solved in
+  /// full).
+  int symmetry_order = 1;
+  bool symmetry_broken = false;
 };
 
 /// Whether a force is solved with the Newton preconditioner (StretchOptions).
@@ -150,7 +182,9 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
                                const ProgressSink& progress = {});
 
 /// As above, with a prepared preconditioner for this network (reused across calls: its
-/// symbolic analysis is done once). nullptr: one is built here when N >= the threshold.
+/// symbolic analysis is done once). nullptr: one is built here when N >= the threshold. It is
+/// the full problem's: with Symmetry::mirror the reduced problem's (and the symmetry check's)
+/// prepared state is built per call (run_stretch keeps them for the whole run).
 StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
                                ConstraintMultipliers& lambda, const StretchOptions& options,
                                const ProgressSink& progress, NewtonPreconditioner* preconditioner);

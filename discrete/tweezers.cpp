@@ -62,6 +62,12 @@ TweezerPatch select_tweezer_patch(const Positions& rest, const Topology& topo,
   return patch;
 }
 
+MeshSymmetry tweezers_scene_symmetry(const Positions& rest, const Topology& topo,
+                                     const TweezerPatch& patch) {
+  return keep_invariant(find_mirror_symmetry(rest, topo), patch.vertex, patch.share, 0,
+                        kTweezersShareTolerance);
+}
+
 double tweezers_energy(const TweezerPatch& patch, double force_pN, const Positions& x,
                        const Positions& rest, Positions* grad) {
   double e = 0.0;

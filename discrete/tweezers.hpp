@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "core/mesh.hpp"
+#include "core/mirror_symmetry.hpp"
 
 namespace rbc {
 
@@ -34,6 +35,17 @@ struct TweezerPatch {
 
 TweezerPatch select_tweezer_patch(const Positions& rest, const Topology& topo,
                                   const TweezersParameters& params);
+
+/// The mirror symmetries of the stretch scene on a rest mesh (core/mirror_symmetry.hpp): the
+/// reflections that map the rest mesh onto itself (find_mirror_symmetry) and keep the bead
+/// load, i.e. map each bead's shares onto the same or, for x -> -x, the other bead's (the
+/// signed share changes sign with x). The patch rule snaps to whole vertices, so a mirror pair
+/// split by the patch's edge breaks that mirror (e.g. the default meshes of N = 500 and 8,000
+/// keep 2 of their 4 reflections).
+/// Shares are area fractions of order 1/(patch vertices): differences below this are round-off.
+inline constexpr double kTweezersShareTolerance = 1e-12;
+MeshSymmetry tweezers_scene_symmetry(const Positions& rest, const Topology& topo,
+                                     const TweezerPatch& patch);
 
 /// Work potential of the beads: E = -F sum_i share_i e_x . (x_i - X_i)  [pN um];
 /// gradient dE/dx_i = -F share_i e_x accumulated into grad.

@@ -49,7 +49,7 @@ struct DisorderedSample {
   LinearModuli affine_at_relaxed;    ///< affine tangent at the relaxed state (>= relaxed)
   double prestress_pN_per_um = 0.0;  ///< isotropic tension tr(P)/2 of the relaxed network
   double psi_reference_pN_per_um = 0.0, psi_relaxed_pN_per_um = 0.0;
-  RelaxResult relax;
+  CellRelaxResult relax;
 };
 DisorderedSample analyse_disordered(const DisorderOptions& o, const NetworkMaterial& m,
                                     unsigned seed, const RelaxOptions& relax = {});

@@ -70,7 +70,7 @@ QuasiStaticViscosities quasi_static_viscosities(const PeriodicNetwork& net,
   QuasiStaticViscosities out;
   out.converged = true;
   const Eigen::Matrix2d I = Eigen::Matrix2d::Identity();
-  const RelaxResult base = relax_patch(net, m, I, {}, o.relax);
+  const CellRelaxResult base = relax_patch(net, m, I, {}, o.relax);
   out.converged = base.converged();
   out.largest_residual_pN = base.residual_pN;
   const Eigen::Matrix2Xd zero = Eigen::Matrix2Xd::Zero(2, net.vertex_count());
@@ -78,8 +78,8 @@ QuasiStaticViscosities quasi_static_viscosities(const PeriodicNetwork& net,
   const double h = o.strain_step;
   for (int k = 0; k < 3; ++k) {
     const Eigen::Matrix2d& D = rate_modes()[k];
-    const RelaxResult plus = relax_patch(net, m, I + h * D, base.U, o.relax);
-    const RelaxResult minus = relax_patch(net, m, I - h * D, base.U, o.relax);
+    const CellRelaxResult plus = relax_patch(net, m, I + h * D, base.U, o.relax);
+    const CellRelaxResult minus = relax_patch(net, m, I - h * D, base.U, o.relax);
     out.converged = out.converged && plus.converged() && minus.converged();
     out.largest_residual_pN =
         std::max({out.largest_residual_pN, plus.residual_pN, minus.residual_pN});

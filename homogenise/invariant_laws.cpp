@@ -13,8 +13,6 @@
 namespace rbc {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
 /// G(a, B) and its derivatives (see the header).
 struct AverageDerivatives {
   double g = 0, ga = 0, gb = 0, gaa = 0, gab = 0, gbb = 0;
@@ -37,7 +35,7 @@ InvariantDerivatives chain_to_invariants(const AverageDerivatives& g, const Ster
 
 InvariantDerivatives outside() {
   InvariantDerivatives r;
-  r.psi = kInf;
+  r.psi = std::numeric_limits<double>::infinity();
   return r;
 }
 

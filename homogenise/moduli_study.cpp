@@ -81,7 +81,7 @@ ModuliStudy run_moduli_study(const WlcParameters& wlc, const StericParameters& s
     const HomogenisedState h = homogenise_patch(net, m, Eigen::Matrix2d::Identity());
     const LinearModuli num = moduli_from_tangent(h.relaxed_tangent);
     const Theorem3Check t = theorem3_check(net, m, wlc.lbar_um, o.theorem3);
-    const RelaxResult& r = t.relax;
+    const CellRelaxResult& r = t.relax;
     j.update({{"mu_numeric", num.mu_pN_per_um},
               {"K_numeric", num.K_pN_per_um},
               {"young", num.young_pN_per_um()},

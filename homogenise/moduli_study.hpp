@@ -27,7 +27,7 @@ struct Theorem3Options {
 };
 
 struct Theorem3Check {
-  RelaxResult relax;                      ///< the relaxation from the random start
+  CellRelaxResult relax;                  ///< the relaxation from the random start
   double psi_lattice_pN_per_um = 0;       ///< Psi(F) of the lattice (closed form)
   double psi_patch_pN_per_um = 0;         ///< relaxed patch energy / reference area
   double max_displacement_over_lbar = 0;  ///< largest internal displacement / Lbar

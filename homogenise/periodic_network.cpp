@@ -244,11 +244,11 @@ PatchHessian patch_hessian(const PeriodicNetwork& net, const NetworkMaterial& m,
   return H;
 }
 
-RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
-                        const Eigen::Matrix2d& F, Eigen::Matrix2Xd U0,
-                        const RelaxOptions& options) {
+CellRelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
+                            const Eigen::Matrix2d& F, Eigen::Matrix2Xd U0,
+                            const RelaxOptions& options) {
   check_deformation(F);
-  RelaxResult r;
+  CellRelaxResult r;
   r.U = zero_if_empty(net, std::move(U0));
   for (int v = net.vertex_count() - 1; v >= 0; --v) r.U.col(v) -= r.U.col(0);  // pin vertex 0
   const int N = net.vertex_count();

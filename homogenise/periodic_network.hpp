@@ -99,7 +99,7 @@ struct RelaxOptions {
   /// 200 iterations and 72 s CPU ending at 1.1e-10 pN against 1e-10). When
   /// `stall_iterations` consecutive Newton steps fail to halve the best residual while it is
   /// within `floor_factor` x force_tolerance_pN, the relaxation ends as converged at the best
-  /// iterate seen (RelaxResult::at_roundoff_floor set, its residual reported). floor_factor 0
+  /// iterate seen (CellRelaxResult::at_roundoff_floor set, its residual reported). floor_factor 0
   /// disables the rule.
   int stall_iterations = 4;
   double floor_factor = 1e3;
@@ -111,8 +111,9 @@ struct RelaxOptions {
   CancelCheck cancel;
 };
 
-/// Result of relaxing the internal positions at fixed F.
-struct RelaxResult {
+/// Result of the periodic cell problem (relax_patch): the patch's internal vertex positions
+/// relaxed at fixed F. Not continuum/relax.hpp's RelaxResult (relax_helfrich, a whole cell).
+struct CellRelaxResult {
   MinimiserStatus status = MinimiserStatus::max_iterations;
   int iterations = 0;
   double energy_pNum = 0.0;
@@ -128,9 +129,9 @@ struct RelaxResult {
 /// Newton's method with a shifted sparse LDL^T where the Hessian is indefinite, a
 /// feasibility-aware backtracking line search (E = +infinity halves the step). U0 empty
 /// means start from the affine map (U = 0). Never returns an infeasible U.
-RelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
-                        const Eigen::Matrix2d& F, Eigen::Matrix2Xd U0 = {},
-                        const RelaxOptions& options = {});
+CellRelaxResult relax_patch(const PeriodicNetwork& net, const NetworkMaterial& m,
+                            const Eigen::Matrix2d& F, Eigen::Matrix2Xd U0 = {},
+                            const RelaxOptions& options = {});
 
 /// Homogenised density, stress and tangents at F.
 struct HomogenisedState {
@@ -138,7 +139,7 @@ struct HomogenisedState {
   Eigen::Matrix2d stress;           ///< dPsi_hom/dF (first Piola, pN/um)
   Eigen::Matrix4d relaxed_tangent;  ///< Schur complement / |box| (pN/um), FlatF order
   Eigen::Matrix4d affine_tangent;   ///< E_FF / |box| at the same U (no relaxation)
-  RelaxResult relax;
+  CellRelaxResult relax;
 };
 /// Relaxes at F (from U0), then forms the tangents. The relaxation status is returned,
 /// not thrown; callers report a non-converged state with its residual.

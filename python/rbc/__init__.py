@@ -106,6 +106,11 @@ class StretchPoint:
     factorisations: int = 0  #: discrete: preconditioner factorisations
     substeps: int = 1  #: continuum: forces solved to reach this one
     fields: dict = dataclasses.field(default_factory=dict)  #: continuum per-element fields
+    #: symmetry='mirror': the order of the mirror group of the force's last solve (1 = solved
+    #: in full) and whether the equilibrium is not mirror-symmetric (a buckled state); None
+    #: when the stretch ran with symmetry='none'
+    symmetry_order: Optional[int] = None
+    symmetry_broken: Optional[bool] = None
 
     def record(self) -> dict:
         """The fields of one point of `rbc stretch --json`."""
@@ -115,6 +120,8 @@ class StretchPoint:
             r["elements"] = self.elements
         r.update(residual_pN=self.residual_pN, area_drift=self.area_drift,
                  volume_drift=self.volume_drift)
+        if self.symmetry_order is not None:
+            r.update(symmetry_order=self.symmetry_order, symmetry_broken=self.symmetry_broken)
         return r
 
     def to_meshio(self):
@@ -197,7 +204,8 @@ class StretchResult(Sequence):
                 f"converged={self.converged.tolist()})")
 
 
-def _points(model, raw, rest_positions, faces):
+def _points(model, raw, rest_positions, faces, symmetry):
+    mirror = symmetry == "mirror"
     out = []
     for p in raw:
         common = dict(
@@ -207,7 +215,9 @@ def _points(model, raw, rest_positions, faces):
             volume_drift=p.volume_drift, wall_s=p.wall_s, vertices=p.vertices,
             positions=p.positions, faces=faces, rest_positions=rest_positions,
             area_multiplier_pN_per_um=p.multipliers.area_pN_per_um,
-            volume_multiplier_pN_per_um2=p.multipliers.volume_pN_per_um2)
+            volume_multiplier_pN_per_um2=p.multipliers.volume_pN_per_um2,
+            symmetry_order=p.symmetry_order if mirror else None,
+            symmetry_broken=p.symmetry_broken if mirror else None)
         if model is Model.discrete:
             out.append(StretchPoint(elements=0, stiffness_scale=p.stiffness_scale,
                                     factorisations=p.factorisations, **common))
@@ -224,7 +234,8 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
             constraints: Optional[ConstraintParameters] = None,
             mesh_quality: "MeshQuality | str" = "phi-minimised", network: Optional[Network] = None,
             tolerance_pN: Optional[float] = None, max_iterations: Optional[int] = None,
-            check: bool = False, cancel: Optional[Callable[[], bool]] = None,
+            symmetry: str = "none", check: bool = False,
+            cancel: Optional[Callable[[], bool]] = None,
             progress: Optional[Callable[[str], None]] = None) -> StretchResult:
     """Optical-tweezers stretch by continuation over forces_pN, as ``rbc stretch``.
 
@@ -234,6 +245,12 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
     elements (`elements` triangles, law of `order` 2, 3, 4 or 'full'), sparse Newton with exact
     constraints (force tolerance 1e-6 pN unless `tolerance_pN` is given; at most 1,000
     iterations, as the CLI).
+
+    symmetry='mirror' (``rbc stretch --symmetry mirror``, both models) solves on the states
+    symmetric under the coordinate mirrors the mesh and the bead load share (|G| times fewer
+    unknowns); each symmetric equilibrium is checked for stability and, where it is a saddle
+    (the cell buckles), solved again in full. Each point then carries symmetry_order (1 =
+    solved in full) and symmetry_broken (the equilibrium is not symmetric).
 
     Every force gets a status and residual; non-convergence raises rbc.ConvergenceError (a
     RuntimeError with .residual_pN, .force_pN and .result) only when check=True. The GIL is
@@ -250,19 +267,20 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
             raise ValueError("give either network or its parameters (wlc, bending, steric, "
                              "contact, constraints), not both")
         raw, info = _rbc._stretch_discrete(network, forces_pN, tolerance_pN, max_iterations,
-                                           cancel, progress)
-        result = StretchResult(model, _points(model, raw, network.rest_positions, network.faces),
+                                           symmetry, cancel, progress)
+        result = StretchResult(model, _points(model, raw, network.rest_positions, network.faces,
+                                              symmetry),
                                network.mesh, network, network.largest_rest_inplane_force_pN(),
                                None, info["polls"])
     else:
         if network is not None:
             raise ValueError("network applies to model='discrete' only")
         raw, info = _rbc._stretch_continuum(elements, order, wlc, bending, steric, contact,
-                                            forces_pN, tolerance_pN, max_iterations, cancel,
-                                            progress)
+                                            forces_pN, tolerance_pN, max_iterations, symmetry,
+                                            cancel, progress)
         mesh = info["mesh"]
-        result = StretchResult(model, _points(model, raw, mesh.positions, mesh.faces), mesh, None,
-                               None, info["law"], info["polls"])
+        result = StretchResult(model, _points(model, raw, mesh.positions, mesh.faces, symmetry),
+                               mesh, None, None, info["law"], info["polls"])
     if check:
         for p in result.points:
             if not p.converged:

@@ -14,6 +14,14 @@ void check_tolerance(const py::object& tolerance) {
   if (!tolerance.is_none() && !(tolerance.cast<double>() > 0))
     throw py::value_error("tolerance_pN must be positive, got " + num(tolerance.cast<double>()));
 }
+/// "none" or "mirror" (the CLI's --symmetry); ValueError otherwise.
+Symmetry symmetry_arg(const std::string& name) {
+  try {
+    return symmetry_from_string(name);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(e.what());
+  }
+}
 int iterations_arg(const py::object& max_iterations, int fallback) {
   if (max_iterations.is_none()) return fallback;
   const int n = max_iterations.cast<int>();
@@ -55,6 +63,8 @@ void bind_stretch(py::module_& m) {
       .def_property_readonly("status", [](const StretchPoint& p) { return to_string(p.status); })
       .def_readonly("multipliers", &StretchPoint::multipliers)
       .def_readonly("stiffness_scale", &StretchPoint::stiffness_scale)
+      .def_readonly("symmetry_order", &StretchPoint::symmetry_order)
+      .def_readonly("symmetry_broken", &StretchPoint::symmetry_broken)
       .def_property_readonly("positions", [](py::object self) {
         return rows_view(self.cast<StretchPoint&>().x, self, true);
       });
@@ -73,6 +83,8 @@ void bind_stretch(py::module_& m) {
       .def_readonly("wall_s", &ContinuumStretchPoint::wall_s)
       .def_readonly("vertices", &ContinuumStretchPoint::vertices)
       .def_readonly("elements", &ContinuumStretchPoint::elements)
+      .def_readonly("symmetry_order", &ContinuumStretchPoint::symmetry_order)
+      .def_readonly("symmetry_broken", &ContinuumStretchPoint::symmetry_broken)
       .def_property_readonly("status",
                              [](const ContinuumStretchPoint& p) { return to_string(p.status); })
       .def_readonly("multipliers", &ContinuumStretchPoint::multipliers)
@@ -93,10 +105,12 @@ void bind_stretch(py::module_& m) {
   m.def(
       "_stretch_discrete",
       [](std::shared_ptr<PyNetwork> n, const py::handle& forces, const py::object& tolerance,
-         const py::object& max_iterations, py::object cancel, py::object progress) {
+         const py::object& max_iterations, const std::string& symmetry, py::object cancel,
+         py::object progress) {
         const std::vector<double> f = forces_arg(forces);
         check_tolerance(tolerance);
         StretchOptions so;
+        so.symmetry = symmetry_arg(symmetry);
         if (!tolerance.is_none()) so.minimiser.force_tolerance = tolerance.cast<double>();
         so.minimiser.max_iterations = iterations_arg(max_iterations, 50000);
         const auto cb = make_callbacks(std::move(cancel), std::move(progress));
@@ -111,14 +125,14 @@ void bind_stretch(py::module_& m) {
         return py::make_tuple(out, info);
       },
       py::arg("network"), py::arg("forces_pN"), py::arg("tolerance_pN"), py::arg("max_iterations"),
-      py::arg("cancel"), py::arg("progress"));
+      py::arg("symmetry"), py::arg("cancel"), py::arg("progress"));
 
   m.def(
       "_stretch_continuum",
       [](int elements, const py::object& order, const py::object& wlc, const py::object& bending,
          const py::object& steric, const py::object& contact, const py::handle& forces,
-         const py::object& tolerance, const py::object& max_iterations, py::object cancel,
-         py::object progress) {
+         const py::object& tolerance, const py::object& max_iterations, const std::string& symmetry,
+         py::object cancel, py::object progress) {
         const std::vector<double> f = forces_arg(forces);
         const PyWlc w = wlc_or_default(wlc);
         const PyBending b = bending_or_default(bending);
@@ -135,6 +149,7 @@ void bind_stretch(py::module_& m) {
         // As the CLI: Newton iterations capped at 1000; its force tolerance (1e-6 pN) unless given.
         co.newton.max_iterations = std::min(iterations_arg(max_iterations, 50000), 1000);
         if (!tolerance.is_none()) co.newton.force_tolerance_pN = tolerance.cast<double>();
+        co.newton.symmetry = symmetry_arg(symmetry);
         const auto cb = make_callbacks(std::move(cancel), std::move(progress));
         co.newton.cancel = make_cancel_check(cb);
         co.lbfgs.cancel = co.newton.cancel;
@@ -162,7 +177,7 @@ void bind_stretch(py::module_& m) {
       },
       py::arg("elements"), py::arg("order"), py::arg("wlc"), py::arg("bending"), py::arg("steric"),
       py::arg("contact"), py::arg("forces_pN"), py::arg("tolerance_pN"), py::arg("max_iterations"),
-      py::arg("cancel"), py::arg("progress"));
+      py::arg("symmetry"), py::arg("cancel"), py::arg("progress"));
 }
 
 }  // namespace rbc::py_bind

@@ -120,6 +120,10 @@ TEST(InferCli, PosteriorDependsOnTheSeedOnlyNotOnThreadsOrRanks) {
   ASSERT_FALSE(samples.empty());
   EXPECT_EQ(samples, read(t2 + "/posterior_samples.csv"));
   EXPECT_EQ(without_timing(t1 + "/summary.json"), without_timing(t2 + "/summary.json"));
+  // The two runs really used 1 and 2 threads (OpenBLAS's OpenMP build once reset OpenMP's
+  // count to 1 for the whole inference).
+  EXPECT_EQ(nlohmann::json::parse(read(t1 + "/summary.json"))["timing"]["threads"], 1);
+  EXPECT_EQ(nlohmann::json::parse(read(t2 + "/summary.json"))["timing"]["threads"], 2);
   const std::string mpirun = RBC_MPIRUN;
   if (mpirun.empty()) GTEST_SKIP() << "mpirun not found";
   for (int np : {1, 3}) {

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include "core/geometry.hpp"
 #include "core/units.hpp"
 #include "fixtures.hpp"
@@ -123,5 +125,43 @@ TEST(Geometry, TransverseDiameterIgnoresRotationAboutTheStretchAxis) {
   const Positions rx = r * x;
   EXPECT_LT(rx.row(1).maxCoeff() - rx.row(1).minCoeff(), 5.5);  // the naive y extent shrinks
 }
+}  // namespace
+}  // namespace rbc
+
+namespace rbc {
+namespace {
+
+TEST(Diameters, TransverseIsTheLargestProjectedDistance) {
+  // D_T = max over directions u in the y-z plane of the extent along u = the largest distance
+  // between two points projected on that plane: brute force over all pairs, and a fine scan
+  // of directions from below.
+  std::mt19937 rng(9);
+  std::normal_distribution<double> nd;
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 3 + trial * 17;
+    Positions x(3, n);
+    for (int i = 0; i < n; ++i) x.col(i) = Eigen::Vector3d(nd(rng), 2.0 * nd(rng), 0.5 * nd(rng));
+    double pair = 0.0;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        pair = std::max(pair, (x.block<2, 1>(1, i) - x.block<2, 1>(1, j)).norm());
+    double scan = 0.0;
+    for (int k = 0; k < 20000; ++k) {
+      const double phi = 3.14159265358979323846 * k / 20000;
+      const Eigen::RowVectorXd p = std::cos(phi) * x.row(1) + std::sin(phi) * x.row(2);
+      scan = std::max(scan, p.maxCoeff() - p.minCoeff());
+    }
+    const Diameters d = measure_diameters(x);
+    EXPECT_NEAR(d.transverse_um, pair, 1e-12 * pair) << n << " points";
+    EXPECT_LE(scan, d.transverse_um * (1 + 1e-12));
+    EXPECT_GT(scan, d.transverse_um * (1 - 1e-6));
+    EXPECT_DOUBLE_EQ(d.axial_um, x.row(0).maxCoeff() - x.row(0).minCoeff());
+  }
+  // Collinear and repeated points (degenerate hulls).
+  Positions line(3, 4);
+  line << 0, 1, 2, 3, 0, 1, 1, 3, 0, 2, 2, 6;
+  EXPECT_NEAR(measure_diameters(line).transverse_um, std::sqrt(9.0 + 36.0), 1e-14);
+}
+
 }  // namespace
 }  // namespace rbc

@@ -49,7 +49,7 @@ TEST(CellProblem, AffineMapIsTheMinimiserOfThePerfectLattice) {
   const PeriodicNetwork net = make_hexagonal_patch(5, a);
   Eigen::Matrix2d F;
   F << 1.6, 0.3, -0.1, 0.8;
-  const RelaxResult r =
+  const CellRelaxResult r =
       relax_patch(net, m, F, random_displacements(net.vertex_count(), 0.1 * a, 5));
   ASSERT_TRUE(r.converged()) << to_string(r.status) << " residual " << r.residual_pN;
   EXPECT_LT(r.max_displacement_um, 1e-9 * a);
@@ -183,7 +183,7 @@ TEST(CellProblem, AnIndefiniteHessianYieldsFactorisationFailed) {
     found = true;
     RelaxOptions o;
     o.max_shift_attempts = 2;
-    const RelaxResult r = relax_patch(net, m, F, U0, o);
+    const CellRelaxResult r = relax_patch(net, m, F, U0, o);
     EXPECT_EQ(r.status, MinimiserStatus::factorisation_failed) << "F = " << s << " I";
     EXPECT_EQ(to_string(r.status), "factorisation failed");
     EXPECT_FALSE(r.converged());

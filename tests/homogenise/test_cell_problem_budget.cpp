@@ -32,7 +32,7 @@ TEST(CellProblemBudget, UnreachableToleranceEndsAtTheRoundOffFloorWithTheAffineM
   RelaxOptions o;
   o.force_tolerance_pN = 1e-30;  // below any double sum of pN-sized forces
   o.floor_factor = 1e22;         // accept a floor up to 1e-8 pN
-  const RelaxResult r = relax_patch(s.net, s.m, s.F, s.U0, o);
+  const CellRelaxResult r = relax_patch(s.net, s.m, s.F, s.U0, o);
   ASSERT_TRUE(r.converged()) << to_string(r.status) << " residual " << r.residual_pN;
   EXPECT_TRUE(r.at_roundoff_floor);
   EXPECT_LT(r.iterations, 40);                   // Newton: quadratic, then stall_iterations more
@@ -46,7 +46,7 @@ TEST(CellProblemBudget, WithoutTheFloorRuleTheSameRunUsesItsWholeBudget) {
   o.force_tolerance_pN = 1e-30;
   o.floor_factor = 0;  // never accept a floor
   o.max_iterations = 40;
-  const RelaxResult r = relax_patch(s.net, s.m, s.F, s.U0, o);
+  const CellRelaxResult r = relax_patch(s.net, s.m, s.F, s.U0, o);
   EXPECT_EQ(r.status, MinimiserStatus::max_iterations);
   EXPECT_EQ(r.iterations, 40);
   EXPECT_FALSE(r.at_roundoff_floor);
@@ -54,7 +54,7 @@ TEST(CellProblemBudget, WithoutTheFloorRuleTheSameRunUsesItsWholeBudget) {
 
 TEST(CellProblemBudget, ReachableToleranceIsNotReportedAsAFloor) {
   const Scene s;
-  const RelaxResult r = relax_patch(s.net, s.m, s.F, s.U0);  // 1e-10 pN at 36 vertices
+  const CellRelaxResult r = relax_patch(s.net, s.m, s.F, s.U0);  // 1e-10 pN at 36 vertices
   ASSERT_TRUE(r.converged());
   EXPECT_FALSE(r.at_roundoff_floor);
   EXPECT_LE(r.residual_pN, 1e-10);

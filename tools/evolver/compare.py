@@ -49,6 +49,8 @@ def main():
     ap.add_argument("--threads", default="1,2")
     ap.add_argument("--forces", default=FORCES)
     ap.add_argument("--evolver", default="evolver-nox-d")
+    ap.add_argument("--symmetry", default="none",
+                    help="rbc stretch --symmetry (none | mirror: the mirror-symmetric states)")
     ap.add_argument("--kappa", default="2e-19", help="bending rigidity (J), both sides")
     ap.add_argument("--bending", default="star_perp_sq_mean_curvature",
                     help="Evolver's bending method (make_fe.py --bending)")
@@ -96,7 +98,7 @@ def main():
         with open(out + ".log", "w") as log:
             wall, cpu, rss, rc = timed([args.rbc, "stretch", "--model", "continuum", "--elements",
                                         str(elements), "--force", args.forces, "--kappa", args.kappa,
-                                        "--out", out, "-q"],
+                                        "--symmetry", args.symmetry, "--out", out, "-q"],
                                        env=env, stdout=log)
         pts = []
         with open(os.path.join(out, "stretch.csv")) as f:

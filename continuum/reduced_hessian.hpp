@@ -1,0 +1,72 @@
+#pragma once
+// The continuum Lagrangian Hessian on the mirror-symmetric states, P' d2L P (core/
+// mirror_symmetry.hpp), assembled from one element per orbit. For an invariant element energy
+// the images of an element contribute equally on symmetric states (E_{g e}(P q) = E_e(P q)),
+// so P' d2L P = sum over representative elements e of |orbit(e)| P_e' d2L_e P_e: the element
+// matrices (the cost of an assembly) are computed for ~1/|G| of the faces, hinges and vertex
+// stars, then scattered into the reduced pattern with the signs of P. Equal to reducing the
+// full add_lagrangian_hessian (ReducedMatrix) up to rounding (tested).
+#include <Eigen/SparseCore>
+#include <vector>
+
+#include "continuum/block_hessian.hpp"
+#include "continuum/continuum_model.hpp"
+#include "core/mirror_symmetry.hpp"
+
+namespace rbc {
+
+class ReducedLagrangianHessian {
+ public:
+  /// `group`: the mirrors of the scene (the reduction's group), `reduction` of that group,
+  /// `full`: the full Hessian's pattern (its lower triangle gives the reduced pattern).
+  ReducedLagrangianHessian(const ContinuumModel& model, const MeshSymmetry& group,
+                           const SymmetryReduction& reduction, const BlockHessian& full);
+  /// P' (d2E + area_coef d2A + volume_coef d2V) P at the symmetric state x (3 x N, um),
+  /// lower triangle (pN/um). The model must be the one given at construction.
+  const Eigen::SparseMatrix<double>& assemble(const Positions& x, double area_coef,
+                                              double volume_coef);
+  /// Adds a sector target (core/symmetry_stability.hpp): P_c' d2L P_c for the reduction of a
+  /// non-trivial character c of the same group (the images of an element contribute equally on
+  /// every sector at a symmetric state, chi(g)^2 = 1). Returns its index for sector().
+  int add_sector(const SymmetryReduction& sector_reduction);
+  int sectors() const { return static_cast<int>(targets_.size()) - 1; }
+  /// Every sector's matrix at the symmetric state x from one pass over the element matrices.
+  void assemble_sectors(const Positions& x, double area_coef, double volume_coef);
+  const Eigen::SparseMatrix<double>& sector(int k) { return targets_[k + 1].map.result(); }
+  /// Representative faces, hinges and vertex stars (out of F, E, N).
+  int representative_faces() const { return static_cast<int>(faces_.size()); }
+  int representative_hinges() const { return static_cast<int>(hinges_.size()); }
+  int representative_stars() const { return static_cast<int>(stars_.size()); }
+
+ private:
+  /// One entry of a representative element's scatter: local matrix entry (a, b) times coef
+  /// adds to reduced value `value`.
+  struct Scatter {
+    int value;
+    short a, b;
+    double coef;
+  };
+  /// One reduced matrix (the trivial sector, or another) and the scatter of every
+  /// representative element into it.
+  struct Target {
+    ReducedMatrix map;
+    std::vector<std::vector<Scatter>> faces, hinges, stars;
+  };
+  /// Representative elements: face, edge or vertex index, and orbit size.
+  struct Element {
+    int id, weight;
+  };
+  void add_target(const SymmetryReduction& reduction);
+  void element_matrices(const Positions& x, double area_coef, double volume_coef);
+  void scatter(Target& t);
+  const ContinuumModel& model_;
+  VertexStars stars_of_;
+  const Eigen::SparseMatrix<double>& full_pattern_;
+  std::vector<Element> faces_, hinges_, stars_;
+  std::vector<Target> targets_;
+  std::vector<Matrix9d> face_buffer_;
+  std::vector<Matrix12d> hinge_buffer_;
+  std::vector<std::vector<double>> star_buffer_;
+};
+
+}  // namespace rbc

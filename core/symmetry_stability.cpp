@@ -1,0 +1,125 @@
+#include "core/symmetry_stability.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+namespace rbc {
+
+struct SymmetryStabilityCheck::Sector {
+  int character = 0;
+  SymmetryReduction reduction;
+  std::unique_ptr<ReducedMatrix> map;
+  SparseCholesky cholesky;
+  Eigen::SparseMatrix<double> k;
+  std::vector<int> diagonal;  ///< value index of each diagonal entry of k
+  bool analysed = false;
+  Sector(int c, SymmetryReduction r, const SparseCholeskyOptions& o)
+      : character(c), reduction(std::move(r)), cholesky(o) {}
+};
+
+SymmetryStabilityCheck::SymmetryStabilityCheck(const MeshSymmetry& symmetry,
+                                               const SparseCholeskyOptions& options)
+    : options_(options) {
+  for (int c : nontrivial_characters(symmetry)) {
+    auto s = std::make_unique<Sector>(c, make_symmetry_reduction(symmetry, c), options);
+    if (s->reduction.reduced_size > 0) sectors_.push_back(std::move(s));
+  }
+}
+
+SymmetryStabilityCheck::~SymmetryStabilityCheck() = default;
+
+double rigid_turn_residual_curvature(const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& r) {
+  const Eigen::Vector3d c = x.rowwise().mean();
+  double worst = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d w = Eigen::Vector3d::Unit(k);
+    double rd = 0.0, dd = 0.0;
+    for (Eigen::Index i = 0; i < x.cols(); ++i) {
+      const Eigen::Vector3d xi = x.col(i) - c;
+      rd += r.col(i).dot(w.cross(w.cross(xi)));
+      dd += w.cross(xi).squaredNorm();
+    }
+    if (dd > 0) worst = std::max(worst, rd / dd);
+  }
+  return worst;
+}
+
+bool SymmetryStabilityCheck::factorise(Sector& s, const Eigen::SparseMatrix<double>& r,
+                                       double relative_shift, double absolute_shift) {
+  if (!s.analysed || s.k.nonZeros() != r.nonZeros() || s.k.rows() != r.rows()) {
+    s.k = r;
+    s.diagonal.assign(static_cast<size_t>(r.rows()), -1);
+    for (Eigen::Index c = 0; c < s.k.outerSize(); ++c)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(s.k, c); it; ++it)
+        if (it.row() == c)
+          s.diagonal[static_cast<size_t>(c)] = static_cast<int>(&it.valueRef() - s.k.valuePtr());
+    if (std::find(s.diagonal.begin(), s.diagonal.end(), -1) != s.diagonal.end())
+      throw std::logic_error("stability check: a sector matrix lacks a diagonal entry");
+    s.cholesky.analyze(s.k);
+    s.analysed = true;
+  }
+  std::copy(r.valuePtr(), r.valuePtr() + r.nonZeros(), s.k.valuePtr());
+  double scale = 0.0;
+  for (int d : s.diagonal) scale += std::abs(s.k.valuePtr()[d]);
+  scale /= static_cast<double>(std::max<size_t>(s.diagonal.size(), 1));
+  for (int d : s.diagonal) s.k.valuePtr()[d] += relative_shift * scale + absolute_shift;
+  return s.cholesky.factorize(s.k);
+}
+
+SectorStability SymmetryStabilityCheck::check(const Eigen::SparseMatrix<double>& h,
+                                              double relative_shift, double absolute_shift) {
+  return check_sectors(
+      [&](int k) -> const Eigen::SparseMatrix<double>& {
+        Sector& s = *sectors_[static_cast<size_t>(k)];
+        if (!s.map || !s.map->matches(h)) s.map = std::make_unique<ReducedMatrix>(s.reduction, h);
+        return s.map->reduce(h);
+      },
+      relative_shift, absolute_shift);
+}
+
+SectorStability SymmetryStabilityCheck::check_sectors(
+    const std::function<const Eigen::SparseMatrix<double>&(int k)>& sector_matrix,
+    double relative_shift, double absolute_shift) {
+  if (!(relative_shift >= 0) || !std::isfinite(relative_shift) || !(absolute_shift >= 0) ||
+      !std::isfinite(absolute_shift))
+    throw std::invalid_argument("stability check: the shifts must be finite and >= 0");
+  SectorStability out;
+  for (size_t k = 0; k < sectors_.size(); ++k) {
+    Sector& s = *sectors_[k];
+    ++out.factorisations;
+    if (!factorise(s, sector_matrix(static_cast<int>(k)), relative_shift, absolute_shift)) {
+      out.stable = false;
+      out.unstable_character = s.character;
+      return out;
+    }
+  }
+  return out;
+}
+
+int SymmetryStabilityCheck::character(int k) const {
+  return sectors_.at(static_cast<size_t>(k))->character;
+}
+
+const SymmetryReduction& SymmetryStabilityCheck::sector_reduction(int k) const {
+  return sectors_.at(static_cast<size_t>(k))->reduction;
+}
+
+Eigen::VectorXd SymmetryStabilityCheck::sector_direction(int character, unsigned seed) const {
+  for (const auto& sp : sectors_)
+    if (sp->character == character) {
+      std::mt19937_64 rng(seed);
+      std::normal_distribution<double> normal;
+      Eigen::VectorXd q(sp->reduction.reduced_size);
+      for (auto& v : q) v = normal(rng);
+      Eigen::VectorXd d = expand(sp->reduction, q);
+      return d / d.norm();
+    }
+  throw std::invalid_argument("stability check: no sector of character " +
+                              std::to_string(character));
+}
+
+}  // namespace rbc
