@@ -44,6 +44,11 @@ struct SparseCholesky::Impl {
   }
 };
 
+std::unique_lock<std::mutex> lock_fill_ordering() {
+  static std::mutex m;
+  return std::unique_lock<std::mutex>(m);
+}
+
 SparseCholesky::SparseCholesky(const SparseCholeskyOptions& options)
     : impl_(std::make_unique<Impl>()) {
   options.validate();
@@ -58,6 +63,7 @@ void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
     throw std::invalid_argument("sparse Cholesky: matrix must be square, got " +
                                 std::to_string(a.rows()) + " x " + std::to_string(a.cols()));
   impl_->configure(a.rows());
+  const auto lock = lock_fill_ordering();
   impl_->factor.analyzePattern(a);
   impl_->analysed = true;
   impl_->ok = false;

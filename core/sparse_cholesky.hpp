@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
+#include <mutex>
 
 namespace rbc {
 
@@ -33,6 +34,16 @@ struct SparseCholeskyOptions {
   /// Throws std::invalid_argument naming the quantity: threshold >= 0, threads in [0, 1024].
   void validate() const;
 };
+
+/// Held around every CHOLMOD symbolic analysis in the process (SparseCholesky::analyze and
+/// discrete/newton_preconditioner.cpp). METIS, CHOLMOD's nested-dissection ordering, draws
+/// from one process-wide random state that each call re-seeds: two analyses running at once
+/// interleave their draws, so the ordering, and with it the factor's rounding, depended on
+/// thread timing (measured: `rbc infer` with 2 threads gave posteriors differing at 1e-13 run
+/// to run). Analyses are rare (once per pattern and solver), so serialising them costs
+/// nothing measurable. The one process-wide object of the libraries: it guards a library
+/// that has process-wide state.
+[[nodiscard]] std::unique_lock<std::mutex> lock_fill_ordering();
 
 class SparseCholesky {
  public:

@@ -154,7 +154,10 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
         s.factor.cholmod().nmethods = 1;
         s.factor.cholmod().method[0].ordering = method;
       }
-      s.factor.analyzePattern(h);
+      {
+        const auto lock = lock_fill_ordering();  // METIS is not reentrant
+        s.factor.analyzePattern(h);
+      }
       s.analysed = true;
       s.stats.factor_nonzeros = s.factor.cholmod().lnz;
       ++s.stats.analyses;
