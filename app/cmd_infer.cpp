@@ -191,7 +191,7 @@ void add_infer_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--prior", c->priors,
                   "uniform prior NAME=LOWER:UPPER, repeatable (defaults: persistence=2:40, "
-                  "lmax=150:600, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
+                  "lmax=150:300, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
                   "sigma-scale=0.2:3)");
   cmd->add_option("--reading-uncertainty", c->reading_uncertainty_um,
                   "figure-reading uncertainty (um) added in quadrature to every error bar "
@@ -214,8 +214,9 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "Newton tolerance of the continuum forward runs: largest net vertex force (pN)")
       ->capture_default_str();
   cmd->add_option("--symmetry", c->symmetry,
-                  "continuum forward runs: none | mirror (solve on the mirror-symmetric states, "
-                  "NewtonOptions::symmetry)")
+                  "continuum forward runs: none | mirror (solve on the mirror-symmetric states; "
+                  "the top force's is checked and, if a saddle, the forces from the first "
+                  "unstable one on are solved again in full)")
       ->transform(enum_choice<Symmetry>({{"none", Symmetry::none}, {"mirror", Symmetry::mirror}}))
       ->type_name("TEXT")
       ->default_str(to_string(ForwardOptions::default_newton().symmetry));

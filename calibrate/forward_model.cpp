@@ -104,6 +104,7 @@ struct SolveOutcome {
   int iterations = 0;
   std::string status;               ///< solver status in words
   bool diameter_converged = false;  ///< accepted at the diameter tolerance
+  bool symmetry_broken = false;     ///< the equilibrium is not mirror-symmetric
 };
 
 /// Mutable per-call state: the model with this call's parameters and its solver.
@@ -111,9 +112,11 @@ struct ForwardModel::Workspace {
   Network network;
   ContinuumModel continuum;
   std::unique_ptr<NewtonSolver> newton;
-  /// Without the symmetry (a run whose symmetric equilibria were saddles); made on first use.
-  std::unique_ptr<NewtonSolver> newton_full;
-  bool full = false;  ///< solve with newton_full
+  /// The symmetric solver with every equilibrium checked (a saddle is pushed off and solved in
+  /// full; an asymmetric start is solved in full): the forces of a run from its first unstable
+  /// one on. Made on first use.
+  std::unique_ptr<NewtonSolver> newton_checked;
+  bool checked = false;  ///< solve with newton_checked
   /// Equilibrium at force F from x, lambda (updated in place; left at the start on failure).
   std::function<SolveOutcome(double, Positions&, ConstraintMultipliers&, const ProgressSink&)>
       solve;
@@ -187,7 +190,7 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
                        const ProgressSink& trace) {
       const Positions x0 = x;
       const ConstraintMultipliers l0 = l;
-      NewtonSolver& solver = w->full ? *w->newton_full : *w->newton;
+      NewtonSolver& solver = w->checked ? *w->newton_checked : *w->newton;
       NewtonResult r = solver.solve(f, x, l, trace);
       SolveOutcome out;
       out.iterations = r.iterations;
@@ -225,6 +228,7 @@ std::unique_ptr<ForwardModel::Workspace> ForwardModel::borrow() const {
       }
       out.converged = r.converged() || out.diameter_converged;
       out.residual_pN = r.residual_pN;
+      out.symmetry_broken = r.symmetry_broken;
       if (!out.converged) {
         x = x0;
         l = l0;
@@ -273,7 +277,7 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
     // A factorisation kept from another sample's run would make this run's result depend on
     // which workspace it borrowed: start afresh (reuse across this run's forces only).
     ws->newton->forget_factorisation();
-    if (ws->newton_full) ws->newton_full->forget_factorisation();
+    if (ws->newton_checked) ws->newton_checked->forget_factorisation();
     ContinuumModel& m = ws->continuum;
     m.law = make_membrane_law(wlc, StericParameters{}, options_.method.order);
     m.bending.kappa_pNum = kappa;
@@ -287,14 +291,25 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
   if (!warm.empty() && !have_warm)
     throw std::invalid_argument("warm state of " + std::to_string(warm.size()) +
                                 " values does not fit this forward model");
-  const auto sweep = [&]() {
-    ForwardRun out;
+  // The forces from index `first` on, continuing `out` (whose forces before `first` are
+  // solved; its state holds them).
+  const auto sweep = [&](int first, ForwardRun out) {
     out.state.resize(static_cast<size_t>(nf) * per_force);
     Positions x_prev = *rest;
     ConstraintMultipliers l_prev;
     double f_prev = 0;
+    if (first > 0) {
+      const double* w = out.state.data() + static_cast<size_t>(first - 1) * per_force;
+      x_prev = Eigen::Map<const Positions>(w, 3, n);
+      l_prev = {w[3 * n], w[3 * n + 1]};
+      f_prev = options_.forces_pN[first - 1];
+      out.diameters.axial_um.resize(first);
+      out.diameters.transverse_um.resize(first);
+    } else {
+      out.diameters = {};
+    }
     out.converged = true;
-    for (int k = 0; k < nf; ++k) {
+    for (int k = first; k < nf; ++k) {
       const double f = options_.forces_pN[k];
       Positions x = x_prev;
       ConstraintMultipliers l = l_prev;
@@ -349,6 +364,7 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
       }
       out.residual_pN = std::max(out.residual_pN, o.residual_pN);
       out.diameter_converged += o.diameter_converged;
+      out.symmetry_broken = out.symmetry_broken || o.symmetry_broken;
       if (!o.converged) {
         out.converged = false;
         out.failed_force_pN = f;
@@ -372,29 +388,43 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
     }
     return out;
   };
-  ForwardRun out = sweep();
+  ForwardRun out = sweep(0, ForwardRun{});
   // The symmetric equilibria must be minima (ForwardOptions::check_symmetry_at_top_force).
   if (out.converged && options_.method.kind != MethodKind::discrete &&
       options_.newton.symmetry == Symmetry::mirror && options_.check_symmetry_at_top_force &&
       nf > 0) {
-    const double* w = out.state.data() + static_cast<size_t>(nf - 1) * per_force;
-    const Positions x = Eigen::Map<const Positions>(w, 3, n);
-    const ConstraintMultipliers l{w[3 * n], w[3 * n + 1]};
-    if (!ws->newton->check_symmetric_state(options_.forces_pN[nf - 1], x, l).stable) {
-      if (trace) trace("the symmetric equilibrium at the top force is a saddle: solving in full");
-      if (!ws->newton_full) {
-        NewtonOptions full = options_.newton;
-        full.symmetry = Symmetry::none;
-        ws->newton_full = std::make_unique<NewtonSolver>(ws->continuum, full);
+    const auto stable = [&](int k) {
+      const double* w = out.state.data() + static_cast<size_t>(k) * per_force;
+      const Positions x = Eigen::Map<const Positions>(w, 3, n);
+      return ws->newton->check_symmetric_state(options_.forces_pN[k], x, {w[3 * n], w[3 * n + 1]})
+          .stable;
+    };
+    if (!stable(nf - 1)) {
+      // The first unstable force, by bisection (buckling grows with the stretch: stable below
+      // it, unstable from it on). An asymmetric equilibrium (a buckled parent's start, solved
+      // in full) is a full solve's and counts as stable.
+      int lo = -1, hi = nf - 1;  // lo stable (or none), hi unstable
+      while (hi - lo > 1) {
+        const int mid = (lo + hi) / 2;
+        (stable(mid) ? lo : hi) = mid;
       }
-      ws->full = true;
-      struct Back {  // back to the symmetric solver on every path
+      if (trace) {
+        std::ostringstream m;
+        m << "the symmetric equilibria from F = " << options_.forces_pN[hi]
+          << " pN on are saddles: solving those forces again, pushed off and in full";
+        trace(m.str());
+      }
+      if (!ws->newton_checked) {
+        NewtonOptions checked = options_.newton;
+        checked.symmetry_check = true;
+        ws->newton_checked = std::make_unique<NewtonSolver>(ws->continuum, checked);
+      }
+      ws->checked = true;
+      struct Back {  // back to the unchecked solver on every path
         bool& flag;
         ~Back() { flag = false; }
-      } back{ws->full};
-      const int solves = out.solves;
-      out = sweep();
-      out.solves += solves;
+      } back{ws->checked};
+      out = sweep(hi, std::move(out));
       out.symmetry_broken = true;
     }
   }

@@ -83,11 +83,15 @@ struct ForwardOptions {
   }
   /// With newton.symmetry = mirror: after a run whose equilibria are symmetric, check that the
   /// one at the highest force is a minimum of the full problem (one full Hessian and |G| - 1
-  /// sector factorisations, ~10 % of a warm run); if it is a saddle (the cell buckles: soft
-  /// cells far out in the prior box, e.g. p = 25 nm, Lmax = 364 nm from ~50 pN on) the whole
-  /// run is solved again without the symmetry. Buckling grows with the stretch: in the soft
-  /// cell measured, once broken at 67.6 pN the symmetry stayed broken at every higher force,
-  /// and no lower force of a run whose top force was stable was found unstable (tested on the
+  /// sector factorisations, ~10 % of a warm run). If it is a saddle (the cell buckles: soft
+  /// cells far out in the prior box, e.g. p = 25 nm, Lmax = 364 nm from ~50 pN on), the first
+  /// unstable force is found by bisection over the forces (log2 of their number in checks) and
+  /// the forces from it on are solved again with every equilibrium checked: the saddle is
+  /// pushed 1e-3 um along its unstable sector and solved in full, and the later forces
+  /// continue from the buckled state in full (continuum/newton_solver.hpp). The forces below
+  /// keep their symmetric equilibria. Buckling grows with the stretch: in the soft cell
+  /// measured, once broken at 67.6 pN the symmetry stayed broken at every higher force, and
+  /// no lower force of a run whose top force was stable was found unstable (tested on the
   /// recovery test's and the default prior's corners).
   bool check_symmetry_at_top_force = true;
   /// Slow but converging solves (continuum). Soft networks far out in the prior box (e.g.
@@ -122,7 +126,9 @@ struct ForwardRun {
   /// Forces accepted at the diameter tolerance (ForwardOptions) rather than the force one.
   int diameter_converged = 0;
   double residual_pN = 0;  ///< largest final residual over the forces
-  /// The symmetric equilibria were saddles (check_symmetry_at_top_force): solved in full.
+  /// Some equilibrium of the run is not mirror-symmetric: the symmetric ones were saddles from
+  /// some force on (check_symmetry_at_top_force) and those forces were solved again in full,
+  /// or a buckled parent's start was followed in full.
   bool symmetry_broken = false;
   WarmState state;  ///< per force: 3N positions (um) and two multipliers
   // Diagnostics of a failed run (empty/zero when converged):

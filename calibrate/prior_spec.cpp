@@ -117,7 +117,7 @@ PriorRange default_prior(Parameter p) {
     case Parameter::persistence:
       return {p, 2.0, 40.0};
     case Parameter::lmax:
-      return {p, 150.0, 600.0};
+      return {p, 150.0, 300.0};
     case Parameter::kappa:
       return {p, 5e-20, 1e-18};
     case Parameter::contact_fraction:

@@ -39,7 +39,12 @@ struct PriorRange {
 
 /// Documented default boxes (natural units), wide around the paper's values (Table 1-2):
 ///   persistence 2:40 nm (paper 7.5; mu ~ 1/p, so 2.5 uN/m needs ~25 nm at Lmax 237.75),
-///   lmax 150:600 nm (paper 237.75; x0 = Lbar/Lmax <= 0.5), kappa 5e-20:1e-18 J (paper 2e-19),
+///   lmax 150:300 nm (paper 237.75; x0 = Lbar/Lmax <= 0.5; above 300 nm with p > 30 nm the
+///   cell stretches past 5 times its diameter at 193 pN, D_A > 40 um against the data's
+///   16.3 um, where buckled soft cells converge slowly or not at all: measured at 2,000
+///   elements, p = 40 nm with Lmax = 350 nm fails, p = 40 nm with 300 nm converges; the
+///   equal-stiffness ridge of the Mills data reaches Lmax = 150 nm at p ~ 25 nm, inside the box),
+///   kappa 5e-20:1e-18 J (paper 2e-19),
 ///   contact-fraction 0.02:0.15 (paper 0.05), sigma-scale 0.2:3.
 PriorRange default_prior(Parameter p);
 
