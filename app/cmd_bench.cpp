@@ -458,7 +458,10 @@ void add_bench_command(CLI::App& app, Action& action) {
                  ->Args({250, -1, 0})
                  ->Args({250, -1, 1})
                  ->Args({250, 0, 0})
-                 ->Args({250, 1 << 30, 0}));
+                 ->Args({250, 1 << 30, 0})
+                 // Issue 11: the full spectrin level, 13 forces (target <= 60 s).
+                 ->Args({27500, -1, 0})
+                 ->Args({27500, -1, 1}));
         once(benchmark::RegisterBenchmark("discrete/warm13_persistence_1pc", BM_DiscreteWarm)
                  ->Args({250, 1})
                  ->Args({250, 0}));
