@@ -436,9 +436,10 @@ int run_continuum(const StretchCli& o) {
       manifest);
 }
 
-/// --accuracy P%: sets model, resolution and order from the trade-off table, before any
+/// --accuracy P%: sets model, resolution, order and (unless --symmetry was given, which then
+/// restricts the choice to its rows) the solver path from the trade-off table, before any
 /// work; refusals (std::invalid_argument -> exit 2) name the reason in one line.
-void choose_stretch_method(StretchCli& o, const std::string& explicit_choice) {
+void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bool symmetry_given) {
   const double percent = parse_accuracy_percent(o.accuracy);
   if (!explicit_choice.empty())
     throw std::invalid_argument("--accuracy " + o.accuracy + " cannot be combined with " +
@@ -451,8 +452,10 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice) {
     throw std::invalid_argument(std::string("--accuracy: cannot read the trade-off table: ") +
                                 e.what());
   }
-  const AccuracyChoice ch = choose_by_accuracy(table, forces, percent);
+  const AccuracyChoice ch = choose_by_accuracy(
+      table, forces, percent, symmetry_given ? std::optional<Symmetry>(o.symmetry) : std::nullopt);
   const Method& m = ch.chosen.method;
+  o.symmetry = ch.chosen.symmetry;
   o.model = m.kind == MethodKind::discrete ? StretchModel::discrete : StretchModel::continuum;
   if (m.kind == MethodKind::discrete)
     o.vertices = m.resolution;
@@ -460,6 +463,7 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice) {
     o.elements = m.resolution, o.order = m.order;
   auto pick_json = [](const AccuracyPick& p) {
     return nlohmann::json{{"method", method_spec(p.method)},
+                          {"symmetry", to_string(p.symmetry)},
                           {"error_percent", 100 * p.error},
                           {"cost_eg", p.cost_eg}};
   };
@@ -569,22 +573,24 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--accuracy", o->accuracy,
                   "choose the cheapest model and resolution whose accuracy over the forces "
                   "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv; "
-                  "excludes --model, --vertices, --elements, --order");
+                  "excludes --model, --vertices, --elements, --order; also chooses --symmetry "
+                  "unless it is given");
   cmd->callback([o, &action, tolerance, cmd] {
     o->tolerance_given = tolerance->count() > 0;
     std::string explicit_choice;  // the first method option given with --accuracy
     for (const char* name : {"--model", "--vertices", "--elements", "--order"})
       if (explicit_choice.empty() && cmd->get_option(name)->count() > 0) explicit_choice = name;
     const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
+    const bool symmetry_given = cmd->get_option("--symmetry")->count() > 0;
     std::string changed_physics;  // options that leave the table's default physics
     for (const char* name : {"--bending", "--dihedral-mapping", "--mesh-quality", "--contact",
                              "--contact-fraction", "--lbar", "--lmax", "--persistence",
                              "--temperature", "--kappa", "--h0", "--q", "--eta", "--tolerance"})
       if (cmd->get_option(name)->count() > 0)
         changed_physics += (changed_physics.empty() ? "" : ", ") + std::string(name);
-    action = [o, explicit_choice, accuracy_given, changed_physics]() -> int {
+    action = [o, explicit_choice, accuracy_given, symmetry_given, changed_physics]() -> int {
       if (accuracy_given) {
-        choose_stretch_method(*o, explicit_choice);
+        choose_stretch_method(*o, explicit_choice, symmetry_given);
         if (!changed_physics.empty()) {
           std::cerr << "rbc: warning: --accuracy: the table was measured with the default "
                        "parameters and tolerances; "

@@ -65,6 +65,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     std::vector<unsigned> spread_seeds = AccuracyStudyOptions{}.spread_seeds;
     int reference_vertices = AccuracyStudyOptions{}.reference_vertices;
     int spread_max = AccuracyStudyOptions{}.spread_max_resolution;
+    std::vector<Symmetry> symmetries = AccuracyStudyOptions{}.symmetries;
     std::string cache;
   };
   auto o = std::make_shared<Opts>();
@@ -123,6 +124,13 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "--accuracy-table: reference network size, 100 to 40,000")
       ->check(integer_in(100, 40000))
       ->capture_default_str();
+  cmd->add_option("--symmetries", o->symmetries,
+                  "--accuracy-table: solver paths each default-mesh sweep is run with, none and/or "
+                  "mirror (default none,mirror: every method at its best; same mesh, so a mirror "
+                  "row's errors are its full row's, only the cost differs)")
+      ->transform(enum_choice<Symmetry>({{"none", Symmetry::none}, {"mirror", Symmetry::mirror}}))
+      ->type_name("TEXT")
+      ->delimiter(',');
   cmd->add_option("--cache", o->cache,
                   "--accuracy-table: directory of per-sweep CSV files, reused when present "
                   "(default OUT/runs)");
@@ -144,6 +152,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         ao.spread_seeds = o->spread_seeds;
         ao.spread_max_resolution = o->spread_max;
         ao.reference_vertices = o->reference_vertices;
+        ao.symmetries = o->symmetries;
         ao.cache_dir = o->cache.empty() ? o->out + "/runs" : o->cache;
         naming_options({{"accuracy study", "--reference-seeds"}}, [&] {
           ao.validate();
@@ -159,11 +168,12 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         write_accuracy_study(st, o->out);
         std::cout << std::defaultfloat << std::setprecision(4);
         for (const auto& r : st.rows)
-          std::cout << "  " << std::left << std::setw(44) << r.method.label() << std::right
-                    << " error " << 100 * r.error_all << " % (low " << 100 * r.error_low << ", mid "
-                    << 100 * r.error_mid << ", high " << 100 * r.error_high << "), cost "
-                    << r.cost_eg << " evaluations" << (r.converged ? "" : "  NOT CONVERGED")
-                    << "\n";
+          std::cout << "  " << std::left << std::setw(52)
+                    << r.method.label() + (r.symmetry == Symmetry::mirror ? ", mirror" : "")
+                    << std::right << " error " << 100 * r.error_all << " % (low "
+                    << 100 * r.error_low << ", mid " << 100 * r.error_mid << ", high "
+                    << 100 * r.error_high << "), cost " << r.cost_eg << " evaluations"
+                    << (r.converged ? "" : "  NOT CONVERGED") << "\n";
         std::cout << accuracy_study_verdict(st);
         std::cout << "outputs: " << o->out
                   << "/accuracy_cost.csv, accuracy_by_force.csv, reference.csv, "

@@ -39,18 +39,24 @@ std::string method_spec(const Method& m) {
   return "continuum:" + to_string(m.order) + ":" + std::to_string(m.resolution);
 }
 
+std::string method_spec(const Method& m, Symmetry symmetry) {
+  return method_spec(m) + (symmetry == Symmetry::mirror ? " mirror" : "");
+}
+
 std::string default_accuracy_table_path() {
   return default_data_directory() + "/tradeoff/accuracy_by_force.csv";
 }
 
 AccuracyTable load_accuracy_table(const std::string& path) {
   const CsvTable t = read_csv(path);
-  const std::vector<std::string> expected = {"kind",    "order",    "resolution", "converged",
-                                             "cost_eg", "force_pN", "error",      "reference_se"};
+  // The symmetry column came with the mirror rows; a table without it is all Symmetry::none.
+  std::vector<std::string> expected = {"kind",    "order",    "resolution", "converged",
+                                       "cost_eg", "force_pN", "error",      "reference_se"};
+  if (t.header.size() == expected.size() + 1) expected.push_back("symmetry");
   if (t.header != expected)
     throw std::runtime_error(path +
                              ": expected the header kind,order,resolution,converged,cost_eg,"
-                             "force_pN,error,reference_se");
+                             "force_pN,error,reference_se[,symmetry]");
   AccuracyTable table;
   table.source = path;
   for (size_t k = 0; k < t.rows.size(); ++k) {
@@ -59,29 +65,33 @@ AccuracyTable load_accuracy_table(const std::string& path) {
     if (r.size() != expected.size()) throw std::runtime_error(where + ": wrong number of columns");
     for (double v : r)
       if (!std::isfinite(v)) throw std::runtime_error(where + ": non-finite value");
+    const bool has_symmetry = r.size() > 8;
     if ((r[0] != 0 && r[0] != 1) || r[2] < 1 || r[2] != std::floor(r[2]) || r[4] < 0 || r[5] < 0 ||
-        r[6] < 0 || r[7] < 0)
+        r[6] < 0 || r[7] < 0 || (has_symmetry && r[8] != 0 && r[8] != 1))
       throw std::runtime_error(where +
                                ": kind must be 0 or 1, resolution a positive integer, "
-                               "cost, force, error and reference_se >= 0");
+                               "cost, force, error and reference_se >= 0, symmetry 0 or 1");
+    const Symmetry symmetry = has_symmetry && r[8] == 1 ? Symmetry::mirror : Symmetry::none;
     Method m;
     m.kind = r[0] == 0 ? MethodKind::discrete : MethodKind::continuum;
     m.order = m.kind == MethodKind::discrete ? WlcExpansion::full : order_from_code(r[1], where);
     m.resolution = static_cast<int>(r[2]);
     table.reference_relative_se = std::max(table.reference_relative_se, r[7]);
-    const bool same = !table.entries.empty() && table.entries.back().method.kind == m.kind &&
-                      table.entries.back().method.order == m.order &&
-                      table.entries.back().method.resolution == m.resolution;
-    if (!same) {
+    auto is_this = [&](const AccuracyEntry& e) {
+      return e.method.kind == m.kind && e.method.order == m.order &&
+             e.method.resolution == m.resolution && e.symmetry == symmetry;
+    };
+    if (table.entries.empty() || !is_this(table.entries.back())) {
       for (const auto& e : table.entries)
-        if (e.method.kind == m.kind && e.method.order == m.order &&
-            e.method.resolution == m.resolution)
-          throw std::runtime_error(where + ": rows of " + method_spec(m) + " are not contiguous");
-      table.entries.push_back({m, r[3] != 0, r[4], {}, {}});
+        if (is_this(e))
+          throw std::runtime_error(where + ": rows of " + method_spec(m, symmetry) +
+                                   " are not contiguous");
+      table.entries.push_back({m, symmetry, r[3] != 0, r[4], {}, {}});
     }
     AccuracyEntry& e = table.entries.back();
     if (!e.forces_pN.empty() && !(r[5] > e.forces_pN.back()))
-      throw std::runtime_error(where + ": forces of " + method_spec(m) + " must increase");
+      throw std::runtime_error(where + ": forces of " + method_spec(m, symmetry) +
+                               " must increase");
     e.forces_pN.push_back(r[5]);
     e.error.push_back(r[6]);
   }
@@ -121,7 +131,7 @@ double entry_error(const AccuracyEntry& e, const std::vector<double>& forces) {
 }
 
 AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<double>& forces,
-                                  double percent) {
+                                  double percent, std::optional<Symmetry> only) {
   if (!std::isfinite(percent) || !(percent > 0))
     throw std::invalid_argument("--accuracy: the percentage must be finite and > 0, got " +
                                 std::to_string(percent));
@@ -136,7 +146,7 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
   for (size_t k = 0; k < table.entries.size(); ++k) {
     const AccuracyEntry& e = table.entries[k];
     const double err = entry_error(e, forces);  // throws for forces outside the table
-    if (!e.converged) continue;
+    if (!e.converged || (only && e.symmetry != *only)) continue;
     if (!best_error || err < best_error->error) best_error = Candidate{&e, err, k};
     if (err + table.reference_relative_se <= percent / 100) ok.push_back({&e, err, k});
   }
@@ -144,7 +154,8 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
     std::ostringstream m;
     m << "--accuracy " << percent << "%: no method in " << table.source << " reaches it";
     if (best_error)
-      m << " (the most accurate, " << method_spec(best_error->entry->method) << ", is within "
+      m << " (the most accurate, "
+        << method_spec(best_error->entry->method, best_error->entry->symmetry) << ", is within "
         << percent_text(best_error->error) << " of the reference, whose own uncertainty is "
         << percent_text(table.reference_relative_se) << ")";
     throw std::invalid_argument(m.str());
@@ -154,31 +165,40 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
     return a.error < b.error;
   });
   auto pick = [](const Candidate& c) {
-    return AccuracyPick{c.entry->method, c.error, c.entry->cost_eg};
+    return AccuracyPick{c.entry->method, c.entry->symmetry, c.error, c.entry->cost_eg};
   };
   AccuracyChoice ch;
   ch.percent = percent;
   ch.reference_relative_se = table.reference_relative_se;
   ch.chosen = pick(ok[0]);
-  if (ok.size() > 1) ch.runner_up = pick(ok[1]);
+  // The alternatives name other discretisations: the same mesh on the other solver path
+  // has the same error and is no alternative to report.
+  auto same_method = [&](const Candidate& c) {
+    const Method &a = c.entry->method, &b = ok[0].entry->method;
+    return a.kind == b.kind && a.order == b.order && a.resolution == b.resolution;
+  };
+  size_t runner = 0;
+  for (size_t k = 1; k < ok.size() && !runner; ++k)
+    if (!same_method(ok[k])) runner = k;
+  if (runner) ch.runner_up = pick(ok[runner]);
   for (size_t k = 1; k < ok.size(); ++k)
     if (ok[k].entry->method.kind != ok[0].entry->method.kind) {
-      if (k != 1) ch.other_kind = pick(ok[k]);
+      if (k != runner) ch.other_kind = pick(ok[k]);
       break;
     }
   std::ostringstream r;
-  r << "--accuracy " << percent << "%: chose " << method_spec(ch.chosen.method) << ", within "
-    << percent_text(ch.chosen.error) << " of the reference over the requested forces (+ "
-    << percent_text(ch.reference_relative_se) << " reference uncertainty), cost "
-    << cost_text(ch.chosen.cost_eg) << " evaluations, the cheapest of " << ok.size()
-    << " that qualify";
+  r << "--accuracy " << percent << "%: chose " << method_spec(ch.chosen.method, ch.chosen.symmetry)
+    << ", within " << percent_text(ch.chosen.error)
+    << " of the reference over the requested forces (+ " << percent_text(ch.reference_relative_se)
+    << " reference uncertainty), cost " << cost_text(ch.chosen.cost_eg)
+    << " evaluations, the cheapest of " << ok.size() << " that qualify";
   if (ch.runner_up)
-    r << "; runner-up " << method_spec(ch.runner_up->method) << " ("
+    r << "; runner-up " << method_spec(ch.runner_up->method, ch.runner_up->symmetry) << " ("
       << percent_text(ch.runner_up->error) << ", " << cost_text(ch.runner_up->cost_eg) << ")";
   if (ch.other_kind)
     r << "; cheapest "
       << (ch.other_kind->method.kind == MethodKind::discrete ? "discrete" : "continuum")
-      << " model " << method_spec(ch.other_kind->method) << " ("
+      << " model " << method_spec(ch.other_kind->method, ch.other_kind->symmetry) << " ("
       << percent_text(ch.other_kind->error) << ", " << cost_text(ch.other_kind->cost_eg) << ")";
   ch.reason = r.str();
   return ch;

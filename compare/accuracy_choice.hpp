@@ -13,6 +13,7 @@ namespace rbc {
 /// One method of the table with its per-force errors (fractions, not %).
 struct AccuracyEntry {
   Method method;
+  Symmetry symmetry = Symmetry::none;  ///< solver path the cost was measured with
   bool converged = false;
   double cost_eg = 0;  ///< energy+gradient evaluations of the cost unit for the 13-force sweep
   std::vector<double> forces_pN, error;  ///< increasing forces; max rel. error of D_A, D_T
@@ -27,7 +28,8 @@ struct AccuracyTable {
 };
 
 /// Reads accuracy_by_force.csv (columns kind, order, resolution, converged, cost_eg,
-/// force_pN, error, reference_se); throws std::runtime_error naming the file when it is
+/// force_pN, error, reference_se, symmetry: 0 none, 1 mirror; a table without the last
+/// column is all Symmetry::none); throws std::runtime_error naming the file when it is
 /// missing, malformed, or its rows are not grouped by method with increasing forces.
 AccuracyTable load_accuracy_table(const std::string& path);
 
@@ -45,8 +47,9 @@ double entry_error(const AccuracyEntry& entry, const std::vector<double>& forces
 
 struct AccuracyPick {
   Method method;
-  double error = 0;    ///< over the requested forces (fraction)
-  double cost_eg = 0;  ///< from the table
+  Symmetry symmetry = Symmetry::none;  ///< run it with this solver path (`--symmetry`)
+  double error = 0;                    ///< over the requested forces (fraction)
+  double cost_eg = 0;                  ///< from the table
 };
 
 struct AccuracyChoice {
@@ -60,13 +63,16 @@ struct AccuracyChoice {
 };
 
 /// The cheapest converged entry with entry_error + reference_relative_se <= percent / 100
-/// (ties: smaller error, then table order). Throws std::invalid_argument (one line) if
+/// (ties: smaller error, then table order), among the entries of solver path `only` when
+/// given (a user's explicit `--symmetry`). Throws std::invalid_argument (one line) if
 /// percent is not finite and > 0, the force list is empty, a force lies outside the table's
 /// range, or no entry reaches the percentage (naming the best the table offers).
 AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<double>& forces_pN,
-                                  double percent);
+                                  double percent, std::optional<Symmetry> only = std::nullopt);
 
 /// "discrete:N" or "continuum:ORDER:ELEMENTS" (the text parse_method reads).
 std::string method_spec(const Method& method);
+/// method_spec with " mirror" appended for Symmetry::mirror (messages and verdicts).
+std::string method_spec(const Method& method, Symmetry symmetry);
 
 }  // namespace rbc

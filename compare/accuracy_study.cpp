@@ -33,6 +33,13 @@ void AccuracyStudyOptions::validate() const {
   if (reference_vertices < 100 || reference_vertices > 40000)
     throw std::invalid_argument("reference vertices must be in [100, 40000], got " +
                                 std::to_string(reference_vertices));
+  if (symmetries.empty())
+    throw std::invalid_argument("accuracy study needs at least one solver path (symmetry)");
+  for (size_t k = 0; k < symmetries.size(); ++k)
+    for (size_t j = 0; j < k; ++j)
+      if (symmetries[j] == symmetries[k])
+        throw std::invalid_argument("accuracy study: symmetry " + to_string(symmetries[k]) +
+                                    " is listed twice");
   if (cost_unit_vertices < 100 || cost_unit_vertices > 40000)
     throw std::invalid_argument("cost-unit vertices must be in [100, 40000], got " +
                                 std::to_string(cost_unit_vertices));
@@ -91,7 +98,8 @@ const std::vector<std::string>& accuracy_cost_header() {
                                              "rotations",
                                              "error_default",
                                              "reference_sd",
-                                             "cost_unit_vertices"};
+                                             "cost_unit_vertices",
+                                             "symmetry"};
   return h;
 }
 
@@ -101,15 +109,27 @@ bool same_family(const Method& a, const Method& b) {
          (a.kind == MethodKind::discrete || a.order == b.order);
 }
 
-std::string cache_base(const std::string& dir, const Method& m) {
-  return (std::filesystem::path(dir) / m.name()).string();
+/// One sweep of the study: a discretisation and the solver path it is run with.
+struct Sweep {
+  Method method;
+  Symmetry symmetry = Symmetry::none;
+};
+
+/// 0 none, 1 mirror: the symmetry column of the CSV files.
+double symmetry_code(Symmetry s) {
+  return s == Symmetry::mirror ? 1.0 : 0.0;
+}
+
+std::string cache_base(const std::string& dir, const Method& m, Symmetry symmetry) {
+  return (std::filesystem::path(dir) / (m.name() + (symmetry == Symmetry::mirror ? "_mirror" : "")))
+      .string();
 }
 
 void write_cached_run(const std::string& dir, const StudyRun& s) {
   const MethodRun& r = s.run;
   CsvTable pts;
   pts.comments = {"one sweep of the accuracy study: " + r.method.label() + ", rotation seed " +
-                  std::to_string(r.method.rotation_seed)};
+                  std::to_string(r.method.rotation_seed) + ", symmetry " + to_string(r.symmetry)};
   pts.header = {"force_pN",  "axial_um", "transverse_um", "iterations",
                 "converged", "residual", "wall_s"};
   for (const auto& p : r.points)
@@ -123,14 +143,14 @@ void write_cached_run(const std::string& dir, const StudyRun& s) {
   meta.rows.push_back({static_cast<double>(r.vertices), static_cast<double>(r.elements), r.cpu_s,
                        r.total_s - r.setup_s, r.eval_cpu_s, s.unit_eval_cpu_s, r.patch_plus_um2,
                        r.patch_minus_um2, r.surface_um2, r.setup_s});
-  const std::string base = cache_base(dir, r.method);
+  const std::string base = cache_base(dir, r.method, r.symmetry);
   write_csv(base + ".meta.csv", meta);
   write_csv(base + ".csv", pts);  // written last: its presence marks a complete entry
 }
 
-bool read_cached_run(const std::string& dir, const Method& m, const std::vector<double>& forces,
-                     StudyRun& out) {
-  const std::string base = cache_base(dir, m);
+bool read_cached_run(const std::string& dir, const Method& m, Symmetry symmetry,
+                     const std::vector<double>& forces, StudyRun& out) {
+  const std::string base = cache_base(dir, m, symmetry);
   if (!std::filesystem::exists(base + ".csv") || !std::filesystem::exists(base + ".meta.csv"))
     return false;
   const CsvTable pts = read_csv(base + ".csv");
@@ -142,6 +162,7 @@ bool read_cached_run(const std::string& dir, const Method& m, const std::vector<
   MethodRun& r = out.run;
   r = MethodRun{};
   r.method = m;
+  r.symmetry = symmetry;
   const auto& q = meta.rows[0];
   r.vertices = static_cast<int>(q[0]);
   r.elements = static_cast<int>(q[1]);
@@ -158,14 +179,21 @@ bool read_cached_run(const std::string& dir, const Method& m, const std::vector<
   return true;
 }
 
-/// The list of sweeps the options ask for, cheapest first within each group.
-std::vector<Method> study_methods(const AccuracyStudyOptions& o) {
-  std::vector<Method> out;
-  auto add = [&](MethodKind kind, int resolution, WlcExpansion order, unsigned seed) {
-    Method m{kind, resolution, order, seed};
+/// The list of sweeps the options ask for, cheapest first within each group. The default
+/// triangulation (seed 0) is swept once per solver path, rotated ones in full only.
+std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
+  std::vector<Sweep> out;
+  auto add_one = [&](const Method& m, Symmetry symmetry) {
     for (const auto& e : out)
-      if (same_family(e, m) && e.rotation_seed == seed) return;
-    out.push_back(m);
+      if (same_family(e.method, m) && e.method.rotation_seed == m.rotation_seed &&
+          e.symmetry == symmetry)
+        return;
+    out.push_back({m, symmetry});
+  };
+  auto add = [&](MethodKind kind, int resolution, WlcExpansion order, unsigned seed) {
+    const Method m{kind, resolution, order, seed};
+    if (seed != 0) return add_one(m, Symmetry::none);
+    for (Symmetry sym : o.symmetries) add_one(m, sym);
   };
   for (int n : o.discrete_vertices) {
     add(MethodKind::discrete, n, WlcExpansion::full, 0);
@@ -179,8 +207,10 @@ std::vector<Method> study_methods(const AccuracyStudyOptions& o) {
       if (order == WlcExpansion::order2 && e <= o.spread_max_resolution)
         for (unsigned s : o.spread_seeds) add(MethodKind::continuum, e, order, s);
     }
-  for (unsigned s : o.reference_seeds)
-    add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, s);
+  for (unsigned s : o.reference_seeds) {
+    add_one({MethodKind::discrete, o.reference_vertices, WlcExpansion::full, s}, Symmetry::none);
+    if (s == 0) add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, s);
+  }
   return out;
 }
 
@@ -200,7 +230,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
   std::vector<const StudyRun*> ref;
   for (const auto& r : st.runs)
     if (r.run.method.kind == MethodKind::discrete &&
-        r.run.method.resolution == o.reference_vertices)
+        r.run.method.resolution == o.reference_vertices && r.run.symmetry == Symmetry::none)
       ref.push_back(&r);
   if (ref.empty()) throw std::runtime_error("accuracy study: no reference run");
   for (const StudyRun* r : ref)
@@ -234,6 +264,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     if (r.method.rotation_seed != 0 || r.points.size() != nf) continue;
     AccuracyRow row;
     row.method = r.method;
+    row.symmetry = r.symmetry;
     row.vertices = r.vertices;
     row.elements = r.elements;
     row.cpu_s = r.cpu_s;
@@ -241,8 +272,9 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     row.own_eg = r.eval_cpu_s > 0 ? r.cpu_s / r.eval_cpu_s : 0;
     row.cost_eg = s.unit_eval_cpu_s > 0 ? r.cpu_s / s.unit_eval_cpu_s : 0;
     std::vector<const MethodRun*> family;
-    for (const auto& t : st.runs)
-      if (same_family(t.run.method, r.method) && t.run.points.size() == nf)
+    for (const auto& t : st.runs)  // the rotations, and this row's own default-mesh sweep
+      if (same_family(t.run.method, r.method) && t.run.points.size() == nf &&
+          (t.run.method.rotation_seed != 0 || t.run.symmetry == r.symmetry))
         family.push_back(&t.run);
     row.rotations = static_cast<int>(family.size());
     row.converged = std::all_of(family.begin(), family.end(),
@@ -281,6 +313,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     if (a.method.kind != b.method.kind) return a.method.kind < b.method.kind;
     if (a.method.order != b.method.order)
       return order_code(a.method.order) > order_code(b.method.order);
+    if (a.symmetry != b.symmetry) return a.symmetry < b.symmetry;
     return a.method.resolution < b.method.resolution;
   });
   // Richardson on the nested continuum chains (frequency doubling: elements x 4).
@@ -289,7 +322,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
       for (const auto& s : st.runs)
         if (s.run.method.kind == MethodKind::continuum && s.run.method.order == order &&
             s.run.method.resolution == e && s.run.method.rotation_seed == 0 &&
-            s.run.points.size() == nf && s.run.all_converged())
+            s.run.symmetry == Symmetry::none && s.run.points.size() == nf && s.run.all_converged())
           return &s.run;
       return nullptr;
     };
@@ -318,16 +351,19 @@ std::vector<StudyRun> run_accuracy_sweeps(const AccuracyStudyOptions& o,
   if (!o.cache_dir.empty()) ensure_output_directory(o.cache_dir);
   std::vector<StudyRun> runs;
   double unit_eval = 0;  // measured once per process, on first need
-  for (const Method& m : study_methods(o)) {
+  for (const auto& [m, symmetry] : study_methods(o)) {
     StudyRun s;
-    if (!o.cache_dir.empty() && read_cached_run(o.cache_dir, m, o.forces_pN, s)) {
+    if (!o.cache_dir.empty() && read_cached_run(o.cache_dir, m, symmetry, o.forces_pN, s)) {
       runs.push_back(std::move(s));
       continue;
     }
     if (unit_eval == 0)
       unit_eval = network_evaluation_cpu_seconds(make_discrete_network(o.cost_unit_vertices));
-    report(progress, "accuracy study: " + m.name());
-    s.run = run_method(m, o.forces_pN, progress, RunMethodOptions{true});
+    report(progress, "accuracy study: " + m.name() + ", symmetry " + to_string(symmetry));
+    RunMethodOptions ro;
+    ro.measure_evaluation = true;
+    ro.symmetry = symmetry;
+    s.run = run_method(m, o.forces_pN, progress, ro);
     s.unit_eval_cpu_s = unit_eval;
     if (!o.cache_dir.empty()) write_cached_run(o.cache_dir, s);
     runs.push_back(std::move(s));
@@ -341,9 +377,20 @@ AccuracyStudy run_accuracy_study(const AccuracyStudyOptions& o, const ProgressSi
 
 namespace {
 
-std::string series_name(const Method& m) {
-  if (m.kind == MethodKind::discrete) return "discrete";
-  return m.order == WlcExpansion::full ? "continuum_full" : "continuum_p" + to_string(m.order);
+std::string series_name(const Method& m, Symmetry symmetry) {
+  const std::string mirror = symmetry == Symmetry::mirror ? "_mirror" : "";
+  if (m.kind == MethodKind::discrete) return "discrete" + mirror;
+  return (m.order == WlcExpansion::full ? "continuum_full" : "continuum_p" + to_string(m.order)) +
+         mirror;
+}
+
+/// Legend title of a series (plain words: gnuplot's enhanced text would subscript "_").
+std::string series_title(const Method& m, Symmetry symmetry) {
+  const std::string mirror = symmetry == Symmetry::mirror ? ", mirror" : "";
+  if (m.kind == MethodKind::discrete) return "discrete" + mirror;
+  return (m.order == WlcExpansion::full ? "continuum full law"
+                                        : "continuum p = " + to_string(m.order)) +
+         mirror;
 }
 
 }  // namespace
@@ -372,18 +419,33 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       "own_eg = the same in evaluations of the method's own model at its size (rbc bench's "
       "eg_evals); cpu_s, wall_s for information (1 thread, shared machine)",
       "spread = largest relative sd of D_A, D_T over triangulation rotations (0 = not measured)",
-      "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4 (continuum); converged 0/1"};
+      "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4 (continuum); converged 0/1",
+      "symmetry: the solver path of cost_eg, 0 full problem, 1 --symmetry mirror (same mesh: "
+      "the errors are those of the full problem's row to the solver tolerance)"};
   t.header = accuracy_cost_header();
   for (const auto& r : st.rows)
     t.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
                       r.method.kind == MethodKind::discrete
                           ? 0.0
                           : static_cast<double>(order_code(r.method.order)),
-                      static_cast<double>(r.method.resolution), static_cast<double>(r.vertices),
-                      static_cast<double>(r.elements), r.converged ? 1.0 : 0.0, r.error_all,
-                      r.error_low, r.error_mid, r.error_high, r.cost_eg, r.own_eg, r.cpu_s,
-                      r.wall_s, r.spread, static_cast<double>(r.rotations), r.error_default,
-                      st.reference_relative_sd, static_cast<double>(o.cost_unit_vertices)});
+                      static_cast<double>(r.method.resolution),
+                      static_cast<double>(r.vertices),
+                      static_cast<double>(r.elements),
+                      r.converged ? 1.0 : 0.0,
+                      r.error_all,
+                      r.error_low,
+                      r.error_mid,
+                      r.error_high,
+                      r.cost_eg,
+                      r.own_eg,
+                      r.cpu_s,
+                      r.wall_s,
+                      r.spread,
+                      static_cast<double>(r.rotations),
+                      r.error_default,
+                      st.reference_relative_sd,
+                      static_cast<double>(o.cost_unit_vertices),
+                      symmetry_code(r.symmetry)});
   write_csv(dir + "/accuracy_cost.csv", t);
   // accuracy_by_force.csv: the per-force errors the --accuracy choice reads.
   CsvTable bf;
@@ -391,9 +453,10 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
                  refline.str(),
                  "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4; error = max of the "
                  "relative errors of D_A and D_T (fraction); cost_eg as in accuracy_cost.csv",
-                 "reference_se = relative standard error of the reference mean (fraction)"};
-  bf.header = {"kind",    "order",    "resolution", "converged",
-               "cost_eg", "force_pN", "error",      "reference_se"};
+                 "reference_se = relative standard error of the reference mean (fraction)",
+                 "symmetry: solver path of cost_eg, 0 full problem, 1 --symmetry mirror"};
+  bf.header = {"kind",     "order", "resolution",   "converged", "cost_eg",
+               "force_pN", "error", "reference_se", "symmetry"};
   for (const auto& r : st.rows)
     for (size_t k = 0; k < r.error_by_force.size(); ++k)
       bf.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
@@ -401,7 +464,8 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
                              ? 0.0
                              : static_cast<double>(order_code(r.method.order)),
                          static_cast<double>(r.method.resolution), r.converged ? 1.0 : 0.0,
-                         r.cost_eg, o.forces_pN[k], r.error_by_force[k], st.reference_relative_se});
+                         r.cost_eg, o.forces_pN[k], r.error_by_force[k], st.reference_relative_se,
+                         symmetry_code(r.symmetry)});
   write_csv(dir + "/accuracy_by_force.csv", bf);
   // reference.csv
   CsvTable rf;
@@ -415,10 +479,11 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   // convergence.csv: every run (all rotations), with its bead patches.
   CsvTable cv;
   cv.comments = {"every sweep of the study: diameters (um) per force, bead patch areas (um^2)",
-                 "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4; seed: rotation"};
-  cv.header = {"kind",        "order",          "resolution",     "seed",          "vertices",
-               "elements",    "force_pN",       "axial_um",       "transverse_um", "converged",
-               "surface_um2", "patch_plus_um2", "patch_minus_um2"};
+                 "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4; seed: rotation; "
+                 "symmetry: 0 full problem, 1 --symmetry mirror"};
+  cv.header = {"kind",        "order",          "resolution",      "seed",          "vertices",
+               "elements",    "force_pN",       "axial_um",        "transverse_um", "converged",
+               "surface_um2", "patch_plus_um2", "patch_minus_um2", "symmetry"};
   for (const auto& s : st.runs) {
     const MethodRun& r = s.run;
     for (const auto& p : r.points)
@@ -429,7 +494,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
            static_cast<double>(r.method.resolution), static_cast<double>(r.method.rotation_seed),
            static_cast<double>(r.vertices), static_cast<double>(r.elements), p.force_pN, p.axial_um,
            p.transverse_um, p.converged ? 1.0 : 0.0, r.surface_um2, r.patch_plus_um2,
-           r.patch_minus_um2});
+           r.patch_minus_um2, symmetry_code(r.symmetry)});
   }
   write_csv(dir + "/convergence.csv", cv);
   // richardson.csv
@@ -468,7 +533,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
                "observed_order"};
   std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> fits;
   for (const auto& r : st.rows)
-    if (r.converged && r.error_all > 2 * st.reference_relative_sd &&
+    if (r.converged && r.symmetry == Symmetry::none && r.error_all > 2 * st.reference_relative_sd &&
         !(r.method.kind == MethodKind::discrete && r.method.resolution == o.reference_vertices)) {
       auto& f = fits[{r.method.kind == MethodKind::discrete ? 0 : 1,
                       r.method.kind == MethodKind::discrete ? 0 : order_code(r.method.order)}];
@@ -482,9 +547,11 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
          *std::max_element(f.first.begin(), f.first.end()), observed_order(f.first, f.second)});
   write_csv(dir + "/orders.csv", oc);
   // Plots: error against cost, and error against resolution.
+  // Series by model and solver path; the resolution plot shows the full problem's rows only
+  // (a mirror row has the same errors).
   std::map<std::string, std::vector<const AccuracyRow*>> series;
   for (const auto& r : st.rows)
-    if (r.converged) series[series_name(r.method)].push_back(&r);
+    if (r.converged) series[series_name(r.method, r.symmetry)].push_back(&r);
   static const char* colors[] = {"#1f77b4", "#2ca02c", "#ff7f0e", "#d62728", "#9467bd"};
   for (const bool by_cost : {true, false}) {
     PlotSpec spec;
@@ -508,8 +575,15 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
             << 1.15 * st.reference_relative_sd << " noenhanced tc rgb '#777777'";
       spec.extra_commands.push_back(label.str());
     }
-    int k = 0;
+    std::map<std::string, int> colour_of;  // a model's colour, shared by its mirror path
     for (const auto& [name, rows] : series) {
+      const bool mirror = rows.front()->symmetry == Symmetry::mirror;
+      if (!by_cost && mirror) continue;
+      const int k = colour_of
+                        .emplace(series_name(rows.front()->method, Symmetry::none),
+                                 static_cast<int>(colour_of.size()))
+                        .first->second;
+      const std::string title = series_title(rows.front()->method, rows.front()->symmetry);
       CsvTable s;
       s.header = {"x", "error", "spread"};
       for (auto* r : rows)
@@ -518,17 +592,18 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       std::sort(s.rows.begin(), s.rows.end());
       const std::string file = (by_cost ? "cost_" : "resolution_") + name + ".csv";
       write_csv(dir + "/" + file, s);
-      spec.series.push_back({name, file, "1:2", "linespoints", colors[k % 5], 7, 1});
+      // The mirror path of a model: its colour, open symbols, dashed.
+      spec.series.push_back(
+          {title, file, "1:2", "linespoints", colors[k % 5], mirror ? 6 : 7, mirror ? 2 : 1});
       CsvTable sp;  // rotation spread, only the sizes that were rotated
       sp.header = s.header;
       for (const auto& q : s.rows)
         if (q[2] > 1e-6) sp.rows.push_back(q);
       if (!by_cost && !sp.rows.empty()) {
         write_csv(dir + "/spread_" + name + ".csv", sp);
-        spec.series.push_back({name + " rotation spread (sd)", "spread_" + name + ".csv", "1:3",
+        spec.series.push_back({title + " rotation spread (sd)", "spread_" + name + ".csv", "1:3",
                                "linespoints", colors[k % 5], 6, 2});
       }
-      ++k;
     }
     render_plot(spec, dir, by_cost ? "accuracy_cost" : "accuracy_resolution");
   }
@@ -560,6 +635,7 @@ AccuracyCostTable load_accuracy_cost(const std::string& path) {
     r.error_default = q[16];
     out.reference_relative_sd = q[17];
     out.cost_unit_vertices = static_cast<int>(q[18]);
+    r.symmetry = q[19] == 1 ? Symmetry::mirror : Symmetry::none;
     out.rows.push_back(r);
   }
   if (out.rows.empty()) throw std::runtime_error(path + ": no rows");
@@ -603,18 +679,21 @@ std::string accuracy_verdict(const std::vector<AccuracyRow>& rows, double refere
         const AccuracyRow *win = cont ? c : d, *lose = cont ? d : c;
         if (ratio < kAccuracyCostTieRatio) {
           ++ties;
-          out << "tie, " << method_spec(c->method) << " (" << std::lround(c->cost_eg) << ") vs "
-              << method_spec(d->method) << " (" << std::lround(d->cost_eg) << ");";
+          out << "tie, " << method_spec(c->method, c->symmetry) << " (" << std::lround(c->cost_eg)
+              << ") vs " << method_spec(d->method, d->symmetry) << " (" << std::lround(d->cost_eg)
+              << ");";
         } else {
           (cont ? continuum_wins : discrete_wins)++;
-          out << method_spec(win->method) << " (" << std::lround(win->cost_eg) << ") is " << ratio
-              << "x cheaper than " << method_spec(lose->method) << " ("
-              << std::lround(lose->cost_eg) << ");";
+          out << method_spec(win->method, win->symmetry) << " (" << std::lround(win->cost_eg)
+              << ") is " << ratio << "x cheaper than " << method_spec(lose->method, lose->symmetry)
+              << " (" << std::lround(lose->cost_eg) << ");";
         }
       } else {
         (c ? continuum_wins : discrete_wins)++;
-        out << "only " << (c ? "continuum " : "discrete ") << method_spec((d ? d : c)->method)
-            << " (" << std::lround((d ? d : c)->cost_eg) << ");";
+        const AccuracyRow* only = d ? d : c;
+        out << "only " << (c ? "continuum " : "discrete ")
+            << method_spec(only->method, only->symmetry) << " (" << std::lround(only->cost_eg)
+            << ");";
       }
     }
     out << " -> continuum cheaper at " << continuum_wins << ", discrete at " << discrete_wins

@@ -117,6 +117,7 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   const auto t0 = std::chrono::steady_clock::now();
   MethodRun run;
   run.method = m;
+  run.symmetry = ro.symmetry;
   const Network net = make_discrete_network(m.resolution, m.rotation_seed);
   run.vertices = net.topo.num_vertices;
   run.elements = net.topo.num_faces();
@@ -126,7 +127,9 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   if (ro.measure_evaluation) run.eval_cpu_s = network_evaluation_cpu_seconds(net);
   run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu0 = process_cpu_seconds();
-  const auto pts = run_stretch(net, forces, StretchOptions{}, [&](const std::string& msg) {
+  StretchOptions so;
+  so.symmetry = ro.symmetry;
+  const auto pts = run_stretch(net, forces, so, [&](const std::string& msg) {
     if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
   });
   finish_run(run, pts, t0, cpu0);
@@ -138,6 +141,7 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
   const auto t0 = std::chrono::steady_clock::now();
   MethodRun run;
   run.method = m;
+  run.symmetry = ro.symmetry;
   const TriMesh mesh = make_continuum_mesh(m.resolution, m.rotation_seed);
   const NetworkParameters defaults;  // the same spectrin parameters as the discrete model
   const IsotropicMembraneLaw law = make_membrane_law(defaults.wlc, defaults.steric, m.order);
@@ -153,10 +157,11 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
   }
   run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu0 = process_cpu_seconds();
-  const auto pts =
-      run_continuum_stretch(model, forces, ContinuumOptions{}, [&](const std::string& msg) {
-        if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
-      });
+  ContinuumOptions co;
+  co.newton.symmetry = ro.symmetry;
+  const auto pts = run_continuum_stretch(model, forces, co, [&](const std::string& msg) {
+    if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
+  });
   finish_run(run, pts, t0, cpu0);
   return run;
 }

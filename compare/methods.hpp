@@ -5,7 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "core/cpu_time.hpp"  // process_cpu_seconds, used with these timings
+#include "core/cpu_time.hpp"         // process_cpu_seconds, used with these timings
+#include "core/mirror_symmetry.hpp"  // Symmetry
 #include "core/progress.hpp"
 #include "discrete/network.hpp"
 #include "discrete/wlc.hpp"
@@ -38,6 +39,9 @@ struct CurvePoint {
 
 struct MethodRun {
   Method method;
+  /// The solver path the run took (RunMethodOptions::symmetry): the same discretisation
+  /// either way, so the diameters agree to the solver tolerance; only the cost differs.
+  Symmetry symmetry = Symmetry::none;
   int vertices = 0, elements = 0;
   std::vector<CurvePoint> points;
   double setup_s = 0;  ///< mesh generation and set-up
@@ -53,6 +57,9 @@ struct MethodRun {
 
 struct RunMethodOptions {
   bool measure_evaluation = false;  ///< also time one energy+gradient evaluation (CPU)
+  /// Symmetry::mirror: solve on the mirror-symmetric states, each checked for stability
+  /// (StretchOptions::symmetry, NewtonOptions::symmetry); the mesh is unchanged.
+  Symmetry symmetry = Symmetry::none;
 };
 
 /// CPU time (s) of one call of `eval`: the median of 7 batches of at least 20 ms CPU each.

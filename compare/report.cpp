@@ -187,7 +187,8 @@ std::vector<ClaimCheck> check_claims(const Fig7Result& fig7, const TradeoffResul
                                          : "does not hold: about equal cost at equal accuracy";
       ev << "cheaper model at 1 % and 2 % in 3 force ranges: continuum " << cont << ", discrete "
          << disc << ", tie (costs within " << kAccuracyCostTieRatio << "x) " << ties << " of " << n
-         << " comparisons; cost in energy+gradient evaluations (data/tradeoff/accuracy_cost.csv)";
+         << " comparisons; each model's cheapest row, solved in full or with --symmetry mirror; "
+            "cost in energy+gradient evaluations (data/tradeoff/accuracy_cost.csv)";
       c.evidence = ev.str();
       out.push_back(c);
       return out;

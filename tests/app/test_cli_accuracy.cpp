@@ -108,12 +108,30 @@ TEST(CliAccuracy, ChosenMethodMeetsTheAccuracyAtTwoForces) {
   EXPECT_TRUE(choice.contains("runner_up"));
   EXPECT_LE(choice["chosen"]["cost_eg"].get<double>(),
             choice["runner_up"]["cost_eg"].get<double>());
+  // The table's cheapest entry may be a mirror row: then the run takes that solver path.
+  const bool mirror = choice["chosen"]["symmetry"].get<std::string>() == "mirror";
   for (const auto& p : j) {
     const auto [axial, transverse] = reference_at(p["force_pN"].get<double>());
     EXPECT_TRUE(p["converged"].get<bool>());
+    if (mirror) {
+      EXPECT_GT(p["symmetry_order"].get<int>(), 1) << p;
+    }
     EXPECT_LE(std::abs(p["axial_um"].get<double>() - axial) / axial, percent / 100) << p;
     EXPECT_LE(std::abs(p["transverse_um"].get<double>() - transverse) / transverse, percent / 100)
         << p;
+  }
+}
+
+TEST(CliAccuracy, AnExplicitSymmetryRestrictsTheChoiceToItsRows) {
+  for (const std::string symmetry : {"none", "mirror"}) {
+    const CliRun r = rbc("stretch --accuracy 2% --force 38 --symmetry " + symmetry + " --json -q");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    const auto& choice = j[0]["accuracy_choice"];
+    EXPECT_EQ(choice["chosen"]["symmetry"].get<std::string>(), symmetry) << choice;
+    if (choice.contains("runner_up")) {
+      EXPECT_EQ(choice["runner_up"]["symmetry"].get<std::string>(), symmetry) << choice;
+    }
   }
 }
 

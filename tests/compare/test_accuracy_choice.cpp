@@ -88,6 +88,49 @@ TEST(AccuracyStudy, ReferenceIsTheMeanOverRotationsAndErrorsAreRelative) {
   EXPECT_NEAR(r.spread, std::sqrt(0.0032) / 8.12, 1e-9);  // sd of 8.16, 8.08 over their mean
 }
 
+TEST(AccuracyStudy, MirrorRowsShareTheMeshErrorsButNotTheReferenceOrTheCost) {
+  // A mirror sweep of the default mesh is its own row, with its own cost; its errors are
+  // taken over the rotations and its own sweep (not the full sweep of the same mesh), and it
+  // never enters the reference mean.
+  AccuracyStudyOptions o;
+  o.forces_pN = {0, 50, 150};
+  o.reference_vertices = 27500;
+  o.reference_seeds = {0, 1};
+  std::vector<StudyRun> runs;
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.0, 8.0, 100, o.forces_pN));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 1, 8.2, 8.0, 100, o.forces_pN));
+  StudyRun far = synthetic_run(MethodKind::discrete, 27500, 0, 9.0, 8.0, 40, o.forces_pN);
+  far.run.symmetry = Symmetry::mirror;  // would move the reference mean if it were counted
+  runs.push_back(far);
+  runs.push_back(synthetic_run(MethodKind::discrete, 500, 0, 8.3, 8.0, 4, o.forces_pN));
+  StudyRun mirror = synthetic_run(MethodKind::discrete, 500, 0, 8.1, 8.0, 1, o.forces_pN);
+  mirror.run.symmetry = Symmetry::mirror;
+  runs.push_back(mirror);
+  runs.push_back(synthetic_run(MethodKind::discrete, 500, 1, 8.2, 8.0, 4, o.forces_pN));
+  const AccuracyStudy st = assemble_accuracy_study(o, runs);
+  EXPECT_NEAR(st.reference[0].axial_um, 8.1, 1e-12);  // (8.0 + 8.2)/2: full sweeps only
+  ASSERT_EQ(st.rows.size(), 4u);                      // N = 500 and 27,500, each full and mirror
+  auto row = [&](int resolution, Symmetry symmetry) -> const AccuracyRow& {
+    for (const auto& r : st.rows)
+      if (r.method.resolution == resolution && r.symmetry == symmetry) return r;
+    throw std::runtime_error("row missing");
+  };
+  const AccuracyRow &full = row(500, Symmetry::none), &mir = row(500, Symmetry::mirror);
+  EXPECT_EQ(full.method.resolution, 500);
+  EXPECT_EQ(full.symmetry, Symmetry::none);
+  EXPECT_EQ(mir.method.resolution, 500);
+  EXPECT_EQ(mir.symmetry, Symmetry::mirror);
+  EXPECT_EQ(full.rotations, 2);  // its own sweep and the rotation
+  EXPECT_EQ(mir.rotations, 2);
+  EXPECT_NEAR(full.error_by_force[0], 0.2 / 8.1, 1e-12);  // worst of 8.3 and 8.2
+  EXPECT_NEAR(mir.error_by_force[0], 0.1 / 8.1, 1e-12);   // worst of 8.1 and 8.2
+  EXPECT_NEAR(mir.error_default, 0.0, 1e-12);
+  EXPECT_NEAR(full.cost_eg, 4 / 2e-4, 1e-9);
+  EXPECT_NEAR(mir.cost_eg, 1 / 2e-4, 1e-9);
+  // The verdict names the solver path of the cheapest entry.
+  EXPECT_NE(accuracy_study_verdict(st).find("discrete:500 mirror"), std::string::npos);
+}
+
 AccuracyEntry entry(MethodKind kind, int resolution, double cost, std::vector<double> error) {
   AccuracyEntry e;
   e.method = {kind, resolution,
@@ -141,6 +184,28 @@ TEST(AccuracyChoice, PicksTheCheapestEntryMeetingTheAccuracyOverTheForces) {
   EXPECT_EQ(choose_by_accuracy(exact, {100}, 0.5).chosen.method.resolution, 1000);
 }
 
+TEST(AccuracyChoice, ChoosesTheSolverPathUnlessTheUserFixedIt) {
+  AccuracyTable t = synthetic_table();
+  AccuracyEntry mirror = t.entries[2];  // discrete N = 1000 at 40 % of the cost
+  mirror.symmetry = Symmetry::mirror;
+  mirror.cost_eg = 160;
+  t.entries.push_back(mirror);
+  // 0.6 % at 0 and 50 pN: only N = 1000 and the 2,000-element continuum qualify.
+  const AccuracyChoice any = choose_by_accuracy(t, {0, 50}, 0.6);
+  EXPECT_EQ(any.chosen.method.resolution, 1000);
+  EXPECT_EQ(any.chosen.symmetry, Symmetry::mirror);
+  ASSERT_TRUE(any.runner_up);  // the same mesh on the full path is no alternative
+  EXPECT_EQ(any.runner_up->method.resolution, 2000);
+  EXPECT_NE(any.reason.find("chose discrete:1000 mirror"), std::string::npos) << any.reason;
+  const AccuracyChoice full = choose_by_accuracy(t, {0, 50}, 0.6, Symmetry::none);
+  EXPECT_EQ(full.chosen.method.resolution, 1000);
+  EXPECT_EQ(full.chosen.symmetry, Symmetry::none);
+  EXPECT_EQ(full.chosen.cost_eg, 400);
+  // Restricted to mirror rows, 2 % at 0 pN has no N = 250 to choose: N = 1000 mirror.
+  EXPECT_EQ(choose_by_accuracy(t, {0}, 2, Symmetry::mirror).chosen.method.resolution, 1000);
+  EXPECT_THROW(choose_by_accuracy(t, {0, 200}, 0.4, Symmetry::mirror), std::invalid_argument);
+}
+
 TEST(AccuracyChoice, RefusesWhatTheTableCannotAnswer) {
   const AccuracyTable t = synthetic_table();
   const double inf = std::numeric_limits<double>::infinity();
@@ -188,6 +253,19 @@ TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
   EXPECT_EQ(t.entries[1].forces_pN.back(), 193);
   EXPECT_EQ(t.reference_relative_se, 0.001);
   EXPECT_EQ(method_spec(choose_by_accuracy(t, {150}, 2.5).chosen.method), "discrete:250");
+  EXPECT_EQ(t.entries[0].symmetry, Symmetry::none);  // a table without the symmetry column
+  // With the symmetry column: the same mesh on two solver paths is two entries.
+  const std::string with = (dir / "with_symmetry.csv").string();
+  {
+    std::ofstream f(with);
+    f << "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se,symmetry\n"
+         "0,0,250,1,100,0,0.01,0.001,0\n0,0,250,1,100,193,0.02,0.001,0\n"
+         "0,0,250,1,60,0,0.01,0.001,1\n0,0,250,1,60,193,0.02,0.001,1\n";
+  }
+  const AccuracyTable ts = load_accuracy_table(with);
+  ASSERT_EQ(ts.entries.size(), 2u);
+  EXPECT_EQ(ts.entries[1].symmetry, Symmetry::mirror);
+  EXPECT_EQ(choose_by_accuracy(ts, {150}, 2.5).chosen.symmetry, Symmetry::mirror);
   const std::vector<std::string> bad = {
       "kind,order,resolution,converged,cost_eg,force_pN,error\n0,0,250,1,100,0,0.01\n",
       "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
@@ -196,7 +274,9 @@ TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
       "1,5,500,1,100,0,0.01,0\n",  // unknown order
       "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
       "0,0,250,1,100,0,0.01,0\n1,2,500,1,1,0,0.1,0\n0,0,250,1,100,50,0.01,0\n",  // split
-      "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"};  // no rows
+      "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n",   // no rows
+      "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se,symmetry\n"
+      "0,0,250,1,100,0,0.01,0,2\n"};  // unknown symmetry code
   for (size_t k = 0; k < bad.size(); ++k) {
     const std::string path = (dir / ("bad" + std::to_string(k) + ".csv")).string();
     std::ofstream(path) << bad[k];
