@@ -212,6 +212,10 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
     if (!warm.empty()) {
       Positions xw = warm.x[k];
       ConstraintMultipliers lw = warm.multipliers[k];
+      // A fresh factorisation at the warm state: the previous force's is a poor start so close
+      // to the answer (measured at 980 elements, 13 Mills forces, p + 1 %: 39 Newton
+      // iterations against 52 with it, 13 factorisations either way).
+      newton.forget_factorisation();
       r = solve_once(model, newton, f, xw, lw, options, budget, progress);
       p.iterations += r.iterations;
       ++substeps;

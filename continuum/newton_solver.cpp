@@ -63,6 +63,7 @@ ShiftedNewtonOptions shifted_newton_options(const NewtonOptions& o) {
   c.krylov_tolerance = o.krylov_tolerance;
   c.krylov_refactor_iterations = o.krylov_refactor_iterations;
   c.krylov_lagged_hessian = o.krylov_lagged_hessian;
+  c.krylov_exact_when_far = o.krylov_exact_when_far;
   if (o.krylov_iterations > 0) {
     c.initial_shift = o.krylov_initial_shift;
     c.max_factor_reuse = o.krylov_max_factor_reuse;

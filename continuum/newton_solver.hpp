@@ -82,6 +82,15 @@ struct NewtonOptions {
   /// Chord steps correct only the shift of the last factorised d2L and assemble nothing
   /// (core/shifted_newton.hpp krylov_lagged_hessian).
   bool krylov_lagged_hessian = true;
+  /// ... but once a step of a solve was backtracked or a factorisation needed a larger shift,
+  /// the rest of that solve corrects with the current d2L (core/shifted_newton.hpp
+  /// krylov_exact_when_far). Measured (1 thread, same equilibria): 8 forces 0-193 pN at 5,120
+  /// elements, 51 Newton iterations and 7 factorisations against 61 and 34 (6 of them failed)
+  /// with the lagged Hessian throughout, 1.34x less CPU; the 13 Mills forces at 980 elements,
+  /// 70 and 9 against 83 and 31 (1.13x less CPU without the symmetry, the same with it); at
+  /// 500-3,920 elements iterations and factorisations equal or fewer, CPU the same within
+  /// noise.
+  bool krylov_exact_when_far = true;
   /// With the correction, the shift's start (x mean diagonal; replaces 1e-8): a shift the
   /// correction undoes costs a few CG iterations, a failed factorisation a whole one.
   double krylov_initial_shift = 1e-4;

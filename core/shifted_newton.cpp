@@ -212,6 +212,9 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
   // iteration may be a chord step on it.
   bool last_full_step = have_factor_, first = have_factor_;
   int reuse_count = 0;
+  // krylov_exact_when_far: set once a step of this call was backtracked or a factorisation
+  // needed its shift to grow.
+  bool far_seen = false;
   Eigen::VectorXd r;
   // Best iterate for the round-off floor.
   double best = std::numeric_limits<double>::infinity();
@@ -278,7 +281,7 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     // (chord step: the last full step cut the residual by reuse_contraction), which saves the
     // dominant cost on nearby iterates.
     const bool krylov = o.krylov_iterations > 0;
-    const bool lagged = krylov && o.krylov_lagged_hessian;
+    const bool lagged = krylov && o.krylov_lagged_hessian && !far_seen;
     const bool contracted = last_full_step && (first || resid < o.reuse_contraction * last_resid);
     const bool reuse =
         have_factor_ && reuse_count < o.max_factor_reuse &&
@@ -322,6 +325,7 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
           break;
         }
         sigma = std::max(o.shift_growth * sigma, o.retry_shift);
+        if (o.krylov_exact_when_far) far_seen = true;
       }
       if (!have_factor_) return finish(NewtonStatus::factorisation_failed);
       res.largest_shift = std::max(res.largest_shift, sigma);
@@ -434,6 +438,7 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
       return finish(NewtonStatus::line_search_failed);
     }
     last_full_step = t == 1.0;
+    if (!last_full_step && o.krylov_exact_when_far) far_seen = true;  // backtracked: far
     x = xt;
     std::swap(cur, trial);
     lambda = lnew;

@@ -99,6 +99,13 @@ struct ShiftedNewtonOptions {
   /// last factorisation, refactorised by the reuse_contraction rule); false: the correction
   /// uses the current d2L, assembled every iteration (exact Newton steps).
   bool krylov_lagged_hessian = false;
+  /// With the lagged Hessian: once a step of this call has been backtracked or a factorisation
+  /// has needed its shift to grow (far from the solution, or d2L indefinite there), the rest of
+  /// the call corrects with the current d2L, assembled every iteration (exact Newton steps
+  /// preconditioned by the kept factorisation): there the lagged Hessian is a poor model and
+  /// costs refactorisations. Near the solution the lagged chord steps stay (they assemble
+  /// nothing).
+  bool krylov_exact_when_far = false;
   /// The part of the shift (relative to s) the correction keeps: the step is exact for
   /// d2L + krylov_kept_shift s I, so the rigid null modes stay regularised as with the
   /// smallest shift alone (without it a warm and a cold solve at 0 pN end in rotations

@@ -20,7 +20,7 @@ namespace {
 
 using Vec = Eigen::VectorXd;
 
-Positions unflat(const Vec& v) {
+Positions as_positions(const Vec& v) {
   return Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, v.size() / 3);
 }
 
@@ -44,10 +44,10 @@ using AddHessian = std::function<void(const Positions&, BlockHessian&)>;
 
 void expect_term_second_order(const Model& s, const ValueGradient& vg, const AddHessian& add,
                               const std::string& what) {
-  const auto energy = [&](const Vec& v) { return vg(unflat(v), nullptr); };
+  const auto energy = [&](const Vec& v) { return vg(as_positions(v), nullptr); };
   const auto grad = [&](const Vec& v) {
     Positions g = Positions::Zero(3, v.size() / 3);
-    vg(unflat(v), &g);
+    vg(as_positions(v), &g);
     return Vec(flat(g));
   };
   BlockHessian h(s.m.topo);
