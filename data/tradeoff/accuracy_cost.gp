@@ -1,5 +1,5 @@
 set terminal pngcairo size 1100,700 enhanced font 'DejaVu Sans,12'
-set output '.accuracy_cost.png.partial-31991'
+set output '.accuracy_cost.png.partial-10971'
 set datafile separator ','
 set datafile commentschars '#'
 set title 'Accuracy against cost, 13 Mills forces'

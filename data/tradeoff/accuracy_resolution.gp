@@ -1,5 +1,5 @@
 set terminal pngcairo size 1100,700 enhanced font 'DejaVu Sans,12'
-set output '.accuracy_resolution.png.partial-31991'
+set output '.accuracy_resolution.png.partial-10971'
 set datafile separator ','
 set datafile commentschars '#'
 set title 'Error against resolution, 13 Mills forces'
