@@ -239,14 +239,16 @@ TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / "rbc_accuracy_table_test";
   fs::create_directories(dir);
-  const std::string good = (dir / "good.csv").string();
-  {
-    std::ofstream f(good);
-    f << "# synthetic\nkind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
-         "0,0,250,1,100,0,0.01,0.001\n0,0,250,1,100,193,0.02,0.001\n"
-         "1,2,500,1,150,0,0.03,0.001\n1,2,500,1,150,193,0.004,0.001\n";
-  }
-  const AccuracyTable t = load_accuracy_table(good);
+  auto write = [&](const std::string& name, const std::string& text) {
+    const std::string path = (dir / name).string();
+    std::ofstream(path) << text;
+    return path;
+  };
+  const AccuracyTable t = load_accuracy_table(
+      write("good.csv",
+            "# synthetic\nkind,order,resolution,converged,cost_eg,force_pN,error,reference_se\n"
+            "0,0,250,1,100,0,0.01,0.001\n0,0,250,1,100,193,0.02,0.001\n"
+            "1,2,500,1,150,0,0.03,0.001\n1,2,500,1,150,193,0.004,0.001\n"));
   ASSERT_EQ(t.entries.size(), 2u);
   EXPECT_EQ(t.entries[1].method.kind, MethodKind::continuum);
   EXPECT_EQ(t.entries[1].method.order, WlcExpansion::order2);
@@ -255,14 +257,11 @@ TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
   EXPECT_EQ(method_spec(choose_by_accuracy(t, {150}, 2.5).chosen.method), "discrete:250");
   EXPECT_EQ(t.entries[0].symmetry, Symmetry::none);  // a table without the symmetry column
   // With the symmetry column: the same mesh on two solver paths is two entries.
-  const std::string with = (dir / "with_symmetry.csv").string();
-  {
-    std::ofstream f(with);
-    f << "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se,symmetry\n"
-         "0,0,250,1,100,0,0.01,0.001,0\n0,0,250,1,100,193,0.02,0.001,0\n"
-         "0,0,250,1,60,0,0.01,0.001,1\n0,0,250,1,60,193,0.02,0.001,1\n";
-  }
-  const AccuracyTable ts = load_accuracy_table(with);
+  const AccuracyTable ts = load_accuracy_table(
+      write("with_symmetry.csv",
+            "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se,symmetry\n"
+            "0,0,250,1,100,0,0.01,0.001,0\n0,0,250,1,100,193,0.02,0.001,0\n"
+            "0,0,250,1,60,0,0.01,0.001,1\n0,0,250,1,60,193,0.02,0.001,1\n"));
   ASSERT_EQ(ts.entries.size(), 2u);
   EXPECT_EQ(ts.entries[1].symmetry, Symmetry::mirror);
   EXPECT_EQ(choose_by_accuracy(ts, {150}, 2.5).chosen.symmetry, Symmetry::mirror);
@@ -278,9 +277,9 @@ TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
       "kind,order,resolution,converged,cost_eg,force_pN,error,reference_se,symmetry\n"
       "0,0,250,1,100,0,0.01,0,2\n"};  // unknown symmetry code
   for (size_t k = 0; k < bad.size(); ++k) {
-    const std::string path = (dir / ("bad" + std::to_string(k) + ".csv")).string();
-    std::ofstream(path) << bad[k];
-    EXPECT_THROW(load_accuracy_table(path), std::runtime_error) << bad[k];
+    EXPECT_THROW(load_accuracy_table(write("bad" + std::to_string(k) + ".csv", bad[k])),
+                 std::runtime_error)
+        << bad[k];
   }
   EXPECT_THROW(load_accuracy_table((dir / "missing.csv").string()), std::runtime_error);
   fs::remove_all(dir);
