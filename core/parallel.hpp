@@ -45,6 +45,38 @@ void for_each_chunk(int count, Body&& body) {
     body(c, chunk_begin(count, chunks, c), chunk_begin(count, chunks, c + 1));
 }
 
+/// Two chunked loops in one parallel region (each thread wake-up costs ~50 us under
+/// OMP_WAIT_POLICY=passive, more than a chunk's work at mid sizes): body_a(c, begin, end) over
+/// the chunks of [0, count_a), then body_b over those of [0, count_b). With `Then::after` every
+/// chunk of the first loop has finished before the second starts (a barrier); with
+/// `Then::independent` the loops must not read each other's output. Serial when both loops are
+/// one chunk; the chunks, so the bits, are those of two for_each_chunk calls.
+enum class Then { after, independent };
+template <class BodyA, class BodyB>
+void for_each_chunk_pair(int count_a, BodyA&& body_a, int count_b, BodyB&& body_b, Then then) {
+  const int chunks_a = assembly_chunks(count_a), chunks_b = assembly_chunks(count_b);
+  if (chunks_a == 1 && chunks_b == 1) {
+    body_a(0, 0, count_a);
+    body_b(0, 0, count_b);
+    return;
+  }
+#pragma omp parallel
+  {
+    if (then == Then::after) {
+#pragma omp for schedule(static, 1)
+      for (int c = 0; c < chunks_a; ++c)
+        body_a(c, chunk_begin(count_a, chunks_a, c), chunk_begin(count_a, chunks_a, c + 1));
+    } else {
+#pragma omp for schedule(static, 1) nowait
+      for (int c = 0; c < chunks_a; ++c)
+        body_a(c, chunk_begin(count_a, chunks_a, c), chunk_begin(count_a, chunks_a, c + 1));
+    }
+#pragma omp for schedule(static, 1)
+    for (int c = 0; c < chunks_b; ++c)
+      body_b(c, chunk_begin(count_b, chunks_b, c), chunk_begin(count_b, chunks_b, c + 1));
+  }
+}
+
 /// Deterministic sum of body(i) for i in [0, count): chunk partial sums added in order.
 template <class Body>
 double sum_parallel(int count, Body&& body) {
@@ -72,23 +104,25 @@ void assemble_chunks(int chunks, Positions* grad, Body&& body) {
     return;
   }
   std::vector<Positions> buffers(grad ? chunks - 1 : 0);
-#pragma omp parallel for schedule(static, 1)
-  for (int c = 0; c < chunks; ++c) {
-    Positions dummy;
-    Positions* g = &dummy;
-    if (grad) {
-      if (c == 0) {
-        g = grad;
-      } else {
-        buffers[c - 1].setZero(3, grad->cols());
-        g = &buffers[c - 1];
+  const int n = grad ? static_cast<int>(grad->cols()) : 0;
+  // One parallel region: the chunks, a barrier, then the per-vertex reduction.
+#pragma omp parallel
+  {
+#pragma omp for schedule(static, 1)
+    for (int c = 0; c < chunks; ++c) {
+      Positions dummy;
+      Positions* g = &dummy;
+      if (grad) {
+        if (c == 0) {
+          g = grad;
+        } else {
+          buffers[c - 1].setZero(3, n);
+          g = &buffers[c - 1];
+        }
       }
+      body(c, *g);
     }
-    body(c, *g);
-  }
-  if (grad) {
-    const int n = static_cast<int>(grad->cols());
-#pragma omp parallel for schedule(static)
+#pragma omp for schedule(static)
     for (int v = 0; v < n; ++v)
       for (int c = 1; c < chunks; ++c) grad->col(v) += buffers[c - 1].col(v);
   }

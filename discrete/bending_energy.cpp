@@ -111,28 +111,38 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
 double juelicher_bending_energy(const Topology& topo, const BendingParameters& p,
                                 const NetworkGeometry& geo, GeometricGradient* grad) {
   const int nv = topo.num_vertices, ne = topo.num_edges(), nf = topo.num_faces();
-  std::vector<double> lt(ne);
-  for_each_chunk(ne, [&](int, int begin, int end) {
-    for (int e = begin; e < end; ++e) lt[e] = geo.edge_length[e] * geo.hinge_angle[e];
+  // The cells and their energy in one chunked pass (sum_parallel's chunks: the same bits), with
+  // L_e theta_e formed where it is summed; then the hinge and face coefficients in one region.
+  std::vector<double> h(nv);  // h_v = H_v - H0 (1/um)
+  double partial[kMaxChunks] = {0, 0, 0, 0};
+  for_each_chunk(nv, [&](int c, int begin, int end) {
+    double s = 0;
+    for (int v = begin; v < end; ++v) {
+      const JuelicherCell cell = juelicher_vertex_cell(
+          topo, p, v, [&](int e) { return geo.edge_length[e] * geo.hinge_angle[e]; },
+          [&](int f) { return geo.face_area[f]; });
+      s += cell.energy_pNum;
+      h[v] = cell.h_per_um;
+    }
+    partial[c] = s;
   });
-  const std::vector<JuelicherCell> cells = juelicher_cells(topo, p, lt, geo.face_area);
-  const double energy = sum_parallel(nv, [&](int v) { return cells[v].energy_pNum; });
+  double energy = 0.0;
+  for (int c = 0; c < assembly_chunks(nv); ++c) energy += partial[c];
   if (!grad) return energy;
-  for_each_chunk(ne, [&](int, int begin, int end) {
+  const auto hinges = [&](int, int begin, int end) {
     for (int e = begin; e < end; ++e) {
-      const double c = juelicher_hinge_coef(p, cells[topo.edges(0, e)].h_per_um,
-                                            cells[topo.edges(1, e)].h_per_um);
+      const double c = juelicher_hinge_coef(p, h[topo.edges(0, e)], h[topo.edges(1, e)]);
       grad->hinge_angle[e] += c * geo.edge_length[e];
       grad->edge_length[e] += c * geo.hinge_angle[e];
     }
-  });
-  for_each_chunk(nf, [&](int, int begin, int end) {
+  };
+  const auto faces = [&](int, int begin, int end) {
     for (int f = begin; f < end; ++f) {
-      const double h[3] = {cells[topo.faces(0, f)].h_per_um, cells[topo.faces(1, f)].h_per_um,
-                           cells[topo.faces(2, f)].h_per_um};
-      grad->face_area[f] = juelicher_face_coef(p, h, grad->face_area[f]);
+      const double hf[3] = {h[topo.faces(0, f)], h[topo.faces(1, f)], h[topo.faces(2, f)]};
+      grad->face_area[f] = juelicher_face_coef(p, hf, grad->face_area[f]);
     }
-  });
+  };
+  for_each_chunk_pair(ne, hinges, nf, faces, Then::independent);
   return energy;
 }
 

@@ -48,9 +48,7 @@ double constraint_energy(const NetworkGeometry& geo, double area0, double volume
   if (grad) {
     const ConstraintForces cf =
         constraint_forces(geo.area_um2, geo.volume_um3, area0, volume0, p, lambda);
-    for_each_chunk(static_cast<int>(grad->face_area.size()), [&](int, int begin, int end) {
-      for (int f = begin; f < end; ++f) grad->face_area[f] += cf.tension;
-    });
+    grad->area += cf.tension;
     grad->volume += cf.pressure;
   }
   return constraint_energy_of_totals(geo.area_um2, geo.volume_um3, area0, volume0, p, lambda);

@@ -85,8 +85,9 @@ double inplane_energy(const Network& net, const NetworkGeometry& geo, GeometricG
   const Topology& t = net.topo;
   const double inf = std::numeric_limits<double>::infinity();
   const int ne = t.num_edges(), nf = t.num_faces();
-  double partial[kMaxChunks] = {0, 0, 0, 0};
-  for_each_chunk(ne, [&](int c, int begin, int end) {
+  double partial[kMaxChunks] = {0, 0, 0, 0}, face_partial[kMaxChunks] = {0, 0, 0, 0};
+  bool collapsed[kMaxChunks] = {false, false, false, false};
+  const auto links_chunk = [&](int c, int begin, int end) {
     double s = 0;
     for (int e = begin; e < end && s < inf; ++e) {
       const double len = geo.edge_length[e], lbar2 = net.lbar_um(e) * net.lbar_um(e);
@@ -99,12 +100,8 @@ double inplane_energy(const Network& net, const NetworkGeometry& geo, GeometricG
       if (grad) grad->edge_length[e] += sqrt3 * v.dv * len;
     }
     partial[c] = s;
-  });
-  *links = 0;
-  for (int c = 0; c < assembly_chunks(ne); ++c) *links += partial[c];
-  if (!(*links < inf)) return inf;
-  bool collapsed[kMaxChunks] = {false, false, false, false};
-  for_each_chunk(nf, [&](int c, int begin, int end) {
+  };
+  const auto faces_chunk = [&](int c, int begin, int end) {
     double s = 0;
     for (int f = begin; f < end; ++f) {
       const double abar = net.abar_um2(f), ratio = geo.face_area[f] / abar;
@@ -116,12 +113,16 @@ double inplane_energy(const Network& net, const NetworkGeometry& geo, GeometricG
       s += abar * d.v;
       if (grad) grad->face_area[f] += d.dv;
     }
-    partial[c] = s;
-  });
+    face_partial[c] = s;
+  };
+  for_each_chunk_pair(ne, links_chunk, nf, faces_chunk, Then::independent);
+  *links = 0;
+  for (int c = 0; c < assembly_chunks(ne); ++c) *links += partial[c];
+  if (!(*links < inf)) return inf;
   *steric = 0;
   for (int c = 0; c < assembly_chunks(nf); ++c) {
     if (collapsed[c]) return inf;
-    *steric += partial[c];
+    *steric += face_partial[c];
   }
   return *links + *steric;
 }

@@ -58,7 +58,11 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
   double area[kMaxChunks] = {0, 0, 0, 0}, volume[kMaxChunks] = {0, 0, 0, 0};
   // Faces: the same operations, in the same chunks, as triangle_area/total_area and
   // tetra_volume/enclosed_volume (core/geometry), so the totals carry the same bits.
-  for_each_chunk(nf, [&](int c, int begin, int end) {
+  // Hinges: theta = atan2((m0 x m1).e/|e|, m0.m1) with m0, m1 the normals of the faces that
+  // traverse e forwards and backwards (= e x (c - a) and (a - b) x (d - b)); the 1/|e| is moved
+  // to the second argument so that a zero-length edge gives atan2(0, 0) rather than 0/0. They
+  // read the face normals, so the edge chunks start after every face chunk has finished.
+  const auto faces = [&](int c, int begin, int end) {
     double sa = 0, sv = 0;
     for (int f = begin; f < end; ++f) {
       const auto a = x.col(topo.faces(0, f)), b = x.col(topo.faces(1, f)),
@@ -73,12 +77,8 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
     }
     area[c] = sa;
     volume[c] = sv;
-  });
-  for (int c = 0; c < assembly_chunks(nf); ++c) g.area_um2 += area[c], g.volume_um3 += volume[c];
-  // Hinges: theta = atan2((m0 x m1).e/|e|, m0.m1) with m0, m1 the normals of the faces that
-  // traverse e forwards and backwards (= e x (c - a) and (a - b) x (d - b)); the 1/|e| is moved
-  // to the second argument so that a zero-length edge gives atan2(0, 0) rather than 0/0.
-  for_each_chunk(ne, [&](int, int begin, int end) {
+  };
+  const auto hinges = [&](int, int begin, int end) {
     for (int e = begin; e < end; ++e) {
       const Eigen::Vector3d ed = x.col(topo.edges(1, e)) - x.col(topo.edges(0, e));
       const double len = ed.norm();
@@ -88,7 +88,9 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
       g.edge_inv_length[e] = 1.0 / len;
       g.hinge_angle[e] = hinge_atan2(m0.cross(m1).dot(ed), len * m0.dot(m1));
     }
-  });
+  };
+  for_each_chunk_pair(nf, faces, ne, hinges, Then::after);
+  for (int c = 0; c < assembly_chunks(nf); ++c) g.area_um2 += area[c], g.volume_um3 += volume[c];
   return g;
 }
 
@@ -139,7 +141,7 @@ void assemble_geometric_gradient(const Positions& x, const Topology& topo,
       const int i0 = topo.faces(0, f), i1 = topo.faces(1, f), i2 = topo.faces(2, f);
       const auto p0 = x.col(i0), p1 = x.col(i1), p2 = x.col(i2);
       const Eigen::Vector3d m =
-          (0.5 * c.face_area[f] * geo.face_inv_norm2[f]) * geo.face_normal2.col(f);
+          (0.5 * (c.face_area[f] + c.area) * geo.face_inv_norm2[f]) * geo.face_normal2.col(f);
       g.col(i0) += m.cross(p2 - p1) + cv * p1.cross(p2);
       g.col(i1) += m.cross(p0 - p2) + cv * p2.cross(p0);
       g.col(i2) += m.cross(p1 - p0) + cv * p0.cross(p1);

@@ -34,7 +34,8 @@ struct GeometricGradient {
   std::vector<double> face_area;    ///< F: dE/dA_f (pN/um)
   std::vector<double> edge_length;  ///< E: dE/dL_e (pN)
   std::vector<double> hinge_angle;  ///< E: dE/dtheta_e (pN um)
-  double volume = 0;                ///< dE/dV, the same for every face's tetrahedron (pN/um^2)
+  double area = 0;    ///< dE/dA, a tension the same for every face, added to face_area (pN/um)
+  double volume = 0;  ///< dE/dV, the same for every face's tetrahedron (pN/um^2)
   /// Contributions that are none of the above (e.g. the tweezers' bead forces), added into
   /// the gradient directly (3 x N, pN); set by the evaluation, never null inside a term.
   Positions* direct = nullptr;
@@ -42,7 +43,8 @@ struct GeometricGradient {
   static GeometricGradient zero(const Topology& topo, Positions* direct);
 };
 
-/// grad += sum_f (c_A,f dA_f/dx + c_V dV_f/dx) + sum_e (c_L,e dL_e/dx + c_theta,e dtheta_e/dx)
+/// grad += sum_f ((c_A,f + c_A) dA_f/dx + c_V dV_f/dx)
+///       + sum_e (c_L,e dL_e/dx + c_theta,e dtheta_e/dx)
 /// with V_f = x0.(x1 x x2)/6 (pN, 3 x N). Deterministic for any thread count.
 void assemble_geometric_gradient(const Positions& x, const Topology& topo,
                                  const NetworkGeometry& geo, const GeometricGradient& c,
