@@ -10,6 +10,7 @@
 #include "core/geometry.hpp"
 #include "core/parallel.hpp"
 #include "discrete/element_hessian.hpp"
+#include "discrete/network_energy.hpp"
 
 namespace rbc {
 
@@ -132,22 +133,23 @@ void add_membrane_hessian(const ContinuumModel& model, const Positions& x, Block
 double continuum_energy(const ContinuumModel& model, const Positions& x, double force_pN,
                         Positions* grad, ContinuumEnergyParts* parts) {
   if (grad) grad->setZero(3, x.cols());
+  // The shared geometry (face normals and areas, edge lengths, hinge angles) serves the
+  // feasibility check and the bending term's value and chain-rule gradient.
+  const NetworkGeometry geo = network_geometry(x, model.topo);
   // Feasibility first: a collapsed element makes every term meaningless.
   const int nf = model.num_elements();
-  bool collapsed = false;
-#pragma omp parallel for reduction(|| : collapsed) schedule(static) if (nf > kChunkElements)
-  for (int f = 0; f < nf; ++f) {
-    const auto t = model.topo.faces.col(f);
-    const double a = triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));
-    collapsed = collapsed || !(a >= kCollapsedElementRatio * model.reference[f].area_um2);
-  }
-  if (collapsed) return kInfeasibleEnergy_pNum;
+  for (int f = 0; f < nf; ++f)
+    if (!(geo.face_area[f] >= kCollapsedElementRatio * model.reference[f].area_um2))
+      return kInfeasibleEnergy_pNum;
   ContinuumEnergyParts p;
   if (model.inplane()) {
     p.inplane = membrane_energy(model, x, grad);
     if (!std::isfinite(p.inplane)) return kInfeasibleEnergy_pNum;
   }
-  p.bending = juelicher_bending_energy(x, model.topo, model.bending, grad);
+  GeometricGradient coef;
+  if (grad) coef = GeometricGradient::zero(model.topo, grad);
+  p.bending = juelicher_bending_energy(model.topo, model.bending, geo, grad ? &coef : nullptr);
+  if (grad) assemble_geometric_gradient(x, model.topo, geo, coef, *grad);
   p.tweezers = tweezers_energy(model.patch, force_pN, x, model.rest, grad);
   if (parts) *parts = p;
   return p.total();

@@ -148,16 +148,22 @@ double triangle_area_hessian(const Vec3& a, const Vec3& b, const Vec3& c, Vector
     grad->segment<3>(6) = dA.segment<3>(3);
   }
   if (hess) {
-    // The projector form (no cancellation between the two terms of the D form).
+    // The projector form (no cancellation between the two terms of the D form):
+    // d2A/dx_k dx_l = J_k^T P J_l / (2|n|) -+ [nh]_x/2, with J_k = [v_k]_x, v = (c - b, a - c,
+    // b - a) and P = I - nh nh^T. Expanded by -[u]_x [v]_x = (u.v) I - v u^T:
+    // J_k^T P J_l = (v_k.v_l) I - v_l v_k^T - w_k w_l^T with w_k = J_k^T nh = nh x v_k
+    // (a few dozen flops a block instead of two 3 x 3 products and nine divisions).
     const Vec3 n = e1.cross(e2);
     const double len = n.norm();
     const Vec3 nh = n / len;
-    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - nh * nh.transpose();
-    const Eigen::Matrix3d j[3] = {cross_matrix(c - b), cross_matrix(a - c), cross_matrix(b - a)};
+    const double inv2len = 0.5 / len;
+    const Vec3 v[3] = {c - b, a - c, b - a};
+    const Vec3 w[3] = {nh.cross(v[0]), nh.cross(v[1]), nh.cross(v[2])};
     const Eigen::Matrix3d nx = 0.5 * cross_matrix(nh);
     for (int k = 0; k < 3; ++k)
       for (int l = 0; l < 3; ++l) {
-        Eigen::Matrix3d blk = j[k].transpose() * p * j[l] / (2.0 * len);
+        Eigen::Matrix3d blk = -inv2len * (v[l] * v[k].transpose() + w[k] * w[l].transpose());
+        blk.diagonal().array() += inv2len * v[k].dot(v[l]);
         if (l == (k + 1) % 3) blk -= nx;
         if (k == (l + 1) % 3) blk += nx;
         hess->block<3, 3>(3 * k, 3 * l) = blk;
