@@ -113,7 +113,7 @@ double juelicher_bending_energy(const Topology& topo, const BendingParameters& p
   const int nv = topo.num_vertices, ne = topo.num_edges(), nf = topo.num_faces();
   // The cells and their energy in one chunked pass (sum_parallel's chunks: the same bits), with
   // L_e theta_e formed where it is summed; then the hinge and face coefficients in one region.
-  std::vector<double> h(nv);  // h_v = H_v - H0 (1/um)
+  Eigen::VectorXd h(nv);  // h_v = H_v - H0 (1/um), every entry written below
   double partial[kMaxChunks] = {0, 0, 0, 0};
   for_each_chunk(nv, [&](int c, int begin, int end) {
     double s = 0;

@@ -106,45 +106,50 @@ GeometricGradient GeometricGradient::zero(const Topology& topo, Positions* direc
 void assemble_geometric_gradient(const Positions& x, const Topology& topo,
                                  const NetworkGeometry& geo, const GeometricGradient& c,
                                  Positions& grad) {
-  const int nf = topo.num_faces(), ne = topo.num_edges();
-  const int chunks = assembly_chunks(ne);  // edges outnumber faces
+  const int ne = topo.num_edges();
+  const int chunks = assembly_chunks(ne);
   const double cv = c.volume / 6.0;
+  // One pass over the edges carries the faces' terms too: a face's derivative at vertex k is
+  // dA_f/dx_k = n_f x (x_{k+2} - x_{k+1})/2 and dV_f/dx_k = x_{k+1} x x_{k+2}/6 (cyclic), a
+  // function of the edge opposite k. Edge e = (a, b) is traversed a -> b by face f0, whose
+  // vertex opposite is c, and b -> a by f1, opposite d; so e adds f0's terms at c and f1's at
+  // d, and every (face, vertex) pair is visited once. Each vertex column is written once per
+  // edge (four scattered updates, where edge and face loops took twelve).
   assemble_chunks(chunks, &grad, [&](int chunk, Positions& g) {
-    // Edges: dL/db = e/L = -dL/da; dtheta as core/geometry.hpp dihedral_angle's gradient
-    // (dtheta/dc = -L m0/|m0|^2, dtheta/dd = -L m1/|m1|^2, a and b from t_c, t_d).
     const int e_end = chunk_begin(ne, chunks, chunk + 1);
     for (int e = chunk_begin(ne, chunks, chunk); e < e_end; ++e) {
       const int ia = topo.edges(0, e), ib = topo.edges(1, e);
       const int ic = topo.edge_opposite(0, e), id = topo.edge_opposite(1, e);
-      const auto a = x.col(ia);
-      const Eigen::Vector3d ed = x.col(ib) - a;
-      const double len = geo.edge_length[e], inv_len = geo.edge_inv_length[e];
-      const double cl = c.edge_length[e], ct = c.hinge_angle[e];
-      const Eigen::Vector3d dl = (cl * inv_len) * ed;
-      g.col(ib) += dl;
-      g.col(ia) -= dl;
-      if (ct == 0.0) continue;
       const int f0 = topo.edge_faces(0, e), f1 = topo.edge_faces(1, e);
+      const auto a = x.col(ia), b = x.col(ib);
+      const Eigen::Vector3d ed = b - a;
+      const auto m0 = geo.face_normal2.col(f0), m1 = geo.face_normal2.col(f1);
+      const double len = geo.edge_length[e], inv_len = geo.edge_inv_length[e];
       const double i0 = geo.face_inv_norm2[f0], i1 = geo.face_inv_norm2[f1];
-      const Eigen::Vector3d gc = (-ct * len * i0 * i0) * geo.face_normal2.col(f0);
-      const Eigen::Vector3d gd = (-ct * len * i1 * i1) * geo.face_normal2.col(f1);
-      const double inv_l2 = inv_len * inv_len;
-      const double tc = (x.col(ic) - a).dot(ed) * inv_l2, td = (x.col(id) - a).dot(ed) * inv_l2;
-      g.col(ia) -= (1.0 - tc) * gc + (1.0 - td) * gd;
-      g.col(ib) -= tc * gc + td * gd;
+      // Edge length: dL/db = e/L = -dL/da.
+      const Eigen::Vector3d dl = (c.edge_length[e] * inv_len) * ed;
+      // Faces f0 at c and f1 at d (area with the uniform tension c.area, and volume).
+      const Eigen::Vector3d vol = cv * a.cross(b);
+      Eigen::Vector3d gc = (0.5 * (c.face_area[f0] + c.area) * i0) * m0.cross(ed) + vol;
+      Eigen::Vector3d gd = (-0.5 * (c.face_area[f1] + c.area) * i1) * m1.cross(ed) - vol;
+      Eigen::Vector3d ga = -dl, gb = dl;
+      // Hinge angle, as core/geometry.hpp dihedral_angle's gradient: dtheta/dc = -L m0/|m0|^2,
+      // dtheta/dd = -L m1/|m1|^2, a and b from t_c, t_d.
+      const double ct = c.hinge_angle[e];
+      if (ct != 0.0) {
+        const Eigen::Vector3d hc = (-ct * len * i0 * i0) * m0;
+        const Eigen::Vector3d hd = (-ct * len * i1 * i1) * m1;
+        const double inv_l2 = inv_len * inv_len;
+        const double tc = (x.col(ic) - a).dot(ed) * inv_l2, td = (x.col(id) - a).dot(ed) * inv_l2;
+        ga -= (1.0 - tc) * hc + (1.0 - td) * hd;
+        gb -= tc * hc + td * hd;
+        gc += hc;
+        gd += hd;
+      }
+      g.col(ia) += ga;
+      g.col(ib) += gb;
       g.col(ic) += gc;
       g.col(id) += gd;
-    }
-    // Faces: dA/dx_k = n x (x_{k+2} - x_{k+1})/2, dV/dx_k = x_{k+1} x x_{k+2}/6 (cyclic).
-    const int f_end = chunk_begin(nf, chunks, chunk + 1);
-    for (int f = chunk_begin(nf, chunks, chunk); f < f_end; ++f) {
-      const int i0 = topo.faces(0, f), i1 = topo.faces(1, f), i2 = topo.faces(2, f);
-      const auto p0 = x.col(i0), p1 = x.col(i1), p2 = x.col(i2);
-      const Eigen::Vector3d m =
-          (0.5 * (c.face_area[f] + c.area) * geo.face_inv_norm2[f]) * geo.face_normal2.col(f);
-      g.col(i0) += m.cross(p2 - p1) + cv * p1.cross(p2);
-      g.col(i1) += m.cross(p0 - p2) + cv * p2.cross(p0);
-      g.col(i2) += m.cross(p1 - p0) + cv * p0.cross(p1);
     }
   });
 }

@@ -11,16 +11,17 @@
 
 namespace rbc {
 
-/// Geometry of positions x on a mesh, computed once per evaluation (network_geometry).
+/// Geometry of positions x on a mesh, computed once per evaluation (network_geometry). Eigen
+/// vectors rather than std::vector: every entry is written, so nothing is zeroed first.
 struct NetworkGeometry {
-  Eigen::Matrix3Xd face_normal2;        ///< 3 x F: (x1 - x0) x (x2 - x0) = 2 A_f n_f (um^2)
-  std::vector<double> face_area;        ///< F: A_f = |face_normal2|/2 (um^2)
-  std::vector<double> face_inv_norm2;   ///< F: 1/|face_normal2| = 1/(2 A_f) (1/um^2)
-  std::vector<double> edge_length;      ///< E: L_e = |x_b - x_a| (um)
-  std::vector<double> edge_inv_length;  ///< E: 1/L_e (1/um)
+  Eigen::Matrix3Xd face_normal2;    ///< 3 x F: (x1 - x0) x (x2 - x0) = 2 A_f n_f (um^2)
+  Eigen::VectorXd face_area;        ///< F: A_f = |face_normal2|/2 (um^2)
+  Eigen::VectorXd face_inv_norm2;   ///< F: 1/|face_normal2| = 1/(2 A_f) (1/um^2)
+  Eigen::VectorXd edge_length;      ///< E: L_e = |x_b - x_a| (um)
+  Eigen::VectorXd edge_inv_length;  ///< E: 1/L_e (1/um)
   /// E: exterior dihedral angle theta_e at edge e (rad; core/geometry.hpp dihedral_angle:
   /// positive at a ridge, 0 when flat), from the two faces' normals.
-  std::vector<double> hinge_angle;
+  Eigen::VectorXd hinge_angle;
   double area_um2 = 0;    ///< sum_f A_f, summed as core/geometry.hpp total_area
   double volume_um3 = 0;  ///< sum_f x0.(x1 x x2)/6, summed as enclosed_volume
 };
