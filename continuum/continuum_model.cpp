@@ -91,15 +91,18 @@ ContinuumModel build_continuum_model(const TriMesh& rest, const IsotropicMembran
 }
 
 double membrane_energy(const ContinuumModel& model, const Positions& x, Positions* grad) {
-  return assemble_parallel(model.num_elements(), grad, [&](int f, Positions& g) {
-    const auto t = model.topo.faces.col(f);
-    ElementGradient ge;
-    const double e = membrane_element_energy(model.law, model.reference[f], x.col(t(0)),
-                                             x.col(t(1)), x.col(t(2)), grad ? &ge : nullptr);
-    if (grad && std::isfinite(e))
-      for (int k = 0; k < 3; ++k) g.col(t(k)) += ge.segment<3>(3 * k);
-    return e;
-  });
+  return assemble_parallel(
+      model.num_elements(), grad,
+      [&](int f, Positions& g) {
+        const auto t = model.topo.faces.col(f);
+        ElementGradient ge;
+        const double e = membrane_element_energy(model.law, model.reference[f], x.col(t(0)),
+                                                 x.col(t(1)), x.col(t(2)), grad ? &ge : nullptr);
+        if (grad && std::isfinite(e))
+          for (int k = 0; k < 3; ++k) g.col(t(k)) += ge.segment<3>(3 * k);
+        return e;
+      },
+      kParallelHeavyElements);
 }
 
 void add_membrane_hessian(const ContinuumModel& model, const Positions& x, BlockHessian& h) {

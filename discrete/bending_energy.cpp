@@ -58,7 +58,7 @@ std::vector<JuelicherCell> juelicher_cells(const Topology& topo, const BendingPa
                                            const std::vector<double>& af) {
   const int nv = topo.num_vertices;
   std::vector<JuelicherCell> cells(nv);
-#pragma omp parallel for schedule(static) if (nv > kChunkElements)
+#pragma omp parallel for schedule(static) if (nv >= kParallelElements)
   for (int v = 0; v < nv; ++v) {
     cells[v] = juelicher_vertex_cell(
         topo, p, v, [&](int e) { return lt[e]; }, [&](int f) { return af[f]; });
@@ -73,9 +73,9 @@ double juelicher_bending_energy(const Positions& x, const Topology& topo,
   // With a gradient, each hinge's d(L theta) is kept from this pass (the angle and its
   // atan2 were half of a stretch's time when computed twice).
   std::vector<Eigen::Matrix<double, 3, 4>> glt(grad ? ne : 0);
-#pragma omp parallel for schedule(static) if (ne > kChunkElements)
+#pragma omp parallel for schedule(static) if (ne >= kParallelElements)
   for (int e = 0; e < ne; ++e) lt[e] = hinge_length_angle(x, topo, e, grad ? &glt[e] : nullptr);
-#pragma omp parallel for schedule(static) if (nf > kChunkElements)
+#pragma omp parallel for schedule(static) if (nf >= kParallelElements)
   for (int f = 0; f < nf; ++f) {
     const auto& t = topo.faces.col(f);
     af[f] = triangle_area(x.col(t(0)), x.col(t(1)), x.col(t(2)));

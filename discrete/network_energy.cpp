@@ -115,7 +115,7 @@ void assemble_geometric_gradient(const Positions& x, const Topology& topo,
   // vertex opposite is c, and b -> a by f1, opposite d; so e adds f0's terms at c and f1's at
   // d, and every (face, vertex) pair is visited once. Each vertex column is written once per
   // edge (four scattered updates, where edge and face loops took twelve).
-  assemble_chunks(chunks, &grad, [&](int chunk, Positions& g) {
+  assemble_chunks(ne, &grad, [&](int chunk, Positions& g) {
     const int e_end = chunk_begin(ne, chunks, chunk + 1);
     for (int e = chunk_begin(ne, chunks, chunk); e < e_end; ++e) {
       const int ia = topo.edges(0, e), ib = topo.edges(1, e);

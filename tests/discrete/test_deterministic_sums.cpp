@@ -1,8 +1,9 @@
 // Deterministic reductions (issue 10): core/parallel.hpp splits elements into chunks that
 // depend on the element count only, so the energy and every gradient bit are the same with
-// 1, 2 and 3 OpenMP threads. The network (N ~ 3000: ~9000 links, ~6000 faces) is large
-// enough for several chunks, so the multi-chunk path is the one tested; a check that the
-// plain serial sum in another order differs in the last bits shows the test could fail.
+// 1, 2 and 3 OpenMP threads. The network (N ~ 17,000: ~51,000 links, ~34,000 faces) is large
+// enough for several chunks run on the threads (parallel_chunks: edges, faces and vertices),
+// so the parallel multi-chunk path is the one tested; a check that the plain serial sum in
+// another order differs in the last bits shows the test could fail.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -22,9 +23,11 @@ struct ThreadCount {
 
 TEST(DeterministicSums, NetworkEnergyAndGradientBitIdenticalWithOneTwoThreeThreads) {
   RestShapeOptions o;
-  o.target_vertices = 3000;
+  o.target_vertices = 17000;
   const Network net = build_network(make_rest_shape(o), NetworkParameters{});
-  ASSERT_GT(assembly_chunks(net.topo.num_edges()), 1);
+  ASSERT_TRUE(parallel_chunks(net.topo.num_edges()));
+  ASSERT_TRUE(parallel_chunks(net.topo.num_faces()));
+  ASSERT_TRUE(parallel_chunks(net.topo.num_vertices));
   Positions x = net.rest;
   testing::perturb(x, 0.01, 3);
   LoadState load;
