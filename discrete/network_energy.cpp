@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "core/multiversion.hpp"
 #include "core/parallel.hpp"
 
 namespace rbc {
@@ -44,6 +45,82 @@ inline double hinge_atan2(double y, double x) {
   return std::signbit(y) ? -a : a;
 }
 
+/// Faces [begin, end) of network_geometry: normals, areas and their sums (um^2, um^3).
+/// Compiled for x86-64-v3 too (core/multiversion.hpp).
+RBC_HOT_CLONES void face_geometry(const Positions& x, const Topology& topo, NetworkGeometry& g,
+                                  int begin, int end, double& area_um2, double& volume_um3) {
+  double sa = 0, sv = 0;
+  for (int f = begin; f < end; ++f) {
+    const auto a = x.col(topo.faces(0, f)), b = x.col(topo.faces(1, f)),
+               d = x.col(topo.faces(2, f));
+    const Eigen::Vector3d m = (b - a).cross(d - a);
+    g.face_normal2.col(f) = m;
+    const double twice = m.norm();
+    g.face_area[f] = 0.5 * twice;
+    g.face_inv_norm2[f] = 1.0 / twice;
+    sa += g.face_area[f];
+    sv += a.dot(b.cross(d)) / 6.0;
+  }
+  area_um2 = sa;
+  volume_um3 = sv;
+}
+
+/// Edges [begin, end) of network_geometry: lengths, their inverses and the hinge angles.
+/// Compiled for x86-64-v3 too (core/multiversion.hpp).
+RBC_HOT_CLONES void hinge_geometry(const Positions& x, const Topology& topo, NetworkGeometry& g,
+                                   int begin, int end) {
+  for (int e = begin; e < end; ++e) {
+    const Eigen::Vector3d ed = x.col(topo.edges(1, e)) - x.col(topo.edges(0, e));
+    const double len = ed.norm();
+    const auto m0 = g.face_normal2.col(topo.edge_faces(0, e));
+    const auto m1 = g.face_normal2.col(topo.edge_faces(1, e));
+    g.edge_length[e] = len;
+    g.edge_inv_length[e] = 1.0 / len;
+    g.hinge_angle[e] = hinge_atan2(m0.cross(m1).dot(ed), len * m0.dot(m1));
+  }
+}
+
+/// Edges [begin, end) of assemble_geometric_gradient (see there), cloned as hinge_geometry.
+RBC_HOT_CLONES void assemble_edges(const Positions& x, const Topology& topo,
+                                   const NetworkGeometry& geo, const GeometricGradient& c,
+                                   int begin, int end, Positions& g) {
+  const double cv = c.volume / 6.0;
+  for (int e = begin; e < end; ++e) {
+    const int ia = topo.edges(0, e), ib = topo.edges(1, e);
+    const int ic = topo.edge_opposite(0, e), id = topo.edge_opposite(1, e);
+    const int f0 = topo.edge_faces(0, e), f1 = topo.edge_faces(1, e);
+    const auto a = x.col(ia), b = x.col(ib);
+    const Eigen::Vector3d ed = b - a;
+    const auto m0 = geo.face_normal2.col(f0), m1 = geo.face_normal2.col(f1);
+    const double len = geo.edge_length[e], inv_len = geo.edge_inv_length[e];
+    const double i0 = geo.face_inv_norm2[f0], i1 = geo.face_inv_norm2[f1];
+    // Edge length: dL/db = e/L = -dL/da.
+    const Eigen::Vector3d dl = (c.edge_length[e] * inv_len) * ed;
+    // Faces f0 at c and f1 at d (area with the uniform tension c.area, and volume).
+    const Eigen::Vector3d vol = cv * a.cross(b);
+    Eigen::Vector3d gc = (0.5 * (c.face_area[f0] + c.area) * i0) * m0.cross(ed) + vol;
+    Eigen::Vector3d gd = (-0.5 * (c.face_area[f1] + c.area) * i1) * m1.cross(ed) - vol;
+    Eigen::Vector3d ga = -dl, gb = dl;
+    // Hinge angle, as core/geometry.hpp dihedral_angle's gradient: dtheta/dc = -L m0/|m0|^2,
+    // dtheta/dd = -L m1/|m1|^2, a and b from t_c, t_d.
+    const double ct = c.hinge_angle[e];
+    if (ct != 0.0) {
+      const Eigen::Vector3d hc = (-ct * len * i0 * i0) * m0;
+      const Eigen::Vector3d hd = (-ct * len * i1 * i1) * m1;
+      const double inv_l2 = inv_len * inv_len;
+      const double tc = (x.col(ic) - a).dot(ed) * inv_l2, td = (x.col(id) - a).dot(ed) * inv_l2;
+      ga -= (1.0 - tc) * hc + (1.0 - td) * hd;
+      gb -= tc * hc + td * hd;
+      gc += hc;
+      gd += hd;
+    }
+    g.col(ia) += ga;
+    g.col(ib) += gb;
+    g.col(ic) += gc;
+    g.col(id) += gd;
+  }
+}
+
 }  // namespace
 
 NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
@@ -63,32 +140,9 @@ NetworkGeometry network_geometry(const Positions& x, const Topology& topo) {
   // to the second argument so that a zero-length edge gives atan2(0, 0) rather than 0/0. They
   // read the face normals, so the edge chunks start after every face chunk has finished.
   const auto faces = [&](int c, int begin, int end) {
-    double sa = 0, sv = 0;
-    for (int f = begin; f < end; ++f) {
-      const auto a = x.col(topo.faces(0, f)), b = x.col(topo.faces(1, f)),
-                 d = x.col(topo.faces(2, f));
-      const Eigen::Vector3d m = (b - a).cross(d - a);
-      g.face_normal2.col(f) = m;
-      const double twice = m.norm();
-      g.face_area[f] = 0.5 * twice;
-      g.face_inv_norm2[f] = 1.0 / twice;
-      sa += g.face_area[f];
-      sv += a.dot(b.cross(d)) / 6.0;
-    }
-    area[c] = sa;
-    volume[c] = sv;
+    face_geometry(x, topo, g, begin, end, area[c], volume[c]);
   };
-  const auto hinges = [&](int, int begin, int end) {
-    for (int e = begin; e < end; ++e) {
-      const Eigen::Vector3d ed = x.col(topo.edges(1, e)) - x.col(topo.edges(0, e));
-      const double len = ed.norm();
-      const auto m0 = g.face_normal2.col(topo.edge_faces(0, e));
-      const auto m1 = g.face_normal2.col(topo.edge_faces(1, e));
-      g.edge_length[e] = len;
-      g.edge_inv_length[e] = 1.0 / len;
-      g.hinge_angle[e] = hinge_atan2(m0.cross(m1).dot(ed), len * m0.dot(m1));
-    }
-  };
+  const auto hinges = [&](int, int begin, int end) { hinge_geometry(x, topo, g, begin, end); };
   for_each_chunk_pair(nf, faces, ne, hinges, Then::after);
   for (int c = 0; c < assembly_chunks(nf); ++c) g.area_um2 += area[c], g.volume_um3 += volume[c];
   return g;
@@ -108,7 +162,6 @@ void assemble_geometric_gradient(const Positions& x, const Topology& topo,
                                  Positions& grad) {
   const int ne = topo.num_edges();
   const int chunks = assembly_chunks(ne);
-  const double cv = c.volume / 6.0;
   // One pass over the edges carries the faces' terms too: a face's derivative at vertex k is
   // dA_f/dx_k = n_f x (x_{k+2} - x_{k+1})/2 and dV_f/dx_k = x_{k+1} x x_{k+2}/6 (cyclic), a
   // function of the edge opposite k. Edge e = (a, b) is traversed a -> b by face f0, whose
@@ -116,41 +169,8 @@ void assemble_geometric_gradient(const Positions& x, const Topology& topo,
   // d, and every (face, vertex) pair is visited once. Each vertex column is written once per
   // edge (four scattered updates, where edge and face loops took twelve).
   assemble_chunks(ne, &grad, [&](int chunk, Positions& g) {
-    const int e_end = chunk_begin(ne, chunks, chunk + 1);
-    for (int e = chunk_begin(ne, chunks, chunk); e < e_end; ++e) {
-      const int ia = topo.edges(0, e), ib = topo.edges(1, e);
-      const int ic = topo.edge_opposite(0, e), id = topo.edge_opposite(1, e);
-      const int f0 = topo.edge_faces(0, e), f1 = topo.edge_faces(1, e);
-      const auto a = x.col(ia), b = x.col(ib);
-      const Eigen::Vector3d ed = b - a;
-      const auto m0 = geo.face_normal2.col(f0), m1 = geo.face_normal2.col(f1);
-      const double len = geo.edge_length[e], inv_len = geo.edge_inv_length[e];
-      const double i0 = geo.face_inv_norm2[f0], i1 = geo.face_inv_norm2[f1];
-      // Edge length: dL/db = e/L = -dL/da.
-      const Eigen::Vector3d dl = (c.edge_length[e] * inv_len) * ed;
-      // Faces f0 at c and f1 at d (area with the uniform tension c.area, and volume).
-      const Eigen::Vector3d vol = cv * a.cross(b);
-      Eigen::Vector3d gc = (0.5 * (c.face_area[f0] + c.area) * i0) * m0.cross(ed) + vol;
-      Eigen::Vector3d gd = (-0.5 * (c.face_area[f1] + c.area) * i1) * m1.cross(ed) - vol;
-      Eigen::Vector3d ga = -dl, gb = dl;
-      // Hinge angle, as core/geometry.hpp dihedral_angle's gradient: dtheta/dc = -L m0/|m0|^2,
-      // dtheta/dd = -L m1/|m1|^2, a and b from t_c, t_d.
-      const double ct = c.hinge_angle[e];
-      if (ct != 0.0) {
-        const Eigen::Vector3d hc = (-ct * len * i0 * i0) * m0;
-        const Eigen::Vector3d hd = (-ct * len * i1 * i1) * m1;
-        const double inv_l2 = inv_len * inv_len;
-        const double tc = (x.col(ic) - a).dot(ed) * inv_l2, td = (x.col(id) - a).dot(ed) * inv_l2;
-        ga -= (1.0 - tc) * hc + (1.0 - td) * hd;
-        gb -= tc * hc + td * hd;
-        gc += hc;
-        gd += hd;
-      }
-      g.col(ia) += ga;
-      g.col(ib) += gb;
-      g.col(ic) += gc;
-      g.col(id) += gd;
-    }
+    assemble_edges(x, topo, geo, c, chunk_begin(ne, chunks, chunk),
+                   chunk_begin(ne, chunks, chunk + 1), g);
   });
 }
 
