@@ -125,9 +125,9 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       ->check(integer_in(100, 40000))
       ->capture_default_str();
   cmd->add_option("--symmetries", o->symmetries,
-                  "--accuracy-table: solver paths each default-mesh sweep is run with, none and/or "
-                  "mirror (default none,mirror: every method at its best; same mesh, so a mirror "
-                  "row's errors are its full row's, only the cost differs)")
+                  "--accuracy-table: solver paths each default-mesh sweep is run with, none or "
+                  "none,mirror (default none,mirror: every method at its best; a mirror row has "
+                  "its full row's mesh, its own sweep's errors and its own cost)")
       ->transform(enum_choice<Symmetry>({{"none", Symmetry::none}, {"mirror", Symmetry::mirror}}))
       ->type_name("TEXT")
       ->delimiter(',');

@@ -143,13 +143,20 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
   };
   std::vector<Candidate> ok;
   std::optional<Candidate> best_error;
+  size_t on_path = 0;
   for (size_t k = 0; k < table.entries.size(); ++k) {
     const AccuracyEntry& e = table.entries[k];
     const double err = entry_error(e, forces);  // throws for forces outside the table
-    if (!e.converged || (only && e.symmetry != *only)) continue;
+    if (only && e.symmetry != *only) continue;
+    ++on_path;
+    if (!e.converged) continue;
     if (!best_error || err < best_error->error) best_error = Candidate{&e, err, k};
     if (err + table.reference_relative_se <= percent / 100) ok.push_back({&e, err, k});
   }
+  if (only && on_path == 0)
+    throw std::invalid_argument("--accuracy: " + table.source +
+                                " has no rows solved with --symmetry " + to_string(*only) +
+                                "; drop --symmetry to choose among its rows");
   if (ok.empty()) {
     std::ostringstream m;
     m << "--accuracy " << percent << "%: no method in " << table.source << " reaches it";

@@ -54,7 +54,9 @@ struct AccuracyPick {
 
 struct AccuracyChoice {
   AccuracyPick chosen;
-  std::optional<AccuracyPick> runner_up;  ///< next cheapest entry meeting P
+  /// Next cheapest entry meeting P of another discretisation (the chosen mesh on the other
+  /// solver path is skipped).
+  std::optional<AccuracyPick> runner_up;
   /// Cheapest entry of the other model kind meeting P, if it is not the runner-up.
   std::optional<AccuracyPick> other_kind;
   double percent = 0;

@@ -40,6 +40,11 @@ void AccuracyStudyOptions::validate() const {
       if (symmetries[j] == symmetries[k])
         throw std::invalid_argument("accuracy study: symmetry " + to_string(symmetries[k]) +
                                     " is listed twice");
+  // The Richardson chains, the observed orders and the resolution plot read the full sweeps.
+  if (std::find(symmetries.begin(), symmetries.end(), Symmetry::none) == symmetries.end())
+    throw std::invalid_argument(
+        "accuracy study: the solver paths must include none (the convergence study reads the "
+        "full sweeps); got only mirror");
   if (cost_unit_vertices < 100 || cost_unit_vertices > 40000)
     throw std::invalid_argument("cost-unit vertices must be in [100, 40000], got " +
                                 std::to_string(cost_unit_vertices));
@@ -611,14 +616,22 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
 
 AccuracyCostTable load_accuracy_cost(const std::string& path) {
   const CsvTable t = read_csv(path);
-  const std::vector<std::string>& expected = accuracy_cost_header();
-  if (t.header != expected)
+  // The last column (symmetry) came with the mirror rows; a table without it is all full.
+  const std::vector<std::string>& full_header = accuracy_cost_header();
+  const std::vector<std::string> older(full_header.begin(), full_header.end() - 1);
+  const bool has_symmetry = t.header == full_header;
+  if (!has_symmetry && t.header != older)
     throw std::runtime_error(path + ": not an accuracy_cost.csv (header differs)");
+  const size_t columns = has_symmetry ? full_header.size() : older.size();
   AccuracyCostTable out;
   for (size_t k = 0; k < t.rows.size(); ++k) {
     const auto& q = t.rows[k];
-    if (q.size() != expected.size())
+    if (q.size() != columns)
       throw std::runtime_error(path + " row " + std::to_string(k + 1) + ": wrong column count");
+    if (has_symmetry && q[19] != 0 && q[19] != 1)
+      throw std::runtime_error(path + " row " + std::to_string(k + 1) +
+                               ": symmetry must be 0 (none) or 1 (mirror), got " +
+                               std::to_string(q[19]));
     AccuracyRow r;
     r.method.kind = q[0] == 0 ? MethodKind::discrete : MethodKind::continuum;
     r.method.order = q[1] == 2   ? WlcExpansion::order2
@@ -635,7 +648,7 @@ AccuracyCostTable load_accuracy_cost(const std::string& path) {
     r.error_default = q[16];
     out.reference_relative_sd = q[17];
     out.cost_unit_vertices = static_cast<int>(q[18]);
-    r.symmetry = q[19] == 1 ? Symmetry::mirror : Symmetry::none;
+    r.symmetry = has_symmetry && q[19] == 1 ? Symmetry::mirror : Symmetry::none;
     out.rows.push_back(r);
   }
   if (out.rows.empty()) throw std::runtime_error(path + ": no rows");

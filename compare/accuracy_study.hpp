@@ -34,9 +34,11 @@ struct AccuracyStudyOptions {
   int spread_max_resolution = 8000;
   /// Solver paths of the table: each default-triangulation sweep (the table sizes and the
   /// reference's seed 0) is run once per entry, so every method appears at its best. A
-  /// mirror row shares its mesh, and so its diameters (to the solver tolerance), with the
-  /// full row; only its cost differs. Rotated triangulations share no mirror with the bead
-  /// load, so they are swept once, in full, and the reference is built from full sweeps.
+  /// mirror row shares its mesh with the full row, so its errors, measured from its own sweep,
+  /// equal the full row's to the solver tolerance unless the symmetric state is missed; its
+  /// cost is its own. Must include none (the convergence study reads the full sweeps).
+  /// Rotated triangulations share no mirror with the bead load, so they are swept once, in
+  /// full, and the reference is built from full sweeps.
   std::vector<Symmetry> symmetries = {Symmetry::none, Symmetry::mirror};
   /// Cost unit: one energy+gradient evaluation of the discrete network with this many
   /// vertices (the same for every method, so costs compare across methods).

@@ -225,6 +225,24 @@ TEST(AccuracyChoice, RefusesWhatTheTableCannotAnswer) {
     EXPECT_NE(std::string(e.what()).find("no method"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("continuum:2:2000"), std::string::npos) << e.what();
   }
+  // A table without mirror rows (e.g. an older one): --symmetry mirror names that, rather than
+  // an accuracy no method reaches.
+  try {
+    choose_by_accuracy(t, {0}, 5, Symmetry::mirror);
+    ADD_FAILURE() << "--symmetry mirror accepted on a table without mirror rows";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("no rows solved with --symmetry mirror"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(AccuracyStudy, SolverPathsMustIncludeTheFullSweeps) {
+  AccuracyStudyOptions o;
+  o.symmetries = {Symmetry::mirror};
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.symmetries = {Symmetry::mirror, Symmetry::none};
+  EXPECT_NO_THROW(o.validate());
 }
 
 TEST(AccuracyChoice, ParsesPercentages) {
@@ -282,6 +300,48 @@ TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
         << bad[k];
   }
   EXPECT_THROW(load_accuracy_table((dir / "missing.csv").string()), std::runtime_error);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace rbc
+
+namespace rbc {
+namespace {
+
+// The committed accuracy_cost.csv reads with its symmetry column, a copy without the column
+// reads as all full rows, and a symmetry code other than 0 or 1 is refused.
+TEST(AccuracyStudy, CostTableReadsWithOrWithoutTheSymmetryColumn) {
+  namespace fs = std::filesystem;
+  const std::string committed = std::string(RBC_SOURCE_DIR) + "/data/tradeoff/accuracy_cost.csv";
+  const AccuracyCostTable now = load_accuracy_cost(committed);
+  ASSERT_FALSE(now.rows.empty());
+  bool any_mirror = false;
+  for (const AccuracyRow& r : now.rows) any_mirror = any_mirror || r.symmetry == Symmetry::mirror;
+  EXPECT_TRUE(any_mirror);
+  const fs::path dir = fs::temp_directory_path() / "rbc_accuracy_cost_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ifstream in(committed);
+  std::ofstream older(dir / "older.csv"), wrong(dir / "wrong.csv");
+  std::string line;
+  bool header_seen = false;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const std::string cut = line.substr(0, line.rfind(','));  // drop the last column
+    older << cut << '\n';
+    wrong << (header_seen ? cut + ",2" : line) << '\n';
+    header_seen = true;
+  }
+  older.close();
+  wrong.close();
+  const AccuracyCostTable old = load_accuracy_cost((dir / "older.csv").string());
+  ASSERT_EQ(old.rows.size(), now.rows.size());
+  for (size_t k = 0; k < old.rows.size(); ++k) {
+    EXPECT_EQ(old.rows[k].symmetry, Symmetry::none);
+    EXPECT_EQ(old.rows[k].cost_eg, now.rows[k].cost_eg);
+  }
+  EXPECT_THROW(load_accuracy_cost((dir / "wrong.csv").string()), std::runtime_error);
   fs::remove_all(dir);
 }
 

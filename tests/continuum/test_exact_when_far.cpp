@@ -40,11 +40,11 @@ TEST(ContinuumNewton, ExactHessianFarFromTheSolutionGivesTheSameEquilibriaWithFe
   const std::vector<double> forces{0.0, 100.0, 193.0};
   const Sweep lagged = sweep(m, forces, false), switched = sweep(m, forces, true);
   for (size_t k = 0; k < forces.size(); ++k) {
-    // Both stop at a net force below 1e-6 pN per vertex: positions agree to ~1e-6 um over the
-    // softest stiffness (~1 pN/um).
+    // Both stop at a net force below 1e-6 pN per vertex: each is within ~1e-6 um of the
+    // equilibrium over the softest stiffness (~1 pN/um), so they agree to ~2e-6 um.
     const Diameters a = measure_diameters(lagged.x[k]), b = measure_diameters(switched.x[k]);
-    EXPECT_NEAR(a.axial_um, b.axial_um, 1e-6) << forces[k] << " pN";
-    EXPECT_NEAR(a.transverse_um, b.transverse_um, 1e-6) << forces[k] << " pN";
+    EXPECT_NEAR(a.axial_um, b.axial_um, 5e-6) << forces[k] << " pN";
+    EXPECT_NEAR(a.transverse_um, b.transverse_um, 5e-6) << forces[k] << " pN";
   }
   // Measured: lagged 21 iterations and 8 factorisations (shift retries included), switched
   // 18 and 6.
