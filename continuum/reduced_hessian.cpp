@@ -120,8 +120,8 @@ void ReducedLagrangianHessian::element_matrices(const Positions& x, double area_
             nv = static_cast<int>(stars_.size());
   // Element matrices (the cost) on the threads; the scatter in a fixed order (the matrix does
   // not depend on the thread count).
-  constexpr int kParallelElements = 256;
-#pragma omp parallel if (nf > kParallelElements && omp_get_max_threads() > 1)
+  constexpr int kParallelHessianElements = 256;
+#pragma omp parallel if (nf > kParallelHessianElements && omp_get_max_threads() > 1)
   {
 #pragma omp for schedule(static) nowait
     for (int k = 0; k < nf; ++k)
