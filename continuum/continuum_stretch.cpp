@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -98,6 +99,8 @@ namespace {
 /// Limits of one requested force: iterations left, deadline.
 struct ForceBudget {
   int iterations_left = 0;
+  int factorisations = 0;     ///< spent so far (Newton's, the symmetry check's)
+  int krylov_iterations = 0;  ///< spent so far
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
   bool exhausted() const {
     return iterations_left <= 0 || std::chrono::steady_clock::now() > deadline;
@@ -126,6 +129,8 @@ NewtonResult solve_once(const ContinuumModel& model, NewtonSolver& newton, doubl
                              ? newton.solve(to, x, lambda, progress, limits)
                              : solve_equilibrium_lbfgs(model, to, x, lambda, options);
   budget.iterations_left -= std::max(r.iterations, 1);
+  budget.factorisations += r.factorisations + r.stability_factorisations;
+  budget.krylov_iterations += r.krylov_iterations;
   return r;
 }
 
@@ -164,24 +169,15 @@ NewtonResult solve_with_bisection(const ContinuumModel& model, NewtonSolver& new
                               iterations, budget, progress);
 }
 
-}  // namespace
-
-std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
-                                                         const std::vector<double>& forces_pN,
-                                                         const ContinuumOptions& options,
-                                                         const ProgressSink& progress) {
-  return run_continuum_stretch(model, forces_pN, options, progress, StretchState{});
-}
-
-StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points) {
-  return stretch_state_of(points);
-}
-
-std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
-                                                         const std::vector<double>& forces_pN,
-                                                         const ContinuumOptions& options,
-                                                         const ProgressSink& progress,
-                                                         const StretchState& warm) {
+/// The sweep over forces_pN (continuation from the rest shape, or warm from `warm`). kept
+/// (optional, one entry per force): the Newton method each force's last solve ended with; a
+/// warm force starts from its own kept factorisation, and every force leaves its method there.
+std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
+                                                 const std::vector<double>& forces_pN,
+                                                 const ContinuumOptions& options,
+                                                 const ProgressSink& progress,
+                                                 const StretchState& warm,
+                                                 std::vector<std::optional<ShiftedNewton>>* kept) {
   options.validate();
   for (double f : forces_pN)
     if (!std::isfinite(f) || f < 0)
@@ -209,14 +205,22 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
     NewtonResult r;
     bool solved = false;
     ForceBudget budget = make_budget(options);
+    bool own_method = false;
     if (!warm.empty()) {
       Positions xw = warm.x[k];
       ConstraintMultipliers lw = warm.multipliers[k];
-      // A fresh factorisation at the warm state: the previous force's is a poor start so close
-      // to the answer (measured at 980 elements, 13 Mills forces, p + 1 %: 39 Newton
+      // With a kept factorisation of this force (ContinuumSweepSolver), a chord step on it;
+      // otherwise a fresh factorisation at the warm state: the previous force's is a poor start
+      // so close to the answer (measured at 980 elements, 13 Mills forces, p + 1 %: 39 Newton
       // iterations against 52 with it, 13 factorisations either way).
-      newton.forget_factorisation();
+      own_method = kept && (*kept)[k] && (*kept)[k]->has_factorisation();
+      if (own_method)
+        newton.swap_method(*(*kept)[k]);
+      else
+        newton.forget_factorisation();
       r = solve_once(model, newton, f, xw, lw, options, budget, progress);
+      // The force keeps its method; the solver goes on with the previous force's.
+      if (own_method) newton.swap_method(*(*kept)[k]);
       p.iterations += r.iterations;
       ++substeps;
       p.warm = true;
@@ -243,8 +247,17 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
       r = solve_with_bisection(model, newton, previous, f, x, lambda, options, 0, substeps,
                                p.iterations, budget, progress, use_guess ? &guess : nullptr);
     }
+    if (kept && !(own_method && solved)) {
+      // The force keeps a factorisation at its equilibrium (the continuation's last one may
+      // be of an early iterate, or of the previous force): the next run's chord steps there
+      // then contract by about the parameter change per step.
+      if (r.converged()) newton.factorise_at(f, x, lambda);
+      (*kept)[k] = newton.copy_method();
+    }
     p.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     p.substeps = substeps;
+    p.factorisations = budget.factorisations;
+    p.krylov_iterations = budget.krylov_iterations;
     p.converged = r.converged();
     p.status = r.status;
     p.residual_pN = r.residual_pN;
@@ -279,6 +292,48 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
     previous = f;  // after a failure, continue from the last feasible state; the point says so
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
+                                                         const std::vector<double>& forces_pN,
+                                                         const ContinuumOptions& options,
+                                                         const ProgressSink& progress) {
+  return stretch_sweep(model, forces_pN, options, progress, StretchState{}, nullptr);
+}
+
+std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
+                                                         const std::vector<double>& forces_pN,
+                                                         const ContinuumOptions& options,
+                                                         const ProgressSink& progress,
+                                                         const StretchState& warm) {
+  return stretch_sweep(model, forces_pN, options, progress, warm, nullptr);
+}
+
+StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points) {
+  return stretch_state_of(points);
+}
+
+ContinuumSweepSolver::ContinuumSweepSolver(const ContinuumOptions& options) : options_(options) {
+  options_.validate();
+}
+
+std::vector<ContinuumStretchPoint> ContinuumSweepSolver::run(const ContinuumModel& model,
+                                                             const std::vector<double>& forces_pN,
+                                                             const ProgressSink& progress,
+                                                             const StretchState& warm) {
+  const auto vertices = static_cast<Eigen::Index>(model.rest.cols());
+  const bool same_faces = model.topo.faces.cols() == faces_.cols() &&
+                          (model.topo.faces.array() == faces_.array()).all();
+  if (forces_pN != forces_pN_ || vertices != vertices_ || !same_faces) {
+    kept_.clear();
+    kept_.resize(forces_pN.size());
+    forces_pN_ = forces_pN;
+    vertices_ = vertices;
+    faces_ = model.topo.faces;
+  }
+  return stretch_sweep(model, forces_pN, options_, progress, warm, &kept_);
 }
 
 }  // namespace rbc

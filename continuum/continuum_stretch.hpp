@@ -4,6 +4,7 @@
 // (continuum/newton_solver.hpp) from the previous one (continuation in force). A force
 // whose Newton solve fails is reached through intermediate forces (the increment halved,
 // up to max_bisections times) before it is reported as not converged.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,9 @@ struct ContinuumStretchPoint {
   double energy_pNum = 0;                  ///< E = in-plane + bending - tweezers work
   int iterations = 0;                      ///< Newton (or L-BFGS) iterations, all sub-steps
   int substeps = 1;                        ///< forces solved to reach this one
+  /// Numeric factorisations (Newton's, with shift retries, and the symmetry check's sector
+  /// ones) and Krylov-correction CG iterations, all sub-steps: the solver's work.
+  int factorisations = 0, krylov_iterations = 0;
   bool converged = false;
   NewtonStatus status = NewtonStatus::max_iterations;  ///< to_string(status): in words
   double residual_pN = 0;                              ///< largest net vertex force at the end
@@ -110,6 +114,37 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
 
 /// The equilibria of a run, to warm-start the next one.
 StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points);
+
+/// Prepared state of repeated sweeps of one mesh over one force list (a parameter scan, a
+/// sequence of nearby parameter sets): per force, the Newton method with the factorisation
+/// its last solve at that force ended with. A warm run (`warm` = the previous parameters'
+/// StretchState) then starts each force with chord steps on that force's own factorisation
+/// instead of factorising afresh, which is most of a warm re-solve's cost (measured at 980
+/// elements, 13 Mills forces, persistence + 1 %: `rbc bench sweep` rows
+/// `continuum/warm13_persistence_1pc/1000/{0,1}` against `.../kept/...`, README). Results
+/// match run_continuum_stretch's to the solver tolerance but depend on the call history
+/// through the kept factorisations (deterministically); hence the calibration, whose likelihood
+/// must depend on (theta, warm) alone, keeps to run_continuum_stretch. Memory: one factor
+/// per force (about 1 MB per force at 1,000 elements). Another force list or mesh (vertex
+/// count, faces) drops what is kept.
+class ContinuumSweepSolver {
+ public:
+  /// Validates the options (rbc::InvalidParameter).
+  explicit ContinuumSweepSolver(const ContinuumOptions& options = {});
+  /// As run_continuum_stretch(model, forces_pN, options, progress, warm), keeping each force's
+  /// factorisation for the next run.
+  std::vector<ContinuumStretchPoint> run(const ContinuumModel& model,
+                                         const std::vector<double>& forces_pN,
+                                         const ProgressSink& progress = {},
+                                         const StretchState& warm = {});
+
+ private:
+  ContinuumOptions options_;
+  std::vector<double> forces_pN_;
+  Eigen::Index vertices_ = -1;
+  Faces faces_;
+  std::vector<std::optional<ShiftedNewton>> kept_;  ///< per force of forces_pN_
+};
 
 /// One equilibrium at force F from x (updated) and lambda (updated) with L-BFGS inside the
 /// augmented-Lagrangian driver (discrete/augmented_lagrangian.hpp; penalties

@@ -213,31 +213,47 @@ SectorStability NewtonSolver::check_symmetric_state(double force_pN, const Posit
   return check_sectors(full, xf, Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2));
 }
 
-NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
-                                 const ProgressSink& progress, const NewtonLimits& limits) {
-  const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
+NewtonSolver::Prepared NewtonSolver::prepare(double force_pN, const Positions& x) {
   if (options_.symmetry == Symmetry::mirror) update_reduction();
-  const NewtonProblem full = continuum_newton_problem(model_, force_pN, hessian_);
+  Prepared p{continuum_newton_problem(model_, force_pN, hessian_), {}, {}, false, &newton_};
   // A start off the symmetric states (a buckled equilibrium) is solved in full.
-  bool reduced = static_cast<bool>(reduction_);
-  Eigen::VectorXd xf;
-  if (reduced) {
-    xf = symmetric_part(*reduction_, flat(x));
-    reduced = (expand(*reduction_, xf) - flat(x)).cwiseAbs().maxCoeff() <= kSymmetricStartUm;
+  p.reduced = static_cast<bool>(reduction_);
+  if (p.reduced) {
+    p.xf = symmetric_part(*reduction_, flat(x));
+    p.reduced = (expand(*reduction_, p.xf) - flat(x)).cwiseAbs().maxCoeff() <= kSymmetricStartUm;
   }
-  if (!reduced) xf = flat(x);
-  if (!reduced && reduction_ && !full_newton_)
+  if (!p.reduced) p.xf = flat(x);
+  if (!p.reduced && reduction_ && !full_newton_)
     full_newton_ = std::make_unique<ShiftedNewton>(shifted_newton_options(options_));
-  ShiftedNewton& method = reduced || !reduction_ ? newton_ : *full_newton_;
+  if (!p.reduced && reduction_) p.method = full_newton_.get();
   ReducedHessian assemble_reduced;
-  if (reduced)
+  if (p.reduced)
     assemble_reduced = [this](const Eigen::VectorXd& xf_full,
                               const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
       const Positions xs = Eigen::Map<const Positions>(xf_full.data(), 3, xf_full.size() / 3);
       return reduced_hessian_->assemble(xs, l(0), l(1));
     };
-  const NewtonProblem pb =
-      reduced ? reduce_newton_problem(full, reduction_, reduced_cache_, assemble_reduced) : full;
+  p.pb = p.reduced ? reduce_newton_problem(p.full, reduction_, reduced_cache_, assemble_reduced)
+                   : p.full;
+  return p;
+}
+
+bool NewtonSolver::factorise_at(double force_pN, const Positions& x,
+                                const ConstraintMultipliers& lambda) {
+  Prepared p = prepare(force_pN, x);
+  return p.method->factorise_at(p.pb, p.xf,
+                                Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2));
+}
+
+NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
+                                 const ProgressSink& progress, const NewtonLimits& limits) {
+  const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
+  Prepared prep = prepare(force_pN, x);
+  const NewtonProblem& full = prep.full;
+  const NewtonProblem& pb = prep.pb;
+  const bool reduced = prep.reduced;
+  Eigen::VectorXd& xf = prep.xf;
+  ShiftedNewton& method = *prep.method;
   auto on_iteration = [&](const NewtonIterate& it) {
     if (!progress) return;
     std::ostringstream m;

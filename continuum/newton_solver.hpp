@@ -159,6 +159,10 @@ class NewtonSolver {
                      const ProgressSink& progress = {}, const NewtonLimits& limits = {});
   /// Drops a factorisation kept for reuse_across_solves (the next solve factorises afresh).
   void forget_factorisation() { newton_.forget_factorisation(); }
+  /// A copy of the Newton method of the (symmetric or full) problem, its kept factorisation
+  /// included; and the exchange of it with a kept one (ContinuumSweepSolver: one per force).
+  ShiftedNewton copy_method() const { return newton_.clone(); }
+  void swap_method(ShiftedNewton& kept) { std::swap(newton_, kept); }
   /// Symmetry::mirror: whether the symmetric equilibrium x (3 x N, um) at force F with its
   /// multipliers is a minimum of the full problem (core/symmetry_stability.hpp; one full
   /// Hessian and |G| - 1 sector factorisations). Always stable without a reduction or for a
@@ -167,8 +171,22 @@ class NewtonSolver {
                                         const ConstraintMultipliers& lambda);
   /// Order of the mirror group the solves are reduced by (1: the full problem).
   int symmetry_order() const { return reduction_ ? reduction_->group_order : 1; }
+  /// Factorises the Hessian at x (3 x N, um) with multipliers lambda at force F (pN), in the
+  /// problem a solve from x would use (symmetric or full), and keeps it for the next solve
+  /// (reuse_across_solves): e.g. at an equilibrium, for re-solves near it. False when no shift
+  /// made it positive definite.
+  bool factorise_at(double force_pN, const Positions& x, const ConstraintMultipliers& lambda);
 
  private:
+  /// The problem a solve from x at force F works on: the full one, and the one solved (the
+  /// symmetric reduction of it, unless x is not symmetric), its start and its method.
+  struct Prepared {
+    NewtonProblem full, pb;
+    Eigen::VectorXd xf;  ///< the start in pb's unknowns
+    bool reduced = false;
+    ShiftedNewton* method = nullptr;
+  };
+  Prepared prepare(double force_pN, const Positions& x);
   const ContinuumModel& model_;
   NewtonOptions options_;
   BlockHessian hessian_;

@@ -178,6 +178,60 @@ int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h, double d
   }
 }
 
+ShiftedNewton ShiftedNewton::clone() const {
+  ShiftedNewton c(options_);
+  c.cholesky_ = cholesky_.clone();
+  c.k_ = k_;
+  c.diag_ = diag_;
+  c.analysed_rows_ = analysed_rows_;
+  c.analysed_nonzeros_ = analysed_nonzeros_;
+  c.have_factor_ = have_factor_;
+  c.shift_hint_ = shift_hint_;
+  c.last_krylov_iterations_ = last_krylov_iterations_;
+  c.factor_shift_ = factor_shift_;
+  c.factor_scale_ = factor_scale_;
+  return c;
+}
+
+double ShiftedNewton::factorise_shifted(const NewtonProblem& pb,
+                                        const Eigen::SparseMatrix<double>& h, double sigma,
+                                        int& factorisations) {
+  const ShiftedNewtonOptions& o = options_;
+  prepare_pattern(h);
+  double s = 0;
+  if (o.shift_scale == ShiftScale::mean_abs_diagonal) {
+    for (int d : diag_) s += std::abs(h.valuePtr()[d]);
+    s = std::max(s / static_cast<double>(h.rows()), 1e-300);
+  } else {
+    for (int d : diag_) s = std::max(s, std::abs(h.valuePtr()[d]));
+  }
+  have_factor_ = false;
+  for (int attempt = 0; attempt < o.max_shift_attempts; ++attempt) {
+    std::copy(h.valuePtr(), h.valuePtr() + h.nonZeros(), k_.valuePtr());
+    if (sigma > 0)
+      for (int d : diag_) k_.valuePtr()[d] += sigma * s;
+    if (pb.add_unshifted) pb.add_unshifted(k_);
+    ++factorisations;
+    if (cholesky_.factorize(k_)) {  // fails unless K is positive definite
+      have_factor_ = true;
+      factor_shift_ = sigma > 0 ? sigma * s : 0.0;
+      factor_scale_ = s;
+      return sigma;
+    }
+    sigma = std::max(o.shift_growth * sigma, o.retry_shift);
+  }
+  return -1.0;
+}
+
+bool ShiftedNewton::factorise_at(const NewtonProblem& pb, const Eigen::VectorXd& x,
+                                 const Eigen::VectorXd& lambda) {
+  const Eigen::SparseMatrix<double>& h = pb.hessian(x, lambda);
+  if (h.rows() != x.size()) throw std::logic_error("shifted Newton: Hessian size mismatch");
+  int factorisations = 0;
+  last_krylov_iterations_ = 0;
+  return factorise_shifted(pb, h, options_.initial_shift, factorisations) >= 0;
+}
+
 ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorXd& x,
                                          Eigen::VectorXd& lambda,
                                          const std::function<void(const NewtonIterate&)>& on_it,
@@ -203,7 +257,8 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
   const Eigen::VectorXd& scale = pb.constraint_scale;
   if (m > 0 && scale.size() != m)
     throw std::logic_error("shifted Newton: one constraint scale per constraint needed");
-  if (!o.reuse_across_calls) have_factor_ = false;
+  // A kept factorisation of another problem size (another symmetry reduction) is no use.
+  if (!o.reuse_across_calls || cholesky_.rows() != x.size()) have_factor_ = false;
   if (o.krylov_iterations > 0 && pb.add_unshifted)
     throw std::logic_error("shifted Newton: the Krylov correction needs the whole Hessian");
   last_krylov_iterations_ = 0;
@@ -301,32 +356,9 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
       ++res.chord_steps;
     } else {
       reuse_count = 0;
-      const Eigen::SparseMatrix<double>& h = *hk;
-      prepare_pattern(h);
-      double s = 0;
-      if (o.shift_scale == ShiftScale::mean_abs_diagonal) {
-        for (int d : diag_) s += std::abs(h.valuePtr()[d]);
-        s = std::max(s / static_cast<double>(n), 1e-300);
-      } else {
-        for (int d : diag_) s = std::max(s, std::abs(h.valuePtr()[d]));
-      }
-      double sigma = std::max(o.initial_shift, shift_hint);
-      have_factor_ = false;
-      for (int attempt = 0; attempt < o.max_shift_attempts; ++attempt) {
-        std::copy(h.valuePtr(), h.valuePtr() + h.nonZeros(), k_.valuePtr());
-        if (sigma > 0)
-          for (int d : diag_) k_.valuePtr()[d] += sigma * s;
-        if (pb.add_unshifted) pb.add_unshifted(k_);
-        ++res.factorisations;
-        if (cholesky_.factorize(k_)) {  // fails unless K is positive definite
-          have_factor_ = true;
-          factor_shift_ = sigma > 0 ? sigma * s : 0.0;
-          factor_scale_ = s;
-          break;
-        }
-        sigma = std::max(o.shift_growth * sigma, o.retry_shift);
-        if (o.krylov_exact_when_far) far_seen = true;
-      }
+      const double start = std::max(o.initial_shift, shift_hint);
+      const double sigma = factorise_shifted(pb, *hk, start, res.factorisations);
+      if (sigma != start && o.krylov_exact_when_far) far_seen = true;
       if (!have_factor_) return finish(NewtonStatus::factorisation_failed);
       res.largest_shift = std::max(res.largest_shift, sigma);
       shift_hint = sigma > o.initial_shift ? o.shift_memory * sigma : 0.0;

@@ -219,10 +219,25 @@ class ShiftedNewton {
                             const NewtonLimitsCore& limits = {});
   /// Drops a kept factorisation (the next iteration factorises afresh).
   void forget_factorisation() { have_factor_ = false; }
+  /// A deep copy, the kept factorisation included (kept per force by a sweep while this one
+  /// moves on to the next force).
+  ShiftedNewton clone() const;
+  /// Whether a factorisation is kept for the next call (reuse_across_calls).
+  bool has_factorisation() const { return have_factor_; }
+  /// Factorises the Hessian of pb at (x, lambda) with the smallest shift that makes it
+  /// positive definite (from initial_shift) and keeps it for the next call: e.g. at an
+  /// equilibrium, for later re-solves near it (reuse_across_calls). False when no shift did.
+  bool factorise_at(const NewtonProblem& pb, const Eigen::VectorXd& x,
+                    const Eigen::VectorXd& lambda);
   const ShiftedNewtonOptions& options() const { return options_; }
 
  private:
   void prepare_pattern(const Eigen::SparseMatrix<double>& h);
+  /// Factorises K = h + sigma s I (+ add_unshifted), sigma growing from `sigma` until K is
+  /// positive definite (at most max_shift_attempts factorisations, counted in factorisations).
+  /// Returns the sigma used (relative to s), or -1 when every attempt failed.
+  double factorise_shifted(const NewtonProblem& pb, const Eigen::SparseMatrix<double>& h,
+                           double sigma, int& factorisations);
   /// Krylov correction of the shifted step dx (C' dx = -c) to the Newton step of h on the
   /// tangent space; dl: the multiplier increment of the corrected step. Returns the CG
   /// iterations (>= 0) on convergence, -(iterations + 1) on failure (dx, dl then unusable).

@@ -16,9 +16,35 @@ void SparseCholeskyOptions::validate() const {
   require_integer_in_range("Cholesky BLAS threads (0 = the caller's)", blas_threads, 0, 1024);
 }
 
+namespace detail {
+
+/// Eigen's CHOLMOD wrapper with a deep copy: Eigen offers none, and a kept factorisation must
+/// survive while its original is refactorised (SparseCholesky::clone). The copy is CHOLMOD's own
+/// (cholmod_copy_factor), of the symbolic analysis and the numeric factor alike.
+class CopyableCholmod final
+    : public Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> {
+ public:
+  /// Makes this a copy of other's analysis and factor (this object's common must already be
+  /// configured as other's: same mode and ordering).
+  void copy_factor_of(const CopyableCholmod& other) {
+    if (m_cholmodFactor) cholmod_free_factor(&m_cholmodFactor, &cholmod());
+    m_cholmodFactor =
+        other.m_cholmodFactor ? cholmod_copy_factor(other.m_cholmodFactor, &cholmod()) : nullptr;
+    // Eigen's cholmod() is not const; the other's common is only read.
+    cholmod().lnz = const_cast<CopyableCholmod&>(other).cholmod().lnz;
+    m_info = other.m_info;
+    m_analysisIsOk = other.m_analysisIsOk && m_cholmodFactor;
+    m_factorizationIsOk = other.m_factorizationIsOk && m_cholmodFactor;
+    m_shiftOffset[0] = other.m_shiftOffset[0];
+    m_shiftOffset[1] = other.m_shiftOffset[1];
+  }
+};
+
+}  // namespace detail
+
 struct SparseCholesky::Impl {
   SparseCholeskyOptions options;
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> factor;
+  detail::CopyableCholmod factor;
   bool analysed = false, ok = false;
   Eigen::Index n = 0;
 
@@ -57,6 +83,18 @@ SparseCholesky::SparseCholesky(const SparseCholeskyOptions& options)
 SparseCholesky::~SparseCholesky() = default;
 SparseCholesky::SparseCholesky(SparseCholesky&&) noexcept = default;
 SparseCholesky& SparseCholesky::operator=(SparseCholesky&&) noexcept = default;
+
+SparseCholesky SparseCholesky::clone() const {
+  SparseCholesky c(impl_->options);
+  if (impl_->analysed) {
+    c.impl_->configure(impl_->n);
+    c.impl_->factor.copy_factor_of(impl_->factor);
+    c.impl_->analysed = true;
+    c.impl_->ok = impl_->ok;
+    c.impl_->n = impl_->n;
+  }
+  return c;
+}
 
 void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
   if (a.rows() != a.cols())

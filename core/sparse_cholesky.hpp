@@ -53,6 +53,9 @@ class SparseCholesky {
   SparseCholesky& operator=(SparseCholesky&&) noexcept;
   SparseCholesky(const SparseCholesky&) = delete;
   SparseCholesky& operator=(const SparseCholesky&) = delete;
+  /// A deep copy of the analysis and the factor (the original may then be refactorised while
+  /// the copy is kept, e.g. one factorisation per force of a sweep).
+  SparseCholesky clone() const;
 
   /// Symbolic analysis (ordering, elimination tree) of a's pattern (compressed, square).
   void analyze(const Eigen::SparseMatrix<double>& a);

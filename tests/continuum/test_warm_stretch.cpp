@@ -48,6 +48,46 @@ TEST(WarmStretch, ContinuumWarmReSolveEqualsColdSolve) {
   EXPECT_LT(warm_iterations, cold_iterations);
 }
 
+// ContinuumSweepSolver keeps each force's factorisation: the warm re-solve reaches the same
+// equilibria as the cold continuation (within the solver tolerance, as above) without a single
+// factorisation where the plain warm run factorises at every force; another force list or mesh
+// starts afresh and gives run_continuum_stretch's answer.
+TEST(WarmStretch, SweepSolverReSolvesOnTheKeptFactorisations) {
+  const TriMesh mesh = make_continuum_mesh(500);
+  const std::vector<double> forces{0.0, 38.0, 88.0, 193.0};
+  ContinuumOptions co;
+  const ContinuumModel m0 = model(mesh, 1.0), m1 = model(mesh, 1.01);
+  ContinuumSweepSolver sweep(co);
+  const auto before = sweep.run(m0, forces);
+  const auto cold = run_continuum_stretch(m1, forces, co);
+  const auto plain = run_continuum_stretch(m1, forces, co, {}, stretch_state(before));
+  const auto kept = sweep.run(m1, forces, {}, stretch_state(before));
+  int plain_factorisations = 0, kept_factorisations = 0;
+  for (size_t k = 0; k < forces.size(); ++k) {
+    ASSERT_TRUE(before[k].converged) << to_string(before[k].status);
+    ASSERT_TRUE(kept[k].converged) << to_string(kept[k].status);
+    ASSERT_TRUE(plain[k].converged) << to_string(plain[k].status);
+    EXPECT_TRUE(kept[k].warm);
+    EXPECT_NEAR(kept[k].axial_um, cold[k].axial_um, 1e-7 * cold[k].axial_um);
+    EXPECT_NEAR(kept[k].transverse_um, cold[k].transverse_um, 1e-7 * cold[k].transverse_um);
+    EXPECT_NEAR(kept[k].multipliers.area_pN_per_um, cold[k].multipliers.area_pN_per_um,
+                1e-6 * (1 + std::abs(cold[k].multipliers.area_pN_per_um)));
+    EXPECT_LE(kept[k].residual_pN, co.newton.force_tolerance_pN);
+    plain_factorisations += plain[k].factorisations;
+    kept_factorisations += kept[k].factorisations;
+  }
+  EXPECT_GE(plain_factorisations, static_cast<int>(forces.size()));
+  EXPECT_LT(kept_factorisations, plain_factorisations);
+  // Another force list: nothing kept applies; the same answer as the one-shot sweep.
+  const std::vector<double> others{16.0, 67.6};
+  const auto fresh = sweep.run(m1, others);
+  const auto reference = run_continuum_stretch(m1, others, co);
+  for (size_t k = 0; k < others.size(); ++k) {
+    ASSERT_TRUE(fresh[k].converged);
+    EXPECT_NEAR(fresh[k].axial_um, reference[k].axial_um, 1e-7 * reference[k].axial_um);
+  }
+}
+
 TEST(WarmStretch, ContinuumRefusesAStateOfAnotherMesh) {
   const ContinuumModel m = model(make_continuum_mesh(500), 1.0);
   const ContinuumModel other = model(make_continuum_mesh(1000), 1.0);

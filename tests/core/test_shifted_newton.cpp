@@ -62,6 +62,33 @@ TEST(SparseCholesky, SolvesAPositiveDefiniteSystemAndRefusesAnIndefiniteOne) {
   EXPECT_THROW(SparseCholesky{o}, std::invalid_argument);
 }
 
+TEST(SparseCholesky, CloneKeepsItsFactorWhileTheOriginalIsRefactorised) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 300;
+  Eigen::VectorXd d(n), b(n);
+  for (int i = 0; i < n; ++i) d(i) = 3.0 + u(rng), b(i) = u(rng);
+  const Eigen::SparseMatrix<double> a = tridiagonal(d, -1.0);
+  const Eigen::SparseMatrix<double> a2 = tridiagonal(d + Eigen::VectorXd::Constant(n, 2.0), 0.5);
+  for (const int threshold : {0, 1 << 30}) {  // supernodal, simplicial
+    SparseCholeskyOptions o;
+    o.supernodal_min_unknowns = threshold;
+    SparseCholesky c(o);
+    EXPECT_FALSE(c.clone().factorised());  // a clone of nothing is empty
+    ASSERT_TRUE(c.factorize(a));
+    const Eigen::VectorXd x = c.solve(b);
+    const SparseCholesky kept = c.clone();
+    ASSERT_TRUE(kept.factorised());
+    EXPECT_EQ(kept.rows(), n);
+    EXPECT_EQ(kept.factor_nonzeros(), c.factor_nonzeros());
+    ASSERT_TRUE(c.factorize(a2));  // the original moves on ...
+    EXPECT_LT((a2 * c.solve(b) - b).norm(), 1e-12 * b.norm());
+    const Eigen::VectorXd xk = kept.solve(b);  // ... the copy still solves a, bit for bit
+    EXPECT_EQ((xk - x).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_LT((a * xk - b).norm(), 1e-12 * b.norm());
+  }
+}
+
 /// f(x) = sum_i w_i [(x_i - a_i)^4 / 4 + (x_i - a_i)^2 / 2]: minimum at x = a.
 struct Quartic {
   Eigen::VectorXd a, w;
