@@ -169,15 +169,33 @@ NewtonResult solve_with_bisection(const ContinuumModel& model, NewtonSolver& new
                               iterations, budget, progress);
 }
 
+/// Exchanges the solver's main method with a kept one for the life of the scope (also when
+/// the solve in it throws, e.g. Cancelled).
+class SwappedMethod {
+ public:
+  SwappedMethod(NewtonSolver& solver, ShiftedNewton* kept) : solver_(solver), kept_(kept) {
+    if (kept_) solver_.swap_method(*kept_);
+  }
+  ~SwappedMethod() {
+    if (kept_) solver_.swap_method(*kept_);
+  }
+  SwappedMethod(const SwappedMethod&) = delete;
+  SwappedMethod& operator=(const SwappedMethod&) = delete;
+
+ private:
+  NewtonSolver& solver_;
+  ShiftedNewton* kept_;
+};
+
 /// The sweep over forces_pN (continuation from the rest shape, or warm from `warm`). kept
-/// (optional, one entry per force): the Newton method each force's last solve ended with; a
-/// warm force starts from its own kept factorisation, and every force leaves its method there.
+/// (optional; Newton with reuse_across_solves only): per force, a method holding a
+/// factorisation at that force's last equilibrium (made there after a cold solve; after a warm
+/// solve on it, the one that solve ended with). A warm force starts from its own.
 std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
                                                  const std::vector<double>& forces_pN,
                                                  const ContinuumOptions& options,
                                                  const ProgressSink& progress,
-                                                 const StretchState& warm,
-                                                 std::vector<std::optional<ShiftedNewton>>* kept) {
+                                                 const StretchState& warm, KeptMethods* kept) {
   options.validate();
   for (double f : forces_pN)
     if (!std::isfinite(f) || f < 0)
@@ -187,6 +205,14 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
   NewtonOptions newton_options = options.newton;
   if (!newton_options.cancel) newton_options.cancel = options.cancel;
   NewtonSolver newton(model, newton_options);
+  if (kept) {
+    // Methods kept under another symmetry reduction (another bead patch) do not apply.
+    const std::vector<int>& group = newton.symmetry_group();
+    if (kept->group != group) {
+      for (auto& m : kept->per_force) m.reset();
+      kept->group = group;
+    }
+  }
   Positions x = model.rest;
   ConstraintMultipliers lambda;
   double previous = 0.0;
@@ -206,6 +232,7 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
     bool solved = false;
     ForceBudget budget = make_budget(options);
     bool own_method = false;
+    std::optional<ShiftedNewton> kept_none;
     if (!warm.empty()) {
       Positions xw = warm.x[k];
       ConstraintMultipliers lw = warm.multipliers[k];
@@ -213,14 +240,14 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
       // otherwise a fresh factorisation at the warm state: the previous force's is a poor start
       // so close to the answer (measured at 980 elements, 13 Mills forces, p + 1 %: 39 Newton
       // iterations against 52 with it, 13 factorisations either way).
-      own_method = kept && (*kept)[k] && (*kept)[k]->has_factorisation();
-      if (own_method)
-        newton.swap_method(*(*kept)[k]);
-      else
-        newton.forget_factorisation();
-      r = solve_once(model, newton, f, xw, lw, options, budget, progress);
-      // The force keeps its method; the solver goes on with the previous force's.
-      if (own_method) newton.swap_method(*(*kept)[k]);
+      auto& slot = kept ? kept->per_force[k] : kept_none;
+      own_method = slot && slot->has_factorisation();
+      if (!own_method) newton.forget_factorisation();
+      {
+        // The force keeps its method; the solver goes on with the previous force's.
+        const SwappedMethod swapped(newton, own_method ? &*slot : nullptr);
+        r = solve_once(model, newton, f, xw, lw, options, budget, progress);
+      }
       p.iterations += r.iterations;
       ++substeps;
       p.warm = true;
@@ -250,9 +277,12 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
     if (kept && !(own_method && solved)) {
       // The force keeps a factorisation at its equilibrium (the continuation's last one may
       // be of an early iterate, or of the previous force): the next run's chord steps there
-      // then contract by about the parameter change per step.
-      if (r.converged()) newton.factorise_at(f, x, lambda);
-      (*kept)[k] = newton.copy_method();
+      // then contract by about the parameter change per step. None for a force that did not
+      // converge or whose equilibrium is not one of the main (symmetric) problem.
+      auto& slot = kept->per_force[k];
+      slot.reset();
+      if (r.converged() && newton.factorise_at(f, x, lambda, &budget.factorisations))
+        slot = newton.copy_method();
     }
     p.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     p.substeps = substeps;
@@ -327,13 +357,16 @@ std::vector<ContinuumStretchPoint> ContinuumSweepSolver::run(const ContinuumMode
   const bool same_faces = model.topo.faces.cols() == faces_.cols() &&
                           (model.topo.faces.array() == faces_.array()).all();
   if (forces_pN != forces_pN_ || vertices != vertices_ || !same_faces) {
-    kept_.clear();
-    kept_.resize(forces_pN.size());
+    kept_.per_force.clear();
+    kept_.per_force.resize(forces_pN.size());
     forces_pN_ = forces_pN;
     vertices_ = vertices;
     faces_ = model.topo.faces;
   }
-  return stretch_sweep(model, forces_pN, options_, progress, warm, &kept_);
+  // Kept factorisations serve only Newton steps that start from them.
+  const bool keeps =
+      options_.solver == ContinuumSolver::newton && options_.newton.reuse_across_solves;
+  return stretch_sweep(model, forces_pN, options_, progress, warm, keeps ? &kept_ : nullptr);
 }
 
 }  // namespace rbc

@@ -115,18 +115,28 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
 /// The equilibria of a run, to warm-start the next one.
 StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points);
 
+/// Per force of a sweep, a Newton method holding a factorisation at that force's last
+/// equilibrium (ContinuumSweepSolver), and the symmetry reduction they were made under.
+struct KeptMethods {
+  std::vector<std::optional<ShiftedNewton>> per_force;
+  std::vector<int> group;  ///< NewtonSolver::symmetry_group() of the runs that made them
+};
+
 /// Prepared state of repeated sweeps of one mesh over one force list (a parameter scan, a
 /// sequence of nearby parameter sets): per force, the Newton method with the factorisation
-/// its last solve at that force ended with. A warm run (`warm` = the previous parameters'
-/// StretchState) then starts each force with chord steps on that force's own factorisation
-/// instead of factorising afresh, which is most of a warm re-solve's cost (measured at 980
-/// elements, 13 Mills forces, persistence + 1 %: `rbc bench sweep` rows
-/// `continuum/warm13_persistence_1pc/1000/{0,1}` against `.../kept/...`, README). Results
+/// at that force's last equilibrium (made there after a cold solve, one factorisation more per
+/// force; after a warm solve on it, the one that solve ended with). A warm run (`warm` = the
+/// previous parameters' StretchState) then starts each force with chord steps on that force's
+/// own factorisation instead of factorising afresh, which is most of a warm re-solve's cost
+/// (measured at 980 elements, 13 Mills forces, persistence + 1 %: `rbc bench sweep` rows
+/// `continuum/warm13_persistence_1pc/1000/{0,1}` against `..._kept/...`, README). Results
 /// match run_continuum_stretch's to the solver tolerance but depend on the call history
 /// through the kept factorisations (deterministically); hence the calibration, whose likelihood
 /// must depend on (theta, warm) alone, keeps to run_continuum_stretch. Memory: one factor
-/// per force (about 1 MB per force at 1,000 elements). Another force list or mesh (vertex
-/// count, faces) drops what is kept.
+/// per force (about 1 MB per force at 1,000 elements). Another force list, mesh (vertex
+/// count, faces) or symmetry reduction (bead patch) drops what is kept; a force that did not
+/// converge, or whose equilibrium is not symmetric under Symmetry::mirror, keeps nothing.
+/// Only the Newton solver with reuse_across_solves keeps anything (else as the one-shot sweep).
 class ContinuumSweepSolver {
  public:
   /// Validates the options (rbc::InvalidParameter).
@@ -143,7 +153,7 @@ class ContinuumSweepSolver {
   std::vector<double> forces_pN_;
   Eigen::Index vertices_ = -1;
   Faces faces_;
-  std::vector<std::optional<ShiftedNewton>> kept_;  ///< per force of forces_pN_
+  KeptMethods kept_;  ///< per force of forces_pN_
 };
 
 /// One equilibrium at force F from x (updated) and lambda (updated) with L-BFGS inside the

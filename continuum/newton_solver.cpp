@@ -239,10 +239,11 @@ NewtonSolver::Prepared NewtonSolver::prepare(double force_pN, const Positions& x
 }
 
 bool NewtonSolver::factorise_at(double force_pN, const Positions& x,
-                                const ConstraintMultipliers& lambda) {
+                                const ConstraintMultipliers& lambda, int* factorisations) {
   Prepared p = prepare(force_pN, x);
-  return p.method->factorise_at(p.pb, p.xf,
-                                Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2));
+  if (p.method != &newton_) return false;
+  return newton_.factorise_at(
+      p.pb, p.xf, Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2), factorisations);
 }
 
 NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,

@@ -21,6 +21,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "continuum/block_hessian.hpp"
 #include "continuum/continuum_model.hpp"
@@ -157,12 +158,23 @@ class NewtonSolver {
   /// the multipliers (updated). Never leaves x at an infeasible or NaN state.
   NewtonResult solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
                      const ProgressSink& progress = {}, const NewtonLimits& limits = {});
-  /// Drops a factorisation kept for reuse_across_solves (the next solve factorises afresh).
-  void forget_factorisation() { newton_.forget_factorisation(); }
-  /// A copy of the Newton method of the (symmetric or full) problem, its kept factorisation
-  /// included; and the exchange of it with a kept one (ContinuumSweepSolver: one per force).
+  /// Drops the factorisations kept for reuse_across_solves (the next solve factorises afresh).
+  void forget_factorisation() {
+    newton_.forget_factorisation();
+    if (full_newton_) full_newton_->forget_factorisation();
+  }
+  /// A copy of the Newton method of the main problem (the symmetric one with
+  /// Symmetry::mirror, else the full one), its factorisation included; and the exchange of it
+  /// with a kept one (ContinuumSweepSolver: one per force). The states off the symmetric ones
+  /// (buckled) are solved by another method, which is neither copied nor exchanged.
   ShiftedNewton copy_method() const { return newton_.clone(); }
-  void swap_method(ShiftedNewton& kept) { std::swap(newton_, kept); }
+  void swap_method(ShiftedNewton& kept) noexcept { newton_.swap(kept); }
+  /// The mirrors the solves are reduced by (indices into the rest mesh's group; {0} or empty
+  /// for the full problem): methods kept under another group must not be swapped in.
+  const std::vector<int>& symmetry_group() {
+    if (options_.symmetry == Symmetry::mirror) update_reduction();
+    return reduced_group_;
+  }
   /// Symmetry::mirror: whether the symmetric equilibrium x (3 x N, um) at force F with its
   /// multipliers is a minimum of the full problem (core/symmetry_stability.hpp; one full
   /// Hessian and |G| - 1 sector factorisations). Always stable without a reduction or for a
@@ -171,11 +183,13 @@ class NewtonSolver {
                                         const ConstraintMultipliers& lambda);
   /// Order of the mirror group the solves are reduced by (1: the full problem).
   int symmetry_order() const { return reduction_ ? reduction_->group_order : 1; }
-  /// Factorises the Hessian at x (3 x N, um) with multipliers lambda at force F (pN), in the
-  /// problem a solve from x would use (symmetric or full), and keeps it for the next solve
-  /// (reuse_across_solves): e.g. at an equilibrium, for re-solves near it. False when no shift
-  /// made it positive definite.
-  bool factorise_at(double force_pN, const Positions& x, const ConstraintMultipliers& lambda);
+  /// Factorises the Hessian of the main problem (see copy_method) at x (3 x N, um) with
+  /// multipliers lambda at force F (pN) and holds it for the next solve (reuse_across_solves):
+  /// e.g. at an equilibrium, for re-solves near it. Adds the factorisations made to
+  /// *factorisations (if given). False, and nothing done, when x is not a state of the main
+  /// problem (not symmetric with Symmetry::mirror); false too when no shift made K definite.
+  bool factorise_at(double force_pN, const Positions& x, const ConstraintMultipliers& lambda,
+                    int* factorisations = nullptr);
 
  private:
   /// The problem a solve from x at force F works on: the full one, and the one solved (the

@@ -223,13 +223,30 @@ double ShiftedNewton::factorise_shifted(const NewtonProblem& pb,
   return -1.0;
 }
 
+void ShiftedNewton::swap(ShiftedNewton& other) noexcept {
+  using std::swap;
+  swap(options_, other.options_);
+  swap(cholesky_, other.cholesky_);
+  k_.swap(other.k_);
+  diag_.swap(other.diag_);
+  swap(analysed_rows_, other.analysed_rows_);
+  swap(analysed_nonzeros_, other.analysed_nonzeros_);
+  swap(have_factor_, other.have_factor_);
+  swap(shift_hint_, other.shift_hint_);
+  swap(last_krylov_iterations_, other.last_krylov_iterations_);
+  swap(factor_shift_, other.factor_shift_);
+  swap(factor_scale_, other.factor_scale_);
+}
+
 bool ShiftedNewton::factorise_at(const NewtonProblem& pb, const Eigen::VectorXd& x,
-                                 const Eigen::VectorXd& lambda) {
+                                 const Eigen::VectorXd& lambda, int* factorisations) {
   const Eigen::SparseMatrix<double>& h = pb.hessian(x, lambda);
   if (h.rows() != x.size()) throw std::logic_error("shifted Newton: Hessian size mismatch");
-  int factorisations = 0;
+  int made = 0;
   last_krylov_iterations_ = 0;
-  return factorise_shifted(pb, h, options_.initial_shift, factorisations) >= 0;
+  const bool ok = factorise_shifted(pb, h, options_.initial_shift, made) >= 0;
+  if (factorisations) *factorisations += made;
+  return ok;
 }
 
 ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorXd& x,
@@ -257,7 +274,8 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
   const Eigen::VectorXd& scale = pb.constraint_scale;
   if (m > 0 && scale.size() != m)
     throw std::logic_error("shifted Newton: one constraint scale per constraint needed");
-  // A kept factorisation of another problem size (another symmetry reduction) is no use.
+  // A held factorisation of another problem size is no use (a caller that swaps methods
+  // between problems of the same size must drop it itself: NewtonSolver::update_reduction).
   if (!o.reuse_across_calls || cholesky_.rows() != x.size()) have_factor_ = false;
   if (o.krylov_iterations > 0 && pb.add_unshifted)
     throw std::logic_error("shifted Newton: the Krylov correction needs the whole Hessian");

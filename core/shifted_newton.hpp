@@ -219,16 +219,19 @@ class ShiftedNewton {
                             const NewtonLimitsCore& limits = {});
   /// Drops a kept factorisation (the next iteration factorises afresh).
   void forget_factorisation() { have_factor_ = false; }
-  /// A deep copy, the kept factorisation included (kept per force by a sweep while this one
-  /// moves on to the next force).
+  /// A deep copy, the factorisation included (kept per force by a sweep while this one moves
+  /// on to the next force).
   ShiftedNewton clone() const;
-  /// Whether a factorisation is kept for the next call (reuse_across_calls).
+  /// Exchanges the whole state (options, analysis, factorisation) with other; no copies.
+  void swap(ShiftedNewton& other) noexcept;
+  /// Whether a factorisation is held (the next call starts from it with reuse_across_calls).
   bool has_factorisation() const { return have_factor_; }
-  /// Factorises the Hessian of pb at (x, lambda) with the smallest shift that makes it
-  /// positive definite (from initial_shift) and keeps it for the next call: e.g. at an
-  /// equilibrium, for later re-solves near it (reuse_across_calls). False when no shift did.
+  /// Factorises the Hessian of pb at (x, lambda), the shift growing from initial_shift as in
+  /// an iteration until K is positive definite, and holds it (the next call starts from it with
+  /// reuse_across_calls): e.g. at an equilibrium, for later re-solves near it. Adds the
+  /// factorisations made to *factorisations (if given); false when no shift made K definite.
   bool factorise_at(const NewtonProblem& pb, const Eigen::VectorXd& x,
-                    const Eigen::VectorXd& lambda);
+                    const Eigen::VectorXd& lambda, int* factorisations = nullptr);
   const ShiftedNewtonOptions& options() const { return options_; }
 
  private:

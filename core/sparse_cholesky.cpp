@@ -2,6 +2,7 @@
 
 #include <Eigen/CholmodSupport>
 #include <limits>
+#include <new>
 #include <stdexcept>
 #include <string>
 
@@ -30,6 +31,8 @@ class CopyableCholmod final
     if (m_cholmodFactor) cholmod_free_factor(&m_cholmodFactor, &cholmod());
     m_cholmodFactor =
         other.m_cholmodFactor ? cholmod_copy_factor(other.m_cholmodFactor, &cholmod()) : nullptr;
+    if (other.m_cholmodFactor && !m_cholmodFactor) throw std::bad_alloc();
+    m_isInitialized = other.m_isInitialized;
     // Eigen's cholmod() is not const; the other's common is only read.
     cholmod().lnz = const_cast<CopyableCholmod&>(other).cholmod().lnz;
     m_info = other.m_info;

@@ -77,7 +77,7 @@ TEST(SparseCholesky, CloneKeepsItsFactorWhileTheOriginalIsRefactorised) {
     EXPECT_FALSE(c.clone().factorised());  // a clone of nothing is empty
     ASSERT_TRUE(c.factorize(a));
     const Eigen::VectorXd x = c.solve(b);
-    const SparseCholesky kept = c.clone();
+    SparseCholesky kept = c.clone();
     ASSERT_TRUE(kept.factorised());
     EXPECT_EQ(kept.rows(), n);
     EXPECT_EQ(kept.factor_nonzeros(), c.factor_nonzeros());
@@ -86,6 +86,8 @@ TEST(SparseCholesky, CloneKeepsItsFactorWhileTheOriginalIsRefactorised) {
     const Eigen::VectorXd xk = kept.solve(b);  // ... the copy still solves a, bit for bit
     EXPECT_EQ((xk - x).cwiseAbs().maxCoeff(), 0.0);
     EXPECT_LT((a * xk - b).norm(), 1e-12 * b.norm());
+    ASSERT_TRUE(kept.factorize(a2));  // and the copy can be refactorised in turn
+    EXPECT_EQ((kept.solve(b) - c.solve(b)).cwiseAbs().maxCoeff(), 0.0);
   }
 }
 
