@@ -54,6 +54,24 @@ std::vector<std::vector<int>> lower_columns(const Topology& t, bool two_ring,
 
 }  // namespace
 
+void NetworkHessian::rebind(const Network& net) {
+  const Topology& a = net_->topo;
+  const Topology& b = net.topo;
+  const bool same_mesh = a.num_vertices == b.num_vertices && a.faces.cols() == b.faces.cols() &&
+                         (a.faces.array() == b.faces.array()).all();
+  if (!same_mesh)
+    throw std::invalid_argument("network Hessian: rebinding to another mesh (" +
+                                std::to_string(b.num_vertices) + " vertices, expected " +
+                                std::to_string(a.num_vertices) + " and the same faces)");
+  if (juelicher_active(net) != juelicher_ || dihedral_active(net) != dihedral_)
+    throw std::invalid_argument("network Hessian: rebinding to another bending law");
+  bool custom = !custom_.empty();
+  for (const NetworkTerm& term : model_terms(net)) custom = custom || term.kind == TermKind::custom;
+  if (custom)
+    throw std::invalid_argument("network Hessian: models with custom terms cannot be rebound");
+  net_ = &net;
+}
+
 NetworkHessian::NetworkHessian(const Network& net, const NetworkHessianOptions& options)
     : net_(&net), opt_((options.validate(), options)), m_({}, BlockStorage::lower) {
   const Topology& t = net.topo;

@@ -89,6 +89,10 @@ class NetworkHessian {
                                                     const ConstraintCurvature& constraints,
                                                     double diagonal_shift_pN_per_um = 0.0);
   const Eigen::SparseMatrix<double>& matrix() const { return m_.matrix(); }
+  /// Assembles from now on for net, a network of the same mesh (vertex count and faces) and
+  /// bending law whose parameters may differ (a kept preconditioner used for the next
+  /// parameter set); std::invalid_argument otherwise, or when either model has custom terms.
+  void rebind(const Network& net);
 
  private:
   struct Group {              ///< vertices of a rank-one term (a vertex star or a hinge)

@@ -65,6 +65,7 @@ struct NewtonPreconditioner::Impl {
   bool analysed = false, factored = false;
   Eigen::MatrixXd u, z;  ///< 3N (or reduced) x 2: constraint gradients (P'U) and M^{-1} U
   Eigen::Matrix2d utz = Eigen::Matrix2d::Zero(), m_inv = Eigen::Matrix2d::Zero();
+  double stiffness_scale = 1.0;  ///< of m_inv (set_stiffness_scale)
   mutable Statistics stats;
 
   Impl(const Network& n, const NewtonPreconditionerOptions& o,
@@ -101,6 +102,16 @@ bool NewtonPreconditioner::ready() const {
 
 const NewtonPreconditioner::Statistics& NewtonPreconditioner::statistics() const {
   return impl_->stats;
+}
+
+void NewtonPreconditioner::rebind(const Network& net) {
+  impl_->hessian.rebind(net);
+  impl_->net = &net;
+  if (impl_->factored) set_stiffness_scale(impl_->stiffness_scale);
+}
+
+bool NewtonPreconditioner::reduced() const {
+  return static_cast<bool>(impl_->reduction);
 }
 
 NetworkHessian& NewtonPreconditioner::hessian() {
@@ -191,6 +202,7 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
 
 void NewtonPreconditioner::set_stiffness_scale(double scale) {
   Impl& s = *impl_;
+  s.stiffness_scale = scale;
   Eigen::Matrix2d m = s.utz;
   m(0, 0) += 1.0 / (scale * s.net->constraints.area_stiffness_pN_per_um3);
   m(1, 1) += 1.0 / (scale * s.net->constraints.volume_stiffness_pN_per_um5);

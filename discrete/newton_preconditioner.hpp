@@ -76,6 +76,12 @@ class NewtonPreconditioner {
     int unknowns = 0;            ///< order of the factorised matrix: 3N, or q's entries
   };
   const Statistics& statistics() const;
+  /// Serves net from now on, a network of the same mesh and bending law (another parameter
+  /// set): the factorisation is kept, refresh() assembles net's Hessian (NetworkHessian::
+  /// rebind; std::invalid_argument for another mesh or law).
+  void rebind(const Network& net);
+  /// Whether it works on the mirror-reduced unknowns.
+  bool reduced() const;
   /// The network Hessian refresh() assembles (3N x 3N, its pattern fixed per network). Its
   /// values may be overwritten between refreshes (e.g. by NetworkHessian::assemble_exact for
   /// the stretch's symmetry check): the factorisation does not read them again.

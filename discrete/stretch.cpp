@@ -6,6 +6,7 @@
 #include <limits>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/geometry.hpp"
 #include "core/reduced_problem.hpp"
@@ -125,8 +126,13 @@ class StretchWorkspace {
   /// The reduction of the scene's mirror group (null: the full problem).
   const std::shared_ptr<const SymmetryReduction>& reduction() const { return reduction_; }
 
+  /// Until reset (nullptr), preconditioner() of p's kind (full or reduced) returns p: a
+  /// preconditioner kept for this force by a StretchSweepSolver.
+  void use_for_this_force(NewtonPreconditioner* p) { override_ = p; }
+
   /// The preconditioner of the full or the reduced problem.
   NewtonPreconditioner* preconditioner(bool reduced) {
+    if (override_ && override_->reduced() == reduced) return override_;
     if (reduced) {
       if (!reduced_pre_)
         reduced_pre_ =
@@ -192,6 +198,7 @@ class StretchWorkspace {
   const Network& net_;
   const StretchOptions& opt_;
   NewtonPreconditioner* shared_ = nullptr;
+  NewtonPreconditioner* override_ = nullptr;
   std::unique_ptr<NewtonPreconditioner> full_pre_, reduced_pre_;
   std::shared_ptr<const SymmetryReduction> reduction_;
   std::unique_ptr<SymmetryStabilityCheck> stability_;
@@ -453,24 +460,60 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
   return run_stretch(net, forces, opt, progress, StretchState{});
 }
 
-std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces,
-                                      const StretchOptions& opt, const ProgressSink& progress,
-                                      const StretchState& warm) {
+namespace {
+
+/// Clears the workspace's per-force preconditioner when the scope ends (also on a throw).
+struct ForcePreconditioner {
+  StretchWorkspace& ws;
+  ForcePreconditioner(StretchWorkspace& w, NewtonPreconditioner* p) : ws(w) {
+    ws.use_for_this_force(p);
+  }
+  ~ForcePreconditioner() { ws.use_for_this_force(nullptr); }
+  ForcePreconditioner(const ForcePreconditioner&) = delete;
+  ForcePreconditioner& operator=(const ForcePreconditioner&) = delete;
+};
+
+/// The sweep (continuation from rest, or warm from `warm`). kept (optional, one entry per
+/// force): a preconditioner factorised at the force's last equilibrium; a warm force starts
+/// from its own (no refactorisation at the force start), every converged force leaves one.
+std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<double>& forces,
+                                        const StretchOptions& opt, const ProgressSink& progress,
+                                        const StretchState& warm,
+                                        std::vector<std::unique_ptr<NewtonPreconditioner>>* kept) {
   if (!warm.empty()) warm.check_matches(net.topo.num_vertices, forces);
   std::vector<StretchPoint> out;
   Positions x = net.rest;
   ConstraintMultipliers lambda;
   // One workspace for the run: the preconditioners' analyses and the symmetry are done once.
   StretchWorkspace ws(net, opt, nullptr);
+  StretchOptions warm_opt = opt;
+  warm_opt.refactorise_at_force_start = false;
   for (size_t k = 0; k < forces.size(); ++k) {
     throw_if_cancelled(opt.minimiser.cancel);
     const double f = forces[k];
+    const bool pre = preconditioned(opt, net.topo.num_vertices, f);
     StretchPoint p;
-    bool solved = false;
+    bool solved = false, own = false;
     if (!warm.empty()) {
       Positions xw = warm.x[k];
       ConstraintMultipliers lw = warm.multipliers[k];
-      p = solve_force(ws, net, f, xw, lw, opt, progress);
+      NewtonPreconditioner* mine = kept && pre ? (*kept)[k].get() : nullptr;
+      if (mine) {
+        // Of the kind solve_force picks for this start (reduced for a symmetric one).
+        const bool symmetric = ws.reduction() && asymmetry_um(*ws.reduction(), xw) <= kSymmetricUm;
+        own = mine->ready() && mine->reduced() == symmetric;
+        if (own) {
+          try {
+            mine->rebind(net);
+          } catch (const std::invalid_argument&) {  // another bending law, custom terms
+            own = false;
+          }
+        }
+      }
+      {
+        const ForcePreconditioner use(ws, own ? mine : nullptr);
+        p = solve_force(ws, net, f, xw, lw, own ? warm_opt : opt, progress);
+      }
       p.warm = true;
       solved = p.converged;
       if (solved) {
@@ -488,6 +531,23 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
       p.iterations += warm_iterations;
       p.wall_s += warm_s;
     }
+    if (kept && !(own && solved)) {
+      // The force keeps a preconditioner factorised at its equilibrium (the one of the solve
+      // was made at the force's start): the next run's L-BFGS starts Newton-like there.
+      auto& slot = (*kept)[k];
+      slot.reset();
+      if (p.converged && pre) {
+        const bool symmetric = ws.reduction() && asymmetry_um(*ws.reduction(), p.x) <= kSymmetricUm;
+        slot = std::make_unique<NewtonPreconditioner>(
+            net, opt.preconditioner,
+            symmetric ? ws.reduction() : std::shared_ptr<const SymmetryReduction>());
+        const int before = slot->statistics().factorisations;
+        if (!slot->refresh(p.x, p.multipliers, p.stiffness_scale))
+          slot.reset();
+        else
+          p.factorisations += slot->statistics().factorisations - before;
+      }
+    }
     std::ostringstream msg;
     msg << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um << " um, "
         << p.iterations << " iterations, " << p.wall_s << " s, " << p.status;
@@ -496,6 +556,35 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
     out.push_back(std::move(p));
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<double>& forces,
+                                      const StretchOptions& opt, const ProgressSink& progress,
+                                      const StretchState& warm) {
+  return stretch_sweep(net, forces, opt, progress, warm, nullptr);
+}
+
+StretchSweepSolver::StretchSweepSolver(const StretchOptions& options) : options_(options) {
+  options_.validate();
+}
+
+std::vector<StretchPoint> StretchSweepSolver::run(const Network& net,
+                                                  const std::vector<double>& forces_pN,
+                                                  const ProgressSink& progress,
+                                                  const StretchState& warm) {
+  const bool same_mesh = net.topo.num_vertices == vertices_ &&
+                         net.topo.faces.cols() == faces_.cols() &&
+                         (net.topo.faces.array() == faces_.array()).all();
+  if (forces_pN != forces_pN_ || !same_mesh) {
+    kept_.clear();
+    kept_.resize(forces_pN.size());
+    forces_pN_ = forces_pN;
+    vertices_ = net.topo.num_vertices;
+    faces_ = net.topo.faces;
+  }
+  return stretch_sweep(net, forces_pN, options_, progress, warm, &kept_);
 }
 
 StretchState stretch_state(const std::vector<StretchPoint>& points) {

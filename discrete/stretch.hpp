@@ -5,6 +5,7 @@
 // mirror-symmetric states only (StretchOptions::symmetry, core/mirror_symmetry.hpp).
 #include <functional>
 #include <iosfwd>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -205,5 +206,35 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
 
 /// The equilibria of a run, to warm-start the next one.
 StretchState stretch_state(const std::vector<StretchPoint>& points);
+
+/// Prepared state of repeated sweeps of one mesh over one force list (a parameter scan, a
+/// sequence of nearby parameter sets): per force, the Newton preconditioner factorised at that
+/// force's last equilibrium (one assembly and factorisation more per force in a cold run). A
+/// warm run (`warm` = the previous parameters' StretchState) then starts each force's L-BFGS
+/// on that force's own preconditioner instead of refactorising at the force start
+/// (StretchOptions::refactorise_at_force_start), which is most of a warm re-solve's cost
+/// (`rbc bench sweep` rows `discrete/warm13_persistence_1pc/250/1` against `..._kept/250/1`,
+/// README). The kept preconditioners serve the next run's network (NewtonPreconditioner::
+/// rebind: same mesh and bending law; another law or a model with custom terms refactorises
+/// as the one-shot sweep). Results match run_stretch's to the minimiser tolerance but depend on
+/// the call history (deterministically), so the calibration keeps to run_stretch. Memory: one
+/// Hessian and factor per force (large at the full spectrin level). Another force list or mesh
+/// drops what is kept; a force that did not converge keeps nothing.
+class StretchSweepSolver {
+ public:
+  /// Validates the options (rbc::InvalidParameter).
+  explicit StretchSweepSolver(const StretchOptions& options = {});
+  /// As run_stretch(net, forces_pN, options, progress, warm), keeping each force's
+  /// preconditioner for the next run.
+  std::vector<StretchPoint> run(const Network& net, const std::vector<double>& forces_pN,
+                                const ProgressSink& progress = {}, const StretchState& warm = {});
+
+ private:
+  StretchOptions options_;
+  std::vector<double> forces_pN_;
+  int vertices_ = -1;
+  Faces faces_;
+  std::vector<std::unique_ptr<NewtonPreconditioner>> kept_;  ///< per force of forces_pN_
+};
 
 }  // namespace rbc

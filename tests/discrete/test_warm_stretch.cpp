@@ -45,6 +45,55 @@ TEST(WarmStretch, DiscreteWarmReSolveEqualsColdSolve) {
   EXPECT_LT(warm_iterations, cold_iterations);
 }
 
+// StretchSweepSolver keeps a preconditioner factorised at each force's equilibrium: the warm
+// re-solve reaches the cold continuation's equilibria (within the tolerance, as above) without
+// a single factorisation, where the plain warm run refactorises at every force start; with or
+// without the mirror symmetry. The kept preconditioners were made for the old network and
+// serve the new one (rebind).
+void expect_kept_resolve_matches_cold(Symmetry symmetry) {
+  const std::vector<double> forces{0.0, 38.0, 88.0, 193.0};
+  StretchOptions so;
+  so.minimiser.force_tolerance = 1e-4;
+  so.symmetry = symmetry;
+  StretchSweepSolver sweep(so);
+  std::vector<StretchPoint> before;
+  {
+    const Network old_cell = cell(250, 1.0);  // gone before the warm run
+    before = sweep.run(old_cell, forces);
+  }
+  const Network changed = cell(250, 1.01);
+  const auto cold = run_stretch(changed, forces, so);
+  const auto plain = run_stretch(changed, forces, so, {}, stretch_state(before));
+  const auto kept = sweep.run(changed, forces, {}, stretch_state(before));
+  int plain_factorisations = 0;
+  for (size_t k = 0; k < forces.size(); ++k) {
+    ASSERT_TRUE(before[k].converged) << before[k].status;
+    ASSERT_TRUE(kept[k].converged) << kept[k].status;
+    EXPECT_NEAR(kept[k].axial_um, cold[k].axial_um, 1e-5 * cold[k].axial_um);
+    EXPECT_NEAR(kept[k].transverse_um, cold[k].transverse_um, 1e-5 * cold[k].transverse_um);
+    EXPECT_LE(kept[k].residual_pN, so.minimiser.force_tolerance);
+    EXPECT_EQ(kept[k].factorisations, 0) << "force " << forces[k];
+    plain_factorisations += plain[k].factorisations;
+  }
+  EXPECT_GE(plain_factorisations, static_cast<int>(forces.size()));
+}
+
+TEST(WarmStretch, DiscreteSweepSolverReSolvesOnTheKeptPreconditioners) {
+  expect_kept_resolve_matches_cold(Symmetry::none);
+}
+
+TEST(WarmStretch, DiscreteSweepSolverReSolvesOnTheKeptPreconditionersWithTheMirrorSymmetry) {
+  expect_kept_resolve_matches_cold(Symmetry::mirror);
+}
+
+// A kept preconditioner serves only a network of the same mesh.
+TEST(WarmStretch, KeptPreconditionerRefusesAnotherMesh) {
+  const Network a = cell(250, 1.0), b = cell(500, 1.0), c = cell(250, 1.01);
+  NewtonPreconditioner pre(a);
+  EXPECT_THROW(pre.rebind(b), std::invalid_argument);
+  EXPECT_NO_THROW(pre.rebind(c));
+}
+
 TEST(WarmStretch, DiscreteRefusesAStateOfAnotherMeshOrOtherForces) {
   const Network net = cell(250, 1.0);
   StretchState s;
