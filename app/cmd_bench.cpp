@@ -335,9 +335,9 @@ void BM_DiscreteWarm(benchmark::State& state) {
   }
 }
 
-/// The warm re-solve of BM_DiscreteWarm (refactorisation at the force start on) by a
-/// StretchSweepSolver: the cold run at the old parameters (not timed) keeps each force's
-/// preconditioner, factorised at its equilibrium; the warm run starts from it.
+/// The warm re-solve of BM_DiscreteWarm (default options) by a StretchSweepSolver: the cold
+/// run at the old parameters (not timed) keeps each force's preconditioner, factorised at its
+/// equilibrium; each warm force starts on its own instead of refactorising.
 void BM_DiscreteWarmKept(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const Network& n0 = cached_network_p(n, 1.0);

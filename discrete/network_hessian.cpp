@@ -55,14 +55,18 @@ std::vector<std::vector<int>> lower_columns(const Topology& t, bool two_ring,
 }  // namespace
 
 void NetworkHessian::rebind(const Network& net) {
-  const Topology& a = net_->topo;
   const Topology& b = net.topo;
-  const bool same_mesh = a.num_vertices == b.num_vertices && a.faces.cols() == b.faces.cols() &&
-                         (a.faces.array() == b.faces.array()).all();
+  const bool same_mesh = vertices_ == b.num_vertices && faces_.cols() == b.faces.cols() &&
+                         (faces_.array() == b.faces.array()).all();
   if (!same_mesh)
     throw std::invalid_argument("network Hessian: rebinding to another mesh (" +
                                 std::to_string(b.num_vertices) + " vertices, expected " +
-                                std::to_string(a.num_vertices) + " and the same faces)");
+                                std::to_string(vertices_) + " and the same faces)");
+  for (TermKind k : {TermKind::in_plane, TermKind::area_volume})
+    if (!has_term(net, k))
+      throw std::invalid_argument(
+          "network Hessian: rebinding to a model without the " +
+          std::string(k == TermKind::in_plane ? "in-plane" : "area/volume") + " term");
   if (juelicher_active(net) != juelicher_ || dihedral_active(net) != dihedral_)
     throw std::invalid_argument("network Hessian: rebinding to another bending law");
   bool custom = !custom_.empty();
@@ -73,7 +77,11 @@ void NetworkHessian::rebind(const Network& net) {
 }
 
 NetworkHessian::NetworkHessian(const Network& net, const NetworkHessianOptions& options)
-    : net_(&net), opt_((options.validate(), options)), m_({}, BlockStorage::lower) {
+    : net_(&net),
+      vertices_(net.topo.num_vertices),
+      faces_(net.topo.faces),
+      opt_((options.validate(), options)),
+      m_({}, BlockStorage::lower) {
   const Topology& t = net.topo;
   for (TermKind k : {TermKind::in_plane, TermKind::area_volume})
     if (!has_term(net, k))

@@ -92,6 +92,7 @@ class NetworkHessian {
   /// Assembles from now on for net, a network of the same mesh (vertex count and faces) and
   /// bending law whose parameters may differ (a kept preconditioner used for the next
   /// parameter set); std::invalid_argument otherwise, or when either model has custom terms.
+  /// Reads only net and this object's copy of its mesh: the network it served may be gone.
   void rebind(const Network& net);
 
  private:
@@ -114,6 +115,8 @@ class NetworkHessian {
   };
 
   const Network* net_;
+  int vertices_ = 0;  ///< of the mesh the pattern is of (rebind compares with these, not net_)
+  Faces faces_;
   NetworkHessianOptions opt_;
   bool juelicher_ = false, dihedral_ = false;  ///< bending kinds in the model's list
   std::vector<CustomTerm> custom_;

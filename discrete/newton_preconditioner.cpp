@@ -114,6 +114,10 @@ bool NewtonPreconditioner::reduced() const {
   return static_cast<bool>(impl_->reduction);
 }
 
+const SymmetryReduction* NewtonPreconditioner::reduction() const {
+  return impl_->reduction.get();
+}
+
 NetworkHessian& NewtonPreconditioner::hessian() {
   return impl_->hessian;
 }

@@ -78,10 +78,13 @@ class NewtonPreconditioner {
   const Statistics& statistics() const;
   /// Serves net from now on, a network of the same mesh and bending law (another parameter
   /// set): the factorisation is kept, refresh() assembles net's Hessian (NetworkHessian::
-  /// rebind; std::invalid_argument for another mesh or law).
+  /// rebind; std::invalid_argument for another mesh or law, or custom terms). The network it
+  /// served before is not read (it may be gone).
   void rebind(const Network& net);
   /// Whether it works on the mirror-reduced unknowns.
   bool reduced() const;
+  /// The reduction it works on (nullptr: the full problem).
+  const SymmetryReduction* reduction() const;
   /// The network Hessian refresh() assembles (3N x 3N, its pattern fixed per network). Its
   /// values may be overwritten between refreshes (e.g. by NetworkHessian::assemble_exact for
   /// the stretch's symmetry check): the factorisation does not read them again.

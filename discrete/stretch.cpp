@@ -129,6 +129,8 @@ class StretchWorkspace {
   /// Until reset (nullptr), preconditioner() of p's kind (full or reduced) returns p: a
   /// preconditioner kept for this force by a StretchSweepSolver.
   void use_for_this_force(NewtonPreconditioner* p) { override_ = p; }
+  /// Whether p is the preconditioner kept for this force.
+  bool is_kept(const NewtonPreconditioner* p) const { return p && p == override_; }
 
   /// The preconditioner of the full or the reduced problem.
   NewtonPreconditioner* preconditioner(bool reduced) {
@@ -158,8 +160,8 @@ class StretchWorkspace {
   SectorStability check(const Positions& x, double force_pN, const ConstraintMultipliers& lambda,
                         double scale) {
     // The exact Hessian goes into the reduced preconditioner's matrix (same network, already
-    // built; its factorisation does not read the values again) unless that one drops the
-    // two-ring pairs.
+    // built, or the one kept for this force, rebound to this network; its factorisation does
+    // not read the values again) unless that one drops the two-ring pairs.
     NetworkHessian* exact = nullptr;
     if (opt_.preconditioner.hessian.bending_coupling == BendingCoupling::two_ring) {
       exact = &preconditioner(true)->hessian();
@@ -208,10 +210,13 @@ class StretchWorkspace {
 /// One force from x (updated in place), carrying the multipliers along: L-BFGS (preconditioned
 /// by `pre` unless null) with the augmented-Lagrangian updates, on all 3N coordinates or, with
 /// a reduction, on q with x = P q (x must then be symmetric; its symmetric part is the start).
+/// kept_start: pre is a preconditioner kept for this force (StretchSweepSolver): start on its
+/// factorisation whatever refactorise_at_force_start says.
 StretchPoint minimise_force(const Network& net, double force_pN, Positions& x,
                             ConstraintMultipliers& lambda, const StretchOptions& opt,
                             const ProgressSink& progress, NewtonPreconditioner* pre,
-                            const std::shared_ptr<const SymmetryReduction>& red) {
+                            const std::shared_ptr<const SymmetryReduction>& red,
+                            bool kept_start = false) {
   const auto start = std::chrono::steady_clock::now();
   StretchPoint pt;
   pt.force_pN = force_pN;
@@ -240,7 +245,7 @@ StretchPoint minimise_force(const Network& net, double force_pN, Positions& x,
              "  preconditioner factorisation failed; plain L-BFGS until the next refresh");
     }
   };
-  if (pre && pre->ready() && !opt.refactorise_at_force_start)
+  if (pre && pre->ready() && (kept_start || !opt.refactorise_at_force_start))
     lo.precondition = [pre](Eigen::VectorXd& v) { pre->apply(v); };
   else if (pre)
     refresh();
@@ -396,15 +401,16 @@ StretchPoint solve_force(StretchWorkspace& ws, const Network& net, double force_
                          const ProgressSink& progress) {
   const bool pre = preconditioned(opt, net.topo.num_vertices, force_pN);
   const std::shared_ptr<const SymmetryReduction>& red = ws.reduction();
-  if (!red)
-    return minimise_force(net, force_pN, x, lambda, opt, progress,
-                          pre ? ws.preconditioner(false) : nullptr, nullptr);
+  if (!red) {
+    NewtonPreconditioner* p = pre ? ws.preconditioner(false) : nullptr;
+    return minimise_force(net, force_pN, x, lambda, opt, progress, p, nullptr, ws.is_kept(p));
+  }
   const auto start = std::chrono::steady_clock::now();
   const bool symmetric = asymmetry_um(*red, x) <= kSymmetricUm;
   if (!symmetric) report(progress, "  start not mirror-symmetric: solving without the symmetry");
-  StretchPoint pt =
-      minimise_force(net, force_pN, x, lambda, opt, progress,
-                     pre ? ws.preconditioner(symmetric) : nullptr, symmetric ? red : nullptr);
+  NewtonPreconditioner* first = pre ? ws.preconditioner(symmetric) : nullptr;
+  StretchPoint pt = minimise_force(net, force_pN, x, lambda, opt, progress, first,
+                                   symmetric ? red : nullptr, ws.is_kept(first));
   if (symmetric) {
     pt.symmetry_order = red->group_order;
     if (pt.converged && ws.checking()) {
@@ -462,6 +468,13 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
 
 namespace {
 
+/// Whether a and b (either may be null: the full problem) map x = P q alike.
+bool same_reduction(const SymmetryReduction* a, const SymmetryReduction* b) {
+  if (!a || !b) return !a && !b;
+  return a->group_order == b->group_order && a->reduced_index == b->reduced_index &&
+         a->sign == b->sign;
+}
+
 /// Clears the workspace's per-force preconditioner when the scope ends (also on a throw).
 struct ForcePreconditioner {
   StretchWorkspace& ws;
@@ -486,8 +499,6 @@ std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<do
   ConstraintMultipliers lambda;
   // One workspace for the run: the preconditioners' analyses and the symmetry are done once.
   StretchWorkspace ws(net, opt, nullptr);
-  StretchOptions warm_opt = opt;
-  warm_opt.refactorise_at_force_start = false;
   for (size_t k = 0; k < forces.size(); ++k) {
     throw_if_cancelled(opt.minimiser.cancel);
     const double f = forces[k];
@@ -501,7 +512,9 @@ std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<do
       if (mine) {
         // Of the kind solve_force picks for this start (reduced for a symmetric one).
         const bool symmetric = ws.reduction() && asymmetry_um(*ws.reduction(), xw) <= kSymmetricUm;
-        own = mine->ready() && mine->reduced() == symmetric;
+        // ... and of this workspace's reduction (another bead patch may keep another group).
+        own = mine->ready() && mine->reduced() == symmetric &&
+              (!symmetric || same_reduction(mine->reduction(), ws.reduction().get()));
         if (own) {
           try {
             mine->rebind(net);
@@ -512,7 +525,7 @@ std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<do
       }
       {
         const ForcePreconditioner use(ws, own ? mine : nullptr);
-        p = solve_force(ws, net, f, xw, lw, own ? warm_opt : opt, progress);
+        p = solve_force(ws, net, f, xw, lw, opt, progress);
       }
       p.warm = true;
       solved = p.converged;
@@ -531,16 +544,18 @@ std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<do
       p.iterations += warm_iterations;
       p.wall_s += warm_s;
     }
-    if (kept && !(own && solved)) {
+    // A warm solve on the kept preconditioner leaves it as it is (refactorised only where
+    // L-BFGS stalled), unless it ended off its kind (a saddle left for a buckled state).
+    const bool p_symmetric = ws.reduction() && asymmetry_um(*ws.reduction(), p.x) <= kSymmetricUm;
+    if (kept && !(own && solved && (*kept)[k]->reduced() == p_symmetric)) {
       // The force keeps a preconditioner factorised at its equilibrium (the one of the solve
       // was made at the force's start): the next run's L-BFGS starts Newton-like there.
       auto& slot = (*kept)[k];
       slot.reset();
       if (p.converged && pre) {
-        const bool symmetric = ws.reduction() && asymmetry_um(*ws.reduction(), p.x) <= kSymmetricUm;
         slot = std::make_unique<NewtonPreconditioner>(
             net, opt.preconditioner,
-            symmetric ? ws.reduction() : std::shared_ptr<const SymmetryReduction>());
+            p_symmetric ? ws.reduction() : std::shared_ptr<const SymmetryReduction>());
         const int before = slot->statistics().factorisations;
         if (!slot->refresh(p.x, p.multipliers, p.stiffness_scale))
           slot.reset();
@@ -584,7 +599,9 @@ std::vector<StretchPoint> StretchSweepSolver::run(const Network& net,
     vertices_ = net.topo.num_vertices;
     faces_ = net.topo.faces;
   }
-  return stretch_sweep(net, forces_pN, options_, progress, warm, &kept_);
+  // A model with custom terms cannot be rebound (NetworkHessian::rebind): nothing to keep.
+  const bool keeps = !has_term(net, TermKind::custom);
+  return stretch_sweep(net, forces_pN, options_, progress, warm, keeps ? &kept_ : nullptr);
 }
 
 StretchState stretch_state(const std::vector<StretchPoint>& points) {

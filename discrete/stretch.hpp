@@ -208,18 +208,23 @@ std::vector<StretchPoint> run_stretch(const Network& net, const std::vector<doub
 StretchState stretch_state(const std::vector<StretchPoint>& points);
 
 /// Prepared state of repeated sweeps of one mesh over one force list (a parameter scan, a
-/// sequence of nearby parameter sets): per force, the Newton preconditioner factorised at that
-/// force's last equilibrium (one assembly and factorisation more per force in a cold run). A
-/// warm run (`warm` = the previous parameters' StretchState) then starts each force's L-BFGS
-/// on that force's own preconditioner instead of refactorising at the force start
-/// (StretchOptions::refactorise_at_force_start), which is most of a warm re-solve's cost
-/// (`rbc bench sweep` rows `discrete/warm13_persistence_1pc/250/1` against `..._kept/250/1`,
-/// README). The kept preconditioners serve the next run's network (NewtonPreconditioner::
-/// rebind: same mesh and bending law; another law or a model with custom terms refactorises
-/// as the one-shot sweep). Results match run_stretch's to the minimiser tolerance but depend on
-/// the call history (deterministically), so the calibration keeps to run_stretch. Memory: one
-/// Hessian and factor per force (large at the full spectrin level). Another force list or mesh
-/// drops what is kept; a force that did not converge keeps nothing.
+/// sequence of nearby parameter sets): per force, a Newton preconditioner factorised at that
+/// force's equilibrium by the run that first solved it without one (a cold run: one more
+/// symbolic analysis, assembly and factorisation per force). A warm run (`warm` = the previous
+/// parameters' StretchState) then starts each force's L-BFGS on that force's own
+/// preconditioner instead of refactorising at the force start, which is most of a warm
+/// re-solve's cost (`rbc bench sweep` rows `discrete/warm13_persistence_1pc/250/1` against
+/// `discrete/warm13_persistence_1pc_kept/250`, README). A warm solve leaves the kept
+/// factorisation as it was (refactorised only where L-BFGS stalls, refresh_interval), so over
+/// many drifting parameter sets it ages: measured at N = 250, persistence x 1.00 -> 1.03 in
+/// 1 % steps, 193 pN took 8, 10, then 14 L-BFGS iterations (a plain warm run: 8, with one
+/// factorisation). The kept preconditioners serve the next run's network
+/// (NewtonPreconditioner::rebind: same mesh, bending law and mirror reduction; otherwise the
+/// force refactorises as in the one-shot sweep); a model with custom terms keeps nothing.
+/// Results match run_stretch's to the minimiser tolerance but depend on the call history
+/// (deterministically), so the calibration keeps to run_stretch. Memory: one Hessian pattern
+/// and factor per force (large at the full spectrin level). Another force list or mesh drops
+/// what is kept; a force that did not converge keeps nothing.
 class StretchSweepSolver {
  public:
   /// Validates the options (rbc::InvalidParameter).

@@ -4,17 +4,20 @@
 // in fewer minimiser iterations; a state of another mesh or other forces is refused.
 #include <gtest/gtest.h>
 
+#include <memory>
+
 #include "core/rest_shape.hpp"
 #include "discrete/stretch.hpp"
 
 namespace rbc {
 namespace {
 
-Network cell(int n, double persistence_factor) {
+Network cell(int n, double persistence_factor, double contact_fraction = 0.05) {
   RestShapeOptions o;
   o.target_vertices = n;
   NetworkParameters p;
   p.wlc.persistence_um *= persistence_factor;
+  p.tweezers.contact_fraction = contact_fraction;
   return build_network(make_rest_shape(o), p);
 }
 
@@ -73,6 +76,9 @@ void expect_kept_resolve_matches_cold(Symmetry symmetry) {
     EXPECT_NEAR(kept[k].transverse_um, cold[k].transverse_um, 1e-5 * cold[k].transverse_um);
     EXPECT_LE(kept[k].residual_pN, so.minimiser.force_tolerance);
     EXPECT_EQ(kept[k].factorisations, 0) << "force " << forces[k];
+    if (symmetry == Symmetry::mirror) {
+      EXPECT_GT(kept[k].symmetry_order, 1);
+    }
     plain_factorisations += plain[k].factorisations;
   }
   EXPECT_GE(plain_factorisations, static_cast<int>(forces.size()));
@@ -86,12 +92,38 @@ TEST(WarmStretch, DiscreteSweepSolverReSolvesOnTheKeptPreconditionersWithTheMirr
   expect_kept_resolve_matches_cold(Symmetry::mirror);
 }
 
-// A kept preconditioner serves only a network of the same mesh.
+// A kept preconditioner serves only a network of the same mesh; its old network may be gone.
 TEST(WarmStretch, KeptPreconditionerRefusesAnotherMesh) {
-  const Network a = cell(250, 1.0), b = cell(500, 1.0), c = cell(250, 1.01);
-  NewtonPreconditioner pre(a);
-  EXPECT_THROW(pre.rebind(b), std::invalid_argument);
-  EXPECT_NO_THROW(pre.rebind(c));
+  const Network b = cell(500, 1.0), c = cell(250, 1.01);
+  auto pre = std::make_unique<Network>(cell(250, 1.0));
+  NewtonPreconditioner kept(*pre);
+  ASSERT_TRUE(kept.refresh(pre->rest, {}, 1.0));
+  pre.reset();  // the network it was made for is gone
+  EXPECT_THROW(kept.rebind(b), std::invalid_argument);
+  EXPECT_NO_THROW(kept.rebind(c));
+  EXPECT_TRUE(kept.ready());
+}
+
+// Another bead patch keeps another mirror group on the same mesh (contact fraction 0.05: order
+// 4, 0.07: order 2): the kept reduced preconditioners do not apply, the forces refactorise,
+// and the answers are the plain warm run's.
+TEST(WarmStretch, DiscreteSweepSolverRefactorisesUnderAnotherMirrorGroup) {
+  const std::vector<double> forces{38.0, 88.0};
+  StretchOptions so;
+  so.minimiser.force_tolerance = 1e-4;
+  so.symmetry = Symmetry::mirror;
+  StretchSweepSolver sweep(so);
+  const auto before = sweep.run(cell(250, 1.0, 0.05), forces);
+  const Network other = cell(250, 1.01, 0.07);
+  const auto plain = run_stretch(other, forces, so, {}, stretch_state(before));
+  const auto kept = sweep.run(other, forces, {}, stretch_state(before));
+  for (size_t k = 0; k < forces.size(); ++k) {
+    ASSERT_TRUE(before[k].converged);
+    ASSERT_TRUE(kept[k].converged);
+    EXPECT_NE(before[k].symmetry_order, kept[k].symmetry_order);
+    EXPECT_EQ(kept[k].axial_um, plain[k].axial_um);
+    EXPECT_GE(kept[k].factorisations, plain[k].factorisations);
+  }
 }
 
 TEST(WarmStretch, DiscreteRefusesAStateOfAnotherMeshOrOtherForces) {
