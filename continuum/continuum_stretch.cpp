@@ -353,15 +353,9 @@ std::vector<ContinuumStretchPoint> ContinuumSweepSolver::run(const ContinuumMode
                                                              const std::vector<double>& forces_pN,
                                                              const ProgressSink& progress,
                                                              const StretchState& warm) {
-  const auto vertices = static_cast<Eigen::Index>(model.rest.cols());
-  const bool same_faces = model.topo.faces.cols() == faces_.cols() &&
-                          (model.topo.faces.array() == faces_.array()).all();
-  if (forces_pN != forces_pN_ || vertices != vertices_ || !same_faces) {
+  if (scene_.change_to(forces_pN, model.topo)) {
     kept_.per_force.clear();
     kept_.per_force.resize(forces_pN.size());
-    forces_pN_ = forces_pN;
-    vertices_ = vertices;
-    faces_ = model.topo.faces;
   }
   // Kept factorisations serve only Newton steps that start from them.
   const bool keeps =

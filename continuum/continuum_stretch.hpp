@@ -150,10 +150,8 @@ class ContinuumSweepSolver {
 
  private:
   ContinuumOptions options_;
-  std::vector<double> forces_pN_;
-  Eigen::Index vertices_ = -1;
-  Faces faces_;
-  KeptMethods kept_;  ///< per force of forces_pN_
+  SweepScene scene_;  ///< what kept_ is for
+  KeptMethods kept_;  ///< per force of scene_
 };
 
 /// One equilibrium at force F from x (updated) and lambda (updated) with L-BFGS inside the

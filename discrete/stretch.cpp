@@ -589,15 +589,9 @@ std::vector<StretchPoint> StretchSweepSolver::run(const Network& net,
                                                   const std::vector<double>& forces_pN,
                                                   const ProgressSink& progress,
                                                   const StretchState& warm) {
-  const bool same_mesh = net.topo.num_vertices == vertices_ &&
-                         net.topo.faces.cols() == faces_.cols() &&
-                         (net.topo.faces.array() == faces_.array()).all();
-  if (forces_pN != forces_pN_ || !same_mesh) {
+  if (scene_.change_to(forces_pN, net.topo)) {
     kept_.clear();
     kept_.resize(forces_pN.size());
-    forces_pN_ = forces_pN;
-    vertices_ = net.topo.num_vertices;
-    faces_ = net.topo.faces;
   }
   // A model with custom terms cannot be rebound (NetworkHessian::rebind): nothing to keep.
   const bool keeps = !has_term(net, TermKind::custom);

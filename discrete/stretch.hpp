@@ -236,10 +236,8 @@ class StretchSweepSolver {
 
  private:
   StretchOptions options_;
-  std::vector<double> forces_pN_;
-  int vertices_ = -1;
-  Faces faces_;
-  std::vector<std::unique_ptr<NewtonPreconditioner>> kept_;  ///< per force of forces_pN_
+  SweepScene scene_;                                         ///< what kept_ is for
+  std::vector<std::unique_ptr<NewtonPreconditioner>> kept_;  ///< per force of scene_
 };
 
 }  // namespace rbc

@@ -45,6 +45,25 @@ struct StretchState {
   }
 };
 
+/// What a sweep solver's kept state (ContinuumSweepSolver, StretchSweepSolver) is valid for:
+/// one force list on one mesh (vertex count and faces).
+struct SweepScene {
+  std::vector<double> forces_pN;
+  int vertices = -1;
+  Faces faces;
+  /// Whether forces and topo differ from this scene; if so, this becomes theirs.
+  bool change_to(const std::vector<double>& forces, const Topology& topo) {
+    const bool same = forces == forces_pN && topo.num_vertices == vertices &&
+                      topo.faces.cols() == faces.cols() &&
+                      (topo.faces.array() == faces.array()).all();
+    if (same) return false;
+    forces_pN = forces;
+    vertices = topo.num_vertices;
+    faces = topo.faces;
+    return true;
+  }
+};
+
 /// The state of a run's points (any point type with force_pN, x and multipliers: the discrete
 /// StretchPoint, the continuum ContinuumStretchPoint).
 template <class Points>
