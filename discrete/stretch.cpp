@@ -487,8 +487,9 @@ struct ForcePreconditioner {
 };
 
 /// The sweep (continuation from rest, or warm from `warm`). kept (optional, one entry per
-/// force): a preconditioner factorised at the force's last equilibrium; a warm force starts
-/// from its own (no refactorisation at the force start), every converged force leaves one.
+/// force): a preconditioner factorised at an equilibrium of that force; a warm force starts
+/// from its own (no refactorisation at the force start) and leaves it as it is; any other
+/// converged force leaves one factorised at its equilibrium.
 std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<double>& forces,
                                         const StretchOptions& opt, const ProgressSink& progress,
                                         const StretchState& warm,
@@ -546,7 +547,8 @@ std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<do
     }
     // A warm solve on the kept preconditioner leaves it as it is (refactorised only where
     // L-BFGS stalled), unless it ended off its kind (a saddle left for a buckled state).
-    const bool p_symmetric = ws.reduction() && asymmetry_um(*ws.reduction(), p.x) <= kSymmetricUm;
+    const bool p_symmetric =
+        kept && ws.reduction() && asymmetry_um(*ws.reduction(), p.x) <= kSymmetricUm;
     if (kept && !(own && solved && (*kept)[k]->reduced() == p_symmetric)) {
       // The force keeps a preconditioner factorised at its equilibrium (the one of the solve
       // was made at the force's start): the next run's L-BFGS starts Newton-like there.
