@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <stdexcept>
+#include <string>
 
 namespace rbc {
 
@@ -73,37 +74,51 @@ ReducedLagrangianHessian::ReducedLagrangianHessian(const ContinuumModel& model,
 }
 
 void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
-  Target target{ReducedMatrix(red, full_pattern_), {}, {}, {}};
-  // Scatter of a representative element with local vertices `verts` and orbit weight w.
-  auto element = [&](const std::vector<int>& verts, int weight) {
-    std::vector<Scatter> out;
-    const int n = 3 * static_cast<int>(verts.size());
+  auto target = std::make_unique<Target>(
+      Target{ReducedMatrix(red, full_pattern_, ReducedMatrix::Use::pattern_only), {}, {}, {}});
+  // Scatter of a representative element with local vertices verts[0 .. count) and orbit
+  // weight w, appended to `list`.
+  auto element = [&](const int* verts, int count, int weight, ScatterList& list) {
+    const int n = 3 * count;
+    if (n > 255)
+      throw std::invalid_argument("reduced Hessian: a vertex star of " + std::to_string(count) +
+                                  " vertices (at most 85 supported)");
     for (int b = 0; b < n; ++b) {
       const int ib = 3 * verts[b / 3] + b % 3, rb = red.reduced_index[ib];
       if (rb < 0) continue;
       for (int a = 0; a < n; ++a) {
         const int ia = 3 * verts[a / 3] + a % 3, ra = red.reduced_index[ia];
         if (ra < rb) continue;  // lower triangle; ra == rb, a != b: both orders count
-        const int v = target.map.value_index(ra, rb);
+        const int v = target->map.value_index(ra, rb);
         if (v < 0) throw std::logic_error("reduced Hessian: an element lies outside the pattern");
-        out.push_back(Scatter{v, static_cast<short>(a), static_cast<short>(b),
-                              weight * red.sign[ia] * red.sign[ib]});
+        list.entries.push_back(
+            Scatter{v, static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(b),
+                    static_cast<std::int16_t>(weight * red.sign[ia] * red.sign[ib])});
       }
     }
-    return out;
+    list.begin.push_back(static_cast<int>(list.entries.size()));
   };
   const Topology& t = model_.topo;
-  for (const Element& f : faces_)
-    target.faces.push_back(
-        element({t.faces(0, f.id), t.faces(1, f.id), t.faces(2, f.id)}, f.weight));
-  for (const Element& e : hinges_)
-    target.hinges.push_back(element(
-        {t.edges(0, e.id), t.edges(1, e.id), t.edge_opposite(0, e.id), t.edge_opposite(1, e.id)},
-        e.weight));
+  // At most n^2 entries per element of n local coordinates: reserved, so that the lists (MBs
+  // at 5,120 elements) are not copied as they grow.
+  size_t star_entries = 0;
   for (const Element& v : stars_)
-    target.stars.push_back(element(
-        std::vector<int>(stars_of_.begin(v.id), stars_of_.begin(v.id) + stars_of_.size(v.id)),
-        v.weight));
+    star_entries +=
+        9 * static_cast<size_t>(stars_of_.size(v.id)) * static_cast<size_t>(stars_of_.size(v.id));
+  target->faces.entries.reserve(81 * faces_.size());
+  target->hinges.entries.reserve(144 * hinges_.size());
+  target->stars.entries.reserve(star_entries);
+  for (const Element& f : faces_) {
+    const std::array<int, 3> v{t.faces(0, f.id), t.faces(1, f.id), t.faces(2, f.id)};
+    element(v.data(), 3, f.weight, target->faces);
+  }
+  for (const Element& e : hinges_) {
+    const std::array<int, 4> v{t.edges(0, e.id), t.edges(1, e.id), t.edge_opposite(0, e.id),
+                               t.edge_opposite(1, e.id)};
+    element(v.data(), 4, e.weight, target->hinges);
+  }
+  for (const Element& v : stars_)
+    element(stars_of_.begin(v.id), stars_of_.size(v.id), v.weight, target->stars);
   targets_.push_back(std::move(target));
 }
 
@@ -143,14 +158,20 @@ void ReducedLagrangianHessian::scatter(Target& target) {
   Eigen::SparseMatrix<double>& out = target.map.result();
   double* v = out.valuePtr();
   std::fill(v, v + out.nonZeros(), 0.0);
+  const auto each = [](const ScatterList& list, size_t k) {
+    return std::pair(list.entries.data() + list.begin[k], list.entries.data() + list.begin[k + 1]);
+  };
   for (size_t k = 0; k < faces_.size(); ++k)
-    for (const Scatter& s : target.faces[k]) v[s.value] += s.coef * face_buffer_[k](s.a, s.b);
+    for (auto [s, end] = each(target.faces, k); s != end; ++s)
+      v[s->value] += s->coef * face_buffer_[k](s->a, s->b);
   for (size_t k = 0; k < hinges_.size(); ++k)
-    for (const Scatter& s : target.hinges[k]) v[s.value] += s.coef * hinge_buffer_[k](s.a, s.b);
+    for (auto [s, end] = each(target.hinges, k); s != end; ++s)
+      v[s->value] += s->coef * hinge_buffer_[k](s->a, s->b);
   for (size_t k = 0; k < stars_.size(); ++k) {
     const std::vector<double>& u = star_buffer_[k];
     const double c = u.back();
-    for (const Scatter& s : target.stars[k]) v[s.value] += s.coef * c * u[s.a] * u[s.b];
+    for (auto [s, end] = each(target.stars, k); s != end; ++s)
+      v[s->value] += s->coef * c * u[s->a] * u[s->b];
   }
 }
 
@@ -158,14 +179,14 @@ const Eigen::SparseMatrix<double>& ReducedLagrangianHessian::assemble(const Posi
                                                                       double area_coef,
                                                                       double volume_coef) {
   element_matrices(x, area_coef, volume_coef);
-  scatter(targets_[0]);
-  return targets_[0].map.result();
+  scatter(*targets_[0]);
+  return targets_[0]->map.result();
 }
 
 void ReducedLagrangianHessian::assemble_sectors(const Positions& x, double area_coef,
                                                 double volume_coef) {
   element_matrices(x, area_coef, volume_coef);
-  for (size_t k = 1; k < targets_.size(); ++k) scatter(targets_[k]);
+  for (size_t k = 1; k < targets_.size(); ++k) scatter(*targets_[k]);
 }
 
 }  // namespace rbc

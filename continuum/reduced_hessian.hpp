@@ -7,6 +7,8 @@
 // stars, then scattered into the reduced pattern with the signs of P. Equal to reducing the
 // full add_lagrangian_hessian (ReducedMatrix) up to rounding (tested).
 #include <Eigen/SparseCore>
+#include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "continuum/block_hessian.hpp"
@@ -32,7 +34,7 @@ class ReducedLagrangianHessian {
   int sectors() const { return static_cast<int>(targets_.size()) - 1; }
   /// Every sector's matrix at the symmetric state x from one pass over the element matrices.
   void assemble_sectors(const Positions& x, double area_coef, double volume_coef);
-  const Eigen::SparseMatrix<double>& sector(int k) { return targets_[k + 1].map.result(); }
+  const Eigen::SparseMatrix<double>& sector(int k) { return targets_[k + 1]->map.result(); }
   /// Representative faces, hinges and vertex stars (out of F, E, N).
   int representative_faces() const { return static_cast<int>(faces_.size()); }
   int representative_hinges() const { return static_cast<int>(hinges_.size()); }
@@ -43,14 +45,20 @@ class ReducedLagrangianHessian {
   /// adds to reduced value `value`.
   struct Scatter {
     int value;
-    short a, b;
-    double coef;
+    std::uint8_t a, b;  ///< < 3 x (vertices of the element) <= 255
+    std::int16_t coef;  ///< orbit weight x signs of P: +-1, 2, 4 or 8
+  };
+  /// The scatters of one kind of element, element k's in entries[begin[k], begin[k + 1]) (one
+  /// array: no allocation per element).
+  struct ScatterList {
+    std::vector<Scatter> entries;
+    std::vector<int> begin{0};
   };
   /// One reduced matrix (the trivial sector, or another) and the scatter of every
   /// representative element into it.
   struct Target {
     ReducedMatrix map;
-    std::vector<std::vector<Scatter>> faces, hinges, stars;
+    ScatterList faces, hinges, stars;
   };
   /// Representative elements: face, edge or vertex index, and orbit size.
   struct Element {
@@ -63,7 +71,7 @@ class ReducedLagrangianHessian {
   VertexStars stars_of_;
   const Eigen::SparseMatrix<double>& full_pattern_;
   std::vector<Element> faces_, hinges_, stars_;
-  std::vector<Target> targets_;
+  std::vector<std::unique_ptr<Target>> targets_;  ///< by pointer: no copies as sectors are added
   std::vector<Matrix9d> face_buffer_;
   std::vector<Matrix12d> hinge_buffer_;
   std::vector<std::vector<double>> star_buffer_;

@@ -211,7 +211,8 @@ double largest_vertex_norm_of_expanded(const SymmetryReduction& r, const Eigen::
   return largest;
 }
 
-ReducedMatrix::ReducedMatrix(const SymmetryReduction& red, const Eigen::SparseMatrix<double>& h)
+ReducedMatrix::ReducedMatrix(const SymmetryReduction& red, const Eigen::SparseMatrix<double>& h,
+                             Use use)
     : rows_(h.rows()), nonzeros_(h.nonZeros()) {
   if (h.rows() != red.full_size || h.cols() != red.full_size || !h.isCompressed())
     throw std::invalid_argument("ReducedMatrix: a compressed 3N x 3N matrix is needed");
@@ -227,6 +228,10 @@ ReducedMatrix::ReducedMatrix(const SymmetryReduction& red, const Eigen::SparseMa
   out_.resize(red.reduced_size, red.reduced_size);
   out_.setFromTriplets(entries.begin(), entries.end());
   out_.makeCompressed();
+  if (use == Use::pattern_only) {
+    nonzeros_ = -1;  // matches() no full matrix: reduce() refuses
+    return;
+  }
   // Pass 2: where each value of H goes. An off-diagonal entry of H (stored once, standing for
   // both (i, j) and (j, i)) whose two coordinates share one reduced coordinate adds twice to
   // that diagonal entry.
