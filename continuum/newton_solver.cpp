@@ -39,6 +39,8 @@ void NewtonOptions::validate() const {
   require_finite_in_range("Newton Krylov initial shift", "", krylov_initial_shift, 0.0, 1.0,
                           Ends::closed_closed);
   require_integer_in_range("Newton Krylov factorisation reuse", krylov_max_factor_reuse, 0, 1000);
+  require_integer_in_range("Newton Krylov lagged-correction iterations (0 = all)",
+                           krylov_lagged_iterations, 0, 100000);
   require_integer_in_range("Newton supernodal threshold (unknowns)", supernodal_min_unknowns, 0,
                            std::numeric_limits<int>::max());
 }
@@ -64,6 +66,8 @@ ShiftedNewtonOptions shifted_newton_options(const NewtonOptions& o) {
   c.krylov_refactor_iterations = o.krylov_refactor_iterations;
   c.krylov_lagged_hessian = o.krylov_lagged_hessian;
   c.krylov_exact_when_far = o.krylov_exact_when_far;
+  c.krylov_lagged_iterations = o.krylov_lagged_iterations;
+  c.krylov_lagged_constraints = o.krylov_lagged_constraints;
   if (o.krylov_iterations > 0) {
     c.initial_shift = o.krylov_initial_shift;
     c.max_factor_reuse = o.krylov_max_factor_reuse;

@@ -92,6 +92,22 @@ struct NewtonOptions {
   /// 500-3,920 elements iterations and factorisations equal or fewer, CPU the same within
   /// noise.
   bool krylov_exact_when_far = true;
+  /// CG iterations of a correction on the lagged Hessian (core/shifted_newton.hpp
+  /// krylov_lagged_iterations; 0 = up to krylov_iterations). Measured (2 threads, same
+  /// equilibria to the tolerance; `rbc bench sweep`): the warm re-solve on kept
+  /// factorisations of the 13 Mills forces at 980 elements after p + 1 %, 40 Newton and 40 CG
+  /// iterations against 42 and 57 with up to 50 (where a lagged correction needed 3-4 CG
+  /// iterations its step was worse than the shifted one and was backtracked); cold sweeps
+  /// take a few more Newton iterations (13 forces at 980 elements: 77 against 69) but fewer
+  /// solves, and were 10-30 % faster (980 to 9,680 elements).
+  int krylov_lagged_iterations = 1;
+  /// Chord steps on the lagged Hessian keep K^-1 C of the factorisation's first step
+  /// (core/shifted_newton.hpp krylov_lagged_constraints). Measured (2 threads, `rbc bench
+  /// sweep`, two alternating runs): the kept warm re-solve at 980 elements 0.031-0.034 ->
+  /// 0.026 s (40 Newton iterations either way); 8 forces at 5,120 elements 51 -> 46 Newton
+  /// iterations, 0.89-1.04 -> 0.85-0.91 s; 13 forces at 980 elements 77 -> 75 iterations, the
+  /// same time within noise.
+  bool krylov_lagged_constraints = true;
   /// With the correction, the shift's start (x mean diagonal; replaces 1e-8): a shift the
   /// correction undoes costs a few CG iterations, a failed factorisation a whole one.
   double krylov_initial_shift = 1e-4;

@@ -40,6 +40,8 @@ void ShiftedNewtonOptions::validate() const {
                           Ends::closed_closed);
   require_integer_in_range("Krylov refactorisation iterations", krylov_refactor_iterations, 0,
                            100000);
+  require_integer_in_range("Krylov lagged-correction iterations (0 = krylov_iterations)",
+                           krylov_lagged_iterations, 0, 100000);
   require_integer_in_range("Newton stall iterations (0 = off)", stall_iterations, 0, 1000000);
   require_finite_in_range("Newton round-off floor factor", "", floor_factor, 0.0, kUnbounded,
                           Ends::closed_open);
@@ -125,7 +127,8 @@ void ShiftedNewton::prepare_pattern(const Eigen::SparseMatrix<double>& h) {
 }
 
 int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h, double diag_shift,
-                                  const Eigen::MatrixXd& c_grad, const Eigen::MatrixXd& ym,
+                                  int max_its, const Eigen::MatrixXd& c_grad,
+                                  const Eigen::MatrixXd& ym,
                                   const Eigen::FullPivLU<Eigen::MatrixXd>& sc,
                                   const Eigen::VectorXd& r, const Eigen::VectorXd& y0,
                                   Eigen::VectorXd& dx, Eigen::VectorXd& dl) const {
@@ -157,7 +160,7 @@ int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h, double d
     // Truncated (Steihaug): at the iteration limit, or on negative curvature on the tangent
     // space after the first iteration, the current iterate (a descent direction of the
     // quadratic model there) is the step.
-    if (k >= options_.krylov_iterations) {
+    if (k >= max_its) {
       dl = m > 0 ? Eigen::VectorXd(-w) : Eigen::VectorXd();
       return k;
     }
@@ -171,6 +174,12 @@ int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h, double d
     const double alpha = rz / php;
     dx += alpha * p;
     g += alpha * hp;
+    if (k + 1 >= max_its && max_its < options_.krylov_iterations) {
+      // Truncated before the convergence test: its projection (a solve) would serve only the
+      // test. The multipliers are those of the last projection.
+      dl = m > 0 ? Eigen::VectorXd(-w) : Eigen::VectorXd();
+      return k + 1;
+    }
     z = project(g);
     const double rz_new = g.dot(z);
     p = -z + (rz_new / rz) * p;
@@ -303,6 +312,10 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     return v;
   };
   Eigen::VectorXd l_best;
+  // K^-1 C of the current factorisation (krylov_lagged_constraints), and the factorisation
+  // count it was made at (another factorisation makes it stale).
+  Eigen::MatrixXd ym_lag;
+  int ym_lag_factorisations = -1;
   auto finish = [&](NewtonStatus s) {
     res.status = s;
     res.residual = residual_norm(r);
@@ -391,7 +404,17 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     Eigen::MatrixXd ym;
     Eigen::FullPivLU<Eigen::MatrixXd> sc_lu;
     if (m > 0) {
-      ym = cholesky_.solve(cur.c_grad);
+      // Lagged constraint solves: a chord step keeps K^-1 C of the first step on this
+      // factorisation in this call (C' below is the current one, so the step still satisfies
+      // the linearised constraints exactly; the Lagrangian row uses the lagged C).
+      if (o.krylov_lagged_constraints && lagged && reuse && ym_lag.rows() == n &&
+          ym_lag.cols() == m && ym_lag_factorisations == res.factorisations) {
+        ym = ym_lag;
+      } else {
+        ym = cholesky_.solve(cur.c_grad);
+        ym_lag = ym;
+        ym_lag_factorisations = res.factorisations;
+      }
       sc_lu.compute(Eigen::MatrixXd(cur.c_grad.transpose() * ym));
       const Eigen::VectorXd dl = sc_lu.solve(cur.c - cur.c_grad.transpose() * y0);
       dx = -y0 - ym * dl;
@@ -415,10 +438,13 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
       // The correction keeps krylov_kept_shift of the shift (the rigid null modes stay
       // regularised as with the smallest shift alone).
       const double kept = o.krylov_kept_shift * factor_scale_;
-      const int its =
-          lagged
-              ? krylov_correct(k_, factor_shift_ - kept, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact)
-              : krylov_correct(*hk, -kept, cur.c_grad, ym, sc_lu, r, y0, dx, dl_exact);
+      const int lagged_its = o.krylov_lagged_iterations > 0
+                                 ? std::min(o.krylov_lagged_iterations, o.krylov_iterations)
+                                 : o.krylov_iterations;
+      const int its = lagged ? krylov_correct(k_, factor_shift_ - kept, lagged_its, cur.c_grad, ym,
+                                              sc_lu, r, y0, dx, dl_exact)
+                             : krylov_correct(*hk, -kept, o.krylov_iterations, cur.c_grad, ym,
+                                              sc_lu, r, y0, dx, dl_exact);
       res.krylov_iterations += std::abs(its);
       last_krylov_iterations_ = its;
       if (its >= 0) {

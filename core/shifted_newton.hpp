@@ -106,6 +106,19 @@ struct ShiftedNewtonOptions {
   /// costs refactorisations. Near the solution the lagged chord steps stay (they assemble
   /// nothing).
   bool krylov_exact_when_far = false;
+  /// With the lagged Hessian, at most this many CG iterations per correction (0 = up to
+  /// krylov_iterations). The last one's residual is then not projected (the solve would only
+  /// serve the convergence test) and the multipliers are those of the projection before it.
+  /// The lagged correction undoes a shift on a matrix that is itself only a model of d2L:
+  /// one CG iteration takes most of the gain (see continuum/newton_solver.hpp).
+  int krylov_lagged_iterations = 0;
+  /// With the lagged Hessian, chord steps also keep the constraint gradients' solves K^-1 C
+  /// from the first step on the current factorisation within a call (m solves saved per
+  /// chord step). The Schur complement is then C(x)' K^-1 C_lagged: the step still satisfies
+  /// the current linearised constraints exactly, and the Lagrangian row of the KKT matrix is
+  /// lagged along with K (a chord step of the whole KKT system). Recomputed after every
+  /// factorisation and at every step corrected with the current d2L.
+  bool krylov_lagged_constraints = false;
   /// The part of the shift (relative to s) the correction keeps: the step is exact for
   /// d2L + krylov_kept_shift s I, so the rigid null modes stay regularised as with the
   /// smallest shift alone (without it a warm and a cold solve at 0 pN end in rotations
@@ -245,7 +258,7 @@ class ShiftedNewton {
   /// tangent space; dl: the multiplier increment of the corrected step. Returns the CG
   /// iterations (>= 0) on convergence, -(iterations + 1) on failure (dx, dl then unusable).
   /// h - diag_shift I is the Hessian the step is exact for.
-  int krylov_correct(const Eigen::SparseMatrix<double>& h, double diag_shift,
+  int krylov_correct(const Eigen::SparseMatrix<double>& h, double diag_shift, int max_its,
                      const Eigen::MatrixXd& c_grad, const Eigen::MatrixXd& ym,
                      const Eigen::FullPivLU<Eigen::MatrixXd>& sc, const Eigen::VectorXd& r,
                      const Eigen::VectorXd& y0, Eigen::VectorXd& dx, Eigen::VectorXd& dl) const;

@@ -91,6 +91,39 @@ TEST(SparseCholesky, CloneKeepsItsFactorWhileTheOriginalIsRefactorised) {
   }
 }
 
+TEST(SparseCholesky, SolvesSeveralRightHandSidesAsTheirColumnsAlone) {
+  // Up to 3 columns on a small factor are solved one at a time (sparse_cholesky.cpp: faster
+  // than CHOLMOD's multi-column supernodal path there), bit for bit as the single solves;
+  // more columns go through CHOLMOD's block solve. Both solve the system.
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 250;
+  Eigen::VectorXd d(n);
+  for (int i = 0; i < n; ++i) d(i) = 3.0 + u(rng);
+  const Eigen::SparseMatrix<double> a = tridiagonal(d, -1.0);
+  for (const int threshold : {0, 1 << 30}) {  // supernodal, simplicial
+    SparseCholeskyOptions o;
+    o.supernodal_min_unknowns = threshold;
+    SparseCholesky c(o);
+    ASSERT_TRUE(c.factorize(a));
+    for (const int cols : {1, 2, 3, 5}) {
+      Eigen::MatrixXd b(n, cols);
+      for (Eigen::Index k = 0; k < b.size(); ++k) b.data()[k] = u(rng);
+      const Eigen::MatrixXd x = c.solve(b);
+      ASSERT_EQ(x.cols(), cols);
+      for (int j = 0; j < cols; ++j) {
+        const Eigen::VectorXd xj = c.solve(Eigen::VectorXd(b.col(j)));
+        EXPECT_LT((a * xj - b.col(j)).norm(), 1e-12 * b.col(j).norm());
+        if (cols <= 3) {
+          EXPECT_EQ((x.col(j) - xj).cwiseAbs().maxCoeff(), 0.0) << cols << " columns";
+        } else {
+          EXPECT_LT((x.col(j) - xj).cwiseAbs().maxCoeff(), 1e-13 * xj.cwiseAbs().maxCoeff());
+        }
+      }
+    }
+  }
+}
+
 /// f(x) = sum_i w_i [(x_i - a_i)^4 / 4 + (x_i - a_i)^2 / 2]: minimum at x = a.
 struct Quartic {
   Eigen::VectorXd a, w;
@@ -415,6 +448,96 @@ TEST(ShiftedNewton, KrylovCorrectionKeepsNewtonQuadraticWhereOnlyTheReducedHessi
   }
 }
 
+TEST(ShiftedNewton, LaggedCorrectionCappedAtOneCgIterationReachesTheSameMinimum) {
+  // The lagged correction undoes the shift of the factorised Hessian; capped at one CG
+  // iteration (krylov_lagged_iterations = 1) it spends at most one per Newton iteration and
+  // still converges to the constrained minimum (KKT conditions at the result).
+  const int n = 12;
+  IndefiniteOnAPlane q;
+  q.a.resize(n);
+  q.w.resize(n);
+  q.d.resize(n);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < n; ++i) {
+    q.a(i) = u(rng);
+    q.w(i) = i == 0 ? 0.0 : 2.0 + u(rng);
+    q.d(i) = i == 0 ? -0.5 : 10.0 + 2.0 * u(rng);
+  }
+  auto solve = [&](int cap, Eigen::VectorXd& x, Eigen::VectorXd& lambda) {
+    ShiftedNewtonOptions o;
+    o.block_size = 1;
+    o.force_tolerance = 1e-11;
+    o.constraint_tolerance = 1e-12;
+    o.max_iterations = 500;
+    o.krylov_iterations = n;
+    o.krylov_tolerance = 1e-10;
+    o.krylov_lagged_hessian = true;
+    o.krylov_lagged_iterations = cap;
+    o.max_factor_reuse = 1000;
+    ShiftedNewton newton(o);
+    x = Eigen::VectorXd::Constant(n, q.total / n);
+    lambda.resize(0);
+    return newton.solve(q.problem(), x, lambda);
+  };
+  Eigen::VectorXd x1, l1, xa, la;
+  const ShiftedNewtonResult capped = solve(1, x1, l1);
+  const ShiftedNewtonResult full = solve(0, xa, la);
+  ASSERT_EQ(capped.status, NewtonStatus::converged) << to_string(capped.status);
+  ASSERT_EQ(full.status, NewtonStatus::converged) << to_string(full.status);
+  // The problem needs a grown shift, so an uncapped lagged correction takes several CG
+  // iterations per Newton iteration; the capped one never more than one.
+  EXPECT_GT(full.largest_shift, ShiftedNewtonOptions{}.initial_shift);
+  EXPECT_GT(full.krylov_iterations, full.iterations);
+  EXPECT_LE(capped.krylov_iterations, capped.iterations);
+  NewtonPoint pt;
+  ASSERT_TRUE(q.problem().evaluate(x1, pt));
+  EXPECT_LT((pt.grad + l1(0) * Eigen::VectorXd::Ones(n)).cwiseAbs().maxCoeff(), 1e-10);
+  EXPECT_LT(std::abs(x1.sum() - q.total), 1e-12);
+  EXPECT_LT((x1 - xa).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(ShiftedNewton, LaggedConstraintSolvesReachTheClosestPointOfASphere) {
+  // min |x - a|^2 / 2 on the sphere |x|^2 = 1 (x = a/|a|, lambda = (|a| - 1)/2) by chord steps
+  // that keep both the factorisation and K^-1 C (krylov_lagged_constraints): the curved
+  // constraint's gradient 2x changes from step to step, and the answer must not.
+  const Eigen::Vector3d a(1.5, -2.0, 0.7);
+  Eigen::SparseMatrix<double> h;
+  NewtonProblem p;
+  p.evaluate = [&](const Eigen::VectorXd& x, NewtonPoint& pt) {
+    pt.value = 0.5 * (x - a).squaredNorm();
+    pt.grad = x - a;
+    pt.c = Eigen::VectorXd::Constant(1, x.squaredNorm() - 1.0);
+    pt.c_grad = 2.0 * x;
+    return true;
+  };
+  p.hessian = [&](const Eigen::VectorXd&,
+                  const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
+    h = tridiagonal(Eigen::VectorXd::Constant(3, 1.0 + 2.0 * l(0)));
+    return h;
+  };
+  p.constraint_scale = Eigen::VectorXd::Ones(1);
+  for (const bool lag : {false, true}) {
+    ShiftedNewtonOptions o;
+    o.force_tolerance = 1e-13;
+    o.constraint_tolerance = 1e-14;
+    o.max_iterations = 200;
+    o.krylov_iterations = 3;
+    o.krylov_lagged_hessian = true;
+    o.krylov_lagged_iterations = 1;
+    o.krylov_lagged_constraints = lag;
+    o.max_factor_reuse = 1000;
+    o.reuse_contraction = 0.9;
+    ShiftedNewton newton(o);
+    Eigen::VectorXd x = Eigen::Vector3d(0.2, 0.9, -0.3), lambda = Eigen::VectorXd::Zero(1);
+    const ShiftedNewtonResult r = newton.solve(p, x, lambda);
+    ASSERT_EQ(r.status, NewtonStatus::converged) << to_string(r.status) << " lagged " << lag;
+    EXPECT_GE(r.chord_steps, 2) << "lagged " << lag;  // the lagged solves were used
+    EXPECT_LT((x - a / a.norm()).norm(), 1e-12) << "lagged " << lag;
+    EXPECT_NEAR(lambda(0), 0.5 * (a.norm() - 1.0), 1e-12) << "lagged " << lag;
+  }
+}
+
 TEST(ShiftedNewton, OptionsAreValidated) {
   ShiftedNewtonOptions o;
   o.reuse_contraction = 1.5;
@@ -425,6 +548,9 @@ TEST(ShiftedNewton, OptionsAreValidated) {
   o = {};
   o.armijo = 0.7;
   EXPECT_THROW(ShiftedNewton{o}, std::invalid_argument);
+  o = {};
+  o.krylov_lagged_iterations = -1;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
 }
 
 }  // namespace
