@@ -39,7 +39,7 @@ void NewtonOptions::validate() const {
   require_finite_in_range("Newton Krylov initial shift", "", krylov_initial_shift, 0.0, 1.0,
                           Ends::closed_closed);
   require_integer_in_range("Newton Krylov factorisation reuse", krylov_max_factor_reuse, 0, 1000);
-  require_integer_in_range("Newton Krylov lagged-correction iterations (0 = all)",
+  require_integer_in_range("Newton Krylov lagged-correction iterations (0 = krylov_iterations)",
                            krylov_lagged_iterations, 0, 100000);
   require_integer_in_range("Newton supernodal threshold (unknowns)", supernodal_min_unknowns, 0,
                            std::numeric_limits<int>::max());

@@ -100,7 +100,8 @@ void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
   };
   const Topology& t = model_.topo;
   // At most n^2 entries per element of n local coordinates: reserved, so that the lists (MBs
-  // at 5,120 elements) are not copied as they grow.
+  // at 5,120 elements) are not copied as they grow. About half is used; the rest is address
+  // space only (pages never touched are never mapped).
   size_t star_entries = 0;
   for (const Element& v : stars_)
     star_entries +=

@@ -46,7 +46,7 @@ class ReducedLagrangianHessian {
   struct Scatter {
     int value;
     std::uint8_t a, b;  ///< < 3 x (vertices of the element) <= 255
-    std::int16_t coef;  ///< orbit weight x signs of P: +-1, 2, 4 or 8
+    std::int16_t coef;  ///< orbit weight x signs of P: +-1, +-2, +-4 or +-8
   };
   /// The scatters of one kind of element, element k's in entries[begin[k], begin[k + 1]) (one
   /// array: no allocation per element).

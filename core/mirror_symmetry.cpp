@@ -261,6 +261,7 @@ int ReducedMatrix::value_index(int row, int col) const {
 }
 
 const Eigen::SparseMatrix<double>& ReducedMatrix::reduce(const Eigen::SparseMatrix<double>& h) {
+  if (nonzeros_ < 0) throw std::logic_error("ReducedMatrix: reduce() on a pattern-only map");
   if (!matches(h)) throw std::logic_error("ReducedMatrix: the matrix's pattern changed");
   double* out = out_.valuePtr();
   std::fill(out, out + out_.nonZeros(), 0.0);

@@ -135,7 +135,8 @@ class ReducedMatrix {
                 Use use = Use::reduce);
   /// P' h P (h with the pattern given at construction; not for a Use::pattern_only map).
   const Eigen::SparseMatrix<double>& reduce(const Eigen::SparseMatrix<double>& h);
-  /// True when h has the pattern this map was built for (size and nonzero count).
+  /// True when h has the pattern this map was built for (size and nonzero count); never for a
+  /// Use::pattern_only map.
   bool matches(const Eigen::SparseMatrix<double>& h) const {
     return h.rows() == rows_ && h.nonZeros() == nonzeros_;
   }

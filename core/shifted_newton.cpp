@@ -151,7 +151,7 @@ int ShiftedNewton::krylov_correct(const Eigen::SparseMatrix<double>& h, double d
   double rz = g.dot(z);
   Eigen::VectorXd p = -z, hp;
   for (int k = 0;; ++k) {
-    if (!(rz > tol2)) {  // converged (rz is >= 0 in exact arithmetic)
+    if (!(rz > tol2)) {  // converged (rz >= 0 in exact arithmetic with a K-orthogonal projection)
       // g = H dx + r = C w on convergence: H dx + C dl = -r with dl = -w.
       dl = m > 0 ? Eigen::VectorXd(-w) : Eigen::VectorXd();
       return k;
@@ -401,18 +401,17 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     const Eigen::VectorXd y0 = cholesky_.solve(r);
     Eigen::VectorXd dx;
     Eigen::VectorXd lnew = lambda;
-    Eigen::MatrixXd ym;
+    // K^-1 C (n x m). Lagged constraint solves: a chord step keeps that of the first step on
+    // this factorisation in this call (C' below is the current one, so the step still
+    // satisfies the linearised constraints exactly; the Lagrangian row uses the lagged C).
+    const Eigen::MatrixXd& ym = ym_lag;
+    bool ym_reused = false;
     Eigen::FullPivLU<Eigen::MatrixXd> sc_lu;
     if (m > 0) {
-      // Lagged constraint solves: a chord step keeps K^-1 C of the first step on this
-      // factorisation in this call (C' below is the current one, so the step still satisfies
-      // the linearised constraints exactly; the Lagrangian row uses the lagged C).
-      if (o.krylov_lagged_constraints && lagged && reuse && ym_lag.rows() == n &&
-          ym_lag.cols() == m && ym_lag_factorisations == res.factorisations) {
-        ym = ym_lag;
-      } else {
-        ym = cholesky_.solve(cur.c_grad);
-        ym_lag = ym;
+      ym_reused = o.krylov_lagged_constraints && lagged && reuse && ym_lag.rows() == n &&
+                  ym_lag.cols() == m && ym_lag_factorisations == res.factorisations;
+      if (!ym_reused) {
+        ym_lag = cholesky_.solve(cur.c_grad);
         ym_lag_factorisations = res.factorisations;
       }
       sc_lu.compute(Eigen::MatrixXd(cur.c_grad.transpose() * ym));
@@ -438,7 +437,10 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
       // The correction keeps krylov_kept_shift of the shift (the rigid null modes stay
       // regularised as with the smallest shift alone).
       const double kept = o.krylov_kept_shift * factor_scale_;
-      const int lagged_its = o.krylov_lagged_iterations > 0
+      // With a reused K^-1 C the projection is oblique (C' of now, K^-1 C of before): a
+      // preconditioner for one CG step, not for conjugate ones.
+      const int lagged_its = ym_reused ? 1
+                             : o.krylov_lagged_iterations > 0
                                  ? std::min(o.krylov_lagged_iterations, o.krylov_iterations)
                                  : o.krylov_iterations;
       const int its = lagged ? krylov_correct(k_, factor_shift_ - kept, lagged_its, cur.c_grad, ym,

@@ -107,8 +107,9 @@ struct ShiftedNewtonOptions {
   /// nothing).
   bool krylov_exact_when_far = false;
   /// With the lagged Hessian, at most this many CG iterations per correction (0 = up to
-  /// krylov_iterations). The last one's residual is then not projected (the solve would only
-  /// serve the convergence test) and the multipliers are those of the projection before it.
+  /// krylov_iterations). When this cap (below krylov_iterations) ends the correction, the last
+  /// iteration's residual is not projected (the solve would only serve the convergence test)
+  /// and the multipliers are those of the projection before it.
   /// The lagged correction undoes a shift on a matrix that is itself only a model of d2L:
   /// one CG iteration takes most of the gain (see continuum/newton_solver.hpp).
   int krylov_lagged_iterations = 0;
@@ -117,7 +118,8 @@ struct ShiftedNewtonOptions {
   /// chord step). The Schur complement is then C(x)' K^-1 C_lagged: the step still satisfies
   /// the current linearised constraints exactly, and the Lagrangian row of the KKT matrix is
   /// lagged along with K (a chord step of the whole KKT system). Recomputed after every
-  /// factorisation and at every step corrected with the current d2L.
+  /// factorisation and at every step corrected with the current d2L. A step on a reused K^-1 C
+  /// takes one CG iteration of correction at most (its projection is oblique).
   bool krylov_lagged_constraints = false;
   /// The part of the shift (relative to s) the correction keeps: the step is exact for
   /// d2L + krylov_kept_shift s I, so the rigid null modes stay regularised as with the
