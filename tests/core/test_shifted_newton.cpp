@@ -217,24 +217,33 @@ TEST(ShiftedNewton, FindsTheMinimumOfASeparableQuarticQuadratically) {
   EXPECT_GE(checked, 1);
 }
 
-TEST(ShiftedNewton, ClosestPointOfASphereWithItsLagrangeMultiplier) {
-  // min |x - a|^2 / 2 subject to c(x) = |x|^2 - 1 = 0: x = a/|a|, lambda = (|a| - 1)/2.
-  const Eigen::Vector3d a(1.5, -2.0, 0.7);
+/// min |x - a|^2 / 2 subject to c(x) = |x|^2 - 1 = 0: x = a/|a|, lambda = (|a| - 1)/2.
+struct ClosestPointOnSphere {
+  Eigen::Vector3d a{1.5, -2.0, 0.7};
   Eigen::SparseMatrix<double> h;
-  NewtonProblem p;
-  p.evaluate = [&](const Eigen::VectorXd& x, NewtonPoint& pt) {
-    pt.value = 0.5 * (x - a).squaredNorm();
-    pt.grad = x - a;
-    pt.c = Eigen::VectorXd::Constant(1, x.squaredNorm() - 1.0);
-    pt.c_grad = 2.0 * x;
-    return true;
-  };
-  p.hessian = [&](const Eigen::VectorXd&,
-                  const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
-    h = tridiagonal(Eigen::VectorXd::Constant(3, 1.0 + 2.0 * l(0)));
-    return h;
-  };
-  p.constraint_scale = Eigen::VectorXd::Ones(1);
+  NewtonProblem problem() {
+    NewtonProblem p;
+    p.evaluate = [this](const Eigen::VectorXd& x, NewtonPoint& pt) {
+      pt.value = 0.5 * (x - a).squaredNorm();
+      pt.grad = x - a;
+      pt.c = Eigen::VectorXd::Constant(1, x.squaredNorm() - 1.0);
+      pt.c_grad = 2.0 * x;
+      return true;
+    };
+    p.hessian = [this](const Eigen::VectorXd&,
+                       const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
+      h = tridiagonal(Eigen::VectorXd::Constant(3, 1.0 + 2.0 * l(0)));
+      return h;
+    };
+    p.constraint_scale = Eigen::VectorXd::Ones(1);
+    return p;
+  }
+};
+
+TEST(ShiftedNewton, ClosestPointOfASphereWithItsLagrangeMultiplier) {
+  ClosestPointOnSphere sphere;
+  const Eigen::Vector3d a = sphere.a;
+  const NewtonProblem p = sphere.problem();
   ShiftedNewtonOptions o;
   o.force_tolerance = 1e-13;
   o.constraint_tolerance = 1e-14;
@@ -388,21 +397,26 @@ struct IndefiniteOnAPlane {
     p.constraint_scale = Eigen::VectorXd::Ones(1);
     return p;
   }
+  /// n unknowns: d_0 = -0.5, w_0 = 0, the others' d in [8, 12] and w in [1, 3], a in [-1, 1].
+  static IndefiniteOnAPlane random(int n, unsigned seed) {
+    IndefiniteOnAPlane q;
+    q.a.resize(n);
+    q.w.resize(n);
+    q.d.resize(n);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int i = 0; i < n; ++i) {
+      q.a(i) = u(rng);
+      q.w(i) = i == 0 ? 0.0 : 2.0 + u(rng);
+      q.d(i) = i == 0 ? -0.5 : 10.0 + 2.0 * u(rng);
+    }
+    return q;
+  }
 };
 
 TEST(ShiftedNewton, KrylovCorrectionKeepsNewtonQuadraticWhereOnlyTheReducedHessianIsPositive) {
   const int n = 12;
-  IndefiniteOnAPlane q;
-  q.a.resize(n);
-  q.w.resize(n);
-  q.d.resize(n);
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int i = 0; i < n; ++i) {
-    q.a(i) = u(rng);
-    q.w(i) = i == 0 ? 0.0 : 2.0 + u(rng);
-    q.d(i) = i == 0 ? -0.5 : 10.0 + 2.0 * u(rng);
-  }
+  IndefiniteOnAPlane q = IndefiniteOnAPlane::random(n, 11);
   auto solve = [&](int krylov, std::vector<double>& residuals, Eigen::VectorXd& x,
                    Eigen::VectorXd& lambda) {
     ShiftedNewtonOptions o;
@@ -453,17 +467,7 @@ TEST(ShiftedNewton, LaggedCorrectionCappedAtOneCgIterationReachesTheSameMinimum)
   // iteration (krylov_lagged_iterations = 1) it spends at most one per Newton iteration and
   // still converges to the constrained minimum (KKT conditions at the result).
   const int n = 12;
-  IndefiniteOnAPlane q;
-  q.a.resize(n);
-  q.w.resize(n);
-  q.d.resize(n);
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int i = 0; i < n; ++i) {
-    q.a(i) = u(rng);
-    q.w(i) = i == 0 ? 0.0 : 2.0 + u(rng);
-    q.d(i) = i == 0 ? -0.5 : 10.0 + 2.0 * u(rng);
-  }
+  IndefiniteOnAPlane q = IndefiniteOnAPlane::random(n, 11);
   auto solve = [&](int cap, Eigen::VectorXd& x, Eigen::VectorXd& lambda) {
     ShiftedNewtonOptions o;
     o.block_size = 1;
@@ -498,25 +502,12 @@ TEST(ShiftedNewton, LaggedCorrectionCappedAtOneCgIterationReachesTheSameMinimum)
 }
 
 TEST(ShiftedNewton, LaggedConstraintSolvesReachTheClosestPointOfASphere) {
-  // min |x - a|^2 / 2 on the sphere |x|^2 = 1 (x = a/|a|, lambda = (|a| - 1)/2) by chord steps
-  // that keep both the factorisation and K^-1 C (krylov_lagged_constraints): the curved
-  // constraint's gradient 2x changes from step to step, and the answer must not.
-  const Eigen::Vector3d a(1.5, -2.0, 0.7);
-  Eigen::SparseMatrix<double> h;
-  NewtonProblem p;
-  p.evaluate = [&](const Eigen::VectorXd& x, NewtonPoint& pt) {
-    pt.value = 0.5 * (x - a).squaredNorm();
-    pt.grad = x - a;
-    pt.c = Eigen::VectorXd::Constant(1, x.squaredNorm() - 1.0);
-    pt.c_grad = 2.0 * x;
-    return true;
-  };
-  p.hessian = [&](const Eigen::VectorXd&,
-                  const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
-    h = tridiagonal(Eigen::VectorXd::Constant(3, 1.0 + 2.0 * l(0)));
-    return h;
-  };
-  p.constraint_scale = Eigen::VectorXd::Ones(1);
+  // The sphere's closest point by chord steps that keep both the factorisation and K^-1 C
+  // (krylov_lagged_constraints): the curved constraint's gradient 2x changes from step to
+  // step, and the answer must not.
+  ClosestPointOnSphere sphere;
+  const Eigen::Vector3d a = sphere.a;
+  const NewtonProblem p = sphere.problem();
   for (const bool lag : {false, true}) {
     ShiftedNewtonOptions o;
     o.force_tolerance = 1e-13;
