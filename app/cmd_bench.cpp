@@ -7,6 +7,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <tuple>
 #include <vector>
 
 #include <chrono>
@@ -91,17 +92,33 @@ double evaluation_seconds(const std::function<void()>& eval) {
   return t[3];
 }
 
-const ContinuumModel& cached_continuum(int elements, double persistence_factor = 1.0) {
-  static std::map<std::pair<int, double>, ContinuumModel> cache;
-  const auto key = std::make_pair(elements, persistence_factor);
+/// The continuum model of a bench row; orientation mirror_planes also cuts the bead patches
+/// between x levels (TweezersParameters::keep_equal_x_together), as `rbc stretch` does.
+const ContinuumModel& cached_continuum(
+    int elements, double persistence_factor = 1.0,
+    TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex) {
+  static std::map<std::tuple<int, double, TriangulationOrientation>, ContinuumModel> cache;
+  const auto key = std::make_tuple(elements, persistence_factor, orientation);
   auto it = cache.find(key);
   if (it == cache.end()) {
     WlcParameters w;
     w.persistence_um *= persistence_factor;
     const IsotropicMembraneLaw law = make_membrane_law(w, StericParameters{}, WlcExpansion::order2);
-    it = cache.emplace(key, build_continuum_model(make_continuum_mesh(elements), law, {})).first;
+    ContinuumParameters cp;
+    cp.tweezers.keep_equal_x_together = orientation == TriangulationOrientation::mirror_planes;
+    it = cache
+             .emplace(key,
+                      build_continuum_model(make_continuum_mesh(elements, 0, orientation), law, cp))
+             .first;
   }
   return it->second;
+}
+
+/// The mesh orientation of a continuum bench row: its symmetry argument 2 is the mirror path
+/// on the mirror-planes triangulation (`--mesh-orientation mirror-planes`).
+TriangulationOrientation bench_orientation(const benchmark::State& state, int index) {
+  return state.range(index) == 2 ? TriangulationOrientation::mirror_planes
+                                 : TriangulationOrientation::dimple_vertex;
 }
 
 const Network& cached_network_p(int n, double persistence_factor) {
@@ -142,10 +159,11 @@ double network_eval_seconds(const Network& net) {
 }
 
 /// Continuum options of a bench row: range(index) = 1 solves on the mirror-symmetric states
-/// (NewtonOptions::symmetry), 0 (or no such argument) the full problem.
+/// (NewtonOptions::symmetry), 2 the same on the mirror-planes mesh (bench_orientation), 0 (or
+/// no such argument) the full problem.
 ContinuumOptions continuum_options(const benchmark::State& state, int index) {
   ContinuumOptions o;
-  if (state.range(index) == 1) o.newton.symmetry = Symmetry::mirror;
+  if (state.range(index) >= 1) o.newton.symmetry = Symmetry::mirror;
   return o;
 }
 
@@ -153,7 +171,8 @@ ContinuumOptions continuum_options(const benchmark::State& state, int index) {
 /// range(1) = number of leading Mills forces (13 = all; 8 = 0..87.6 pN is not the issue's
 /// 8-force list, which is {0,16,38,67.6,87.6,130,172.8,193}: range(1) = 0 selects that).
 void BM_ContinuumSweep(benchmark::State& state) {
-  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  const ContinuumModel& m =
+      cached_continuum(static_cast<int>(state.range(0)), 1.0, bench_orientation(state, 2));
   std::vector<double> forces = kMillsForces;
   if (state.range(1) == 0) forces = {0, 16, 38, 67.6, 87.6, 130, 172.8, 193};
   const ContinuumOptions co = continuum_options(state, 2);
@@ -170,7 +189,8 @@ void BM_ContinuumSweep(benchmark::State& state) {
 
 /// Continuum 88 pN from the 0 pN equilibrium (range(0) elements; range(1) symmetry).
 void BM_Continuum88From0(benchmark::State& state) {
-  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  const ContinuumModel& m =
+      cached_continuum(static_cast<int>(state.range(0)), 1.0, bench_orientation(state, 1));
   const ContinuumOptions co = continuum_options(state, 1);
   const auto rest = run_continuum_stretch(m, {0.0}, co);
   const double eval_s = continuum_eval_seconds(m);
@@ -490,16 +510,20 @@ void add_bench_command(CLI::App& app, Action& action) {
           return b->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
         };
         // Continuum rows: last argument 0 = the full problem, 1 = the mirror-symmetric states
-        // (--symmetry mirror).
+        // (--symmetry mirror), 2 = the same on the mirror-planes mesh (--mesh-orientation
+        // mirror-planes: another triangulation, all eight mirrors).
         once(benchmark::RegisterBenchmark("continuum/sweep13_from_rest", BM_ContinuumSweep)
                  ->Args({1000, 13, 0})
-                 ->Args({1000, 13, 1}));
+                 ->Args({1000, 13, 1})
+                 ->Args({1000, 13, 2}));
         once(benchmark::RegisterBenchmark("continuum/88pN_from_0pN", BM_Continuum88From0)
                  ->Args({9680, 0})
-                 ->Args({9680, 1}));
+                 ->Args({9680, 1})
+                 ->Args({9680, 2}));
         once(benchmark::RegisterBenchmark("continuum/sweep8_from_rest", BM_ContinuumSweep)
                  ->Args({5120, 0, 0})
-                 ->Args({5120, 0, 1}));
+                 ->Args({5120, 0, 1})
+                 ->Args({5120, 0, 2}));
         once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc", BM_ContinuumWarm)
                  ->Args({1000, 0})
                  ->Args({1000, 1}));

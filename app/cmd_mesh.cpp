@@ -33,6 +33,7 @@ void add_mesh_command(CLI::App& app, Action& action) {
   struct Opts {
     int vertices = 2000;
     std::string quality = "phi-minimised";
+    std::string orientation = "dimple-vertex";
     std::string out;
     bool json = false, overwrite = false;
   };
@@ -45,6 +46,12 @@ void add_mesh_command(CLI::App& app, Action& action) {
   cmd->add_option("--quality", o->quality, "phi-minimised | projected | equal-area")
       ->check(CLI::IsMember({"phi-minimised", "projected", "equal-area"}))
       ->capture_default_str();
+  cmd->add_option("--orientation", o->orientation,
+                  "dimple-vertex | mirror-planes (the icosahedron's two-fold axes along x, y, z: "
+                  "the mesh keeps all three coordinate mirrors; as rbc stretch "
+                  "--mesh-orientation)")
+      ->check(CLI::IsMember({"dimple-vertex", "mirror-planes"}))
+      ->capture_default_str();
   cmd->add_option("--out", o->out,
                   "write DIR/rest_shape.h5/.xdmf and DIR/mesh_quality.json (must be empty "
                   "unless --force-overwrite)");
@@ -55,6 +62,7 @@ void add_mesh_command(CLI::App& app, Action& action) {
       RestShapeOptions ro;
       ro.target_vertices = o->vertices;
       ro.quality = rest_mesh_quality_from_string(o->quality);
+      ro.orientation = triangulation_orientation_from_string(o->orientation);
       if (!o->out.empty()) prepare_output_directory(o->out, o->overwrite);
       MeshQualityReport r;
       const TriMesh m = make_rest_shape(ro, &r);

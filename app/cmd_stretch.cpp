@@ -39,6 +39,9 @@ struct StretchCli {
   BendingModel bending = BendingModel::juelicher;
   DihedralMapping dihedral_mapping = DihedralMapping::sphere_matched;
   RestMeshQuality mesh_quality = RestMeshQuality::phi_minimised;
+  /// --mesh-orientation: where the icosahedron lies (mirror-planes: the scene's full mirror
+  /// group, with the bead patches cut between x levels).
+  TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex;
   PatchRule contact = PatchRule::by_area;
   double contact_fraction = 0.05;
   double lbar_nm = defaults::kLbar_nm, lmax_nm = defaults::kLmax_nm,
@@ -92,6 +95,7 @@ NetworkParameters to_network_parameters(const StretchCli& o) {
   p.steric.eta = o.eta;
   p.tweezers.rule = o.contact;
   p.tweezers.contact_fraction = o.contact_fraction;
+  p.tweezers.keep_equal_x_together = o.orientation == TriangulationOrientation::mirror_planes;
   p.validate();
   // Without bending the closed network has no definite shape to stretch (the library allows
   // kappa = 0 for flat test patches; a cell needs kappa > 0).
@@ -129,7 +133,7 @@ StretchState read_checked_warm_start(const StretchCli& o, bool created_out, cons
                                      const std::vector<double>& forces) {
   if (o.warm_start.empty()) return {};
   try {
-    return read_warm_start(o.warm_start, model, vertices, faces, forces);
+    return read_warm_start(o.warm_start, model, to_string(o.orientation), vertices, faces, forces);
   } catch (...) {
     std::error_code ec;
     if (created_out && std::filesystem::is_empty(o.out, ec)) std::filesystem::remove(o.out, ec);
@@ -320,6 +324,7 @@ int run_discrete(const StretchCli& o) {
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
   ro.quality = o.mesh_quality;
+  ro.orientation = o.orientation;
   MeshQualityReport mesh_report;
   report(progress, "building the rest network (N ~ " + std::to_string(o.vertices) + ")");
   const TriMesh mesh = make_rest_shape(ro, &mesh_report);
@@ -338,6 +343,7 @@ int run_discrete(const StretchCli& o) {
   StretchManifest manifest(o.out,
                            {{"model", "discrete"},
                             {"mesh", mesh_report_json(mesh_report)},
+                            {"mesh_orientation", to_string(o.orientation)},
                             {"largest_rest_inplane_force_pN", rest_force}},
                            forces);
   // Each shape is written (and the manifest updated) as soon as its force is solved.
@@ -386,7 +392,7 @@ int run_continuum(const StretchCli& o) {
   const bool created_out = prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
   MeshQualityReport mesh_report;
-  const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mesh_report);
+  const TriMesh mesh = make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
   ContinuumParameters cp;
   cp.bending = params.bending;
   cp.tweezers = params.tweezers;
@@ -401,7 +407,8 @@ int run_continuum(const StretchCli& o) {
   StretchManifest manifest(o.out,
                            {{"model", "continuum"},
                             {"order", to_string(order)},
-                            {"mesh", mesh_report_json(mesh_report)}},
+                            {"mesh", mesh_report_json(mesh_report)},
+                            {"mesh_orientation", to_string(o.orientation)}},
                            forces);
   // The continuation (with its secant predictor and bisection) runs in the library, so the
   // shapes are written after the last force; an interrupted run records none as complete.
@@ -512,6 +519,16 @@ void add_stretch_command(CLI::App& app, Action& action) {
                                                 {"equal-area", RestMeshQuality::equal_area}}))
       ->type_name("TEXT")
       ->default_str("phi-minimised");
+  cmd->add_option("--mesh-orientation", o->orientation,
+                  "dimple-vertex (default: a vertex at each dimple, 4 of the scene's 8 mirrors) | "
+                  "mirror-planes (the icosahedron's two-fold axes along x, y, z and bead patches "
+                  "cut between x levels: all 8 mirrors, so --symmetry mirror solves one eighth "
+                  "of the cell; another triangulation, another discretisation)")
+      ->transform(enum_choice<TriangulationOrientation>(
+          {{"dimple-vertex", TriangulationOrientation::dimple_vertex},
+           {"mirror-planes", TriangulationOrientation::mirror_planes}}))
+      ->type_name("TEXT")
+      ->default_str("dimple-vertex");
   cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")
       ->transform(enum_choice<PatchRule>(
           {{"area", PatchRule::by_area}, {"vertices", PatchRule::by_vertex_count}}))
@@ -583,9 +600,10 @@ void add_stretch_command(CLI::App& app, Action& action) {
     const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
     const bool symmetry_given = cmd->get_option("--symmetry")->count() > 0;
     std::string changed_physics;  // options that leave the table's default physics
-    for (const char* name : {"--bending", "--dihedral-mapping", "--mesh-quality", "--contact",
-                             "--contact-fraction", "--lbar", "--lmax", "--persistence",
-                             "--temperature", "--kappa", "--h0", "--q", "--eta", "--tolerance"})
+    for (const char* name :
+         {"--bending", "--dihedral-mapping", "--mesh-quality", "--mesh-orientation", "--contact",
+          "--contact-fraction", "--lbar", "--lmax", "--persistence", "--temperature", "--kappa",
+          "--h0", "--q", "--eta", "--tolerance"})
       if (cmd->get_option(name)->count() > 0)
         changed_physics += (changed_physics.empty() ? "" : ", ") + std::string(name);
     action = [o, explicit_choice, accuracy_given, symmetry_given, changed_physics]() -> int {

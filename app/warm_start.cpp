@@ -31,8 +31,8 @@ nlohmann::json read_manifest(const std::string& dir) {
 }  // namespace
 
 StretchState read_warm_start(const std::string& dir, const std::string& model,
-                             Eigen::Index vertices, const Faces& faces,
-                             const std::vector<double>& forces_pN) {
+                             const std::string& mesh_orientation, Eigen::Index vertices,
+                             const Faces& faces, const std::vector<double>& forces_pN) {
   const nlohmann::json run = read_manifest(dir);
   if (!run.is_object() || !run.contains("model") || !run["model"].is_string() ||
       !run.contains("forces_complete") || !run["forces_complete"].is_array())
@@ -41,6 +41,13 @@ StretchState read_warm_start(const std::string& dir, const std::string& model,
   if (was != model)
     throw refuse(dir, "the run used --model " + was + ", this one --model " + model +
                           "; expected the same model");
+  const std::string orientation =
+      run.contains("mesh_orientation") && run["mesh_orientation"].is_string()
+          ? run["mesh_orientation"].get<std::string>()
+          : "dimple-vertex";
+  if (orientation != mesh_orientation)
+    throw refuse(dir, "the run used --mesh-orientation " + orientation + ", this one " +
+                          mesh_orientation + "; expected the same mesh");
   StretchState state;
   for (const double f : forces_pN) {
     const nlohmann::json* entry = nullptr;

@@ -18,11 +18,13 @@ inline constexpr const char* kLambdaVolumeAttribute = "lambda_volume_pN_per_um2"
 /// Reads DIR/run.json and, for each requested force (pN, in order), the shape it lists in
 /// "forces_complete" (positions /mesh/positions_um, faces /mesh/faces, the multiplier
 /// attributes). Throws std::invalid_argument ("--warm-start DIR: ...", exit 2) unless the run
-/// was made with the same model ("discrete" | "continuum"), holds every requested force, and
-/// every shape lies on the same mesh as `faces` (same vertex count, identical faces) with
-/// finite values; a missing or corrupt file is named.
+/// was made with the same model ("discrete" | "continuum") and mesh orientation ("dimple-vertex"
+/// | "mirror-planes"; runs that predate the option used the first), holds every requested
+/// force, and every shape lies on the same mesh as `faces` (same vertex count, identical faces:
+/// both orientations share their faces, hence the orientation check) with finite values; a
+/// missing or corrupt file is named.
 StretchState read_warm_start(const std::string& dir, const std::string& model,
-                             Eigen::Index vertices, const Faces& faces,
-                             const std::vector<double>& forces_pN);
+                             const std::string& mesh_orientation, Eigen::Index vertices,
+                             const Faces& faces, const std::vector<double>& forces_pN);
 
 }  // namespace rbc::app

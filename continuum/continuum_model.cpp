@@ -41,10 +41,12 @@ TriMesh make_continuum_mesh(int elements, const EvansFungShape& shape, MeshQuali
   return make_rest_shape(o, report);
 }
 
-TriMesh make_continuum_mesh(int elements, unsigned rotation_seed) {
+TriMesh make_continuum_mesh(int elements, unsigned rotation_seed,
+                            TriangulationOrientation orientation, MeshQualityReport* report) {
   RestShapeOptions o = continuum_mesh_options(elements);
   o.rotation_seed = rotation_seed;
-  return make_rest_shape(o);
+  o.orientation = orientation;
+  return make_rest_shape(o, report);
 }
 
 IsotropicMembraneLaw scaled_law(const IsotropicMembraneLaw& law, double factor) {

@@ -30,9 +30,13 @@ inline constexpr int kMaxContinuumElements = 79996;
 /// kMaxContinuumElements].
 TriMesh make_continuum_mesh(int elements, const EvansFungShape& shape = {},
                             MeshQualityReport* report = nullptr);
-/// The same mesh turned by RestShapeOptions::rotation_seed before the Phi minimisation
-/// (0 = the default orientation, identical to the overload above).
-TriMesh make_continuum_mesh(int elements, unsigned rotation_seed);
+/// The same mesh laid in `orientation` (core/rest_shape.hpp TriangulationOrientation) and
+/// turned by RestShapeOptions::rotation_seed before the Phi minimisation (0 and dimple_vertex:
+/// identical to the overload above).
+TriMesh make_continuum_mesh(
+    int elements, unsigned rotation_seed,
+    TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex,
+    MeshQualityReport* report = nullptr);
 
 /// Physics of the continuum model other than the in-plane law. Defaults: kappa = 0.2 pN um
 /// (2e-19 J, paper Table 2), H0 = 0, contact patches of 5 % area per bead.

@@ -50,7 +50,7 @@ ReducedLagrangianHessian::ReducedLagrangianHessian(const ContinuumModel& model,
                                                    const MeshSymmetry& group,
                                                    const SymmetryReduction& red,
                                                    const BlockHessian& full)
-    : model_(model), stars_of_(full.stars()), full_pattern_(full.matrix()) {
+    : model_(model), stars_of_(full.stars()) {
   const Topology& t = model.topo;
   if (red.full_size != 3 * t.num_vertices || group.order() != red.group_order)
     throw std::invalid_argument("reduced Hessian: the reduction is not of this model's group");
@@ -74,11 +74,24 @@ ReducedLagrangianHessian::ReducedLagrangianHessian(const ContinuumModel& model,
 }
 
 void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
-  auto target = std::make_unique<Target>(
-      Target{ReducedMatrix(red, full_pattern_, ReducedMatrix::Use::pattern_only), {}, {}, {}});
-  // Scatter of a representative element with local vertices verts[0 .. count) and orbit
-  // weight w, appended to `list`.
-  auto element = [&](const int* verts, int count, int weight, ScatterList& list) {
+  const Topology& t = model_.topo;
+  // Calls f(verts, count, weight, list) for every representative element, kind by kind.
+  auto each_element = [&](auto&& f, Target* target) {
+    for (const Element& e : faces_) {
+      const std::array<int, 3> v{t.faces(0, e.id), t.faces(1, e.id), t.faces(2, e.id)};
+      f(v.data(), 3, e.weight, target ? &target->faces : nullptr);
+    }
+    for (const Element& e : hinges_) {
+      const std::array<int, 4> v{t.edges(0, e.id), t.edges(1, e.id), t.edge_opposite(0, e.id),
+                                 t.edge_opposite(1, e.id)};
+      f(v.data(), 4, e.weight, target ? &target->hinges : nullptr);
+    }
+    for (const Element& e : stars_)
+      f(stars_of_.begin(e.id), stars_of_.size(e.id), e.weight, target ? &target->stars : nullptr);
+  };
+  // Calls f(ra, rb, a, b) for the local entries (a, b) of an element that land on the reduced
+  // lower triangle (ra >= rb); ra == rb with a != b: both orders count.
+  auto each_entry = [&](const int* verts, int count, auto&& f) {
     const int n = 3 * count;
     if (n > 255)
       throw std::invalid_argument("reduced Hessian: a vertex star of " + std::to_string(count) +
@@ -88,17 +101,64 @@ void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
       if (rb < 0) continue;
       for (int a = 0; a < n; ++a) {
         const int ia = 3 * verts[a / 3] + a % 3, ra = red.reduced_index[ia];
-        if (ra < rb) continue;  // lower triangle; ra == rb, a != b: both orders count
-        const int v = target->map.value_index(ra, rb);
-        if (v < 0) throw std::logic_error("reduced Hessian: an element lies outside the pattern");
-        list.entries.push_back(
-            Scatter{v, static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(b),
-                    static_cast<std::int16_t>(weight * red.sign[ia] * red.sign[ib])});
+        if (ra >= rb) f(ia, ib, ra, rb, a, b);
       }
     }
-    list.begin.push_back(static_cast<int>(list.entries.size()));
   };
-  const Topology& t = model_.topo;
+  // The reduced pattern: every entry a representative element reaches. The images of an
+  // element reach the same reduced entries, so this is the pattern of P' d2L P (the same as
+  // reducing the full Hessian's block pattern). Built from the pairs of orbits the elements
+  // link (a few per element, not (3 x vertices)^2 entries): every free coordinate of one orbit
+  // with every free coordinate of the other, lower triangle.
+  std::vector<int> orbit(static_cast<size_t>(t.num_vertices), -1);  // -1: every coordinate pinned
+  for (int v = 0; v < t.num_vertices; ++v)
+    for (int k = 0; k < 3; ++k)
+      if (const int r = red.reduced_index[3 * static_cast<size_t>(v) + k]; r >= 0)
+        orbit[static_cast<size_t>(v)] = red.orbit_of_entry[static_cast<size_t>(r)];
+  std::vector<std::uint64_t> links;  // (column orbit << 32) | row orbit, row orbit >= column's
+  each_element(
+      [&](const int* verts, int count, int, ScatterList*) {
+        for (int a = 0; a < count; ++a)
+          for (int b = 0; b < count; ++b) {
+            const int oa = orbit[static_cast<size_t>(verts[a])];
+            const int ob = orbit[static_cast<size_t>(verts[b])];
+            if (oa >= ob && ob >= 0)
+              links.push_back(static_cast<std::uint64_t>(ob) << 32 |
+                              static_cast<std::uint32_t>(oa));
+          }
+      },
+      nullptr);
+  std::sort(links.begin(), links.end());
+  links.erase(std::unique(links.begin(), links.end()), links.end());
+  auto target = std::make_unique<Target>();
+  Eigen::SparseMatrix<double>& m = target->matrix;
+  m.resize(red.reduced_size, red.reduced_size);
+  std::vector<int> outer(static_cast<size_t>(red.reduced_size) + 1, 0), inner;
+  for (size_t l = 0; l < links.size();) {  // the links of one column orbit
+    const int oc = static_cast<int>(links[l] >> 32);
+    size_t end = l;
+    while (end < links.size() && static_cast<int>(links[end] >> 32) == oc) ++end;
+    for (int col = red.block_offset[oc]; col < red.block_offset[oc + 1]; ++col) {
+      for (size_t k = l; k < end; ++k) {
+        const int orow = static_cast<int>(links[k] & 0xffffffffu);
+        for (int row = std::max(col, red.block_offset[orow]); row < red.block_offset[orow + 1];
+             ++row)
+          inner.push_back(row);
+      }
+      outer[static_cast<size_t>(col) + 1] = static_cast<int>(inner.size());
+    }
+    l = end;
+  }
+  for (size_t c = 1; c < outer.size(); ++c) outer[c] = std::max(outer[c], outer[c - 1]);
+  m.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(outer.begin(), outer.end(), m.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), m.innerIndexPtr());
+  std::fill(m.valuePtr(), m.valuePtr() + inner.size(), 0.0);
+  auto value_index = [&m](int row, int col) {
+    const int* begin = m.innerIndexPtr() + m.outerIndexPtr()[col];
+    const int* end = m.innerIndexPtr() + m.outerIndexPtr()[col + 1];
+    return static_cast<int>(std::lower_bound(begin, end, row) - m.innerIndexPtr());
+  };
   // At most n^2 entries per element of n local coordinates: reserved, so that the lists (MBs
   // at 5,120 elements) are not copied as they grow. About half is used; the rest is address
   // space only (pages never touched are never mapped).
@@ -109,17 +169,16 @@ void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
   target->faces.entries.reserve(81 * faces_.size());
   target->hinges.entries.reserve(144 * hinges_.size());
   target->stars.entries.reserve(star_entries);
-  for (const Element& f : faces_) {
-    const std::array<int, 3> v{t.faces(0, f.id), t.faces(1, f.id), t.faces(2, f.id)};
-    element(v.data(), 3, f.weight, target->faces);
-  }
-  for (const Element& e : hinges_) {
-    const std::array<int, 4> v{t.edges(0, e.id), t.edges(1, e.id), t.edge_opposite(0, e.id),
-                               t.edge_opposite(1, e.id)};
-    element(v.data(), 4, e.weight, target->hinges);
-  }
-  for (const Element& v : stars_)
-    element(stars_of_.begin(v.id), stars_of_.size(v.id), v.weight, target->stars);
+  each_element(
+      [&](const int* verts, int count, int weight, ScatterList* list) {
+        each_entry(verts, count, [&](int ia, int ib, int ra, int rb, int a, int b) {
+          list->entries.push_back(Scatter{
+              value_index(ra, rb), static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(b),
+              static_cast<std::int16_t>(weight * red.sign[ia] * red.sign[ib])});
+        });
+        list->begin.push_back(static_cast<int>(list->entries.size()));
+      },
+      target.get());
   targets_.push_back(std::move(target));
 }
 
@@ -156,7 +215,7 @@ void ReducedLagrangianHessian::element_matrices(const Positions& x, double area_
 }
 
 void ReducedLagrangianHessian::scatter(Target& target) {
-  Eigen::SparseMatrix<double>& out = target.map.result();
+  Eigen::SparseMatrix<double>& out = target.matrix;
   double* v = out.valuePtr();
   std::fill(v, v + out.nonZeros(), 0.0);
   const auto each = [](const ScatterList& list, size_t k) {
@@ -181,7 +240,7 @@ const Eigen::SparseMatrix<double>& ReducedLagrangianHessian::assemble(const Posi
                                                                       double volume_coef) {
   element_matrices(x, area_coef, volume_coef);
   scatter(*targets_[0]);
-  return targets_[0]->map.result();
+  return targets_[0]->matrix;
 }
 
 void ReducedLagrangianHessian::assemble_sectors(const Positions& x, double area_coef,

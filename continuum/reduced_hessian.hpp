@@ -20,7 +20,8 @@ namespace rbc {
 class ReducedLagrangianHessian {
  public:
   /// `group`: the mirrors of the scene (the reduction's group), `reduction` of that group,
-  /// `full`: the full Hessian's pattern (its lower triangle gives the reduced pattern).
+  /// `full`: the full Hessian (its vertex stars; the reduced pattern is the representative
+  /// elements').
   ReducedLagrangianHessian(const ContinuumModel& model, const MeshSymmetry& group,
                            const SymmetryReduction& reduction, const BlockHessian& full);
   /// P' (d2E + area_coef d2A + volume_coef d2V) P at the symmetric state x (3 x N, um),
@@ -34,7 +35,7 @@ class ReducedLagrangianHessian {
   int sectors() const { return static_cast<int>(targets_.size()) - 1; }
   /// Every sector's matrix at the symmetric state x from one pass over the element matrices.
   void assemble_sectors(const Positions& x, double area_coef, double volume_coef);
-  const Eigen::SparseMatrix<double>& sector(int k) { return targets_[k + 1]->map.result(); }
+  const Eigen::SparseMatrix<double>& sector(int k) { return targets_[k + 1]->matrix; }
   /// Representative faces, hinges and vertex stars (out of F, E, N).
   int representative_faces() const { return static_cast<int>(faces_.size()); }
   int representative_hinges() const { return static_cast<int>(hinges_.size()); }
@@ -57,7 +58,7 @@ class ReducedLagrangianHessian {
   /// One reduced matrix (the trivial sector, or another) and the scatter of every
   /// representative element into it.
   struct Target {
-    ReducedMatrix map;
+    Eigen::SparseMatrix<double> matrix;  ///< reduced pattern (lower triangle) and values
     ScatterList faces, hinges, stars;
   };
   /// Representative elements: face, edge or vertex index, and orbit size.
@@ -69,7 +70,6 @@ class ReducedLagrangianHessian {
   void scatter(Target& t);
   const ContinuumModel& model_;
   VertexStars stars_of_;
-  const Eigen::SparseMatrix<double>& full_pattern_;
   std::vector<Element> faces_, hinges_, stars_;
   std::vector<std::unique_ptr<Target>> targets_;  ///< by pointer: no copies as sectors are added
   std::vector<Matrix9d> face_buffer_;

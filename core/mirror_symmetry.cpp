@@ -211,8 +211,7 @@ double largest_vertex_norm_of_expanded(const SymmetryReduction& r, const Eigen::
   return largest;
 }
 
-ReducedMatrix::ReducedMatrix(const SymmetryReduction& red, const Eigen::SparseMatrix<double>& h,
-                             Use use)
+ReducedMatrix::ReducedMatrix(const SymmetryReduction& red, const Eigen::SparseMatrix<double>& h)
     : rows_(h.rows()), nonzeros_(h.nonZeros()) {
   if (h.rows() != red.full_size || h.cols() != red.full_size || !h.isCompressed())
     throw std::invalid_argument("ReducedMatrix: a compressed 3N x 3N matrix is needed");
@@ -228,10 +227,6 @@ ReducedMatrix::ReducedMatrix(const SymmetryReduction& red, const Eigen::SparseMa
   out_.resize(red.reduced_size, red.reduced_size);
   out_.setFromTriplets(entries.begin(), entries.end());
   out_.makeCompressed();
-  if (use == Use::pattern_only) {
-    nonzeros_ = -1;  // matches() no full matrix: reduce() refuses
-    return;
-  }
   // Pass 2: where each value of H goes. An off-diagonal entry of H (stored once, standing for
   // both (i, j) and (j, i)) whose two coordinates share one reduced coordinate adds twice to
   // that diagonal entry.
@@ -252,16 +247,7 @@ ReducedMatrix::ReducedMatrix(const SymmetryReduction& red, const Eigen::SparseMa
     }
 }
 
-int ReducedMatrix::value_index(int row, int col) const {
-  if (row < col || col < 0 || row >= out_.rows()) return -1;
-  const int* begin = out_.innerIndexPtr() + out_.outerIndexPtr()[col];
-  const int* end = out_.innerIndexPtr() + out_.outerIndexPtr()[col + 1];
-  const int* pos = std::lower_bound(begin, end, row);
-  return pos != end && *pos == row ? static_cast<int>(pos - out_.innerIndexPtr()) : -1;
-}
-
 const Eigen::SparseMatrix<double>& ReducedMatrix::reduce(const Eigen::SparseMatrix<double>& h) {
-  if (nonzeros_ < 0) throw std::logic_error("ReducedMatrix: reduce() on a pattern-only map");
   if (!matches(h)) throw std::logic_error("ReducedMatrix: the matrix's pattern changed");
   double* out = out_.valuePtr();
   std::fill(out, out + out_.nonZeros(), 0.0);

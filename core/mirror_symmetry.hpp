@@ -127,24 +127,13 @@ double largest_vertex_norm_of_expanded(const SymmetryReduction& r, const Eigen::
 /// each reduce() is one pass over H's values.
 class ReducedMatrix {
  public:
-  /// What the map is for: reduce() of full matrices, or only the reduced pattern (result(),
-  /// value_index()) for assemblies that add into it directly; that skips the per-value map of
-  /// the full pattern (12 bytes per full nonzero).
-  enum class Use { reduce, pattern_only };
-  ReducedMatrix(const SymmetryReduction& reduction, const Eigen::SparseMatrix<double>& pattern,
-                Use use = Use::reduce);
-  /// P' h P (h with the pattern given at construction; not for a Use::pattern_only map).
+  ReducedMatrix(const SymmetryReduction& reduction, const Eigen::SparseMatrix<double>& pattern);
+  /// P' h P (h with the pattern given at construction).
   const Eigen::SparseMatrix<double>& reduce(const Eigen::SparseMatrix<double>& h);
-  /// True when h has the pattern this map was built for (size and nonzero count); never for a
-  /// Use::pattern_only map.
+  /// True when h has the pattern this map was built for (size and nonzero count).
   bool matches(const Eigen::SparseMatrix<double>& h) const {
     return h.rows() == rows_ && h.nonZeros() == nonzeros_;
   }
-  /// The result's pattern (lower triangle, compressed) and values, for assemblies that add
-  /// into it directly (continuum/reduced_hessian.hpp).
-  Eigen::SparseMatrix<double>& result() { return out_; }
-  /// Index into result().valuePtr() of entry (row, col), row >= col; -1 outside the pattern.
-  int value_index(int row, int col) const;
 
  private:
   Eigen::Index rows_ = 0, nonzeros_ = 0;

@@ -240,6 +240,22 @@ Eigen::Matrix3d triangulation_rotation(unsigned rotation_seed) {
   return q.normalized().toRotationMatrix();
 }
 
+Eigen::Matrix3d orientation_rotation(TriangulationOrientation orientation) {
+  if (orientation == TriangulationOrientation::dimple_vertex) return Eigen::Matrix3d::Identity();
+  // make_icosphere's corners 0 (the north pole) and 1 (latitude atan(1/2), longitude 0) share
+  // an edge. The icosahedron's two-fold axis through that edge's midpoint, the axis along the
+  // edge itself and the axis normal to both are mutually orthogonal two-fold axes; each is
+  // normal to a mirror plane of the icosahedron. They are turned onto z, y and x.
+  const double lat = std::atan(0.5);
+  const Eigen::Vector3d c0(0, 0, 1), c1(std::cos(lat), 0, std::sin(lat));
+  const Eigen::Vector3d a = (c0 + c1).normalized(), b = (c1 - c0).normalized(), c = b.cross(a);
+  Eigen::Matrix3d r;
+  r.row(0) = c.transpose();
+  r.row(1) = b.transpose();
+  r.row(2) = a.transpose();
+  return r;  // rows orthonormal, det = c.(b x a) = +1
+}
+
 TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) {
   if (opt.target_vertices < 100 || opt.target_vertices > 40000)
     throw std::invalid_argument("vertex count " + std::to_string(opt.target_vertices) +
@@ -248,6 +264,8 @@ TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) 
     throw std::invalid_argument("Evans-Fung radius must be positive, got " +
                                 std::to_string(opt.shape.radius_um) + " um");
   TriMesh sphere = make_icosphere(icosphere_frequency_for(opt.target_vertices));
+  if (opt.orientation != TriangulationOrientation::dimple_vertex)
+    sphere.x = orientation_rotation(opt.orientation) * sphere.x;
   if (opt.rotation_seed != 0) sphere.x = triangulation_rotation(opt.rotation_seed) * sphere.x;
   const int n = sphere.topo.num_vertices;
   Positions s = sphere.x;  // points on the unit sphere (the surface parameters)
@@ -323,6 +341,23 @@ RestMeshQuality rest_mesh_quality_from_string(const std::string& name) {
     if (to_string(q) == name) return q;
   throw std::invalid_argument("unknown mesh quality '" + name +
                               "', expected phi-minimised, projected or equal-area");
+}
+
+std::string to_string(TriangulationOrientation o) {
+  switch (o) {
+    case TriangulationOrientation::dimple_vertex:
+      return "dimple-vertex";
+    case TriangulationOrientation::mirror_planes:
+      return "mirror-planes";
+  }
+  return "unknown";
+}
+
+TriangulationOrientation triangulation_orientation_from_string(const std::string& name) {
+  for (auto o : {TriangulationOrientation::dimple_vertex, TriangulationOrientation::mirror_planes})
+    if (to_string(o) == name) return o;
+  throw std::invalid_argument("unknown triangulation orientation '" + name +
+                              "', expected dimple-vertex or mirror-planes");
 }
 
 }  // namespace rbc

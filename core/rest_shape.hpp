@@ -40,6 +40,22 @@ enum class RestMeshQuality {
   equal_area,
 };
 
+/// Where the triangulation's icosahedron lies on the cell (make_icosphere's base corners).
+enum class TriangulationOrientation {
+  /// A corner at each dimple centre, a five-fold axis along z (the default meshes). The
+  /// mesh keeps four of the scene's eight mirror elements: y -> -y, the inversion and the
+  /// half turn about y (core/mirror_symmetry.hpp find_mirror_symmetry).
+  dimple_vertex,
+  /// Three mutually orthogonal two-fold axes of the icosahedron along x, y and z (the
+  /// pyritohedral orientation): the icosahedron, and so the geodesic icosphere of any
+  /// frequency, is invariant under the reflections in the three coordinate planes, the full
+  /// mirror group of the stretch scene (order 8). A symmetric solve then works on one eighth
+  /// of the cell, as the paper does. Another triangulation, so another discretisation: its
+  /// diameters differ from dimple_vertex's at the discretisation error (README, "Mirror
+  /// symmetry").
+  mirror_planes,
+};
+
 struct RestShapeOptions {
   EvansFungShape shape;
   int target_vertices = 2000;  ///< N, 100 to 40,000; the mesh has N within 10 %
@@ -59,10 +75,16 @@ struct RestShapeOptions {
   /// triangles land elsewhere on the cell. Same seed, same mesh. Used to measure how much
   /// a result depends on where the triangulation happens to lie (the reference spread).
   unsigned rotation_seed = 0;
+  /// Where the icosahedron lies before rotation_seed's turn (which, if not 0, breaks the
+  /// mirror_planes symmetry).
+  TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex;
 };
 
 /// The rotation rotation_seed selects (identity for 0): proper orthogonal, det = +1.
 Eigen::Matrix3d triangulation_rotation(unsigned rotation_seed);
+/// The rotation that lays make_icosphere's icosahedron in `orientation` (identity for
+/// dimple_vertex): proper orthogonal, det = +1.
+Eigen::Matrix3d orientation_rotation(TriangulationOrientation orientation);
 
 /// Exact area (um^2) and volume (um^3) of the Evans-Fung surface by adaptive quadrature
 /// (GSL QAGS) of the surface of revolution: A = 2 int 2 pi r sqrt(1 + z'(r)^2) dr,
@@ -103,5 +125,9 @@ MeshQualityReport assess_mesh(const TriMesh& mesh);
 
 std::string to_string(RestMeshQuality quality);
 RestMeshQuality rest_mesh_quality_from_string(const std::string& name);
+/// "dimple-vertex" | "mirror-planes"; the parser throws std::invalid_argument naming the
+/// accepted names.
+std::string to_string(TriangulationOrientation orientation);
+TriangulationOrientation triangulation_orientation_from_string(const std::string& name);
 
 }  // namespace rbc

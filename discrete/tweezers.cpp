@@ -1,6 +1,7 @@
 #include "discrete/tweezers.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <stdexcept>
 
@@ -33,29 +34,47 @@ TweezerPatch select_tweezer_patch(const Positions& rest, const Topology& topo,
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int i, int j) { return rest(0, i) > rest(0, j); });
   TweezerPatch patch;
+  const int target_count = std::max(1, static_cast<int>(std::lround(params.contact_fraction * n)));
+  const double target_area = params.contact_fraction * total;
+  const bool by_area = params.rule == PatchRule::by_area;
   for (int side = 0; side < 2; ++side) {  // side 0: largest x (+x pull); side 1: smallest x
+    auto vertex_at = [&](int k) { return side == 0 ? order[k] : order[n - 1 - k]; };
     std::vector<int> chosen;
-    double area = 0;
-    const int target_count =
-        std::max(1, static_cast<int>(std::lround(params.contact_fraction * n)));
-    for (int k = 0; k < n; ++k) {
-      const int v = side == 0 ? order[k] : order[n - 1 - k];
-      if (params.rule == PatchRule::by_area) {
-        // Take the vertex if that brings the patch area closer to the target.
-        const double target = params.contact_fraction * total;
-        if (std::abs(area + a(v) - target) > std::abs(area - target) && !chosen.empty()) break;
-      } else if (static_cast<int>(chosen.size()) >= target_count) {
-        break;
+    std::vector<double> weight;  // of each chosen vertex: 1, or the boundary level's fraction
+    double area = 0;             // of the chosen vertices, times their weights
+    for (int k = 0; k < n;) {
+      // The next vertex, or with keep_equal_x_together every vertex at its rest x (a level).
+      int end = k + 1;
+      if (params.keep_equal_x_together)
+        while (end < n &&
+               std::abs(rest(0, vertex_at(end)) - rest(0, vertex_at(k))) <= kMirrorToleranceUm)
+          ++end;
+      double group_area = 0;
+      for (int j = k; j < end; ++j) group_area += a(vertex_at(j));
+      const double have = by_area ? area : static_cast<double>(chosen.size());
+      const double group = by_area ? group_area : static_cast<double>(end - k);
+      const double target = by_area ? target_area : static_cast<double>(target_count);
+      double w = 1.0;
+      if (params.keep_equal_x_together) {
+        // Whole levels up to the target, then the next level at the fraction that meets it.
+        if (have >= target) break;
+        w = std::min(1.0, (target - have) / group);
+      } else if (std::abs(have + group - target) > std::abs(have - target) && !chosen.empty()) {
+        break;  // a vertex is taken if that brings the patch closer to its target
       }
-      chosen.push_back(v);
-      area += a(v);
+      for (int j = k; j < end; ++j) {
+        chosen.push_back(vertex_at(j));
+        weight.push_back(w);
+        area += w * a(vertex_at(j));
+      }
+      k = end;
     }
+    double count = 0;
+    for (double w : weight) count += w;
     const double sign = side == 0 ? 1.0 : -1.0;
-    for (int v : chosen) {
-      patch.vertex.push_back(v);
-      patch.share.push_back(sign * (params.rule == PatchRule::by_area
-                                        ? a(v) / area
-                                        : 1.0 / static_cast<double>(chosen.size())));
+    for (size_t c = 0; c < chosen.size(); ++c) {
+      patch.vertex.push_back(chosen[c]);
+      patch.share.push_back(sign * weight[c] * (by_area ? a(chosen[c]) / area : 1.0 / count));
     }
     (side == 0 ? patch.area_plus_um2 : patch.area_minus_um2) = area;
   }

@@ -104,6 +104,11 @@ TEST(WarmStart, RefusedUnlessModelMeshAndForcesMatch) {
   const Case cases[] = {
       {"--model continuum --elements 1000 --force 0,30 --warm-start " + dir, "same mesh"},
       {"--model continuum --elements 300 --force 0,40 --warm-start " + dir, "40"},
+      // The same faces, laid another way on the cell.
+      {"--model continuum --elements 300 --force 0,30 --mesh-orientation mirror-planes "
+       "--warm-start " +
+           dir,
+       "--mesh-orientation dimple-vertex"},
       {"--model discrete -n 200 --force 0,30 --warm-start " + dir, "same model"},
       {"--model continuum --elements 300 --force 0 --warm-start /nonexistent/rbc_run", "run.json"},
       {"--model continuum --elements 300 --force 0 --warm-start " + broken, "not valid JSON"},

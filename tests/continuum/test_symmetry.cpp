@@ -5,6 +5,7 @@
 // full, and a mesh without a mirror is solved in full.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include "continuum/continuum_stretch.hpp"
 
@@ -50,16 +51,19 @@ ContinuumOptions mirror_options(bool check = true) {
   return o;
 }
 
-TEST(ContinuumSymmetry, RepresentativeElementHessianEqualsTheReducedFullHessian) {
-  // At a symmetric, strained state (the rest shape stretched 20 % along x and symmetrically
-  // perturbed), with multipliers and H0 != 0 so that every term contributes.
+/// The Hessian from representative elements against reducing the full one, on the trivial
+/// sector and every other (the stability check's matrices), at a symmetric, strained state of
+/// `mesh` (the rest shape stretched 20 % along x and symmetrically perturbed), with multipliers
+/// and H0 != 0 so that every term contributes.
+void expect_representative_hessian_is_the_reduced_one(const TriMesh& mesh, bool level_patch,
+                                                      int order) {
   WlcParameters w;
   ContinuumParameters cp;
   cp.bending.h0_per_um = 0.3;
-  const TriMesh mesh = make_continuum_mesh(2000);
+  cp.tweezers.keep_equal_x_together = level_patch;
   const ContinuumModel m = build_continuum_model(mesh, testing::closed_form_p2_law(w), cp);
   const MeshSymmetry g = tweezers_scene_symmetry(m.rest, m.topo, m.patch);
-  ASSERT_EQ(g.order(), 4);
+  ASSERT_EQ(g.order(), order);
   const SymmetryReduction red = make_symmetry_reduction(g);
   std::mt19937 rng(2);
   std::normal_distribution<double> nd(0.0, 0.01);
@@ -75,15 +79,19 @@ TEST(ContinuumSymmetry, RepresentativeElementHessianEqualsTheReducedFullHessian)
   ReducedLagrangianHessian direct(m, g, red, full);
   EXPECT_LT(direct.representative_faces(), m.num_elements() / 3);
   const Eigen::SparseMatrix<double>& got = direct.assemble(x, 0.7, -0.2);
+  // The same pattern (built here from the representative elements' orbits, there from the
+  // full matrix) and the same values.
   ASSERT_EQ(got.nonZeros(), expected.nonZeros());
+  ASSERT_TRUE(std::equal(got.innerIndexPtr(), got.innerIndexPtr() + got.nonZeros(),
+                         expected.innerIndexPtr()));
   double largest = 0.0, diff = 0.0;
   for (Eigen::Index k = 0; k < got.nonZeros(); ++k) {
     largest = std::max(largest, std::abs(expected.valuePtr()[k]));
     diff = std::max(diff, std::abs(got.valuePtr()[k] - expected.valuePtr()[k]));
   }
   EXPECT_LT(diff, 1e-11 * largest);
-  // The other sectors (the stability check's matrices) from the same element matrices.
   const std::vector<int> chars = nontrivial_characters(g);
+  EXPECT_EQ(static_cast<int>(chars.size()), order - 1);
   std::vector<SymmetryReduction> sectors;
   for (int c : chars) sectors.push_back(make_symmetry_reduction(g, c));
   for (const auto& sr : sectors) direct.add_sector(sr);
@@ -93,11 +101,21 @@ TEST(ContinuumSymmetry, RepresentativeElementHessianEqualsTheReducedFullHessian)
     const Eigen::SparseMatrix<double> want = sector_map.reduce(full.matrix());
     const Eigen::SparseMatrix<double>& have = direct.sector(static_cast<int>(k));
     ASSERT_EQ(have.nonZeros(), want.nonZeros());
+    ASSERT_TRUE(std::equal(have.innerIndexPtr(), have.innerIndexPtr() + have.nonZeros(),
+                           want.innerIndexPtr()));
     double d = 0.0;
     for (Eigen::Index i = 0; i < have.nonZeros(); ++i)
       d = std::max(d, std::abs(have.valuePtr()[i] - want.valuePtr()[i]));
     EXPECT_LT(d, 1e-11 * largest) << "character " << chars[k];
   }
+}
+
+TEST(ContinuumSymmetry, RepresentativeElementHessianEqualsTheReducedFullHessian) {
+  expect_representative_hessian_is_the_reduced_one(make_continuum_mesh(2000), false, 4);
+  // All eight mirrors; at this even icosphere frequency (10) a vertex sits on each coordinate
+  // axis, with two coordinates pinned in the symmetric sector and all three in some others.
+  expect_representative_hessian_is_the_reduced_one(
+      make_continuum_mesh(2000, 0, TriangulationOrientation::mirror_planes), true, 8);
 }
 
 TEST(ContinuumSymmetry, MirrorReducedStretchEqualsTheFullOne) {
@@ -116,6 +134,26 @@ TEST(ContinuumSymmetry, MirrorReducedStretchEqualsTheFullOne) {
       // The shape is symmetric: its centre stays at the origin (inversion).
       EXPECT_LT(p.x.rowwise().mean().norm(), 1e-9);
     }
+  }
+}
+
+TEST(ContinuumSymmetry, MirrorReducedStretchOnTheMirrorPlanesMeshEqualsTheFullOne) {
+  // One eighth of the cell (980 elements, odd frequency 7: no vertex on the axes).
+  ContinuumParameters cp;
+  cp.tweezers.keep_equal_x_together = true;
+  const ContinuumModel m =
+      build_continuum_model(make_continuum_mesh(1000, 0, TriangulationOrientation::mirror_planes),
+                            testing::closed_form_p2_law(WlcParameters{}), cp);
+  EXPECT_EQ(NewtonSolver(m, mirror_options().newton).symmetry_order(), 8);
+  const std::vector<double> forces{0.0, 88.0, 193.0};
+  const auto full = run_continuum_stretch(m, forces, ContinuumOptions{});
+  const auto reduced = run_continuum_stretch(m, forces, mirror_options());
+  expect_same(full, reduced, ContinuumOptions{}.newton.force_tolerance_pN);
+  for (const auto& p : reduced) {
+    EXPECT_EQ(p.symmetry_order, 8);
+    EXPECT_FALSE(p.symmetry_broken);
+    // Each coordinate mirror maps the shape onto itself: its centre stays at the origin.
+    EXPECT_LT(p.x.rowwise().mean().norm(), 1e-9);
   }
 }
 

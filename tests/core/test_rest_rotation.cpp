@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/geometry.hpp"
+#include "core/mirror_symmetry.hpp"
 #include "core/rest_shape.hpp"
 
 namespace rbc {
@@ -64,6 +65,35 @@ TEST(RestRotation, RotatedMeshKeepsTheCellAndMovesTheTriangulation) {
   // Still as equilateral as the default orientation (Phi/A within a factor 1.5).
   EXPECT_LT(rep.phi_over_area, 1.5 * rep_a.phi_over_area);
   EXPECT_GT(rep.phi_over_area, rep_a.phi_over_area / 1.5);
+}
+
+TEST(RestRotation, MirrorPlanesOrientationKeepsTheThreeCoordinateMirrors) {
+  const Eigen::Matrix3d r = orientation_rotation(TriangulationOrientation::mirror_planes);
+  EXPECT_LT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm(), 1e-14);
+  EXPECT_NEAR(r.determinant(), 1.0, 1e-14);
+  EXPECT_EQ(orientation_rotation(TriangulationOrientation::dimple_vertex),
+            Eigen::Matrix3d::Identity());
+  // Odd and even icosphere frequencies (5, 7, 10): the default mesh keeps four of the eight
+  // reflections, the mirror-planes mesh all eight, through the Phi minimisation and the volume
+  // scaling, for every mesh quality.
+  for (int vertices : {252, 492, 1002})
+    for (RestMeshQuality q : {RestMeshQuality::phi_minimised, RestMeshQuality::projected}) {
+      RestShapeOptions o;
+      o.target_vertices = vertices;
+      o.quality = q;
+      const TriMesh a = make_rest_shape(o);
+      EXPECT_EQ(find_mirror_symmetry(a.x, a.topo).order(), 4) << vertices << " " << to_string(q);
+      o.orientation = TriangulationOrientation::mirror_planes;
+      const TriMesh b = make_rest_shape(o);
+      EXPECT_EQ(find_mirror_symmetry(b.x, b.topo).order(), 8) << vertices << " " << to_string(q);
+      // The same cell: volume matched, area to the discretisation error.
+      EXPECT_NEAR(enclosed_volume(b.x, b.topo), kEvansFungVolume_um3, 0.01);
+      EXPECT_NEAR(total_area(b.x, b.topo) / total_area(a.x, a.topo), 1.0, 5e-3);
+    }
+  EXPECT_EQ(triangulation_orientation_from_string("mirror-planes"),
+            TriangulationOrientation::mirror_planes);
+  EXPECT_EQ(to_string(TriangulationOrientation::dimple_vertex), "dimple-vertex");
+  EXPECT_THROW(triangulation_orientation_from_string("mirror"), std::invalid_argument);
 }
 
 }  // namespace

@@ -20,15 +20,17 @@
 namespace rbc {
 namespace {
 
-TriMesh rest_mesh(int vertices) {
+TriMesh rest_mesh(int vertices, TriangulationOrientation orientation = {}) {
   RestShapeOptions o;
   o.target_vertices = vertices;
+  o.orientation = orientation;
   return make_rest_shape(o);
 }
 
-Network network(const TriMesh& mesh, const WlcParameters& wlc = {}) {
+Network network(const TriMesh& mesh, const WlcParameters& wlc = {}, bool level_patch = false) {
   NetworkParameters p;
   p.wlc = wlc;
+  p.tweezers.keep_equal_x_together = level_patch;
   return build_network(mesh, p);
 }
 
@@ -141,6 +143,71 @@ TEST(DiscreteSymmetry, MirrorReducedStretchEqualsTheFullOne) {
       EXPECT_LT(p.x.rowwise().mean().norm(), 1e-9);
     }
     for (const auto& p : full) EXPECT_EQ(p.symmetry_order, 1);
+  }
+}
+
+TEST(DiscreteSymmetry, LevelPatchMeetsItsTargetAndKeepsEveryMirrorOfTheMirrorPlanesMesh) {
+  // The mirror-planes triangulation keeps the three coordinate mirrors (order 8) at odd and
+  // even icosphere frequencies (5, 7, 10). Cut vertex by vertex, its bead patch splits mirror
+  // images and the scene keeps fewer; cut by x levels with a fractional edge level, the patch
+  // keeps all eight and meets its area (or vertex count) target exactly.
+  for (int vertices : {252, 492, 1002}) {
+    const TriMesh mesh = rest_mesh(vertices, TriangulationOrientation::mirror_planes);
+    ASSERT_EQ(find_mirror_symmetry(mesh.x, mesh.topo).order(), 8) << vertices;
+    const double total_um2 = vertex_areas(mesh.x, mesh.topo).sum();
+    for (PatchRule rule : {PatchRule::by_area, PatchRule::by_vertex_count}) {
+      TweezersParameters tp;
+      tp.rule = rule;
+      const TweezerPatch snapped = select_tweezer_patch(mesh.x, mesh.topo, tp);
+      if (rule == PatchRule::by_area) {  // measured: 2 of the 8 kept at each of these sizes
+        EXPECT_LT(tweezers_scene_symmetry(mesh.x, mesh.topo, snapped).order(), 8) << vertices;
+      }
+      tp.keep_equal_x_together = true;
+      const TweezerPatch level = select_tweezer_patch(mesh.x, mesh.topo, tp);
+      EXPECT_EQ(tweezers_scene_symmetry(mesh.x, mesh.topo, level).order(), 8) << vertices;
+      double plus = 0, minus = 0;
+      for (size_t k = 0; k < level.vertex.size(); ++k) {
+        (level.share[k] > 0 ? plus : minus) += level.share[k];
+        EXPECT_LE(std::abs(level.share[k]), 1.0);
+      }
+      EXPECT_NEAR(plus, 1.0, 1e-12);
+      EXPECT_NEAR(minus, -1.0, 1e-12);
+      if (rule == PatchRule::by_area) {
+        EXPECT_NEAR(level.area_plus_um2, tp.contact_fraction * total_um2, 1e-12 * total_um2);
+        EXPECT_NEAR(level.area_minus_um2, tp.contact_fraction * total_um2, 1e-12 * total_um2);
+      } else {  // whole vertices share 1/count, the edge level's less: count is the target
+        double largest = 0;
+        for (double s : level.share) largest = std::max(largest, std::abs(s));
+        EXPECT_NEAR(1.0 / largest,
+                    static_cast<double>(std::lround(tp.contact_fraction * mesh.topo.num_vertices)),
+                    1e-9);
+      }
+    }
+  }
+  // Off (the default), the default mesh's patch is cut vertex by vertex as before: within half
+  // a vertex's area of the target.
+  const TriMesh mesh = rest_mesh(1000);
+  const TweezerPatch p = select_tweezer_patch(mesh.x, mesh.topo, TweezersParameters{});
+  const Eigen::VectorXd a = vertex_areas(mesh.x, mesh.topo);
+  EXPECT_LT(std::abs(p.area_plus_um2 - 0.05 * a.sum()), 0.5 * a.maxCoeff());
+  for (size_t k = 0; k < p.vertex.size(); ++k)
+    EXPECT_NEAR(std::abs(p.share[k]), a(p.vertex[k]) / p.area_plus_um2, 1e-15);
+}
+
+TEST(DiscreteSymmetry, MirrorReducedStretchOnTheMirrorPlanesMeshEqualsTheFullOne) {
+  // One eighth of the cell: the same equilibria as the full problem on the same mesh and patch.
+  const Network net =
+      network(rest_mesh(1000, TriangulationOrientation::mirror_planes), WlcParameters{}, true);
+  ASSERT_EQ(scene_order(net), 8);
+  const std::vector<double> forces{0.0, 88.0, 193.0};
+  const auto full = run_stretch(net, forces, StretchOptions{});
+  const auto reduced = run_stretch(net, forces, mirror_options());
+  expect_same(full, reduced, net, StretchOptions{}.minimiser.force_tolerance);
+  for (const auto& p : reduced) {
+    EXPECT_EQ(p.symmetry_order, 8) << p.force_pN << " pN";
+    EXPECT_FALSE(p.symmetry_broken) << p.force_pN << " pN";
+    // Symmetric under each coordinate mirror: the centre at the origin.
+    EXPECT_LT(p.x.rowwise().mean().norm(), 1e-9);
   }
 }
 

@@ -3,7 +3,8 @@
 and tabulate time, diameters, residual and drift side by side (issue 11's Evolver row).
 
 Steps (all output under --work):
-  1. rbc mesh -n VERTICES --quality phi-minimised --out WORK/mesh   (the continuum mesh)
+  1. rbc mesh -n VERTICES --quality phi-minimised --orientation O --out WORK/mesh   (the
+     continuum mesh; --orientation mirror-planes also cuts the bead patches between x levels)
   2. make_fe.py -> WORK/scene.fe, WORK/sweep.cmd                  (exact p = 2 law)
   3. /usr/bin/time evolver-nox-d -x -f sweep.cmd scene.fe          -> WORK/evolver.log
   4. /usr/bin/time rbc stretch --model continuum --elements 2N-4 --force ... --out WORK/rbc_<t>t
@@ -15,6 +16,7 @@ run (uptime), and the solve-only time of each side (rbc: the sum of its per-forc
 Evolver: the sum of its per-force CPU clock). Nothing here is run by CMake or ctest.
 
 Usage: compare.py --rbc PATH/rbc --work DIR [--vertices 2562] [--threads 1,2]
+                  [--symmetry none|mirror] [--orientation dimple-vertex|mirror-planes]
 """
 import argparse
 import csv
@@ -51,6 +53,9 @@ def main():
     ap.add_argument("--evolver", default="evolver-nox-d")
     ap.add_argument("--symmetry", default="none",
                     help="rbc stretch --symmetry (none | mirror: the mirror-symmetric states)")
+    ap.add_argument("--orientation", default="dimple-vertex",
+                    help="the mesh on both sides (rbc mesh --orientation, rbc stretch "
+                         "--mesh-orientation)")
     ap.add_argument("--kappa", default="2e-19", help="bending rigidity (J), both sides")
     ap.add_argument("--bending", default="star_perp_sq_mean_curvature",
                     help="Evolver's bending method (make_fe.py --bending)")
@@ -60,14 +65,17 @@ def main():
     elements = 2 * args.vertices - 4
 
     subprocess.run([args.rbc, "mesh", "-n", str(args.vertices), "--quality", "phi-minimised",
-                    "--out", os.path.join(w, "mesh")], check=True, stdout=subprocess.DEVNULL)
+                    "--orientation", args.orientation, "--out", os.path.join(w, "mesh")],
+                   check=True, stdout=subprocess.DEVNULL)
     rest = os.path.join(w, "mesh", "rest_shape.h5")
     fe, cmd = os.path.join(w, "scene.fe"), os.path.join(w, "sweep.cmd")
     subprocess.run([sys.executable, os.path.join(HERE, "make_fe.py"), rest, fe, "--commands", cmd,
-                    "--forces", args.forces, "--kappa", args.kappa, "--bending", args.bending],
+                    "--forces", args.forces, "--kappa", args.kappa, "--bending", args.bending]
+                   + (["--level-patch"] if args.orientation == "mirror-planes" else []),
                    check=True)
 
     result = {"vertices": args.vertices, "elements": elements, "forces_pN": args.forces,
+              "orientation": args.orientation, "symmetry": args.symmetry,
               "kappa_J": float(args.kappa), "evolver_bending": args.bending,
               "cpu": open("/proc/cpuinfo").read().count("processor\t:")}
 
@@ -98,7 +106,8 @@ def main():
         with open(out + ".log", "w") as log:
             wall, cpu, rss, rc = timed([args.rbc, "stretch", "--model", "continuum", "--elements",
                                         str(elements), "--force", args.forces, "--kappa", args.kappa,
-                                        "--symmetry", args.symmetry, "--out", out, "-q"],
+                                        "--symmetry", args.symmetry, "--mesh-orientation",
+                                        args.orientation, "--out", out, "-q"],
                                        env=env, stdout=log)
         pts = []
         with open(os.path.join(out, "stretch.csv")) as f:

@@ -100,8 +100,11 @@ def psi_p2(c, C, q, eta, i1, i2):
     return 3.0 * (c0 + c1 * a + c2 * (a * a + 0.5 * B)) + 2.0 * C / (J**q + eta)
 
 
-def tweezer_patch(x, faces, fraction):
-    """select_tweezer_patch (by_area) of discrete/tweezers.cpp: vertex -> signed share."""
+def tweezer_patch(x, faces, fraction, levels=False):
+    """select_tweezer_patch (by_area) of discrete/tweezers.cpp: vertex -> signed share.
+    levels: TweezersParameters::keep_equal_x_together (the mirror-planes meshes): vertices at
+    the same x (to 1e-8 um) are one level; whole levels up to the target area, then the next
+    level with its shares scaled by the fraction that meets the target."""
     af = 0.5 * np.linalg.norm(
         np.cross(x[faces[:, 1]] - x[faces[:, 0]], x[faces[:, 2]] - x[faces[:, 0]]), axis=1)
     a = np.zeros(len(x))
@@ -111,9 +114,25 @@ def tweezer_patch(x, faces, fraction):
     order = np.argsort(-x[:, 0], kind="stable")
     share = {}
     for side in (0, 1):
-        chosen, area = [], 0.0
         target = fraction * total
         seq = order if side == 0 else order[::-1]
+        if levels:
+            weight, area, k = {}, 0.0, 0
+            while k < len(seq) and area < target:
+                end = k + 1
+                while end < len(seq) and abs(x[seq[end], 0] - x[seq[k], 0]) <= 1e-8:
+                    end += 1
+                group = sum(a[v] for v in seq[k:end])
+                w = min(1.0, (target - area) / group)
+                for v in seq[k:end]:
+                    weight[int(v)] = w
+                    area += w * a[v]
+                k = end
+            sign = 1.0 if side == 0 else -1.0
+            for v, w in weight.items():
+                share[v] = sign * w * a[v] / area
+            continue
+        chosen, area = [], 0.0
         for v in seq:
             if abs(area + a[v] - target) > abs(area - target) and chosen:
                 break
@@ -171,6 +190,8 @@ def main():
     ap.add_argument("--eta", type=float, default=0.005)
     ap.add_argument("--kappa", type=float, default=2e-19, help="J")
     ap.add_argument("--contact-fraction", type=float, default=0.05)
+    ap.add_argument("--level-patch", action="store_true",
+                    help="cut the bead patches between x levels (rbc's mirror-planes meshes)")
     ap.add_argument("--bending", choices=["star_perp_sq_mean_curvature", "star_sq_mean_curvature"],
                     default="star_perp_sq_mean_curvature",
                     help="Evolver's discretisation of int h^2 dA (both with Hessians)")
@@ -207,7 +228,7 @@ def main():
     abar = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
     area0 = abar.sum()
     volume0 = np.einsum("ij,ij->i", X[faces[:, 0]], np.cross(X[faces[:, 1]], X[faces[:, 2]])).sum() / 6.0
-    share = tweezer_patch(X, faces, args.contact_fraction)
+    share = tweezer_patch(X, faces, args.contact_fraction, args.level_patch)
 
     # Edges with orientation: facet k = (e_a, e_b, e_c) head-to-tail.
     edge_id = {}
