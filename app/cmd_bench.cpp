@@ -210,8 +210,8 @@ void BM_Continuum88From0(benchmark::State& state) {
 void BM_ContinuumWarm(benchmark::State& state) {
   const int e = static_cast<int>(state.range(0));
   const ContinuumOptions co = continuum_options(state, 1);
-  const ContinuumModel& m0 = cached_continuum(e, 1.0);
-  const ContinuumModel& m1 = cached_continuum(e, 1.01);
+  const ContinuumModel& m0 = cached_continuum(e, 1.0, bench_orientation(state, 1));
+  const ContinuumModel& m1 = cached_continuum(e, 1.01, bench_orientation(state, 1));
   const StretchState before = stretch_state(run_continuum_stretch(m0, kMillsForces, co));
   const double eval_s = continuum_eval_seconds(m1);
   const double cold_s = seconds_of([&] { run_continuum_stretch(m1, kMillsForces, co); });
@@ -236,8 +236,8 @@ void BM_ContinuumWarm(benchmark::State& state) {
 void BM_ContinuumWarmKept(benchmark::State& state) {
   const int e = static_cast<int>(state.range(0));
   const ContinuumOptions co = continuum_options(state, 1);
-  const ContinuumModel& m0 = cached_continuum(e, 1.0);
-  const ContinuumModel& m1 = cached_continuum(e, 1.01);
+  const ContinuumModel& m0 = cached_continuum(e, 1.0, bench_orientation(state, 1));
+  const ContinuumModel& m1 = cached_continuum(e, 1.01, bench_orientation(state, 1));
   const double eval_s = continuum_eval_seconds(m1);
   const double cold_s = seconds_of([&] { run_continuum_stretch(m1, kMillsForces, co); });
   for (auto _ : state) {
@@ -409,6 +409,28 @@ void BM_ContinuumLagrangianHessian(benchmark::State& state) {
   state.counters["vertices"] = static_cast<double>(m.rest.cols());
 }
 
+/// The mirror path's stability check at the 88 pN equilibrium (range(0) elements, range(1)
+/// symmetry argument as the sweep rows: 1 the default mesh, 2 the mirror-planes mesh): every
+/// non-trivial sector assembled and factorised (NewtonSolver::check_symmetric_state); the
+/// sectors' set-up (first call) is not timed. `sectors` counts the factorisations per check.
+void BM_ContinuumStabilityCheck(benchmark::State& state) {
+  const ContinuumModel& m =
+      cached_continuum(static_cast<int>(state.range(0)), 1.0, bench_orientation(state, 1));
+  const ContinuumOptions co = continuum_options(state, 1);
+  const auto pts = run_continuum_stretch(m, {88.0}, co);
+  NewtonSolver solver(m, co.newton);
+  SectorStability st = solver.check_symmetric_state(88.0, pts[0].x, pts[0].multipliers);
+  double total_s = 0.0;
+  for (auto _ : state)
+    total_s +=
+        seconds_of([&] { st = solver.check_symmetric_state(88.0, pts[0].x, pts[0].multipliers); });
+  if (!st.stable) state.SkipWithError("the 88 pN equilibrium is not stable");
+  const double eval_s = continuum_eval_seconds(m);
+  state.counters["eg_evals"] = total_s / static_cast<double>(state.iterations()) / eval_s;
+  state.counters["sectors"] = st.factorisations;
+  state.counters["vertices"] = static_cast<double>(m.rest.cols());
+}
+
 /// Metropolis sweeps at 300 K, zero force, from the rest shape, on state.range(1) OpenMP threads.
 /// Two RNG streams whatever the thread count, so both thread counts run the SAME chain and the
 /// ratio of their rates is the parallel speed-up. 20 adaptive sweeps first bring the acceptance
@@ -530,7 +552,8 @@ void add_bench_command(CLI::App& app, Action& action) {
         once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc_kept",
                                           BM_ContinuumWarmKept)
                  ->Args({1000, 0})
-                 ->Args({1000, 1}));
+                 ->Args({1000, 1})
+                 ->Args({1000, 2}));
         // Issue 14: 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
         once(benchmark::RegisterBenchmark("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)
                  ->Args({1000, 1000}));
@@ -557,6 +580,12 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Arg(1000)
             ->Arg(9680)
             ->Unit(benchmark::kMicrosecond);
+        benchmark::RegisterBenchmark("continuum/stability_check", BM_ContinuumStabilityCheck)
+            ->Args({1000, 1})
+            ->Args({1000, 2})
+            ->Args({5120, 1})
+            ->Args({5120, 2})
+            ->Unit(benchmark::kMillisecond);
         benchmark::RegisterBenchmark("continuum/lagrangian_hessian", BM_ContinuumLagrangianHessian)
             ->Arg(1000)
             ->Arg(5120)

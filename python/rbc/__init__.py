@@ -232,7 +232,8 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
             wlc: Optional[WlcParameters] = None, bending: Optional[BendingParameters] = None,
             steric: Optional[StericParameters] = None, contact: Optional[ContactParameters] = None,
             constraints: Optional[ConstraintParameters] = None,
-            mesh_quality: "MeshQuality | str" = "phi-minimised", network: Optional[Network] = None,
+            mesh_quality: "MeshQuality | str" = "phi-minimised",
+            mesh_orientation: str = "dimple-vertex", network: Optional[Network] = None,
             tolerance_pN: Optional[float] = None, max_iterations: Optional[int] = None,
             symmetry: str = "none", check: bool = False,
             cancel: Optional[Callable[[], bool]] = None,
@@ -252,17 +253,29 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
     (the cell buckles), solved again in full. Each point then carries symmetry_order (1 =
     solved in full) and symmetry_broken (the equilibrium is not symmetric).
 
+    mesh_orientation='mirror-planes' (``rbc stretch --mesh-orientation mirror-planes``) lays
+    the triangulation so that it keeps all three coordinate mirrors (symmetry='mirror' then
+    solves one eighth of the cell) and cuts the bead patches between x levels
+    (ContactParameters(level_patch=True)): another discretisation of the same cell.
+
     Every force gets a status and residual; non-convergence raises rbc.ConvergenceError (a
     RuntimeError with .residual_pN, .force_pN and .result) only when check=True. The GIL is
     released while solving; Ctrl-C, or `cancel()` returning True, stops the solve with
     KeyboardInterrupt. `progress(message)` receives the library's progress lines.
     """
     model = Model.of(model)
+    if mesh_orientation == "mirror-planes":  # the patch that keeps the mesh's mirrors
+        c = contact if contact is not None else ContactParameters()
+        contact = ContactParameters(fraction=c.fraction, rule=c.rule, level_patch=True)
     if model is Model.discrete:
         if network is None:
-            mesh = rest_shape(vertices, mesh_quality)
+            mesh = rest_shape(vertices, mesh_quality, orientation=mesh_orientation)
             network = Network(mesh, wlc=wlc, bending=bending, steric=steric, contact=contact,
                               constraints=constraints)
+        elif mesh_orientation != "dimple-vertex":
+            raise ValueError("mesh_orientation applies to the mesh stretch() builds; a given "
+                             "network carries its own (build it on rbc.rest_shape(..., "
+                             "orientation=...))")
         elif any(p is not None for p in (wlc, bending, steric, contact, constraints)):
             raise ValueError("give either network or its parameters (wlc, bending, steric, "
                              "contact, constraints), not both")
@@ -277,7 +290,7 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
             raise ValueError("network applies to model='discrete' only")
         raw, info = _rbc._stretch_continuum(elements, order, wlc, bending, steric, contact,
                                             forces_pN, tolerance_pN, max_iterations, symmetry,
-                                            cancel, progress)
+                                            mesh_orientation, cancel, progress)
         mesh = info["mesh"]
         result = StretchResult(model, _points(model, raw, mesh.positions, mesh.faces, symmetry),
                                mesh, None, None, info["law"], info["polls"])

@@ -145,10 +145,12 @@ void bind_mesh(py::module_& m) {
 
   m.def(
       "rest_shape",
-      [](int vertices, const py::object& quality, int max_phi_iterations, bool match_volume) {
+      [](int vertices, const py::object& quality, int max_phi_iterations, bool match_volume,
+         const std::string& orientation) {
         RestShapeOptions o;
         o.target_vertices = vertices;
         o.quality = enum_arg<RestMeshQuality>(quality, rest_mesh_quality_from_string);
+        o.orientation = triangulation_orientation_from_string(orientation);
         o.max_phi_iterations = max_phi_iterations;
         o.match_volume = match_volume;
         auto mesh = std::make_shared<PyMesh>();
@@ -157,22 +159,25 @@ void bind_mesh(py::module_& m) {
       },
       py::arg("vertices") = 2000, py::arg("quality") = "phi-minimised", py::kw_only(),
       py::arg("max_phi_iterations") = RestShapeOptions{}.max_phi_iterations,
-      py::arg("match_volume") = true,
+      py::arg("match_volume") = true, py::arg("orientation") = "dimple-vertex",
       "Closed triangulation of the Evans-Fung rest shape with about `vertices` vertices (100 to "
       "40,000; within 10 %), as `rbc mesh`. quality: 'phi-minimised' (default), 'projected', "
-      "'equal-area' or rbc.MeshQuality. The returned Mesh carries its quality report.");
+      "'equal-area' or rbc.MeshQuality. orientation: 'dimple-vertex' (default) or "
+      "'mirror-planes' (all three coordinate mirrors, `rbc mesh --orientation`). The returned "
+      "Mesh carries its quality report.");
 
   m.def(
       "continuum_mesh",
-      [](int elements) {
+      [](int elements, const std::string& orientation) {
+        const TriangulationOrientation o = triangulation_orientation_from_string(orientation);
         auto mesh = std::make_shared<PyMesh>();
         run_released(nullptr,
-                     [&] { mesh->mesh = make_continuum_mesh(elements, {}, &mesh->quality); });
+                     [&] { mesh->mesh = make_continuum_mesh(elements, 0, o, &mesh->quality); });
         return mesh;
       },
-      py::arg("elements") = 4000,
+      py::arg("elements") = 4000, py::kw_only(), py::arg("orientation") = "dimple-vertex",
       "Phi-minimised triangulation with about `elements` triangles (200 to 79,996), the mesh of "
-      "`rbc stretch --model continuum`.");
+      "`rbc stretch --model continuum` (orientation as rest_shape's).");
 
   m.def(
       "diameters",

@@ -127,7 +127,8 @@ std::string PySteric::repr() const {
   return "StericParameters(q=" + num(q) + ", eta=" + num(eta) + ")";
 }
 std::string PyContact::repr() const {
-  return "ContactParameters(fraction=" + num(fraction) + ", rule='" + to_string(rule) + "')";
+  return "ContactParameters(fraction=" + num(fraction) + ", rule='" + to_string(rule) + "'" +
+         (level_patch ? ", level_patch=True" : "") + ")";
 }
 std::string PyConstraints::repr() const {
   return "ConstraintParameters(area_stiffness_pN_per_um3=" + num(lib.area_stiffness_pN_per_um3) +
@@ -160,10 +161,11 @@ PySteric make_steric(double q, double eta) {
   return p;
 }
 
-PyContact make_contact(double fraction, PatchRule rule) {
-  PyContact p{fraction, rule, {}};
+PyContact make_contact(double fraction, PatchRule rule, bool level_patch) {
+  PyContact p{fraction, rule, level_patch, {}};
   p.lib.contact_fraction = fraction;
   p.lib.rule = rule;
+  p.lib.keep_equal_x_together = level_patch;
   validated(p.repr(), [&] { p.lib.validate(); });
   return p;
 }
@@ -314,18 +316,26 @@ void bind_parameters(py::module_& m) {
 
   py::class_<PyContact>(m, "ContactParameters",
                         "Optical-tweezers bead contact: patch fraction per bead (of the area or of "
-                        "the vertices) and the rule.")
-      .def(py::init([](double fraction, const py::object& rule) {
-             return make_contact(fraction, enum_arg<PatchRule>(rule, patch_rule_from_string));
+                        "the vertices) and the rule. level_patch=True takes the vertices at one "
+                        "rest x together, the edge level at the fraction that meets the target "
+                        "(the mirror-planes meshes' patch, as `rbc stretch --mesh-orientation "
+                        "mirror-planes`).")
+      .def(py::init([](double fraction, const py::object& rule, bool level_patch) {
+             return make_contact(fraction, enum_arg<PatchRule>(rule, patch_rule_from_string),
+                                 level_patch);
            }),
-           py::kw_only(), py::arg("fraction") = 0.05, py::arg("rule") = "area")
+           py::kw_only(), py::arg("fraction") = 0.05, py::arg("rule") = "area",
+           py::arg("level_patch") = false)
       .def_readonly("fraction", &PyContact::fraction)
       .def_readonly("rule", &PyContact::rule)
+      .def_readonly("level_patch", &PyContact::level_patch)
       .def("__repr__", &PyContact::repr)
-      .def(py::pickle([](const PyContact& p) { return py::make_tuple(p.fraction, p.rule); },
-                      [](const py::tuple& t) {
-                        return make_contact(t[0].cast<double>(), t[1].cast<PatchRule>());
-                      }));
+      .def(py::pickle(
+          [](const PyContact& p) { return py::make_tuple(p.fraction, p.rule, p.level_patch); },
+          [](const py::tuple& t) {
+            return make_contact(t[0].cast<double>(), t[1].cast<PatchRule>(),
+                                t.size() > 2 && t[2].cast<bool>());
+          }));
 
   py::class_<PyConstraints>(m, "ConstraintParameters",
                             "Augmented-Lagrangian area/volume penalties (pN/um^3, pN/um^5) and the "

@@ -132,13 +132,15 @@ void bind_stretch(py::module_& m) {
       [](int elements, const py::object& order, const py::object& wlc, const py::object& bending,
          const py::object& steric, const py::object& contact, const py::handle& forces,
          const py::object& tolerance, const py::object& max_iterations, const std::string& symmetry,
-         py::object cancel, py::object progress) {
+         const std::string& mesh_orientation, py::object cancel, py::object progress) {
         const std::vector<double> f = forces_arg(forces);
         const PyWlc w = wlc_or_default(wlc);
         const PyBending b = bending_or_default(bending);
         const PySteric s = steric_or_default(steric);
         const PyContact c = contact_or_default(contact);
         const WlcExpansion e = order_arg(order);
+        const TriangulationOrientation orientation =
+            triangulation_orientation_from_string(mesh_orientation);
         if (elements < kMinContinuumElements || elements > kMaxContinuumElements)
           throw py::value_error("elements = " + std::to_string(elements) +
                                 " is out of range; expected " +
@@ -158,10 +160,13 @@ void bind_stretch(py::module_& m) {
         auto mesh = std::make_shared<PyMesh>();
         std::string law_name;
         std::vector<ContinuumStretchPoint> pts = run_released(cb, [&] {
-          mesh->mesh = make_continuum_mesh(elements, {}, &mesh->quality);
+          mesh->mesh = make_continuum_mesh(elements, 0, orientation, &mesh->quality);
           ContinuumParameters cp;
           cp.bending = b.lib;
           cp.tweezers = c.lib;
+          // As `rbc stretch --mesh-orientation mirror-planes`: the patch cut between x levels.
+          if (orientation == TriangulationOrientation::mirror_planes)
+            cp.tweezers.keep_equal_x_together = true;
           const ContinuumModel model =
               build_continuum_model(mesh->mesh, make_membrane_law(w.lib, s.lib, e), cp);
           law_name = model.law.name;
@@ -177,7 +182,7 @@ void bind_stretch(py::module_& m) {
       },
       py::arg("elements"), py::arg("order"), py::arg("wlc"), py::arg("bending"), py::arg("steric"),
       py::arg("contact"), py::arg("forces_pN"), py::arg("tolerance_pN"), py::arg("max_iterations"),
-      py::arg("symmetry"), py::arg("cancel"), py::arg("progress"));
+      py::arg("symmetry"), py::arg("mesh_orientation"), py::arg("cancel"), py::arg("progress"));
 }
 
 }  // namespace rbc::py_bind

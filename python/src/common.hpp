@@ -161,6 +161,7 @@ struct PySteric {
 struct PyContact {
   double fraction = 0.05;
   PatchRule rule = PatchRule::by_area;
+  bool level_patch = false;  ///< TweezersParameters::keep_equal_x_together
   TweezersParameters lib;
   std::string repr() const;
 };
@@ -173,7 +174,7 @@ PyWlc make_wlc(double persistence_nm, double lmax_nm, double lbar_nm, double tem
 PyBending make_bending(double kappa_J, double h0_per_um, BendingModel model,
                        DihedralMapping mapping);
 PySteric make_steric(double q, double eta);
-PyContact make_contact(double fraction, PatchRule rule);
+PyContact make_contact(double fraction, PatchRule rule, bool level_patch = false);
 PyConstraints make_constraints(double area_stiffness, double volume_stiffness, double tolerance);
 
 /// A triangle mesh with its quality report.

@@ -66,3 +66,33 @@ def test_unknown_symmetry_is_a_value_error():
     for model in ("discrete", "continuum"):
         with pytest.raises(ValueError, match="symmetry 'mirrors' is not one of none, mirror"):
             rbc.stretch(model, [0], vertices=150, elements=400, symmetry="mirrors")
+
+
+@pytest.mark.parametrize("model,size", [("continuum", 500), ("discrete", 250)])
+def test_mirror_planes_mesh_keeps_eight_mirrors_and_matches_the_cli(model, size):
+    # mesh_orientation='mirror-planes': all three coordinate mirrors, one eighth of the cell.
+    kw = {"elements": size} if model == "continuum" else {"vertices": size}
+    r = rbc.stretch(model, [0, 88], symmetry="mirror", mesh_orientation="mirror-planes", **kw)
+    assert r.converged.all()
+    assert [p.symmetry_order for p in r] == [8, 8]
+    size_opt = ["--elements", str(size)] if model == "continuum" else ["--vertices", str(size)]
+    cli = run_cli_json("stretch", "--model", model, *size_opt, "--force", "0,88", "--symmetry",
+                       "mirror", "--mesh-orientation", "mirror-planes", "--json", "-q")
+    assert_same_records(r.to_records(), cli)
+
+
+def test_mirror_planes_mesh_and_level_patch_parameters():
+    a = rbc.rest_shape(252)
+    b = rbc.rest_shape(252, orientation="mirror-planes")
+    assert a.num_vertices == b.num_vertices
+    assert (a.faces == b.faces).all()  # the same icosphere, laid another way
+    assert abs(a.positions - b.positions).max() > 0.1
+    c = rbc.ContactParameters(level_patch=True)
+    assert c.level_patch and "level_patch=True" in repr(c)
+    import pickle
+    assert pickle.loads(pickle.dumps(c)).level_patch
+    assert not rbc.ContactParameters().level_patch
+    with pytest.raises(ValueError, match="mirror-planes"):
+        rbc.rest_shape(252, orientation="mirror")
+    with pytest.raises(ValueError, match="mesh_orientation"):
+        rbc.stretch("discrete", [0], network=rbc.Network(a), mesh_orientation="mirror-planes")
