@@ -157,7 +157,12 @@ void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
   auto value_index = [&m](int row, int col) {
     const int* begin = m.innerIndexPtr() + m.outerIndexPtr()[col];
     const int* end = m.innerIndexPtr() + m.outerIndexPtr()[col + 1];
-    return static_cast<int>(std::lower_bound(begin, end, row) - m.innerIndexPtr());
+    const int* pos = std::lower_bound(begin, end, row);
+    // Both passes visit the same elements through the same orbits, so every entry is in the
+    // pattern; a change that lets them drift apart must fail here, not scatter elsewhere.
+    if (pos == end || *pos != row)
+      throw std::logic_error("reduced Hessian: an element entry lies outside the pattern");
+    return static_cast<int>(pos - m.innerIndexPtr());
   };
   // At most n^2 entries per element of n local coordinates: reserved, so that the lists (MBs
   // at 5,120 elements) are not copied as they grow. About half is used; the rest is address

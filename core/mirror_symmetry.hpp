@@ -59,7 +59,9 @@ inline double reflection_sign(int mask, int k) {
 }
 
 /// The reflections of D2h that map the mesh onto itself: every vertex x (3 x N, um) onto a
-/// vertex within tolerance_um and every face onto a face. Always contains the identity.
+/// vertex within tolerance_um and every face onto a face. Always contains the identity, and is
+/// a group: where the reflections that pass are not closed under composition (a mesh off
+/// symmetric by about the tolerance), the largest subgroup among them.
 MeshSymmetry find_mirror_symmetry(const Positions& x, const Topology& topo,
                                   double tolerance_um = kMirrorToleranceUm);
 
@@ -68,7 +70,7 @@ MeshSymmetry find_mirror_symmetry(const Positions& x, const Topology& topo,
 /// (|difference| <= tolerance), e.g. the tweezers' signed force shares with
 /// sign = the sign of x (the x -> -x mirror swaps the beads and the force direction). The
 /// vertices not listed in `vertices` carry w = 0. The result is a subgroup (an intersection of
-/// stabilisers).
+/// stabilisers; within the tolerance, the largest subgroup of the elements that pass).
 MeshSymmetry keep_invariant(const MeshSymmetry& symmetry, const std::vector<int>& vertices,
                             const std::vector<double>& w, int sign_coordinate, double tolerance);
 

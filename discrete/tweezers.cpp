@@ -56,8 +56,9 @@ TweezerPatch select_tweezer_patch(const Positions& rest, const Topology& topo,
       const double target = by_area ? target_area : static_cast<double>(target_count);
       double w = 1.0;
       if (params.keep_equal_x_together) {
-        // Whole levels up to the target, then the next level at the fraction that meets it.
-        if (have >= target) break;
+        // Whole levels up to the target, then the next level at the fraction that meets it
+        // (and no further: its rounding may leave `have` a last bit short of the target).
+        if (have >= target * (1.0 - 1e-12)) break;
         w = std::min(1.0, (target - have) / group);
       } else if (std::abs(have + group - target) > std::abs(have - target) && !chosen.empty()) {
         break;  // a vertex is taken if that brings the patch closer to its target
@@ -68,6 +69,7 @@ TweezerPatch select_tweezer_patch(const Positions& rest, const Topology& topo,
         area += w * a(vertex_at(j));
       }
       k = end;
+      if (w < 1.0) break;  // the edge level
     }
     double count = 0;
     for (double w : weight) count += w;

@@ -137,4 +137,28 @@ TEST(WarmStart, RefusedUnlessModelMeshAndForcesMatch) {
   EXPECT_TRUE(fs::is_empty(out_old)) << "a refused run wrote into " << out_old;
 }
 
+TEST(WarmStart, ARunWithoutAnOrientationIsOnTheDefaultMesh) {
+  // Runs that predate --mesh-orientation have no "mesh_orientation" in run.json: they were made
+  // on the dimple-vertex mesh, and only a run on it may warm-start from them.
+  const std::string dir = fresh_dir("no_orientation");
+  ASSERT_EQ(rbc("stretch --model continuum --elements 300 --force 0 -q --out " + dir).exit_code, 0);
+  nlohmann::json run;
+  {
+    std::ifstream in(dir + "/run.json");
+    in >> run;
+  }
+  ASSERT_EQ(run.at("mesh_orientation"), "dimple-vertex");
+  run.erase("mesh_orientation");
+  std::ofstream(dir + "/run.json") << run.dump(2);
+  const CommandRun ok =
+      rbc("stretch -q --model continuum --elements 300 --force 0 --json --warm-start " + dir);
+  EXPECT_EQ(ok.exit_code, 0) << ok.all;
+  const CommandRun refused =
+      rbc("stretch -q --model continuum --elements 300 --force 0 --mesh-orientation mirror-planes "
+          "--warm-start " +
+          dir);
+  EXPECT_EQ(refused.exit_code, 2) << refused.all;
+  EXPECT_NE(refused.all.find("--mesh-orientation dimple-vertex"), std::string::npos) << refused.all;
+}
+
 }  // namespace

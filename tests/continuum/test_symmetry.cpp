@@ -82,6 +82,8 @@ void expect_representative_hessian_is_the_reduced_one(const TriMesh& mesh, bool 
   // The same pattern (built here from the representative elements' orbits, there from the
   // full matrix) and the same values.
   ASSERT_EQ(got.nonZeros(), expected.nonZeros());
+  ASSERT_TRUE(std::equal(got.outerIndexPtr(), got.outerIndexPtr() + got.outerSize() + 1,
+                         expected.outerIndexPtr()));
   ASSERT_TRUE(std::equal(got.innerIndexPtr(), got.innerIndexPtr() + got.nonZeros(),
                          expected.innerIndexPtr()));
   double largest = 0.0, diff = 0.0;
@@ -101,6 +103,8 @@ void expect_representative_hessian_is_the_reduced_one(const TriMesh& mesh, bool 
     const Eigen::SparseMatrix<double> want = sector_map.reduce(full.matrix());
     const Eigen::SparseMatrix<double>& have = direct.sector(static_cast<int>(k));
     ASSERT_EQ(have.nonZeros(), want.nonZeros());
+    ASSERT_TRUE(std::equal(have.outerIndexPtr(), have.outerIndexPtr() + have.outerSize() + 1,
+                           want.outerIndexPtr()));
     ASSERT_TRUE(std::equal(have.innerIndexPtr(), have.innerIndexPtr() + have.nonZeros(),
                            want.innerIndexPtr()));
     double d = 0.0;

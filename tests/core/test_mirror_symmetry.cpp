@@ -76,6 +76,27 @@ TEST(MirrorSymmetry, KeepInvariantDropsTheMirrorsThatMoveAWeight) {
   EXPECT_EQ(sorted(kept.reflections), (std::vector<int>{0, 7}));
 }
 
+TEST(MirrorSymmetry, ElementsThatPassOneByOneAreCutToTheLargestSubgroup) {
+  // Four vertices permuted as the group {0, 1, 2, 3} of sign masks (none flips z, the sign
+  // coordinate) acts on itself, i -> i XOR g; the weight f(i) = 0.6 (bit 0 + bit 1) moves by
+  // 0.6 under masks 1 and 2 (within the tolerance 1) but by 1.2 under mask 3 = 1 XOR 2. The
+  // elements that pass, {0, 1, 2}, are not closed: the result is the first largest subgroup.
+  MeshSymmetry g;
+  g.reflections = {0, 1, 2, 3};
+  for (int mask : g.reflections) {
+    std::vector<int> image(4);
+    for (int i = 0; i < 4; ++i) image[i] = i ^ mask;
+    g.image.push_back(image);
+  }
+  const std::vector<double> w{0.0, 0.6, 0.6, 1.2};
+  const MeshSymmetry kept = keep_invariant(g, {0, 1, 2, 3}, w, 2, 1.0);
+  EXPECT_EQ(kept.reflections, (std::vector<int>{0, 1}));
+  ASSERT_EQ(kept.image.size(), 2u);
+  EXPECT_EQ(kept.image[1], (std::vector<int>{1, 0, 3, 2}));
+  // All four pass with a looser tolerance.
+  EXPECT_EQ(keep_invariant(g, {0, 1, 2, 3}, w, 2, 1.3).order(), 4);
+}
+
 /// The dense P of a reduction from its definition: column a has sign_i at every full
 /// coordinate i mapped to a.
 Eigen::MatrixXd dense_p(const SymmetryReduction& r) {

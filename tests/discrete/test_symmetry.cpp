@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -148,20 +149,16 @@ TEST(DiscreteSymmetry, MirrorReducedStretchEqualsTheFullOne) {
 
 TEST(DiscreteSymmetry, LevelPatchMeetsItsTargetAndKeepsEveryMirrorOfTheMirrorPlanesMesh) {
   // The mirror-planes triangulation keeps the three coordinate mirrors (order 8) at odd and
-  // even icosphere frequencies (5, 7, 10). Cut vertex by vertex, its bead patch splits mirror
-  // images and the scene keeps fewer; cut by x levels with a fractional edge level, the patch
-  // keeps all eight and meets its area (or vertex count) target exactly.
-  for (int vertices : {252, 492, 1002}) {
+  // even icosphere frequencies (5, 7, 10, 16). Cut by x levels with a fractional edge level, the
+  // patch keeps all eight and meets its area (or vertex count) target exactly; at 2,562
+  // vertices the edge level's rounding once let the cut run on through levels of ~1e-16 weight.
+  for (int vertices : {252, 492, 1002, 2562}) {
     const TriMesh mesh = rest_mesh(vertices, TriangulationOrientation::mirror_planes);
     ASSERT_EQ(find_mirror_symmetry(mesh.x, mesh.topo).order(), 8) << vertices;
     const double total_um2 = vertex_areas(mesh.x, mesh.topo).sum();
     for (PatchRule rule : {PatchRule::by_area, PatchRule::by_vertex_count}) {
       TweezersParameters tp;
       tp.rule = rule;
-      const TweezerPatch snapped = select_tweezer_patch(mesh.x, mesh.topo, tp);
-      if (rule == PatchRule::by_area) {  // measured: 2 of the 8 kept at each of these sizes
-        EXPECT_LT(tweezers_scene_symmetry(mesh.x, mesh.topo, snapped).order(), 8) << vertices;
-      }
       tp.keep_equal_x_together = true;
       const TweezerPatch level = select_tweezer_patch(mesh.x, mesh.topo, tp);
       EXPECT_EQ(tweezers_scene_symmetry(mesh.x, mesh.topo, level).order(), 8) << vertices;
@@ -172,6 +169,40 @@ TEST(DiscreteSymmetry, LevelPatchMeetsItsTargetAndKeepsEveryMirrorOfTheMirrorPla
       }
       EXPECT_NEAR(plus, 1.0, 1e-12);
       EXPECT_NEAR(minus, -1.0, 1e-12);
+      // Each side is a cap x >= x_c (x <= -x_c) whose vertices carry full weight except one
+      // level, the edge one: no vertex with a vanishing share, the sides mirror images.
+      const Eigen::VectorXd a = vertex_areas(mesh.x, mesh.topo);
+      for (double sign : {1.0, -1.0}) {
+        std::vector<int> side;
+        for (size_t k = 0; k < level.vertex.size(); ++k)
+          if (level.share[k] * sign > 0) side.push_back(static_cast<int>(k));
+        double largest = 0, lowest_x = 1e9;
+        for (int k : side) {
+          const double w = rule == PatchRule::by_area
+                               ? std::abs(level.share[k]) / a(level.vertex[k])
+                               : std::abs(level.share[k]);
+          largest = std::max(largest, w);
+          lowest_x = std::min(lowest_x, sign * mesh.x(0, level.vertex[k]));
+        }
+        std::vector<double> partial_x;
+        for (int k : side) {
+          const double w = rule == PatchRule::by_area
+                               ? std::abs(level.share[k]) / a(level.vertex[k])
+                               : std::abs(level.share[k]);
+          EXPECT_GT(w, 1e-6 * largest) << vertices << ": a vertex with a vanishing share";
+          if (w < largest * (1 - 1e-9)) partial_x.push_back(sign * mesh.x(0, level.vertex[k]));
+        }
+        for (double x : partial_x) EXPECT_NEAR(x, lowest_x, 1e-8) << "partial share off the edge";
+        int outside = 0;  // vertices beyond the cap's edge left out of the patch
+        for (int v = 0; v < mesh.topo.num_vertices; ++v)
+          if (sign * mesh.x(0, v) > lowest_x + 1e-8 &&
+              std::find(level.vertex.begin(), level.vertex.end(), v) == level.vertex.end())
+            ++outside;
+        EXPECT_EQ(outside, 0) << vertices;
+      }
+      EXPECT_EQ(
+          2 * std::count_if(level.share.begin(), level.share.end(), [](double s) { return s > 0; }),
+          static_cast<long>(level.vertex.size()));
       if (rule == PatchRule::by_area) {
         EXPECT_NEAR(level.area_plus_um2, tp.contact_fraction * total_um2, 1e-12 * total_um2);
         EXPECT_NEAR(level.area_minus_um2, tp.contact_fraction * total_um2, 1e-12 * total_um2);

@@ -118,7 +118,7 @@ def tweezer_patch(x, faces, fraction, levels=False):
         seq = order if side == 0 else order[::-1]
         if levels:
             weight, area, k = {}, 0.0, 0
-            while k < len(seq) and area < target:
+            while k < len(seq) and area < target * (1.0 - 1e-12):
                 end = k + 1
                 while end < len(seq) and abs(x[seq[end], 0] - x[seq[k], 0]) <= 1e-8:
                     end += 1
@@ -128,6 +128,8 @@ def tweezer_patch(x, faces, fraction, levels=False):
                     weight[int(v)] = w
                     area += w * a[v]
                 k = end
+                if w < 1.0:
+                    break  # the edge level
             sign = 1.0 if side == 0 else -1.0
             for v, w in weight.items():
                 share[v] = sign * w * a[v] / area
