@@ -74,10 +74,11 @@ TEST(RestRotation, MirrorPlanesOrientationKeepsTheThreeCoordinateMirrors) {
   EXPECT_EQ(orientation_rotation(TriangulationOrientation::dimple_vertex),
             Eigen::Matrix3d::Identity());
   // Odd and even icosphere frequencies (5, 7, 10): the default mesh keeps four of the eight
-  // reflections, the mirror-planes mesh all eight, through the Phi minimisation and the volume
-  // scaling, for every mesh quality.
+  // reflections, the mirror-planes mesh all eight, through the Phi minimisation (then averaged
+  // over the orbits) and the volume scaling, for every mesh quality.
   for (int vertices : {252, 492, 1002})
-    for (RestMeshQuality q : {RestMeshQuality::phi_minimised, RestMeshQuality::projected}) {
+    for (RestMeshQuality q : {RestMeshQuality::phi_minimised, RestMeshQuality::projected,
+                              RestMeshQuality::equal_area}) {
       RestShapeOptions o;
       o.target_vertices = vertices;
       o.quality = q;
