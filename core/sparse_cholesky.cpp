@@ -14,6 +14,8 @@ namespace rbc {
 void SparseCholeskyOptions::validate() const {
   require_integer_in_range("Cholesky supernodal threshold (unknowns)", supernodal_min_unknowns, 0,
                            std::numeric_limits<int>::max());
+  require_integer_in_range("Cholesky relaxed-amalgamation threshold (unknowns)",
+                           relaxed_amalgamation_below, 0, std::numeric_limits<int>::max());
   require_integer_in_range("Cholesky BLAS threads (0 = the caller's)", blas_threads, 0, 1024);
 }
 
@@ -40,6 +42,12 @@ class CopyableCholmod final
     m_factorizationIsOk = other.m_factorizationIsOk && m_cholmodFactor;
     m_shiftOffset[0] = other.m_shiftOffset[0];
     m_shiftOffset[1] = other.m_shiftOffset[1];
+  }
+  /// Entries CHOLMOD stores for L (supernodal: xsize; simplicial: nzmax); 0 without a factor.
+  double storage() const {
+    if (!m_cholmodFactor) return 0.0;
+    return static_cast<double>(m_cholmodFactor->is_super ? m_cholmodFactor->xsize
+                                                         : m_cholmodFactor->nzmax);
   }
 };
 
@@ -70,6 +78,15 @@ struct SparseCholesky::Impl {
     // Library code does not print: a failed (indefinite) trial is expected and handled by
     // the caller's shift loop.
     factor.cholmod().print = 0;
+    // Supernode amalgamation (SparseCholeskyOptions::relaxed_amalgamation_below): CHOLMOD's
+    // defaults, or 4 times the columns and twice the zero fraction a supernode may absorb.
+    const bool relaxed = unknowns < options.relaxed_amalgamation_below;
+    const size_t nrelax[3] = {4, 16, 48};
+    const double zrelax[3] = {0.8, 0.1, 0.05};
+    for (int i = 0; i < 3; ++i) {
+      factor.cholmod().nrelax[i] = relaxed ? 4 * nrelax[i] : nrelax[i];
+      factor.cholmod().zrelax[i] = relaxed ? 2 * zrelax[i] : zrelax[i];
+    }
   }
 };
 
@@ -150,6 +167,10 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
 
 double SparseCholesky::factor_nonzeros() const {
   return impl_->analysed ? static_cast<double>(impl_->factor.cholmod().lnz) : 0.0;
+}
+
+double SparseCholesky::factor_storage() const {
+  return impl_->factor.storage();
 }
 
 Eigen::Index SparseCholesky::rows() const {
