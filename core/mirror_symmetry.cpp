@@ -24,9 +24,12 @@ namespace {
 /// under XOR; element 0, the identity, first). Each element passes its own test, so near the
 /// tolerance the set need not be closed: e.g. 6 of the 8 reflections of a mesh that Phi
 /// minimisation left 1e-8 um off symmetric. The reductions need a group. Of equally large
-/// subgroups the first in element order is kept (deterministic).
+/// subgroups the one whose element-index bit set is smallest is kept (deterministic); a closed
+/// input comes back unchanged (elements, order and images).
 MeshSymmetry largest_subgroup(MeshSymmetry s) {
   const int n = s.order();
+  if (n < 1 || n > 8 || s.reflections[0] != 0)
+    throw std::logic_error("mirror symmetry: the elements must start with the identity (1 to 8)");
   int best = 1;  // subset of s's element indices, as a bit set (bit 0: the identity)
   for (int subset = 1; subset < (1 << n); subset += 2) {  // always with the identity
     if (__builtin_popcount(static_cast<unsigned>(subset)) <=

@@ -316,7 +316,7 @@ TriMesh make_rest_shape(const RestShapeOptions& opt, MeshQualityReport* report) 
     iterations = r.iterations;
     for (int i = 0; i < n; ++i) s.col(i) = u.segment<3>(3 * i).normalized();
   }
-  if (mirrors.order() > 1) {  // s_i = mean over g of S_g s_{g(i)}: exactly symmetric
+  if (mirrors.order() > 1) {  // s_i = mean over g of S_g s_{g(i)}: symmetric to rounding
     Positions sym = Positions::Zero(3, n);
     for (int g = 0; g < mirrors.order(); ++g) {
       const int mask = mirrors.reflections[static_cast<size_t>(g)];

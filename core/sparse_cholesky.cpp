@@ -43,11 +43,17 @@ class CopyableCholmod final
     m_shiftOffset[0] = other.m_shiftOffset[0];
     m_shiftOffset[1] = other.m_shiftOffset[1];
   }
-  /// Entries CHOLMOD stores for L (supernodal: xsize; simplicial: nzmax); 0 without a factor.
+  /// Entries CHOLMOD keeps for L (supernodal: xsize, the dense supernode blocks; simplicial:
+  /// the column counts, without the allocation's slack); 0 without a factor.
   double storage() const {
-    if (!m_cholmodFactor) return 0.0;
-    return static_cast<double>(m_cholmodFactor->is_super ? m_cholmodFactor->xsize
-                                                         : m_cholmodFactor->nzmax);
+    const cholmod_factor* l = m_cholmodFactor;
+    if (!l) return 0.0;
+    if (l->is_super) return static_cast<double>(l->xsize);
+    double sum = 0.0;
+    if (l->nz)
+      for (size_t j = 0; j < l->n; ++j)
+        sum += static_cast<double>(static_cast<const int*>(l->nz)[j]);
+    return sum;
   }
 };
 

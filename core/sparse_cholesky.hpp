@@ -28,13 +28,15 @@ struct SparseCholeskyOptions {
   /// BLAS runs on one thread: note_speed.md).
   int supernodal_min_unknowns = 0;
   /// Below this many unknowns a supernodal factorisation relaxes CHOLMOD's supernode
-  /// amalgamation: nrelax 16/64/192 columns instead of 4/16/48 and zrelax 1.6/0.2/0.1 instead
-  /// of 0.8/0.1/0.05. Supernodes become fewer and wider, so CHOLMOD makes fewer and larger BLAS
-  /// calls, at the cost of some extra fill. Measured at one thread (README, "Sparse Cholesky:
-  /// supernode amalgamation"):
-  ///   - one stability check of seven 960-unknown sectors: 15.0 -> 12.2 ms;
-  ///   - the 980-element, 13-force continuum sweep: 0.217 -> 0.200 s;
-  ///   - the 7,686-unknown full problem at 5,120 elements: 10 % slower, hence the bound.
+  /// amalgamation: nrelax 16/64/192 columns instead of 4/16/48, and zrelax 1.6/0.2/0.1 instead
+  /// of 0.8/0.1/0.05. (A zero fraction above 1 merges every supernode of up to 16 columns.)
+  /// Supernodes become fewer and wider, so CHOLMOD makes fewer and larger BLAS calls, at the
+  /// cost of some extra fill. Measured at one thread (README, "Sparse Cholesky: supernode
+  /// amalgamation"):
+  ///   - one stability check, mirror-planes mesh, 5,120 elements (seven 960-unknown sectors):
+  ///     15.3-15.7 -> 13.0-13.2 ms;
+  ///   - the 7,686-unknown full problem at 5,120 elements: 10 % slower, hence the bound;
+  ///   - 3,600-3,843 unknowns: no change.
   /// 0 = CHOLMOD's defaults always.
   int relaxed_amalgamation_below = 4000;
   /// BLAS (OpenBLAS and OpenMP) threads of the factorisation and solves
@@ -80,7 +82,7 @@ class SparseCholesky {
   /// Nonzeros of the factor L (0 before the first factorisation).
   double factor_nonzeros() const;
   /// Entries stored for L, the explicit zeros of amalgamated supernodes included (0 before the
-  /// first factorisation).
+  /// first analysis).
   double factor_storage() const;
   Eigen::Index rows() const;
 

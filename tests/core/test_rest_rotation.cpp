@@ -87,6 +87,7 @@ TEST(RestRotation, MirrorPlanesOrientationKeepsTheThreeCoordinateMirrors) {
       o.orientation = TriangulationOrientation::mirror_planes;
       const TriMesh b = make_rest_shape(o);
       EXPECT_EQ(find_mirror_symmetry(b.x, b.topo).order(), 8) << vertices << " " << to_string(q);
+      EXPECT_EQ(find_mirror_symmetry(b.x, b.topo, 1e-12).order(), 8) << vertices;
       // The same cell: volume matched, area to the discretisation error.
       EXPECT_NEAR(enclosed_volume(b.x, b.topo), kEvansFungVolume_um3, 0.01);
       EXPECT_NEAR(total_area(b.x, b.topo) / total_area(a.x, a.topo), 1.0, 5e-3);
@@ -95,6 +96,17 @@ TEST(RestRotation, MirrorPlanesOrientationKeepsTheThreeCoordinateMirrors) {
             TriangulationOrientation::mirror_planes);
   EXPECT_EQ(to_string(TriangulationOrientation::dimple_vertex), "dimple-vertex");
   EXPECT_THROW(triangulation_orientation_from_string("mirror"), std::invalid_argument);
+}
+
+TEST(RestRotation, MirrorPlanesMeshKeepsAllMirrorsAtTheLargestSize) {
+  // At 39,692 vertices the Phi minimisation drifts 1e-8 um off symmetric, and without the
+  // averaging over orbits the mesh kept 6 of its 8 mirrors at find_mirror_symmetry's tolerance
+  // (not a group). Averaged, it keeps all eight to rounding.
+  RestShapeOptions o;
+  o.target_vertices = 40000;
+  o.orientation = TriangulationOrientation::mirror_planes;
+  const TriMesh m = make_rest_shape(o);
+  EXPECT_EQ(find_mirror_symmetry(m.x, m.topo, 1e-12).order(), 8);
 }
 
 }  // namespace
