@@ -89,8 +89,9 @@ void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
     for (const Element& e : stars_)
       f(stars_of_.begin(e.id), stars_of_.size(e.id), e.weight, target ? &target->stars : nullptr);
   };
-  // Calls f(ra, rb, a, b) for the local entries (a, b) of an element that land on the reduced
-  // lower triangle (ra >= rb); ra == rb with a != b: both orders count.
+  // Calls f(ia, ib, ra, rb, a, b) for the local entries (a, b) of an element (full coordinates
+  // ia, ib) that land on the reduced lower triangle (ra >= rb); ra == rb with a != b: both
+  // orders count.
   auto each_entry = [&](const int* verts, int count, auto&& f) {
     const int n = 3 * count;
     if (n > 255)

@@ -37,7 +37,9 @@ struct TweezersParameters {
 };
 
 /// Bound vertices and their signed shares of the total force F along +x:
-/// +a_i/A_patch at the +x bead, -a_i/A_patch at the -x bead (each side sums to +-1).
+/// +w_i a_i/A_patch at the +x bead, -w_i a_i/A_patch at the -x bead (each side sums to +-1),
+/// with w_i = 1 except on a level patch's edge level (keep_equal_x_together); A_patch =
+/// sum w_i a_i (area_plus_um2, area_minus_um2).
 struct TweezerPatch {
   std::vector<int> vertex;
   std::vector<double> share;

@@ -163,10 +163,7 @@ void bind_stretch(py::module_& m) {
           mesh->mesh = make_continuum_mesh(elements, 0, orientation, &mesh->quality);
           ContinuumParameters cp;
           cp.bending = b.lib;
-          cp.tweezers = c.lib;
-          // As `rbc stretch --mesh-orientation mirror-planes`: the patch cut between x levels.
-          if (orientation == TriangulationOrientation::mirror_planes)
-            cp.tweezers.keep_equal_x_together = true;
+          cp.tweezers = c.lib;  // rbc.stretch() asks for the level patch with mirror-planes
           const ContinuumModel model =
               build_continuum_model(mesh->mesh, make_membrane_law(w.lib, s.lib, e), cp);
           law_name = model.law.name;
