@@ -200,6 +200,7 @@ void BM_Continuum88From0(benchmark::State& state) {
       pts = run_continuum_stretch(m, {88.0}, co, {},
                                   StretchState{{88.0}, {rest[0].x}, {rest[0].multipliers}});
     });
+    state.counters["factorisations"] = pts[0].factorisations;
     set_sweep_counters(state, s, eval_s, pts[0].iterations, pts[0].converged,
                        static_cast<int>(m.rest.cols()));
   }

@@ -204,7 +204,14 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
   if (!warm.empty()) warm.check_matches(static_cast<int>(model.rest.cols()), forces_pN);
   NewtonOptions newton_options = options.newton;
   if (!newton_options.cancel) newton_options.cancel = options.cancel;
-  NewtonSolver newton(model, newton_options);
+  std::unique_ptr<NewtonSolver> own_solver;
+  if (kept && kept->solver && kept->solver->same_mesh(model))
+    kept->solver->rebind(model);
+  else if (kept)
+    kept->solver = std::make_unique<NewtonSolver>(model, newton_options);
+  else
+    own_solver = std::make_unique<NewtonSolver>(model, newton_options);
+  NewtonSolver& newton = kept ? *kept->solver : *own_solver;
   if (kept) {
     // Methods kept under another symmetry reduction (another bead patch) do not apply.
     const std::vector<int>& group = newton.symmetry_group();

@@ -4,6 +4,7 @@
 // (continuum/newton_solver.hpp) from the previous one (continuation in force). A force
 // whose Newton solve fails is reached through intermediate forces (the increment halved,
 // up to max_bisections times) before it is reported as not converged.
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -120,6 +121,9 @@ StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points);
 struct KeptMethods {
   std::vector<std::optional<ShiftedNewton>> per_force;
   std::vector<int> group;  ///< NewtonSolver::symmetry_group() of the runs that made them
+  /// The solver of the last run, pointed at the next run's model when it has the same mesh
+  /// (NewtonSolver::rebind): its patterns, analyses and symmetry set-up are made once.
+  std::unique_ptr<NewtonSolver> solver;
 };
 
 /// Prepared state of repeated sweeps of one mesh over one force list (a parameter scan, a
@@ -133,10 +137,12 @@ struct KeptMethods {
 /// match run_continuum_stretch's to the solver tolerance but depend on the call history
 /// through the kept factorisations (deterministically); hence the calibration, whose likelihood
 /// must depend on (theta, warm) alone, keeps to run_continuum_stretch. Memory: one factor
-/// per force (about 1 MB per force at 1,000 elements). Another force list, mesh (vertex
-/// count, faces) or symmetry reduction (bead patch) drops what is kept; a force that did not
-/// converge, or whose equilibrium is not symmetric under Symmetry::mirror, keeps nothing.
-/// Only the Newton solver with reuse_across_solves keeps anything (else as the one-shot sweep).
+/// per force (about 1 MB per force at 1,000 elements). The Newton solver itself (its Hessian
+/// patterns, symbolic analyses, mirror reductions and stability sectors) is kept too while the
+/// mesh stays, and each run starts it as new (NewtonSolver::rebind). Another force list, mesh
+/// (vertex count, faces) or symmetry reduction (bead patch) drops what is kept; a force that did
+/// not converge, or whose equilibrium is not symmetric under Symmetry::mirror, keeps nothing. Only
+/// the Newton solver with reuse_across_solves keeps anything (else as the one-shot sweep).
 class ContinuumSweepSolver {
  public:
   /// Validates the options (rbc::InvalidParameter).

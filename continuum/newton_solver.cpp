@@ -99,9 +99,8 @@ bool any_face_flipped(const Eigen::VectorXd& from, const Eigen::VectorXd& to,
 }
 
 NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& options)
-    : model_(model),
+    : model_(&model),
       options_((options.validate(), options)),
-      hessian_(model.topo, BlockStorage::lower),
       newton_(shifted_newton_options(options)) {
   if (options.symmetry == Symmetry::mirror) {
     mesh_symmetry_ = find_mirror_symmetry(model.rest, model.topo);
@@ -109,9 +108,29 @@ NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& opt
   }
 }
 
+bool NewtonSolver::same_mesh(const ContinuumModel& model) const {
+  return model.rest.cols() == model_->rest.cols() &&
+         model.topo.faces.cols() == model_->topo.faces.cols() && model.rest == model_->rest &&
+         model.topo.faces == model_->topo.faces;
+}
+
+void NewtonSolver::rebind(const ContinuumModel& model) {
+  if (!same_mesh(model))
+    throw std::invalid_argument(
+        "NewtonSolver::rebind: the model's mesh (rest positions, faces) is not the solver's");
+  model_ = &model;
+  if (reduced_hessian_) reduced_hessian_->rebind(model);
+  forget_factorisation();
+}
+
+BlockHessian& NewtonSolver::full_hessian() {
+  if (!hessian_) hessian_ = std::make_unique<BlockHessian>(model_->topo, BlockStorage::lower);
+  return *hessian_;
+}
+
 void NewtonSolver::update_reduction() {
-  const MeshSymmetry g = keep_invariant(mesh_symmetry_, model_.patch.vertex, model_.patch.share, 0,
-                                        kTweezersShareTolerance);
+  const MeshSymmetry g = keep_invariant(mesh_symmetry_, model_->patch.vertex, model_->patch.share,
+                                        0, kTweezersShareTolerance);
   if (g.reflections == reduced_group_) return;
   reduced_group_ = g.reflections;
   reduction_.reset();
@@ -122,7 +141,7 @@ void NewtonSolver::update_reduction() {
   if (g.order() > 1) {
     reduction_ = std::make_shared<const SymmetryReduction>(make_symmetry_reduction(g));
     reduced_cache_ = std::make_shared<ReducedProblemCache>();
-    reduced_hessian_ = std::make_unique<ReducedLagrangianHessian>(model_, g, *reduction_, hessian_);
+    reduced_hessian_ = std::make_unique<ReducedLagrangianHessian>(*model_, g, *reduction_);
     reduced_group_symmetry_ = g;
   }
 }
@@ -141,6 +160,13 @@ constexpr double kSymmetricStartUm = 1e-6;
 
 NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
                                        BlockHessian& h, const ContinuumExtraTerms& extra) {
+  return continuum_newton_problem(
+      model, force_pN, [&h]() -> BlockHessian& { return h; }, extra);
+}
+
+NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
+                                       std::function<BlockHessian&()> storage,
+                                       const ContinuumExtraTerms& extra) {
   const double a0 = model.area0_um2, v0 = model.volume0_um3;
   const auto n = static_cast<Eigen::Index>(model.rest.cols());
   // Scratch positions and gradient, shared by the callbacks (no allocation per evaluation).
@@ -149,7 +175,6 @@ NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force
   };
   auto s = std::make_shared<Scratch>(Scratch{Positions(3, n), Positions(3, n)});
   const ContinuumModel* m = &model;
-  BlockHessian* hp = &h;
   NewtonProblem pb;
   pb.evaluate = [=](const Eigen::VectorXd& xf, NewtonPoint& p) {
     flat(s->x) = xf;
@@ -167,10 +192,11 @@ NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force
   pb.hessian = [=](const Eigen::VectorXd& xf,
                    const Eigen::VectorXd& l) -> const Eigen::SparseMatrix<double>& {
     flat(s->x) = xf;
-    hp->set_zero();
-    add_lagrangian_hessian(*m, s->x, l(0), l(1), *hp);
-    if (extra.hessian) extra.hessian(s->x, *hp);
-    return hp->matrix();
+    BlockHessian& h = storage();
+    h.set_zero();
+    add_lagrangian_hessian(*m, s->x, l(0), l(1), h);
+    if (extra.hessian) extra.hessian(s->x, h);
+    return h.matrix();
   };
   pb.feasible = [m](const Eigen::VectorXd& from, const Eigen::VectorXd& to) {
     return !any_face_flipped(from, to, m->topo);
@@ -180,7 +206,7 @@ NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force
 }
 
 SectorStability NewtonSolver::check_sectors(const NewtonProblem& full, const Eigen::VectorXd& xf,
-                                            const Eigen::VectorXd& l) {
+                                            const Eigen::VectorXd& l, const NewtonPoint* at_xf) {
   if (!reduction_) return {};
   if (!stability_) {
     stability_ = std::make_unique<SymmetryStabilityCheck>(
@@ -194,9 +220,11 @@ SectorStability NewtonSolver::check_sectors(const NewtonProblem& full, const Eig
   // The force tolerance's residual fakes a negative curvature along the free rigid turns
   // (rigid_turn_residual_curvature): allowed for twice over.
   double allowance = 0.0;
-  NewtonPoint p;
-  if (full.evaluate(xf, p)) {
-    const Eigen::VectorXd r = p.grad + p.c_grad * l;
+  NewtonPoint evaluated;
+  const NewtonPoint* p = at_xf;
+  if (!p && full.evaluate(xf, evaluated)) p = &evaluated;
+  if (p) {
+    const Eigen::VectorXd r = p->grad + p->c_grad * l;
     allowance = 2.0 * rigid_turn_residual_curvature(
                           xs, Eigen::Map<const Positions>(r.data(), 3, r.size() / 3));
   }
@@ -213,13 +241,19 @@ SectorStability NewtonSolver::check_symmetric_state(double force_pN, const Posit
   if ((expand(*reduction_, symmetric_part(*reduction_, xf)) - xf).cwiseAbs().maxCoeff() >
       kSymmetricStartUm)
     return {};  // not a symmetric state: a full solve's minimum, nothing to check
-  const NewtonProblem full = continuum_newton_problem(model_, force_pN, hessian_);
+  const NewtonProblem full = continuum_newton_problem(
+      *model_, force_pN, [this]() -> BlockHessian& { return full_hessian(); });
   return check_sectors(full, xf, Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2));
 }
 
 NewtonSolver::Prepared NewtonSolver::prepare(double force_pN, const Positions& x) {
   if (options_.symmetry == Symmetry::mirror) update_reduction();
-  Prepared p{continuum_newton_problem(model_, force_pN, hessian_), {}, {}, false, &newton_};
+  Prepared p{continuum_newton_problem(*model_, force_pN,
+                                      [this]() -> BlockHessian& { return full_hessian(); }),
+             {},
+             {},
+             false,
+             &newton_};
   // A start off the symmetric states (a buckled equilibrium) is solved in full.
   p.reduced = static_cast<bool>(reduction_);
   if (p.reduced) {
@@ -252,7 +286,7 @@ bool NewtonSolver::factorise_at(double force_pN, const Positions& x,
 
 NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
                                  const ProgressSink& progress, const NewtonLimits& limits) {
-  const double a0 = model_.area0_um2, v0 = model_.volume0_um3;
+  const double a0 = model_->area0_um2, v0 = model_->volume0_um3;
   Prepared prep = prepare(force_pN, x);
   const NewtonProblem& full = prep.full;
   const NewtonProblem& pb = prep.pb;
@@ -287,12 +321,13 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
     // to the rest mesh's asymmetry, ~1e-10 um), reported instead of the reduced one.
     xf = expand(*reduction_, xf);
     NewtonPoint p;
-    if (full.evaluate(xf, p)) {
+    const bool evaluated = full.evaluate(xf, p);
+    if (evaluated) {
       r.point = p;
       res.residual_pN = largest_block_norm(p.grad + p.c_grad * l, 3);
     }
     if (r.status == NewtonStatus::converged && options_.symmetry_check) {
-      const SectorStability st = check_sectors(full, xf, l);
+      const SectorStability st = check_sectors(full, xf, l, evaluated ? &p : nullptr);
       res.stability_factorisations = st.factorisations;
       if (!st.stable) {
         // A saddle: pushed off along the unstable sector and solved in full.

@@ -174,6 +174,15 @@ class NewtonSolver {
   /// the multipliers (updated). Never leaves x at an infeasible or NaN state.
   NewtonResult solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
                      const ProgressSink& progress = {}, const NewtonLimits& limits = {});
+  /// Whether `model` has this solver's mesh (the same rest positions and faces): then rebind()
+  /// may point the solver at it.
+  bool same_mesh(const ContinuumModel& model) const;
+  /// Points the solver at `model` (another law, bending or bead patch on the same mesh;
+  /// std::invalid_argument unless same_mesh) and drops the kept factorisations. What depends
+  /// on the mesh alone stays: the Hessian patterns and their symbolic analyses, the mirror
+  /// group and its reductions, the stability check's sectors. The next solve then runs as on a
+  /// new solver for `model`, bit for bit, without their set-up. `model` must outlive the use.
+  void rebind(const ContinuumModel& model);
   /// Drops the factorisations kept for reuse_across_solves (the next solve factorises afresh).
   void forget_factorisation() {
     newton_.forget_factorisation();
@@ -217,9 +226,12 @@ class NewtonSolver {
     ShiftedNewton* method = nullptr;
   };
   Prepared prepare(double force_pN, const Positions& x);
-  const ContinuumModel& model_;
+  const ContinuumModel* model_;  ///< rebind() may point it at another model of the same mesh
   NewtonOptions options_;
-  BlockHessian hessian_;
+  /// The full Hessian's pattern and values (3N x 3N lower, ~5 MB at 2,562 vertices): built at
+  /// its first use, which the mirror path reaches only when a symmetric state is a saddle.
+  std::unique_ptr<BlockHessian> hessian_;
+  BlockHessian& full_hessian();
   ShiftedNewton newton_;
   /// Symmetry::mirror: the rest mesh's mirrors (found once), the subgroup the current bead
   /// patch keeps (re-checked every solve: a caller may change model.patch, e.g. the
@@ -234,9 +246,10 @@ class NewtonSolver {
   MeshSymmetry reduced_group_symmetry_;         ///< the group reduction_ is of
   void update_reduction();
   /// The sector check at the symmetric state xf (3N) with multipliers l, every sector
-  /// assembled from the representative elements.
+  /// assembled from the representative elements. `at_xf`: full's point at xf if the caller
+  /// has it (else it is evaluated here).
   SectorStability check_sectors(const NewtonProblem& full, const Eigen::VectorXd& xf,
-                                const Eigen::VectorXd& l);
+                                const Eigen::VectorXd& l, const NewtonPoint* at_xf = nullptr);
 };
 
 /// The core method's options for the continuum equilibrium (tolerances in pN and relative
@@ -256,6 +269,12 @@ struct ContinuumExtraTerms {
 /// must outlive the problem, as must model and extra), and the face-flip feasibility check.
 NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
                                        BlockHessian& h, const ContinuumExtraTerms& extra = {});
+/// The same, with the Hessian's storage from `storage()` at the first Hessian evaluation (a
+/// solver that may never need the full Hessian, as on the mirror-symmetric states, builds
+/// its pattern only when it does). `storage` must outlive the problem.
+NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
+                                       std::function<BlockHessian&()> storage,
+                                       const ContinuumExtraTerms& extra = {});
 
 /// Rejects a trial state that flips a face: some face normal turns by more than 90 degrees
 /// between from and to (flat 3N layouts).

@@ -48,9 +48,8 @@ std::vector<std::pair<int, int>> representatives(const MeshSymmetry& g,
 
 ReducedLagrangianHessian::ReducedLagrangianHessian(const ContinuumModel& model,
                                                    const MeshSymmetry& group,
-                                                   const SymmetryReduction& red,
-                                                   const BlockHessian& full)
-    : model_(model), stars_of_(full.stars()) {
+                                                   const SymmetryReduction& red)
+    : model_(&model), stars_of_(make_vertex_stars(model.topo)) {
   const Topology& t = model.topo;
   if (red.full_size != 3 * t.num_vertices || group.order() != red.group_order)
     throw std::invalid_argument("reduced Hessian: the reduction is not of this model's group");
@@ -74,7 +73,7 @@ ReducedLagrangianHessian::ReducedLagrangianHessian(const ContinuumModel& model,
 }
 
 void ReducedLagrangianHessian::add_target(const SymmetryReduction& red) {
-  const Topology& t = model_.topo;
+  const Topology& t = model_->topo;
   // Calls f(verts, count, weight, list) for every representative element, kind by kind.
   auto each_element = [&](auto&& f, Target* target) {
     for (const Element& e : faces_) {
@@ -195,8 +194,8 @@ int ReducedLagrangianHessian::add_sector(const SymmetryReduction& sector_reducti
 
 void ReducedLagrangianHessian::element_matrices(const Positions& x, double area_coef,
                                                 double volume_coef) {
-  const Topology& t = model_.topo;
-  const JuelicherHessianTerms terms = juelicher_hessian_terms(x, t, model_.bending);
+  const Topology& t = model_->topo;
+  const JuelicherHessianTerms terms = juelicher_hessian_terms(x, t, model_->bending);
   const int nf = static_cast<int>(faces_.size()), ne = static_cast<int>(hinges_.size()),
             nv = static_cast<int>(stars_.size());
   // Element matrices (the cost) on the threads; the scatter in a fixed order (the matrix does
@@ -206,11 +205,11 @@ void ReducedLagrangianHessian::element_matrices(const Positions& x, double area_
   {
 #pragma omp for schedule(static) nowait
     for (int k = 0; k < nf; ++k)
-      lagrangian_face_hessian(model_, x, terms, faces_[k].id, area_coef, volume_coef,
+      lagrangian_face_hessian(*model_, x, terms, faces_[k].id, area_coef, volume_coef,
                               face_buffer_[k]);
 #pragma omp for schedule(static) nowait
     for (int k = 0; k < ne; ++k)
-      lagrangian_hinge_hessian(model_, x, terms, hinges_[k].id, hinge_buffer_[k]);
+      lagrangian_hinge_hessian(*model_, x, terms, hinges_[k].id, hinge_buffer_[k]);
 #pragma omp for schedule(static)
     for (int k = 0; k < nv; ++k) {
       std::vector<double>& u = star_buffer_[k];

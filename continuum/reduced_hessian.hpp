@@ -19,11 +19,10 @@ namespace rbc {
 
 class ReducedLagrangianHessian {
  public:
-  /// `group`: the mirrors of the scene (the reduction's group), `reduction` of that group,
-  /// `full`: the full Hessian (its vertex stars; the reduced pattern is the representative
-  /// elements').
+  /// `group`: the mirrors of the scene (the reduction's group), `reduction` of that group. The
+  /// reduced pattern is the representative elements' (no full Hessian is built).
   ReducedLagrangianHessian(const ContinuumModel& model, const MeshSymmetry& group,
-                           const SymmetryReduction& reduction, const BlockHessian& full);
+                           const SymmetryReduction& reduction);
   /// P' (d2E + area_coef d2A + volume_coef d2V) P at the symmetric state x (3 x N, um),
   /// lower triangle (pN/um). The model must be the one given at construction.
   const Eigen::SparseMatrix<double>& assemble(const Positions& x, double area_coef,
@@ -33,6 +32,9 @@ class ReducedLagrangianHessian {
   /// every sector at a symmetric state, chi(g)^2 = 1). Returns its index for sector().
   int add_sector(const SymmetryReduction& sector_reduction);
   int sectors() const { return static_cast<int>(targets_.size()) - 1; }
+  /// Element matrices from `model` from now on: another law or bending on the same mesh and
+  /// group (the caller's guarantee: NewtonSolver::rebind checks the mesh).
+  void rebind(const ContinuumModel& model) { model_ = &model; }
   /// Every sector's matrix at the symmetric state x from one pass over the element matrices.
   void assemble_sectors(const Positions& x, double area_coef, double volume_coef);
   const Eigen::SparseMatrix<double>& sector(int k) { return targets_[k + 1]->matrix; }
@@ -68,7 +70,7 @@ class ReducedLagrangianHessian {
   void add_target(const SymmetryReduction& reduction);
   void element_matrices(const Positions& x, double area_coef, double volume_coef);
   void scatter(Target& t);
-  const ContinuumModel& model_;
+  const ContinuumModel* model_;
   VertexStars stars_of_;
   std::vector<Element> faces_, hinges_, stars_;
   std::vector<std::unique_ptr<Target>> targets_;  ///< by pointer: no copies as sectors are added

@@ -1,6 +1,7 @@
 #include "core/sparse_cholesky.hpp"
 
 #include <Eigen/CholmodSupport>
+#include <algorithm>
 #include <limits>
 #include <new>
 #include <stdexcept>
@@ -43,6 +44,10 @@ class CopyableCholmod final
     m_shiftOffset[0] = other.m_shiftOffset[0];
     m_shiftOffset[1] = other.m_shiftOffset[1];
   }
+  /// The fill-reducing permutation of the analysis (L L' = A(perm, perm)); null without one.
+  const int* permutation() const {
+    return m_cholmodFactor ? static_cast<const int*>(m_cholmodFactor->Perm) : nullptr;
+  }
   /// Entries CHOLMOD keeps for L (supernodal: xsize, the dense supernode blocks; simplicial:
   /// the column counts, without the allocation's slack); 0 without a factor.
   double storage() const {
@@ -61,37 +66,54 @@ class CopyableCholmod final
 
 struct SparseCholesky::Impl {
   SparseCholeskyOptions options;
+  /// Analysed and factorised on the permuted matrix `permuted` in the natural order.
   detail::CopyableCholmod factor;
   bool analysed = false, ok = false;
   Eigen::Index n = 0;
+  /// The fill-reducing order (CHOLMOD's, of the caller's pattern): permuted(k, l) =
+  /// a(perm[k], perm[l]), lower triangle. CHOLMOD's own path copies a lower matrix twice per
+  /// factorisation (A(p,p)' upper, then back to lower: cholmod_ptranspose); given the permuted
+  /// lower matrix in the natural order it factorises it in place. gather[k]: the position in
+  /// permuted of a's k-th stored value (-1: above the diagonal, ignored as CHOLMOD does).
+  std::vector<int> perm, gather;
+  Eigen::SparseMatrix<double> permuted;
 
-  void configure(Eigen::Index unknowns) {
-    factor.setMode(unknowns >= options.supernodal_min_unknowns ? Eigen::CholmodSupernodalLLt
-                                                               : Eigen::CholmodSimplicialLLt);
-    switch (options.ordering) {
-      case FillOrdering::automatic:
-        break;
-      case FillOrdering::amd:
-      case FillOrdering::metis:
-      case FillOrdering::nested_dissection:
-        factor.cholmod().nmethods = 1;
-        factor.cholmod().method[0].ordering = options.ordering == FillOrdering::amd ? CHOLMOD_AMD
-                                              : options.ordering == FillOrdering::metis
-                                                  ? CHOLMOD_METIS
-                                                  : CHOLMOD_NESDIS;
-        break;
+  /// Configures f for `unknowns` unknowns. `natural`: the analysis of the permuted matrix (no
+  /// ordering and no postorder: the order of `permuted` is already CHOLMOD's postordered one);
+  /// else the ordering of the options, on a fresh object.
+  void configure(detail::CopyableCholmod& f, Eigen::Index unknowns, bool natural) const {
+    f.setMode(unknowns >= options.supernodal_min_unknowns ? Eigen::CholmodSupernodalLLt
+                                                          : Eigen::CholmodSimplicialLLt);
+    if (natural) {
+      f.cholmod().nmethods = 1;
+      f.cholmod().method[0].ordering = CHOLMOD_NATURAL;
+      f.cholmod().postorder = 0;
+    } else {
+      switch (options.ordering) {
+        case FillOrdering::automatic:
+          break;
+        case FillOrdering::amd:
+        case FillOrdering::metis:
+        case FillOrdering::nested_dissection:
+          f.cholmod().nmethods = 1;
+          f.cholmod().method[0].ordering = options.ordering == FillOrdering::amd ? CHOLMOD_AMD
+                                           : options.ordering == FillOrdering::metis
+                                               ? CHOLMOD_METIS
+                                               : CHOLMOD_NESDIS;
+          break;
+      }
     }
     // Library code does not print: a failed (indefinite) trial is expected and handled by
     // the caller's shift loop.
-    factor.cholmod().print = 0;
+    f.cholmod().print = 0;
     // Supernode amalgamation (SparseCholeskyOptions::relaxed_amalgamation_below): CHOLMOD's
     // defaults, or 4 times the columns and twice the zero fraction a supernode may absorb.
     const bool relaxed = unknowns < options.relaxed_amalgamation_below;
     const size_t nrelax[3] = {4, 16, 48};
     const double zrelax[3] = {0.8, 0.1, 0.05};
     for (int i = 0; i < 3; ++i) {
-      factor.cholmod().nrelax[i] = relaxed ? 4 * nrelax[i] : nrelax[i];
-      factor.cholmod().zrelax[i] = relaxed ? 2 * zrelax[i] : zrelax[i];
+      f.cholmod().nrelax[i] = relaxed ? 4 * nrelax[i] : nrelax[i];
+      f.cholmod().zrelax[i] = relaxed ? 2 * zrelax[i] : zrelax[i];
     }
   }
 };
@@ -113,8 +135,11 @@ SparseCholesky& SparseCholesky::operator=(SparseCholesky&&) noexcept = default;
 SparseCholesky SparseCholesky::clone() const {
   SparseCholesky c(impl_->options);
   if (impl_->analysed) {
-    c.impl_->configure(impl_->n);
+    c.impl_->configure(c.impl_->factor, impl_->n, true);
     c.impl_->factor.copy_factor_of(impl_->factor);
+    c.impl_->perm = impl_->perm;
+    c.impl_->gather = impl_->gather;
+    c.impl_->permuted = impl_->permuted;
     c.impl_->analysed = true;
     c.impl_->ok = impl_->ok;
     c.impl_->n = impl_->n;
@@ -126,18 +151,104 @@ void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
   if (a.rows() != a.cols())
     throw std::invalid_argument("sparse Cholesky: matrix must be square, got " +
                                 std::to_string(a.rows()) + " x " + std::to_string(a.cols()));
-  impl_->configure(a.rows());
-  const auto lock = lock_fill_ordering();
-  impl_->factor.analyzePattern(a);
-  impl_->analysed = true;
-  impl_->ok = false;
-  impl_->n = a.rows();
+  if (!a.isCompressed()) {
+    Eigen::SparseMatrix<double> compressed = a;
+    compressed.makeCompressed();
+    analyze(compressed);
+    return;
+  }
+  Impl& m = *impl_;
+  const auto n = a.rows();
+  m.analysed = m.ok = false;
+  // 1. CHOLMOD's ordering of a (METIS or AMD, then its etree postorder).
+  {
+    detail::CopyableCholmod ordering;
+    m.configure(ordering, n, false);
+    // Only the permutation is kept: the simplicial analysis skips the supernodal symbolic
+    // pass (the ordering and its postorder are the same in both modes).
+    ordering.setMode(Eigen::CholmodSimplicialLLt);
+    {
+      const auto lock = lock_fill_ordering();
+      ordering.analyzePattern(a);
+    }
+    if (ordering.info() != Eigen::Success || (n > 0 && !ordering.permutation()))
+      throw std::runtime_error("sparse Cholesky: CHOLMOD's symbolic analysis failed (" +
+                               std::to_string(n) + " unknowns)");
+    if (n > 0)
+      m.perm.assign(ordering.permutation(), ordering.permutation() + n);
+    else
+      m.perm.clear();
+  }
+  std::vector<int> inverse(static_cast<size_t>(n));
+  for (Eigen::Index k = 0; k < n; ++k)
+    inverse[static_cast<size_t>(m.perm[k])] = static_cast<int>(k);
+  // 2. The permuted lower pattern, and where each stored value of a goes in it.
+  const Eigen::Index stored = a.nonZeros();
+  const int* outer = a.outerIndexPtr();
+  const int* inner = a.innerIndexPtr();
+  std::vector<int> count(static_cast<size_t>(n) + 1, 0);
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (int k = outer[j]; k < outer[j + 1]; ++k)
+      if (inner[k] >= j) ++count[static_cast<size_t>(std::min(inverse[inner[k]], inverse[j])) + 1];
+  m.permuted.resize(n, n);
+  for (Eigen::Index j = 0; j < n; ++j) count[j + 1] += count[j];
+  m.permuted.resizeNonZeros(count[static_cast<size_t>(n)]);
+  std::copy(count.begin(), count.end(), m.permuted.outerIndexPtr());
+  m.gather.assign(static_cast<size_t>(stored), -1);
+  for (Eigen::Index j = 0; j < n; ++j)  // rows in increasing original column order ...
+    for (int k = outer[j]; k < outer[j + 1]; ++k)
+      if (inner[k] >= j) {
+        const int r = std::max(inverse[inner[k]], inverse[j]);
+        const int c = std::min(inverse[inner[k]], inverse[j]);
+        m.gather[static_cast<size_t>(k)] = count[static_cast<size_t>(c)];
+        m.permuted.innerIndexPtr()[count[static_cast<size_t>(c)]++] = r;
+      }
+  // ... then sorted within each column (CHOLMOD wants sorted rows), the gather map following.
+  std::vector<int> order, position(static_cast<size_t>(m.permuted.nonZeros()));
+  std::vector<int> rows;
+  for (Eigen::Index c = 0; c < n; ++c) {
+    const int begin = m.permuted.outerIndexPtr()[c], end = m.permuted.outerIndexPtr()[c + 1];
+    order.resize(static_cast<size_t>(end - begin));
+    for (int k = begin; k < end; ++k) order[static_cast<size_t>(k - begin)] = k;
+    int* row = m.permuted.innerIndexPtr();
+    std::sort(order.begin(), order.end(), [row](int x, int y) { return row[x] < row[y]; });
+    rows.resize(order.size());
+    for (size_t q = 0; q < order.size(); ++q) {
+      rows[q] = row[order[q]];
+      position[static_cast<size_t>(order[q])] = begin + static_cast<int>(q);
+    }
+    std::copy(rows.begin(), rows.end(), row + begin);
+  }
+  for (int& g : m.gather)
+    if (g >= 0) g = position[static_cast<size_t>(g)];
+  std::fill(m.permuted.valuePtr(), m.permuted.valuePtr() + m.permuted.nonZeros(), 0.0);
+  // 3. The analysis of the permuted matrix in its own order: the same elimination tree and
+  // supernodes, so the same factor as CHOLMOD's permuted path, bit for bit.
+  m.configure(m.factor, n, true);
+  m.factor.analyzePattern(m.permuted);
+  if (m.factor.info() != Eigen::Success)
+    throw std::runtime_error("sparse Cholesky: CHOLMOD's symbolic analysis failed (" +
+                             std::to_string(n) + " unknowns)");
+  m.analysed = true;
+  m.n = n;
 }
 
-bool SparseCholesky::factorize(const Eigen::SparseMatrix<double>& a) {
-  if (!impl_->analysed || a.rows() != impl_->n) analyze(a);
-  const ScopedBlasThreads blas(impl_->options.blas_threads);
-  impl_->factor.factorize(a);
+bool SparseCholesky::factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift) {
+  if (!a.isCompressed()) {
+    Eigen::SparseMatrix<double> compressed = a;
+    compressed.makeCompressed();
+    return factorize(compressed, diagonal_shift);
+  }
+  Impl& m = *impl_;
+  if (!m.analysed || a.rows() != m.n || a.nonZeros() != static_cast<Eigen::Index>(m.gather.size()))
+    analyze(a);
+  const double* v = a.valuePtr();
+  double* p = m.permuted.valuePtr();
+  for (size_t k = 0; k < m.gather.size(); ++k)
+    if (m.gather[k] >= 0) p[m.gather[k]] = v[k];
+  const ScopedBlasThreads blas(m.options.blas_threads);
+  m.factor.setShift(diagonal_shift);  // CHOLMOD's beta: L L' = A + beta I
+  m.factor.factorize(m.permuted);
   impl_->ok = impl_->factor.info() == Eigen::Success;  // fails unless a is positive definite
   return impl_->ok;
 }
@@ -148,13 +259,28 @@ bool SparseCholesky::factorised() const {
 
 Eigen::VectorXd SparseCholesky::solve(const Eigen::VectorXd& b) const {
   if (!impl_->ok) throw std::logic_error("sparse Cholesky: solve without a factorisation");
+  if (b.rows() != impl_->n)
+    throw std::invalid_argument("sparse Cholesky: right-hand side of " + std::to_string(b.rows()) +
+                                " rows for " + std::to_string(impl_->n) + " unknowns");
   const ScopedBlasThreads blas(impl_->options.blas_threads);
-  return impl_->factor.solve(b);
+  const std::vector<int>& perm = impl_->perm;
+  Eigen::VectorXd bp(b.rows());
+  for (Eigen::Index k = 0; k < b.rows(); ++k) bp(k) = b(perm[k]);
+  const Eigen::VectorXd xp = impl_->factor.solve(bp);
+  Eigen::VectorXd x(b.rows());
+  for (Eigen::Index k = 0; k < b.rows(); ++k) x(perm[k]) = xp(k);
+  return x;
 }
 
 Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
   if (!impl_->ok) throw std::logic_error("sparse Cholesky: solve without a factorisation");
+  if (b.rows() != impl_->n)
+    throw std::invalid_argument("sparse Cholesky: right-hand side of " + std::to_string(b.rows()) +
+                                " rows for " + std::to_string(impl_->n) + " unknowns");
   const ScopedBlasThreads blas(impl_->options.blas_threads);
+  const std::vector<int>& perm = impl_->perm;
+  Eigen::MatrixXd bp(b.rows(), b.cols());
+  for (Eigen::Index k = 0; k < b.rows(); ++k) bp.row(k) = b.row(perm[k]);
   // A few right-hand sides on a factor that stays in cache: one column at a time. CHOLMOD's
   // supernodal solve of k > 1 columns goes through OpenBLAS dgemm/dtrsm, whose packing
   // dominates for narrow panels (measured, 1 thread, continuum p = 2 pattern: 2 columns cost
@@ -164,11 +290,16 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
   constexpr double kInCacheFactorEntries = 2.0e6;
   if (b.cols() > 1 && b.cols() <= kNarrowColumns &&
       static_cast<double>(impl_->factor.cholmod().lnz) < kInCacheFactorEntries) {
-    Eigen::MatrixXd x(b.rows(), b.cols());
-    for (Eigen::Index j = 0; j < b.cols(); ++j) x.col(j) = impl_->factor.solve(b.col(j));
-    return x;
+    for (Eigen::Index j = 0; j < b.cols(); ++j) {
+      const Eigen::VectorXd xj = impl_->factor.solve(Eigen::VectorXd(bp.col(j)));
+      bp.col(j) = xj;
+    }
+  } else {
+    bp = impl_->factor.solve(bp).eval();
   }
-  return impl_->factor.solve(b);
+  Eigen::MatrixXd x(b.rows(), b.cols());
+  for (Eigen::Index k = 0; k < b.rows(); ++k) x.row(perm[k]) = bp.row(k);
+  return x;
 }
 
 double SparseCholesky::factor_nonzeros() const {

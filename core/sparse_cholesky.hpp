@@ -5,7 +5,11 @@
 // core/sparse_cholesky.cpp). The fill-reducing ordering is analysed once per pattern
 // (analyze) and reused by every numeric factorisation (factorize) of matrices with that
 // pattern. Only the lower triangle of the matrix passed in is read, so full or lower block
-// storage (core/block_pattern.hpp) both work.
+// storage (core/block_pattern.hpp) both work. The matrix is handed to CHOLMOD already permuted
+// into its order (values copied through a map made at analysis), which CHOLMOD factorises
+// without the two transposed copies it makes of a lower triangle in the caller's order; the
+// factor and the solutions are the same, bit for bit (README, "Sparse Cholesky: the permuted
+// matrix handed over in CHOLMOD's own order").
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
@@ -71,9 +75,11 @@ class SparseCholesky {
 
   /// Symbolic analysis (ordering, elimination tree) of a's pattern (compressed, square).
   void analyze(const Eigen::SparseMatrix<double>& a);
-  /// Numeric factorisation of a (same pattern as analysed; analyses first if none was).
-  /// Returns false if a is not numerically positive definite; the factor is then invalid.
-  bool factorize(const Eigen::SparseMatrix<double>& a);
+  /// Numeric factorisation of a + diagonal_shift I (same pattern as analysed; analyses first
+  /// if none was). The shift is added to each diagonal entry as the entry is assembled, as
+  /// adding it to a's diagonal would, without a copy of a. Returns false if the shifted matrix
+  /// is not numerically positive definite; the factor is then invalid.
+  bool factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift = 0.0);
   /// True after a successful factorize().
   bool factorised() const;
   /// Solves a x = b with the last successful factorisation.

@@ -14,8 +14,8 @@ struct SymmetryStabilityCheck::Sector {
   SymmetryReduction reduction;
   std::unique_ptr<ReducedMatrix> map;
   SparseCholesky cholesky;
-  Eigen::SparseMatrix<double> k;
-  std::vector<int> diagonal;  ///< value index of each diagonal entry of k
+  Eigen::Index rows = 0, nonzeros = 0;  ///< the pattern analysed
+  std::vector<int> diagonal;            ///< value index of each diagonal entry
   bool analysed = false;
   Sector(int c, SymmetryReduction r, const SparseCholeskyOptions& o)
       : character(c), reduction(std::move(r)), cholesky(o) {}
@@ -50,24 +50,24 @@ double rigid_turn_residual_curvature(const Eigen::Matrix3Xd& x, const Eigen::Mat
 
 bool SymmetryStabilityCheck::factorise(Sector& s, const Eigen::SparseMatrix<double>& r,
                                        double relative_shift, double absolute_shift) {
-  if (!s.analysed || s.k.nonZeros() != r.nonZeros() || s.k.rows() != r.rows()) {
-    s.k = r;
+  if (!r.isCompressed())
+    throw std::logic_error("stability check: a sector matrix is not compressed");
+  if (!s.analysed || s.nonzeros != r.nonZeros() || s.rows != r.rows()) {
     s.diagonal.assign(static_cast<size_t>(r.rows()), -1);
-    for (Eigen::Index c = 0; c < s.k.outerSize(); ++c)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(s.k, c); it; ++it)
-        if (it.row() == c)
-          s.diagonal[static_cast<size_t>(c)] = static_cast<int>(&it.valueRef() - s.k.valuePtr());
+    for (Eigen::Index c = 0; c < r.outerSize(); ++c)
+      for (int k = r.outerIndexPtr()[c]; k < r.outerIndexPtr()[c + 1]; ++k)
+        if (r.innerIndexPtr()[k] == c) s.diagonal[static_cast<size_t>(c)] = k;
     if (std::find(s.diagonal.begin(), s.diagonal.end(), -1) != s.diagonal.end())
       throw std::logic_error("stability check: a sector matrix lacks a diagonal entry");
-    s.cholesky.analyze(s.k);
+    s.cholesky.analyze(r);
+    s.rows = r.rows();
+    s.nonzeros = r.nonZeros();
     s.analysed = true;
   }
-  std::copy(r.valuePtr(), r.valuePtr() + r.nonZeros(), s.k.valuePtr());
   double scale = 0.0;
-  for (int d : s.diagonal) scale += std::abs(s.k.valuePtr()[d]);
+  for (int d : s.diagonal) scale += std::abs(r.valuePtr()[d]);
   scale /= static_cast<double>(std::max<size_t>(s.diagonal.size(), 1));
-  for (int d : s.diagonal) s.k.valuePtr()[d] += relative_shift * scale + absolute_shift;
-  return s.cholesky.factorize(s.k);
+  return s.cholesky.factorize(r, relative_shift * scale + absolute_shift);
 }
 
 SectorStability SymmetryStabilityCheck::check(const Eigen::SparseMatrix<double>& h,

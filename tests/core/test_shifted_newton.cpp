@@ -103,6 +103,55 @@ TEST(SparseCholesky, RelaxedAmalgamationSolvesTheSameSystemWithWiderSupernodes) 
   EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
+TEST(SparseCholesky, ShiftedFactorisationFindsTheClosedFormDefiniteBoundary) {
+  // The 5-point Laplacian of an m x m grid (Dirichlet) has the smallest eigenvalue
+  // lambda_min = 4 - 4 cos(pi / (m + 1)); a = Laplacian - I, lower triangle as the solvers pass
+  // it. a + s I is positive definite exactly for s > 1 - lambda_min. The shift is CHOLMOD's
+  // (added as the diagonal is assembled): the factor of a + s I given as a matrix, bit for bit.
+  const int m = 30, n = m * m;
+  std::vector<Eigen::Triplet<double>> t;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      const int k = i * m + j;
+      t.emplace_back(k, k, 4.0 - 1.0);
+      if (i + 1 < m) t.emplace_back(k + m, k, -1.0);
+      if (j + 1 < m) t.emplace_back(k + 1, k, -1.0);
+    }
+  Eigen::SparseMatrix<double> a(n, n);
+  a.setFromTriplets(t.begin(), t.end());
+  a.makeCompressed();
+  const double boundary = 1.0 - (4.0 - 4.0 * std::cos(M_PI / (m + 1)));
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(n);
+  for (auto& v : b) v = u(rng);
+  for (const int threshold : {0, 1 << 30}) {  // supernodal, simplicial
+    SparseCholeskyOptions o;
+    o.supernodal_min_unknowns = threshold;
+    SparseCholesky c(o);
+    EXPECT_FALSE(c.factorize(a));                   // indefinite unshifted
+    EXPECT_FALSE(c.factorize(a, boundary - 1e-6));  // just below the boundary
+    ASSERT_TRUE(c.factorize(a, boundary + 1e-6));   // just above it
+    const double s = boundary + 0.5;
+    ASSERT_TRUE(c.factorize(a, s));
+    const Eigen::VectorXd x = c.solve(b);
+    Eigen::SparseMatrix<double> shifted = a;
+    for (int k = 0; k < n; ++k) shifted.coeffRef(k, k) += s;
+    SparseCholesky explicit_shift(o);
+    ASSERT_TRUE(explicit_shift.factorize(shifted));
+    EXPECT_EQ((explicit_shift.solve(b) - x).cwiseAbs().maxCoeff(), 0.0);
+    const Eigen::SparseMatrix<double> full =
+        Eigen::SparseMatrix<double>(shifted.selfadjointView<Eigen::Lower>());
+    EXPECT_LT((full * x - b).norm(), 1e-12 * b.norm());
+    // An uncompressed matrix (Eigen's insert mode) is factorised as its compressed copy.
+    Eigen::SparseMatrix<double> loose = shifted;
+    loose.uncompress();
+    SparseCholesky from_loose(o);
+    ASSERT_TRUE(from_loose.factorize(loose));
+    EXPECT_EQ((from_loose.solve(b) - x).cwiseAbs().maxCoeff(), 0.0);
+  }
+}
+
 TEST(SparseCholesky, CloneKeepsItsFactorWhileTheOriginalIsRefactorised) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
