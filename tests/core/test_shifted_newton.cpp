@@ -37,6 +37,24 @@ Eigen::SparseMatrix<double> tridiagonal(const Eigen::VectorXd& d, double off = 0
   return m;
 }
 
+/// The 5-point stencil of an m x m grid with `diagonal` on the diagonal and -1 to each
+/// neighbour, lower triangle (as the solvers pass it).
+Eigen::SparseMatrix<double> grid_lower(int m, double diagonal) {
+  const int n = m * m;
+  std::vector<Eigen::Triplet<double>> t;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      const int k = i * m + j;
+      t.emplace_back(k, k, diagonal);
+      if (i + 1 < m) t.emplace_back(k + m, k, -1.0);
+      if (j + 1 < m) t.emplace_back(k + 1, k, -1.0);
+    }
+  Eigen::SparseMatrix<double> a(n, n);
+  a.setFromTriplets(t.begin(), t.end());
+  a.makeCompressed();
+  return a;
+}
+
 TEST(SparseCholesky, SolvesAPositiveDefiniteSystemAndRefusesAnIndefiniteOne) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -67,17 +85,7 @@ TEST(SparseCholesky, RelaxedAmalgamationSolvesTheSameSystemWithWiderSupernodes) 
   // separators give supernodes a few columns wide, which the relaxed amalgamation merges at the
   // price of explicit zeros in L. Same solution to rounding; more stored entries.
   const int m = 30, n = m * m;
-  std::vector<Eigen::Triplet<double>> t;
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j < m; ++j) {
-      const int k = i * m + j;
-      t.emplace_back(k, k, 4.1);
-      if (i + 1 < m) t.emplace_back(k + m, k, -1.0);
-      if (j + 1 < m) t.emplace_back(k + 1, k, -1.0);
-    }
-  Eigen::SparseMatrix<double> a(n, n);  // lower triangle, as the solvers pass it
-  a.setFromTriplets(t.begin(), t.end());
-  a.makeCompressed();
+  const Eigen::SparseMatrix<double> a = grid_lower(m, 4.1);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Eigen::VectorXd b(n);
@@ -109,17 +117,7 @@ TEST(SparseCholesky, ShiftedFactorisationFindsTheClosedFormDefiniteBoundary) {
   // it. a + s I is positive definite exactly for s > 1 - lambda_min. The shift is CHOLMOD's
   // (added as the diagonal is assembled): the factor of a + s I given as a matrix, bit for bit.
   const int m = 30, n = m * m;
-  std::vector<Eigen::Triplet<double>> t;
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j < m; ++j) {
-      const int k = i * m + j;
-      t.emplace_back(k, k, 4.0 - 1.0);
-      if (i + 1 < m) t.emplace_back(k + m, k, -1.0);
-      if (j + 1 < m) t.emplace_back(k + 1, k, -1.0);
-    }
-  Eigen::SparseMatrix<double> a(n, n);
-  a.setFromTriplets(t.begin(), t.end());
-  a.makeCompressed();
+  const Eigen::SparseMatrix<double> a = grid_lower(m, 4.0 - 1.0);
   const double boundary = 1.0 - (4.0 - 4.0 * std::cos(M_PI / (m + 1)));
   std::mt19937 rng(8);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
