@@ -100,6 +100,8 @@ bool any_face_flipped(const Eigen::VectorXd& from, const Eigen::VectorXd& to,
 
 NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& options)
     : model_(&model),
+      mesh_rest_(model.rest),
+      mesh_faces_(model.topo.faces),
       options_((options.validate(), options)),
       newton_(shifted_newton_options(options)) {
   if (options.symmetry == Symmetry::mirror) {
@@ -109,9 +111,9 @@ NewtonSolver::NewtonSolver(const ContinuumModel& model, const NewtonOptions& opt
 }
 
 bool NewtonSolver::same_mesh(const ContinuumModel& model) const {
-  return model.rest.cols() == model_->rest.cols() &&
-         model.topo.faces.cols() == model_->topo.faces.cols() && model.rest == model_->rest &&
-         model.topo.faces == model_->topo.faces;
+  // Against the solver's own copy: the model it was last bound to may be gone by now.
+  return model.rest.cols() == mesh_rest_.cols() && model.topo.faces.cols() == mesh_faces_.cols() &&
+         model.rest == mesh_rest_ && model.topo.faces == mesh_faces_;
 }
 
 void NewtonSolver::rebind(const ContinuumModel& model) {

@@ -174,8 +174,9 @@ class NewtonSolver {
   /// the multipliers (updated). Never leaves x at an infeasible or NaN state.
   NewtonResult solve(double force_pN, Positions& x, ConstraintMultipliers& lambda,
                      const ProgressSink& progress = {}, const NewtonLimits& limits = {});
-  /// Whether `model` has this solver's mesh (the same rest positions and faces): then rebind()
-  /// may point the solver at it.
+  /// Whether `model` has this solver's mesh (the same rest positions and faces, compared with
+  /// the solver's own copy: the model it was bound to may be gone): then rebind() may point
+  /// the solver at it.
   bool same_mesh(const ContinuumModel& model) const;
   /// Points the solver at `model` (another law, bending or bead patch on the same mesh;
   /// std::invalid_argument unless same_mesh) and drops the kept factorisations. What depends
@@ -227,6 +228,8 @@ class NewtonSolver {
   };
   Prepared prepare(double force_pN, const Positions& x);
   const ContinuumModel* model_;  ///< rebind() may point it at another model of the same mesh
+  Positions mesh_rest_;          ///< the mesh the solver is prepared for (same_mesh)
+  Faces mesh_faces_;
   NewtonOptions options_;
   /// The full Hessian's pattern and values (3N x 3N lower, ~5 MB at 2,562 vertices): built at
   /// its first use, which the mirror path reaches only when a symmetric state is a saddle.
