@@ -134,18 +134,23 @@ void NewtonSolver::update_reduction() {
   const MeshSymmetry g = keep_invariant(mesh_symmetry_, model_->patch.vertex, model_->patch.share,
                                         0, kTweezersShareTolerance);
   if (g.reflections == reduced_group_) return;
-  reduced_group_ = g.reflections;
-  reduction_.reset();
-  reduced_cache_.reset();
-  reduced_hessian_.reset();
+  // Built aside, then installed: a throw leaves the solver as it was (a kept solver outlives
+  // the run, NewtonSolver::rebind).
+  std::shared_ptr<const SymmetryReduction> reduction;
+  std::shared_ptr<ReducedProblemCache> cache;
+  std::unique_ptr<ReducedLagrangianHessian> hessian;
+  if (g.order() > 1) {
+    reduction = std::make_shared<const SymmetryReduction>(make_symmetry_reduction(g));
+    cache = std::make_shared<ReducedProblemCache>();
+    hessian = std::make_unique<ReducedLagrangianHessian>(*model_, g, *reduction);
+  }
+  reduction_ = std::move(reduction);
+  reduced_cache_ = std::move(cache);
+  reduced_hessian_ = std::move(hessian);
   stability_.reset();
   newton_.forget_factorisation();  // of the other problem size
-  if (g.order() > 1) {
-    reduction_ = std::make_shared<const SymmetryReduction>(make_symmetry_reduction(g));
-    reduced_cache_ = std::make_shared<ReducedProblemCache>();
-    reduced_hessian_ = std::make_unique<ReducedLagrangianHessian>(*model_, g, *reduction_);
-    reduced_group_symmetry_ = g;
-  }
+  if (g.order() > 1) reduced_group_symmetry_ = g;
+  reduced_group_ = g.reflections;
 }
 
 namespace {
@@ -163,7 +168,7 @@ constexpr double kSymmetricStartUm = 1e-6;
 NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,
                                        BlockHessian& h, const ContinuumExtraTerms& extra) {
   return continuum_newton_problem(
-      model, force_pN, [&h]() -> BlockHessian& { return h; }, extra);
+      model, force_pN, [hp = &h]() -> BlockHessian& { return *hp; }, extra);
 }
 
 NewtonProblem continuum_newton_problem(const ContinuumModel& model, double force_pN,

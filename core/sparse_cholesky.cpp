@@ -3,6 +3,7 @@
 #include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <limits>
+#include <memory>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -44,6 +45,32 @@ class CopyableCholmod final
     m_shiftOffset[0] = other.m_shiftOffset[0];
     m_shiftOffset[1] = other.m_shiftOffset[1];
   }
+  /// Symbolic analysis of the lower triangle given by CSC arrays (n x n, rows sorted in each
+  /// column) with this object's settings. False if CHOLMOD made no factor (e.g. no memory).
+  bool analyze_lower(int n, const int* outer, const int* inner, double* values) {
+    if (m_cholmodFactor) cholmod_free_factor(&m_cholmodFactor, &cholmod());
+    m_cholmodFactor = nullptr;
+    cholmod_sparse a = lower_view(n, outer, inner, values);
+    m_cholmodFactor = cholmod_analyze(&a, &cholmod());
+    m_isInitialized = true;
+    m_analysisIsOk = m_cholmodFactor != nullptr;
+    m_factorizationIsOk = false;
+    m_info = m_analysisIsOk ? Eigen::Success : Eigen::NumericalIssue;
+    return m_analysisIsOk;
+  }
+  /// Numeric factorisation of that matrix + shift I (CHOLMOD's beta), on the analysis made by
+  /// analyze_lower. True if the shifted matrix is positive definite.
+  bool factorize_lower(int n, const int* outer, const int* inner, double* values, double shift) {
+    if (!m_cholmodFactor) return false;
+    cholmod_sparse a = lower_view(n, outer, inner, values);
+    m_shiftOffset[0] = shift;
+    m_shiftOffset[1] = 0.0;
+    cholmod_factorize_p(&a, m_shiftOffset, nullptr, 0, m_cholmodFactor, &cholmod());
+    m_factorizationIsOk = true;
+    m_info = m_cholmodFactor->minor == m_cholmodFactor->n ? Eigen::Success : Eigen::NumericalIssue;
+    return m_info == Eigen::Success;
+  }
+  bool has_factor() const { return m_cholmodFactor != nullptr; }
   /// The fill-reducing permutation of the analysis (L L' = A(perm, perm)); null without one.
   const int* permutation() const {
     return m_cholmodFactor ? static_cast<const int*>(m_cholmodFactor->Perm) : nullptr;
@@ -60,23 +87,54 @@ class CopyableCholmod final
         sum += static_cast<double>(static_cast<const int*>(l->nz)[j]);
     return sum;
   }
+
+ private:
+  /// CHOLMOD's view of a lower triangle in CSC arrays (no copy).
+  static cholmod_sparse lower_view(int n, const int* outer, const int* inner, double* values) {
+    cholmod_sparse a{};
+    a.nrow = a.ncol = static_cast<size_t>(n);
+    a.nzmax = static_cast<size_t>(outer[n]);
+    a.p = const_cast<int*>(outer);  // CHOLMOD reads them only
+    a.i = const_cast<int*>(inner);
+    a.x = values;
+    a.stype = -1;
+    a.itype = CHOLMOD_INT;
+    a.xtype = CHOLMOD_REAL;
+    a.dtype = CHOLMOD_DOUBLE;
+    a.sorted = 1;
+    a.packed = 1;
+    return a;
+  }
+};
+
+/// The analysis of one pattern, shared by a SparseCholesky and its clones (it never changes).
+/// CHOLMOD's supernodal factorisation of a lower triangle in the caller's order copies the
+/// matrix twice per call (cholmod_ptranspose: A(p,p)' upper, then back to lower); given the
+/// lower triangle already in its order, with the natural ordering, it reads it where it lies.
+struct PermutedPattern {
+  int n = 0;
+  std::vector<int> perm;              ///< CHOLMOD's order: L L' = a(perm, perm)
+  std::vector<int> outer, inner;      ///< the permuted lower triangle (CSC, rows sorted)
+  std::vector<int> gather;            ///< per stored value of a: its place, -1 above the diagonal
+  std::vector<int> a_outer, a_inner;  ///< the caller's pattern (a changed one is re-analysed)
+  bool matches(const Eigen::SparseMatrix<double>& a) const {
+    return a.rows() == n && a.cols() == n &&
+           std::equal(a_outer.begin(), a_outer.end(), a.outerIndexPtr()) &&
+           a.nonZeros() == static_cast<Eigen::Index>(a_inner.size()) &&
+           std::equal(a_inner.begin(), a_inner.end(), a.innerIndexPtr());
+  }
 };
 
 }  // namespace detail
 
 struct SparseCholesky::Impl {
   SparseCholeskyOptions options;
-  /// Analysed and factorised on the permuted matrix `permuted` in the natural order.
+  /// Analysed and factorised on the permuted lower triangle in the natural order.
   detail::CopyableCholmod factor;
   bool analysed = false, ok = false;
   Eigen::Index n = 0;
-  /// The fill-reducing order (CHOLMOD's, of the caller's pattern): permuted(k, l) =
-  /// a(perm[k], perm[l]), lower triangle. CHOLMOD's own path copies a lower matrix twice per
-  /// factorisation (A(p,p)' upper, then back to lower: cholmod_ptranspose); given the permuted
-  /// lower matrix in the natural order it factorises it in place. gather[k]: the position in
-  /// permuted of a's k-th stored value (-1: above the diagonal, ignored as CHOLMOD does).
-  std::vector<int> perm, gather;
-  Eigen::SparseMatrix<double> permuted;
+  std::shared_ptr<const detail::PermutedPattern> pattern;
+  std::vector<double> values;  ///< the permuted matrix's values (allocated at a factorisation)
 
   /// Configures f for `unknowns` unknowns. `natural`: the analysis of the permuted matrix (no
   /// ordering and no postorder: the order of `permuted` is already CHOLMOD's postordered one);
@@ -137,9 +195,8 @@ SparseCholesky SparseCholesky::clone() const {
   if (impl_->analysed) {
     c.impl_->configure(c.impl_->factor, impl_->n, true);
     c.impl_->factor.copy_factor_of(impl_->factor);
-    c.impl_->perm = impl_->perm;
-    c.impl_->gather = impl_->gather;
-    c.impl_->permuted = impl_->permuted;
+    c.impl_->pattern =
+        impl_->pattern;  // shared; the values are the copy's own when it refactorises
     c.impl_->analysed = true;
     c.impl_->ok = impl_->ok;
     c.impl_->n = impl_->n;
@@ -158,8 +215,13 @@ void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
     return;
   }
   Impl& m = *impl_;
-  const auto n = a.rows();
+  if (a.rows() > std::numeric_limits<int>::max() / 2)
+    throw std::invalid_argument("sparse Cholesky: " + std::to_string(a.rows()) +
+                                " unknowns exceed the 32-bit indices");
+  const int n = static_cast<int>(a.rows());
   m.analysed = m.ok = false;
+  auto pat = std::make_shared<detail::PermutedPattern>();
+  pat->n = n;
   // 1. CHOLMOD's ordering of a (METIS or AMD, then its etree postorder).
   {
     detail::CopyableCholmod ordering;
@@ -171,64 +233,60 @@ void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
       const auto lock = lock_fill_ordering();
       ordering.analyzePattern(a);
     }
-    if (ordering.info() != Eigen::Success || (n > 0 && !ordering.permutation()))
+    if (!ordering.has_factor() || (n > 0 && !ordering.permutation()))
       throw std::runtime_error("sparse Cholesky: CHOLMOD's symbolic analysis failed (" +
                                std::to_string(n) + " unknowns)");
-    if (n > 0)
-      m.perm.assign(ordering.permutation(), ordering.permutation() + n);
-    else
-      m.perm.clear();
+    pat->perm.assign(ordering.permutation(), ordering.permutation() + n);
   }
   std::vector<int> inverse(static_cast<size_t>(n));
-  for (Eigen::Index k = 0; k < n; ++k)
-    inverse[static_cast<size_t>(m.perm[k])] = static_cast<int>(k);
+  for (int k = 0; k < n; ++k) inverse[static_cast<size_t>(pat->perm[static_cast<size_t>(k)])] = k;
   // 2. The permuted lower pattern, and where each stored value of a goes in it.
-  const Eigen::Index stored = a.nonZeros();
   const int* outer = a.outerIndexPtr();
   const int* inner = a.innerIndexPtr();
-  std::vector<int> count(static_cast<size_t>(n) + 1, 0);
-  for (Eigen::Index j = 0; j < n; ++j)
+  pat->a_outer.assign(outer, outer + n + 1);
+  pat->a_inner.assign(inner, inner + a.nonZeros());
+  std::vector<int>& count = pat->outer;
+  count.assign(static_cast<size_t>(n) + 1, 0);
+  for (int j = 0; j < n; ++j)
     for (int k = outer[j]; k < outer[j + 1]; ++k)
       if (inner[k] >= j) ++count[static_cast<size_t>(std::min(inverse[inner[k]], inverse[j])) + 1];
-  m.permuted.resize(n, n);
-  for (Eigen::Index j = 0; j < n; ++j) count[j + 1] += count[j];
-  m.permuted.resizeNonZeros(count[static_cast<size_t>(n)]);
-  std::copy(count.begin(), count.end(), m.permuted.outerIndexPtr());
-  m.gather.assign(static_cast<size_t>(stored), -1);
-  for (Eigen::Index j = 0; j < n; ++j)  // rows in increasing original column order ...
+  for (int j = 0; j < n; ++j) count[j + 1] += count[j];
+  pat->inner.assign(static_cast<size_t>(count[static_cast<size_t>(n)]), 0);
+  pat->gather.assign(static_cast<size_t>(a.nonZeros()), -1);
+  std::vector<int> next(count.begin(), count.end() - 1);  // fill cursor per column
+  for (int j = 0; j < n; ++j)                             // rows in the caller's column order ...
     for (int k = outer[j]; k < outer[j + 1]; ++k)
       if (inner[k] >= j) {
         const int r = std::max(inverse[inner[k]], inverse[j]);
         const int c = std::min(inverse[inner[k]], inverse[j]);
-        m.gather[static_cast<size_t>(k)] = count[static_cast<size_t>(c)];
-        m.permuted.innerIndexPtr()[count[static_cast<size_t>(c)]++] = r;
+        pat->gather[static_cast<size_t>(k)] = next[static_cast<size_t>(c)];
+        pat->inner[static_cast<size_t>(next[static_cast<size_t>(c)]++)] = r;
       }
   // ... then sorted within each column (CHOLMOD wants sorted rows), the gather map following.
-  std::vector<int> order, position(static_cast<size_t>(m.permuted.nonZeros()));
-  std::vector<int> rows;
-  for (Eigen::Index c = 0; c < n; ++c) {
-    const int begin = m.permuted.outerIndexPtr()[c], end = m.permuted.outerIndexPtr()[c + 1];
+  std::vector<int> order, position(pat->inner.size()), rows;
+  for (int c = 0; c < n; ++c) {
+    const int begin = count[static_cast<size_t>(c)], end = count[static_cast<size_t>(c) + 1];
     order.resize(static_cast<size_t>(end - begin));
     for (int k = begin; k < end; ++k) order[static_cast<size_t>(k - begin)] = k;
-    int* row = m.permuted.innerIndexPtr();
+    const int* row = pat->inner.data();
     std::sort(order.begin(), order.end(), [row](int x, int y) { return row[x] < row[y]; });
     rows.resize(order.size());
     for (size_t q = 0; q < order.size(); ++q) {
       rows[q] = row[order[q]];
       position[static_cast<size_t>(order[q])] = begin + static_cast<int>(q);
     }
-    std::copy(rows.begin(), rows.end(), row + begin);
+    std::copy(rows.begin(), rows.end(), pat->inner.begin() + begin);
   }
-  for (int& g : m.gather)
+  for (int& g : pat->gather)
     if (g >= 0) g = position[static_cast<size_t>(g)];
-  std::fill(m.permuted.valuePtr(), m.permuted.valuePtr() + m.permuted.nonZeros(), 0.0);
   // 3. The analysis of the permuted matrix in its own order: the same elimination tree and
   // supernodes, so the same factor as CHOLMOD's permuted path, bit for bit.
   m.configure(m.factor, n, true);
-  m.factor.analyzePattern(m.permuted);
-  if (m.factor.info() != Eigen::Success)
+  m.values.assign(pat->inner.size(), 0.0);
+  if (!m.factor.analyze_lower(n, pat->outer.data(), pat->inner.data(), m.values.data()))
     throw std::runtime_error("sparse Cholesky: CHOLMOD's symbolic analysis failed (" +
                              std::to_string(n) + " unknowns)");
+  m.pattern = std::move(pat);
   m.analysed = true;
   m.n = n;
 }
@@ -240,17 +298,16 @@ bool SparseCholesky::factorize(const Eigen::SparseMatrix<double>& a, double diag
     return factorize(compressed, diagonal_shift);
   }
   Impl& m = *impl_;
-  if (!m.analysed || a.rows() != m.n || a.nonZeros() != static_cast<Eigen::Index>(m.gather.size()))
-    analyze(a);
+  if (!m.analysed || !m.pattern->matches(a)) analyze(a);
+  const detail::PermutedPattern& pat = *m.pattern;
+  m.values.resize(pat.inner.size());
   const double* v = a.valuePtr();
-  double* p = m.permuted.valuePtr();
-  for (size_t k = 0; k < m.gather.size(); ++k)
-    if (m.gather[k] >= 0) p[m.gather[k]] = v[k];
+  double* p = m.values.data();
+  for (size_t k = 0; k < pat.gather.size(); ++k)
+    if (pat.gather[k] >= 0) p[pat.gather[k]] = v[k];
   const ScopedBlasThreads blas(m.options.blas_threads);
-  m.factor.setShift(diagonal_shift);  // CHOLMOD's beta: L L' = A + beta I
-  m.factor.factorize(m.permuted);
-  impl_->ok = impl_->factor.info() == Eigen::Success;  // fails unless a is positive definite
-  return impl_->ok;
+  m.ok = m.factor.factorize_lower(pat.n, pat.outer.data(), pat.inner.data(), p, diagonal_shift);
+  return m.ok;
 }
 
 bool SparseCholesky::factorised() const {
@@ -263,7 +320,7 @@ Eigen::VectorXd SparseCholesky::solve(const Eigen::VectorXd& b) const {
     throw std::invalid_argument("sparse Cholesky: right-hand side of " + std::to_string(b.rows()) +
                                 " rows for " + std::to_string(impl_->n) + " unknowns");
   const ScopedBlasThreads blas(impl_->options.blas_threads);
-  const std::vector<int>& perm = impl_->perm;
+  const std::vector<int>& perm = impl_->pattern->perm;
   Eigen::VectorXd bp(b.rows());
   for (Eigen::Index k = 0; k < b.rows(); ++k) bp(k) = b(perm[k]);
   const Eigen::VectorXd xp = impl_->factor.solve(bp);
@@ -278,7 +335,7 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
     throw std::invalid_argument("sparse Cholesky: right-hand side of " + std::to_string(b.rows()) +
                                 " rows for " + std::to_string(impl_->n) + " unknowns");
   const ScopedBlasThreads blas(impl_->options.blas_threads);
-  const std::vector<int>& perm = impl_->perm;
+  const std::vector<int>& perm = impl_->pattern->perm;
   Eigen::MatrixXd bp(b.rows(), b.cols());
   for (Eigen::Index k = 0; k < b.rows(); ++k) bp.row(k) = b.row(perm[k]);
   // A few right-hand sides on a factor that stays in cache: one column at a time. CHOLMOD's

@@ -6,10 +6,12 @@
 // (analyze) and reused by every numeric factorisation (factorize) of matrices with that
 // pattern. Only the lower triangle of the matrix passed in is read, so full or lower block
 // storage (core/block_pattern.hpp) both work. The matrix is handed to CHOLMOD already permuted
-// into its order (values copied through a map made at analysis), which CHOLMOD factorises
-// without the two transposed copies it makes of a lower triangle in the caller's order; the
-// factor and the solutions are the same, bit for bit (README, "Sparse Cholesky: the permuted
-// matrix handed over in CHOLMOD's own order").
+// into its order (values copied through a map made at analysis; a changed pattern is analysed
+// again). Its supernodal factorisation then reads it where it lies, without the two transposed
+// copies it makes of a lower triangle in the caller's order (the simplicial one still makes
+// one, as before); the factor and the solutions are the same, bit for bit (README, "Sparse
+// Cholesky: the permuted matrix handed over in CHOLMOD's own order"). A clone shares the
+// analysed pattern and the map.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
@@ -75,8 +77,8 @@ class SparseCholesky {
 
   /// Symbolic analysis (ordering, elimination tree) of a's pattern (compressed, square).
   void analyze(const Eigen::SparseMatrix<double>& a);
-  /// Numeric factorisation of a + diagonal_shift I (same pattern as analysed; analyses first
-  /// if none was). The shift is added to each diagonal entry as the entry is assembled, as
+  /// Numeric factorisation of a + diagonal_shift I (analyses first if a's pattern is not the one
+  /// analysed). The shift is added to each diagonal entry as the entry is assembled, as
   /// adding it to a's diagonal would, without a copy of a. Returns false if the shifted matrix
   /// is not numerically positive definite; the factor is then invalid.
   bool factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift = 0.0);

@@ -14,9 +14,6 @@ struct SymmetryStabilityCheck::Sector {
   SymmetryReduction reduction;
   std::unique_ptr<ReducedMatrix> map;
   SparseCholesky cholesky;
-  Eigen::Index rows = 0, nonzeros = 0;  ///< the pattern analysed
-  std::vector<int> diagonal;            ///< value index of each diagonal entry
-  bool analysed = false;
   Sector(int c, SymmetryReduction r, const SparseCholeskyOptions& o)
       : character(c), reduction(std::move(r)), cholesky(o) {}
 };
@@ -50,23 +47,23 @@ double rigid_turn_residual_curvature(const Eigen::Matrix3Xd& x, const Eigen::Mat
 
 bool SymmetryStabilityCheck::factorise(Sector& s, const Eigen::SparseMatrix<double>& r,
                                        double relative_shift, double absolute_shift) {
-  if (!r.isCompressed())
-    throw std::logic_error("stability check: a sector matrix is not compressed");
-  if (!s.analysed || s.nonzeros != r.nonZeros() || s.rows != r.rows()) {
-    s.diagonal.assign(static_cast<size_t>(r.rows()), -1);
-    for (Eigen::Index c = 0; c < r.outerSize(); ++c)
-      for (int k = r.outerIndexPtr()[c]; k < r.outerIndexPtr()[c + 1]; ++k)
-        if (r.innerIndexPtr()[k] == c) s.diagonal[static_cast<size_t>(c)] = k;
-    if (std::find(s.diagonal.begin(), s.diagonal.end(), -1) != s.diagonal.end())
-      throw std::logic_error("stability check: a sector matrix lacks a diagonal entry");
-    s.cholesky.analyze(r);
-    s.rows = r.rows();
-    s.nonzeros = r.nonZeros();
-    s.analysed = true;
+  if (!r.isCompressed()) {
+    Eigen::SparseMatrix<double> compressed = r;
+    compressed.makeCompressed();
+    return factorise(s, compressed, relative_shift, absolute_shift);
   }
+  // The shift's scale: the mean |diagonal| (found afresh each call, a pass over the pattern;
+  // the Cholesky re-analyses a changed pattern by itself).
   double scale = 0.0;
-  for (int d : s.diagonal) scale += std::abs(r.valuePtr()[d]);
-  scale /= static_cast<double>(std::max<size_t>(s.diagonal.size(), 1));
+  for (Eigen::Index c = 0; c < r.outerSize(); ++c) {
+    const int* begin = r.innerIndexPtr() + r.outerIndexPtr()[c];
+    const int* end = r.innerIndexPtr() + r.outerIndexPtr()[c + 1];
+    const int* d = std::lower_bound(begin, end, static_cast<int>(c));
+    if (d == end || *d != c)
+      throw std::logic_error("stability check: a sector matrix lacks a diagonal entry");
+    scale += std::abs(r.valuePtr()[d - r.innerIndexPtr()]);
+  }
+  scale /= static_cast<double>(std::max<Eigen::Index>(r.rows(), 1));
   return s.cholesky.factorize(r, relative_shift * scale + absolute_shift);
 }
 

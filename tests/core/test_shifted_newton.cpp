@@ -150,6 +150,33 @@ TEST(SparseCholesky, ShiftedFactorisationFindsTheClosedFormDefiniteBoundary) {
   }
 }
 
+TEST(SparseCholesky, AChangedPatternOfTheSameSizeIsAnalysedAgain) {
+  // The same size and nonzero count, another pattern: one coupling (k, k+1) moved to (k, k+2).
+  // Factorised on the first pattern's analysis, the values would land in the wrong places.
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 120, k = 60;
+  Eigen::VectorXd d(n), rhs(n);
+  for (int i = 0; i < n; ++i) d(i) = 3.0 + u(rng), rhs(i) = u(rng);
+  const Eigen::SparseMatrix<double> a = tridiagonal(d, -1.0);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int j = 0; j < a.outerSize(); ++j)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(a, j); it; ++it)
+      if (!((it.row() == k && it.col() == k + 1) || (it.row() == k + 1 && it.col() == k)))
+        t.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()), it.value());
+  t.emplace_back(k, k + 2, -0.5);
+  t.emplace_back(k + 2, k, -0.5);
+  Eigen::SparseMatrix<double> b(n, n);
+  b.setFromTriplets(t.begin(), t.end());
+  b.makeCompressed();
+  ASSERT_EQ(b.nonZeros(), a.nonZeros());
+  SparseCholesky c;
+  ASSERT_TRUE(c.factorize(a));
+  EXPECT_LT((a * c.solve(rhs) - rhs).norm(), 1e-12 * rhs.norm());
+  ASSERT_TRUE(c.factorize(b));
+  EXPECT_LT((b * c.solve(rhs) - rhs).norm(), 1e-12 * rhs.norm());
+}
+
 TEST(SparseCholesky, CloneKeepsItsFactorWhileTheOriginalIsRefactorised) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
