@@ -125,9 +125,12 @@ void NewtonSolver::rebind(const ContinuumModel& model) {
   forget_factorisation();
 }
 
-BlockHessian& NewtonSolver::full_hessian() {
-  if (!hessian_) hessian_ = std::make_unique<BlockHessian>(model_->topo, BlockStorage::lower);
-  return *hessian_;
+NewtonProblem NewtonSolver::full_problem(double force_pN) {
+  return continuum_newton_problem(*model_, force_pN, [this]() -> BlockHessian& {
+    // Built at its first use, which the mirror path reaches only off the symmetric states.
+    if (!hessian_) hessian_ = std::make_unique<BlockHessian>(model_->topo, BlockStorage::lower);
+    return *hessian_;
+  });
 }
 
 void NewtonSolver::update_reduction() {
@@ -248,19 +251,13 @@ SectorStability NewtonSolver::check_symmetric_state(double force_pN, const Posit
   if ((expand(*reduction_, symmetric_part(*reduction_, xf)) - xf).cwiseAbs().maxCoeff() >
       kSymmetricStartUm)
     return {};  // not a symmetric state: a full solve's minimum, nothing to check
-  const NewtonProblem full = continuum_newton_problem(
-      *model_, force_pN, [this]() -> BlockHessian& { return full_hessian(); });
+  const NewtonProblem full = full_problem(force_pN);
   return check_sectors(full, xf, Eigen::Vector2d(lambda.area_pN_per_um, lambda.volume_pN_per_um2));
 }
 
 NewtonSolver::Prepared NewtonSolver::prepare(double force_pN, const Positions& x) {
   if (options_.symmetry == Symmetry::mirror) update_reduction();
-  Prepared p{continuum_newton_problem(*model_, force_pN,
-                                      [this]() -> BlockHessian& { return full_hessian(); }),
-             {},
-             {},
-             false,
-             &newton_};
+  Prepared p{full_problem(force_pN), {}, {}, false, &newton_};
   // A start off the symmetric states (a buckled equilibrium) is solved in full.
   p.reduced = static_cast<bool>(reduction_);
   if (p.reduced) {

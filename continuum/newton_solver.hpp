@@ -234,7 +234,8 @@ class NewtonSolver {
   /// The full Hessian's pattern and values (3N x 3N lower, ~5 MB at 2,562 vertices): built at
   /// its first use, which the mirror path reaches only when a symmetric state is a saddle.
   std::unique_ptr<BlockHessian> hessian_;
-  BlockHessian& full_hessian();
+  /// The full problem at force F (pN), its Hessian assembled into hessian_ (built lazily).
+  NewtonProblem full_problem(double force_pN);
   ShiftedNewton newton_;
   /// Symmetry::mirror: the rest mesh's mirrors (found once), the subgroup the current bead
   /// patch keeps (re-checked every solve: a caller may change model.patch, e.g. the

@@ -2,6 +2,7 @@
 
 #include <Eigen/CholmodSupport>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <memory>
 #include <new>
@@ -292,6 +293,9 @@ void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
 }
 
 bool SparseCholesky::factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift) {
+  if (!std::isfinite(diagonal_shift))
+    throw std::invalid_argument("sparse Cholesky: diagonal shift must be finite, got " +
+                                std::to_string(diagonal_shift));
   if (!a.isCompressed()) {
     Eigen::SparseMatrix<double> compressed = a;
     compressed.makeCompressed();

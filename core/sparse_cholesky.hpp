@@ -80,7 +80,8 @@ class SparseCholesky {
   /// Numeric factorisation of a + diagonal_shift I (analyses first if a's pattern is not the one
   /// analysed). The shift is added to each diagonal entry as the entry is assembled, as
   /// adding it to a's diagonal would, without a copy of a. Returns false if the shifted matrix
-  /// is not numerically positive definite; the factor is then invalid.
+  /// is not numerically positive definite; the factor is then invalid. A non-finite shift:
+  /// std::invalid_argument.
   bool factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift = 0.0);
   /// True after a successful factorize().
   bool factorised() const;
