@@ -1,13 +1,8 @@
 #include "discrete/newton_preconditioner.hpp"
 
-#include <omp.h>
-
-#include <Eigen/CholmodSupport>
-
 #include <chrono>
 #include <stdexcept>
 
-#include "core/blas_threads.hpp"
 #include "core/cpu_time.hpp"
 
 #include "core/geometry.hpp"
@@ -32,22 +27,16 @@ struct Stopwatch {
   }
 };
 
-int cholmod_ordering(FillOrdering o) {
-  switch (o) {
-    case FillOrdering::amd:
-      return CHOLMOD_AMD;
-    case FillOrdering::metis:
-      return CHOLMOD_METIS;
-    case FillOrdering::nested_dissection:
-      return CHOLMOD_NESDIS;
-    case FillOrdering::automatic:
-      break;
-  }
-  return -1;
+/// The factorisation's options: the preconditioner's ordering, threads and switch, and
+/// CHOLMOD's own supernode amalgamation at every size.
+SparseCholeskyOptions cholesky_options(const NewtonPreconditionerOptions& o) {
+  SparseCholeskyOptions c;
+  c.ordering = o.ordering;
+  c.supernodal_min_unknowns = o.supernodal_min_unknowns;
+  c.blas_threads = o.blas_threads;
+  c.relaxed_amalgamation_below = 0;
+  return c;
 }
-
-/// The factorisation's and solves' BLAS threads (core/blas_threads.hpp): one by default.
-using BlasThreads = ScopedBlasThreads;
 
 }  // namespace
 
@@ -58,10 +47,8 @@ struct NewtonPreconditioner::Impl {
   /// pattern (built on the first refresh).
   std::shared_ptr<const SymmetryReduction> reduction;
   std::unique_ptr<ReducedMatrix> reduced;
-  FillOrdering ordering;
   HessianChoice choice;
-  int blas_threads;
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> factor;
+  SparseCholesky factor;  ///< of the (reduced) Hessian, analysed once
   bool analysed = false, factored = false;
   Eigen::MatrixXd u, z;  ///< 3N (or reduced) x 2: constraint gradients (P'U) and M^{-1} U
   Eigen::Matrix2d utz = Eigen::Matrix2d::Zero(), m_inv = Eigen::Matrix2d::Zero();
@@ -73,15 +60,11 @@ struct NewtonPreconditioner::Impl {
       : net(&n),
         hessian(n, o.hessian),
         reduction(r && !r->trivial() ? std::move(r) : nullptr),
-        ordering(o.ordering),
         choice(o.choice),
-        blas_threads(o.blas_threads) {
+        factor(cholesky_options(o)) {
     if (reduction && reduction->full_size != 3 * n.topo.num_vertices)
       throw std::invalid_argument("NewtonPreconditioner: the reduction is not of this network");
     stats.unknowns = reduction ? reduction->reduced_size : 3 * n.topo.num_vertices;
-    factor.setMode(stats.unknowns >= o.supernodal_min_unknowns ? Eigen::CholmodSupernodalLLt
-                                                               : Eigen::CholmodSimplicialLLt);
-    factor.cholmod().print = 0;  // a failed (indefinite) attempt is expected, not news
   }
 };
 
@@ -153,7 +136,6 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
       lambda.volume_pN_per_um2 +
       stiffness_scale * net.constraints.volume_stiffness_pN_per_um5 * (volume - net.volume0_um3);
   clock.lap(s.stats.assembly_s, s.stats.assembly_cpu_s);
-  const BlasThreads threads(s.blas_threads);
   auto factorise = [&](bool project) {
     const Eigen::SparseMatrix<double>* hp = &s.hessian.assemble(x, cc, project);
     if (s.reduction) {  // P'HP (the projection counts as assembly)
@@ -164,23 +146,14 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
     clock.lap(s.stats.assembly_s, s.stats.assembly_cpu_s);
     if (!s.analysed) {
       const double analysis_start_cpu_s = thread_cpu_seconds();
-      const int method = cholmod_ordering(s.ordering);
-      if (method >= 0) {
-        s.factor.cholmod().nmethods = 1;
-        s.factor.cholmod().method[0].ordering = method;
-      }
-      {
-        const auto lock = lock_fill_ordering();  // METIS is not reentrant
-        s.factor.analyzePattern(h);
-      }
+      s.factor.analyze(h);
       s.analysed = true;
-      s.stats.factor_nonzeros = s.factor.cholmod().lnz;
+      s.stats.factor_nonzeros = s.factor.factor_nonzeros();
       ++s.stats.analyses;
       s.stats.analysis_cpu_s += thread_cpu_seconds() - analysis_start_cpu_s;
     }
-    s.factor.factorize(h);
+    const bool ok = s.factor.factorize(h);
     clock.lap(s.stats.factorisation_s, s.stats.factorisation_cpu_s);
-    const bool ok = s.factor.info() == Eigen::Success;
     if (!ok) ++s.stats.failed_attempts;
     return ok;
   };
@@ -217,7 +190,6 @@ void NewtonPreconditioner::apply(Eigen::VectorXd& v) const {
   const Impl& s = *impl_;
   if (!s.factored) return;
   Stopwatch clock;
-  const BlasThreads threads(s.blas_threads);
   // (M + U K U^T)^{-1} v = w - Z (K^{-1} + U^T Z)^{-1} U^T w,  w = M^{-1} v, Z = M^{-1} U
   // (reduced: M = P'HP and U = P'U).
   v = s.factor.solve(v);

@@ -1,8 +1,8 @@
 #pragma once
 // Prepared state of the stretch's Newton-type preconditioner: the network Hessian
-// (discrete/network_hessian.hpp) factorised by CHOLMOD (supernodal, symbolic analysis done
-// once per network), plus the augmented-Lagrangian penalties' rank-two part applied by
-// Sherman-Morrison-Woodbury. Used as L-BFGS's initial inverse Hessian (core/lbfgs.hpp).
+// (discrete/network_hessian.hpp) factorised by core/sparse_cholesky.hpp (CHOLMOD, supernodal,
+// symbolic analysis done once per network), plus the augmented-Lagrangian penalties' rank-two part
+// applied by Sherman-Morrison-Woodbury. Used as L-BFGS's initial inverse Hessian (core/lbfgs.hpp).
 // With a mirror symmetry (core/mirror_symmetry.hpp) it preconditions the problem on the
 // symmetric states x = P q: it factorises P'HP and applies the Woodbury correction with P'U.
 #include <memory>

@@ -4,11 +4,14 @@
 // Hessian is negative (Levenberg shift), a Hessian no shift within the budget repairs
 // (factorisation failure reported as such), chord steps across calls, and analyses on two
 // threads at once (bit-identical to serial: METIS is not reentrant).
+#include <SuiteSparse_config.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -175,6 +178,129 @@ TEST(SparseCholesky, AChangedPatternOfTheSameSizeIsAnalysedAgain) {
   EXPECT_LT((a * c.solve(rhs) - rhs).norm(), 1e-12 * rhs.norm());
   ASSERT_TRUE(c.factorize(b));
   EXPECT_LT((b * c.solve(rhs) - rhs).norm(), 1e-12 * rhs.norm());
+}
+
+TEST(SparseCholesky, VertexBlocksAreOrderedAsBlocksWithTheSameFill) {
+  // The grid Laplacian (+ 0.1 I) coupled through an SPD b x b block, A (x) B: every vertex of the
+  // grid carries b unknowns, every coupling a full block, as a mesh's position Hessian. METIS
+  // orders the grid (b^2 times fewer edges) and each vertex's unknowns stay together: the same
+  // solution, and fill within a few per cent of the unknowns' own order.
+  const int m = 24;
+  const Eigen::SparseMatrix<double> grid =
+      Eigen::SparseMatrix<double>(grid_lower(m, 4.1).selfadjointView<Eigen::Lower>());
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const int b : {3, 2}) {
+    Eigen::MatrixXd g(b, b);
+    for (auto& v : g.reshaped()) v = u(rng);
+    const Eigen::MatrixXd block = g * g.transpose() + b * Eigen::MatrixXd::Identity(b, b);
+    std::vector<Eigen::Triplet<double>> t;
+    for (int j = 0; j < grid.outerSize(); ++j)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(grid, j); it; ++it)
+        for (int r = 0; r < b; ++r)
+          for (int c = 0; c < b; ++c) {
+            const int row = b * static_cast<int>(it.row()) + r, col = b * j + c;
+            if (row >= col) t.emplace_back(row, col, it.value() * block(r, c));
+          }
+    const int n = b * m * m;
+    Eigen::SparseMatrix<double> a(n, n);
+    a.setFromTriplets(t.begin(), t.end());
+    a.makeCompressed();
+    Eigen::VectorXd rhs(n);
+    for (auto& v : rhs) v = u(rng);
+    const Eigen::SparseMatrix<double> full =
+        Eigen::SparseMatrix<double>(a.selfadjointView<Eigen::Lower>());
+    double nnz[2];
+    Eigen::VectorXd x[2];
+    for (const bool blocks : {true, false}) {
+      SparseCholeskyOptions o;
+      o.block_ordering = blocks;
+      SparseCholesky c(o);
+      EXPECT_EQ(c.ordering_block_size(), 1);  // nothing analysed yet
+      ASSERT_TRUE(c.factorize(a));
+      EXPECT_EQ(c.ordering_block_size(), blocks ? b : 1);
+      EXPECT_EQ(c.clone().ordering_block_size(), blocks ? b : 1);
+      x[blocks] = c.solve(rhs);
+      nnz[blocks] = c.factor_nonzeros();
+      EXPECT_LT((full * x[blocks] - rhs).norm(), 1e-12 * rhs.norm());
+    }
+    EXPECT_LT((x[1] - x[0]).norm(), 1e-12 * x[0].norm());
+    EXPECT_LT(std::abs(nnz[1] / nnz[0] - 1.0), 0.05) << nnz[1] << " against " << nnz[0];
+    // One entry of an off-diagonal block dropped: no longer made of full blocks.
+    std::vector<Eigen::Triplet<double>> broken;
+    bool dropped = false;
+    for (const auto& e : t)
+      if (!dropped && e.row() / b != e.col() / b)
+        dropped = true;
+      else
+        broken.push_back(e);
+    Eigen::SparseMatrix<double> ab(n, n);
+    ab.setFromTriplets(broken.begin(), broken.end());
+    ab.makeCompressed();
+    SparseCholesky c;
+    ASSERT_TRUE(c.factorize(ab));
+    EXPECT_EQ(c.ordering_block_size(), 1);
+    // Other orderings order the unknowns.
+    SparseCholeskyOptions amd;
+    amd.ordering = FillOrdering::amd;
+    SparseCholesky by_amd(amd);
+    ASSERT_TRUE(by_amd.factorize(a));
+    EXPECT_EQ(by_amd.ordering_block_size(), 1);
+  }
+}
+
+TEST(SparseCholesky, CholmodsLargeBlocksLieOnAlignedMappingsAndKeepTheirContents) {
+  // SparseCholesky gives CHOLMOD an allocator that maps blocks of 4 MiB and more on their own
+  // 2 MiB-aligned mappings (huge pages advised): malloc, calloc, realloc across the threshold
+  // both ways and free must keep the C contracts CHOLMOD relies on.
+  const SparseCholesky installs;
+  constexpr size_t kMiB = size_t{1} << 20;
+  auto aligned = [](const void* p) {
+    return reinterpret_cast<std::uintptr_t>(p) % (2 * kMiB) == 0;
+  };
+  auto* big = static_cast<unsigned char*>(SuiteSparse_malloc(5 * kMiB, 1));
+  ASSERT_NE(big, nullptr);
+  EXPECT_TRUE(aligned(big));
+  for (size_t k = 0; k < 5 * kMiB; ++k) big[k] = static_cast<unsigned char>(k * 7 + 3);
+  int ok = 0;
+  auto* bigger = static_cast<unsigned char*>(SuiteSparse_realloc(9 * kMiB, 5 * kMiB, 1, big, &ok));
+  ASSERT_TRUE(ok);
+  EXPECT_TRUE(aligned(bigger));
+  bool same = true;
+  for (size_t k = 0; k < 5 * kMiB; ++k)
+    same = same && bigger[k] == static_cast<unsigned char>(k * 7 + 3);
+  EXPECT_TRUE(same);
+  auto* small = static_cast<unsigned char*>(SuiteSparse_realloc(1000, 9 * kMiB, 1, bigger, &ok));
+  ASSERT_TRUE(ok);
+  for (size_t k = 0; k < 1000; ++k)
+    same = same && small[k] == static_cast<unsigned char>(k * 7 + 3);
+  EXPECT_TRUE(same);
+  auto* grown = static_cast<unsigned char*>(SuiteSparse_realloc(6 * kMiB, 1000, 1, small, &ok));
+  ASSERT_TRUE(ok);
+  EXPECT_TRUE(aligned(grown));
+  for (size_t k = 0; k < 1000; ++k)
+    same = same && grown[k] == static_cast<unsigned char>(k * 7 + 3);
+  EXPECT_TRUE(same);
+  SuiteSparse_free(grown);
+  auto* zeros = static_cast<double*>(SuiteSparse_calloc(kMiB, sizeof(double)));  // 8 MiB
+  ASSERT_NE(zeros, nullptr);
+  EXPECT_TRUE(aligned(zeros));
+  EXPECT_EQ(*std::max_element(zeros, zeros + kMiB), 0.0);
+  SuiteSparse_free(zeros);
+  SuiteSparse_free(SuiteSparse_calloc(10, 10));  // small blocks: malloc's
+  // A factor of more than 4 MiB (the grid Laplacian of 22,500 unknowns) on such a mapping.
+  const int m = 150, n = m * m;
+  const Eigen::SparseMatrix<double> a = grid_lower(m, 4.1);
+  SparseCholesky c;
+  ASSERT_TRUE(c.factorize(a));
+  ASSERT_GT(c.factor_storage() * sizeof(double), 4.0 * kMiB);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(n);
+  for (auto& v : b) v = u(rng);
+  const Eigen::SparseMatrix<double> full =
+      Eigen::SparseMatrix<double>(a.selfadjointView<Eigen::Lower>());
+  EXPECT_LT((full * c.solve(b) - b).norm(), 1e-12 * b.norm());
 }
 
 TEST(SparseCholesky, CloneKeepsItsFactorWhileTheOriginalIsRefactorised) {
