@@ -122,6 +122,7 @@ void NewtonSolver::rebind(const ContinuumModel& model) {
         "NewtonSolver::rebind: the model's mesh (rest positions, faces) is not the solver's");
   model_ = &model;
   if (reduced_hessian_) reduced_hessian_->rebind(model);
+  if (symmetric_energy_) symmetric_energy_->rebind(model);
   forget_factorisation();
 }
 
@@ -142,14 +143,17 @@ void NewtonSolver::update_reduction() {
   std::shared_ptr<const SymmetryReduction> reduction;
   std::shared_ptr<ReducedProblemCache> cache;
   std::unique_ptr<ReducedLagrangianHessian> hessian;
+  std::shared_ptr<SymmetricContinuumEnergy> energy;
   if (g.order() > 1) {
     reduction = std::make_shared<const SymmetryReduction>(make_symmetry_reduction(g));
     cache = std::make_shared<ReducedProblemCache>();
     hessian = std::make_unique<ReducedLagrangianHessian>(*model_, g, *reduction);
+    energy = std::make_shared<SymmetricContinuumEnergy>(*model_, *hessian);
   }
   reduction_ = std::move(reduction);
   reduced_cache_ = std::move(cache);
   reduced_hessian_ = std::move(hessian);
+  symmetric_energy_ = std::move(energy);
   stability_.reset();
   newton_.forget_factorisation();  // of the other problem size
   if (g.order() > 1) reduced_group_symmetry_ = g;
@@ -275,7 +279,31 @@ NewtonSolver::Prepared NewtonSolver::prepare(double force_pN, const Positions& x
       const Positions xs = Eigen::Map<const Positions>(xf_full.data(), 3, xf_full.size() / 3);
       return reduced_hessian_->assemble(xs, l(0), l(1));
     };
-  p.pb = p.reduced ? reduce_newton_problem(p.full, reduction_, reduced_cache_, assemble_reduced)
+  SymmetricEvaluate evaluate_symmetric;
+  if (p.reduced) {
+    // The symmetric states' energy from one element per orbit (the full problem's evaluate
+    // still gives the reported full residual at the end).
+    struct Scratch {
+      Positions x, g;
+      ConstraintValues c;
+    };
+    const auto n = static_cast<Eigen::Index>(model_->rest.cols());
+    auto s = std::make_shared<Scratch>(Scratch{Positions(3, n), Positions(3, n), {}});
+    evaluate_symmetric = [e = symmetric_energy_, s, force_pN, a0 = model_->area0_um2,
+                          v0 = model_->volume0_um3](const Eigen::VectorXd& xf, NewtonPoint& pt) {
+      flat(s->x) = xf;
+      pt.value = e->evaluate(s->x, force_pN, s->g, s->c);
+      if (!std::isfinite(pt.value)) return false;
+      pt.grad = flat(s->g);
+      pt.c = Eigen::Vector2d(s->c.area_um2 - a0, s->c.volume_um3 - v0);
+      pt.c_grad.resize(xf.size(), 2);
+      pt.c_grad.col(0) = flat(s->c.grad_area);
+      pt.c_grad.col(1) = flat(s->c.grad_volume);
+      return true;
+    };
+  }
+  p.pb = p.reduced ? reduce_newton_problem(p.full, reduction_, reduced_cache_, assemble_reduced,
+                                           evaluate_symmetric)
                    : p.full;
   return p;
 }

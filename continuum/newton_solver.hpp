@@ -26,6 +26,7 @@
 #include "continuum/block_hessian.hpp"
 #include "continuum/continuum_model.hpp"
 #include "continuum/reduced_hessian.hpp"
+#include "continuum/symmetric_energy.hpp"
 #include "core/mirror_symmetry.hpp"
 #include "core/progress.hpp"
 #include "core/reduced_problem.hpp"
@@ -245,6 +246,9 @@ class NewtonSolver {
   std::shared_ptr<const SymmetryReduction> reduction_;
   std::shared_ptr<ReducedProblemCache> reduced_cache_;
   std::unique_ptr<ReducedLagrangianHessian> reduced_hessian_;
+  /// The energy, gradient and constraints on the symmetric states from the same
+  /// representatives (continuum/symmetric_energy.hpp).
+  std::shared_ptr<SymmetricContinuumEnergy> symmetric_energy_;
   std::unique_ptr<SymmetryStabilityCheck> stability_;
   std::unique_ptr<ShiftedNewton> full_newton_;  ///< solves that leave the symmetric states
   MeshSymmetry reduced_group_symmetry_;         ///< the group reduction_ is of

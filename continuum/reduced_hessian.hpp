@@ -42,6 +42,13 @@ class ReducedLagrangianHessian {
   int representative_faces() const { return static_cast<int>(faces_.size()); }
   int representative_hinges() const { return static_cast<int>(hinges_.size()); }
   int representative_stars() const { return static_cast<int>(stars_.size()); }
+  /// A representative element (face, edge or vertex index) and its orbit size.
+  struct Element {
+    int id, weight;
+  };
+  const std::vector<Element>& face_representatives() const { return faces_; }
+  /// The representative vertices (centres of the stars), one per orbit.
+  const std::vector<Element>& star_representatives() const { return stars_; }
 
  private:
   /// One entry of a representative element's scatter: local matrix entry (a, b) times coef
@@ -62,10 +69,6 @@ class ReducedLagrangianHessian {
   struct Target {
     Eigen::SparseMatrix<double> matrix;  ///< reduced pattern (lower triangle) and values
     ScatterList faces, hinges, stars;
-  };
-  /// Representative elements: face, edge or vertex index, and orbit size.
-  struct Element {
-    int id, weight;
   };
   void add_target(const SymmetryReduction& reduction);
   void element_matrices(const Positions& x, double area_coef, double volume_coef);

@@ -7,7 +7,8 @@ namespace rbc {
 NewtonProblem reduce_newton_problem(const NewtonProblem& full,
                                     std::shared_ptr<const SymmetryReduction> reduction,
                                     std::shared_ptr<ReducedProblemCache> cache,
-                                    ReducedHessian reduced_hessian) {
+                                    ReducedHessian reduced_hessian,
+                                    SymmetricEvaluate symmetric_evaluate) {
   if (!reduction) throw std::invalid_argument("reduce_newton_problem: no reduction given");
   if (full.add_unshifted)
     throw std::invalid_argument("reduce_newton_problem: add_unshifted terms are not supported");
@@ -21,8 +22,10 @@ NewtonProblem reduce_newton_problem(const NewtonProblem& full,
   st->cache = cache ? std::move(cache) : std::make_shared<ReducedProblemCache>();
   const std::shared_ptr<const SymmetryReduction> red = std::move(reduction);
   NewtonProblem pb;
-  pb.evaluate = [full, red, st](const Eigen::VectorXd& q, NewtonPoint& p) {
-    if (!full.evaluate(expand(*red, q), st->point)) return false;
+  SymmetricEvaluate at_symmetric =
+      symmetric_evaluate ? std::move(symmetric_evaluate) : full.evaluate;
+  pb.evaluate = [at_symmetric, red, st](const Eigen::VectorXd& q, NewtonPoint& p) {
+    if (!at_symmetric(expand(*red, q), st->point)) return false;
     p.value = st->point.value;
     if (!std::isfinite(p.value)) return false;
     p.grad = reduce(*red, st->point.grad);

@@ -30,10 +30,16 @@ struct ReducedProblemCache {
 using ReducedHessian = std::function<const Eigen::SparseMatrix<double>&(
     const Eigen::VectorXd& x, const Eigen::VectorXd& lambda)>;
 
+/// The full problem's value, constraints and gradients at a symmetric state x = P q, valid
+/// only there (e.g. from one element per orbit): its gradients need not be the full ones, only
+/// their reductions P' g and P' C must be; replaces full.evaluate in the reduced evaluation.
+using SymmetricEvaluate = std::function<bool(const Eigen::VectorXd& x, NewtonPoint& p)>;
+
 NewtonProblem reduce_newton_problem(const NewtonProblem& full,
                                     std::shared_ptr<const SymmetryReduction> reduction,
                                     std::shared_ptr<ReducedProblemCache> cache = nullptr,
-                                    ReducedHessian reduced_hessian = {});
+                                    ReducedHessian reduced_hessian = {},
+                                    SymmetricEvaluate symmetric_evaluate = {});
 
 /// The L-BFGS objective f(P q) with gradient P' grad f (core/lbfgs.hpp).
 Objective reduce_objective(Objective full, std::shared_ptr<const SymmetryReduction> reduction);

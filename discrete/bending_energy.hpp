@@ -110,6 +110,16 @@ inline double juelicher_face_coef(const BendingParameters& p, const double (&h)[
   for (int k = 0; k < 3; ++k) coef -= p.kappa_pNum * (p.h0_per_um * h[k] + 0.5 * h[k] * h[k]) / 3.0;
   return coef;
 }
+/// The face coefficient with each corner's cell weighted by w_k (a cell counted w_k times, as a
+/// representative of its mirror orbit, or 0 times): -(kappa/3) sum_k w_k (H0 h_k + h_k^2/2).
+/// (The hinge coefficient, linear in h, takes the weighted w h directly.)
+inline double juelicher_face_coef(const BendingParameters& p, const double (&h)[3],
+                                  const double (&w)[3]) {
+  double coef = 0.0;
+  for (int k = 0; k < 3; ++k)
+    coef -= w[k] * p.kappa_pNum * (p.h0_per_um * h[k] + 0.5 * h[k] * h[k]) / 3.0;
+  return coef;
+}
 
 /// Every vertex cell from per-edge L_e theta_e (lt, um, E entries) and per-face areas (af,
 /// um^2, F entries), summed over topo.vertex_edges / vertex_faces in their order.
