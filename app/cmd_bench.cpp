@@ -206,11 +206,20 @@ void BM_Continuum88From0(benchmark::State& state) {
   }
 }
 
+/// Continuum options of a warm row: range(1) as continuum_options; range(2) = 1 (if given)
+/// checks only the highest force's symmetric equilibrium (SymmetryCheckAt::highest_force, as
+/// the calibration does), in the cold reference and the warm run alike.
+ContinuumOptions warm_options(const benchmark::State& state) {
+  ContinuumOptions o = continuum_options(state, 1);
+  if (state.range(2) == 1) o.symmetry_check_at = SymmetryCheckAt::highest_force;
+  return o;
+}
+
 /// Warm re-solve of the 13 forces after a 1 % persistence-length change, from the previous
 /// parameters' equilibria; `cold_ratio` is its time over the cold 13-force sweep's.
 void BM_ContinuumWarm(benchmark::State& state) {
   const int e = static_cast<int>(state.range(0));
-  const ContinuumOptions co = continuum_options(state, 1);
+  const ContinuumOptions co = warm_options(state);
   const ContinuumModel& m0 = cached_continuum(e, 1.0, bench_orientation(state, 1));
   const ContinuumModel& m1 = cached_continuum(e, 1.01, bench_orientation(state, 1));
   const StretchState before = stretch_state(run_continuum_stretch(m0, kMillsForces, co));
@@ -236,7 +245,7 @@ void BM_ContinuumWarm(benchmark::State& state) {
 /// parameters (not timed) keeps each force's factorisation, the warm run starts from it.
 void BM_ContinuumWarmKept(benchmark::State& state) {
   const int e = static_cast<int>(state.range(0));
-  const ContinuumOptions co = continuum_options(state, 1);
+  const ContinuumOptions co = warm_options(state);
   const ContinuumModel& m0 = cached_continuum(e, 1.0, bench_orientation(state, 1));
   const ContinuumModel& m1 = cached_continuum(e, 1.01, bench_orientation(state, 1));
   const double eval_s = continuum_eval_seconds(m1);
@@ -547,14 +556,19 @@ void add_bench_command(CLI::App& app, Action& action) {
                  ->Args({5120, 0, 0})
                  ->Args({5120, 0, 1})
                  ->Args({5120, 0, 2}));
+        // Warm rows: third argument 1 = the symmetric equilibria checked at the highest force
+        // only (--symmetry-check highest-force, the calibration's policy), 0 = at every force.
         once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc", BM_ContinuumWarm)
-                 ->Args({1000, 0})
-                 ->Args({1000, 1}));
+                 ->Args({1000, 0, 0})
+                 ->Args({1000, 1, 0})
+                 ->Args({1000, 1, 1}));
         once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc_kept",
                                           BM_ContinuumWarmKept)
-                 ->Args({1000, 0})
-                 ->Args({1000, 1})
-                 ->Args({1000, 2}));
+                 ->Args({1000, 0, 0})
+                 ->Args({1000, 1, 0})
+                 ->Args({1000, 2, 0})
+                 ->Args({1000, 1, 1})
+                 ->Args({1000, 2, 1}));
         // Issue 14: 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
         once(benchmark::RegisterBenchmark("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)
                  ->Args({1000, 1000}));

@@ -55,6 +55,8 @@ struct StretchCli {
   int elements = 4000;
   /// --symmetry mirror: solve on the mirror-symmetric configurations (core/mirror_symmetry.hpp)
   Symmetry symmetry = Symmetry::none;
+  /// --symmetry-check (continuum, with --symmetry mirror): which equilibria are checked
+  SymmetryCheckAt symmetry_check_at = SymmetryCheckAt::every_force;
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
   bool json = false, quiet = false, overwrite = false;
@@ -388,6 +390,7 @@ int run_continuum(const StretchCli& o) {
   co.max_iterations_per_force = std::min(o.max_iterations, co.max_iterations_per_force);
   if (o.tolerance_given) co.newton.force_tolerance_pN = o.tolerance_pN;
   co.newton.symmetry = o.symmetry;
+  co.symmetry_check_at = o.symmetry_check_at;
   co.validate();
   const bool created_out = prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet);
@@ -408,7 +411,9 @@ int run_continuum(const StretchCli& o) {
                            {{"model", "continuum"},
                             {"order", to_string(order)},
                             {"mesh", mesh_report_json(mesh_report)},
-                            {"mesh_orientation", to_string(o.orientation)}},
+                            {"mesh_orientation", to_string(o.orientation)},
+                            {"symmetry", to_string(o.symmetry)},
+                            {"symmetry_check", to_string(o.symmetry_check_at)}},
                            forces);
   // The continuation (with its secant predictor and bisection) runs in the library, so the
   // shapes are written after the last force; an interrupted run records none as complete.
@@ -575,6 +580,15 @@ void add_stretch_command(CLI::App& app, Action& action) {
       ->transform(enum_choice<Symmetry>({{"none", Symmetry::none}, {"mirror", Symmetry::mirror}}))
       ->type_name("TEXT")
       ->default_str("none");
+  cmd->add_option("--symmetry-check", o->symmetry_check_at,
+                  "continuum with --symmetry mirror: every-force (each symmetric equilibrium "
+                  "is checked as it is solved) | highest-force (only the highest force's, "
+                  "after the sweep; if it is a saddle, the sweep runs again with every force "
+                  "checked: one check instead of one per force where nothing buckles)")
+      ->transform(enum_choice<SymmetryCheckAt>({{"every-force", SymmetryCheckAt::every_force},
+                                                {"highest-force", SymmetryCheckAt::highest_force}}))
+      ->type_name("TEXT")
+      ->default_str("every-force");
   cmd->add_option("--elements", o->elements, "continuum: triangles (200 to 79,996)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();

@@ -18,6 +18,10 @@ std::string to_string(ContinuumSolver s) {
   return s == ContinuumSolver::newton ? "newton" : "lbfgs";
 }
 
+std::string to_string(SymmetryCheckAt s) {
+  return s == SymmetryCheckAt::every_force ? "every-force" : "highest-force";
+}
+
 void ContinuumOptions::validate() const {
   newton.validate();
   require_integer_in_range("Newton iterations per force", max_iterations_per_force, 1,
@@ -212,6 +216,12 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
   else
     own_solver = std::make_unique<NewtonSolver>(model, newton_options);
   NewtonSolver& newton = kept ? *kept->solver : *own_solver;
+  // SymmetryCheckAt::highest_force: the solves trust the symmetry; the highest force's
+  // equilibrium is checked after the sweep.
+  const bool check_highest =
+      options.solver == ContinuumSolver::newton && options.newton.symmetry == Symmetry::mirror &&
+      options.newton.symmetry_check && options.symmetry_check_at == SymmetryCheckAt::highest_force;
+  newton.set_symmetry_check(options.newton.symmetry_check && !check_highest);
   if (kept) {
     // Methods kept under another symmetry reduction (another bead patch) do not apply.
     const std::vector<int>& group = newton.symmetry_group();
@@ -327,6 +337,40 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
     }
     out.push_back(std::move(p));
     previous = f;  // after a failure, continue from the last feasible state; the point says so
+  }
+  if (check_highest) {
+    // The highest force's converged symmetric equilibrium (a buckled start's full solve needs
+    // no check).
+    int top = -1;
+    for (size_t k = 0; k < out.size(); ++k)
+      if (out[k].converged && out[k].symmetry_order > 1 && !out[k].symmetry_broken &&
+          (top < 0 || out[k].force_pN >= out[static_cast<size_t>(top)].force_pN))
+        top = static_cast<int>(k);
+    if (top >= 0) {
+      auto& p = out[static_cast<size_t>(top)];
+      throw_if_cancelled(options.cancel);
+      const auto t0 = std::chrono::steady_clock::now();
+      const SectorStability st = newton.check_symmetric_state(p.force_pN, p.x, p.multipliers);
+      p.factorisations += st.factorisations;
+      p.wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (!st.stable) {
+        std::ostringstream m;
+        m << "the symmetric equilibrium at F = " << p.force_pN << " pN is a saddle (sector "
+          << st.unstable_character << "): the sweep again with every force checked";
+        report(progress, m.str());
+        ContinuumOptions every = options;
+        every.symmetry_check_at = SymmetryCheckAt::every_force;
+        std::vector<ContinuumStretchPoint> again =
+            stretch_sweep(model, forces_pN, every, progress, warm, kept);
+        for (size_t k = 0; k < again.size(); ++k) {  // both passes' work
+          again[k].iterations += out[k].iterations;
+          again[k].factorisations += out[k].factorisations;
+          again[k].krylov_iterations += out[k].krylov_iterations;
+          again[k].wall_s += out[k].wall_s;
+        }
+        return again;
+      }
+    }
   }
   return out;
 }

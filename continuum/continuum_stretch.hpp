@@ -24,6 +24,25 @@ namespace rbc {
 enum class ContinuumSolver { newton, lbfgs };
 std::string to_string(ContinuumSolver s);
 
+/// With newton.symmetry = mirror and newton.symmetry_check: which symmetric equilibria of a
+/// sweep the stability check (core/symmetry_stability.hpp: one full Hessian and |G| - 1
+/// sector factorisations) examines.
+enum class SymmetryCheckAt {
+  /// Each force's, as it is solved (NewtonOptions::symmetry_check): a saddle is left at once.
+  every_force,
+  /// The highest converged force's only, after the sweep. If it is a saddle, the whole sweep
+  /// is run again with every_force, so the answer is then every_force's (and the points count
+  /// both passes' work). This rests on buckling growing with the stretch: measured for the soft
+  /// corner of the calibration's prior (p = 25 nm, Lmax = 364 nm), once broken at 67.6 pN the
+  /// symmetry stayed broken at every higher force, and no lower force of a sweep whose top force
+  /// was stable was found unstable (calibrate/forward_model.hpp, check_symmetry_at_top_force,
+  /// which the calibration uses). A sweep whose forces are not all below its highest one's
+  /// buckling force is then checked in one set of sector factorisations instead of one per
+  /// force (13 Mills forces at 980 elements, mirror-planes: 7 against 91).
+  highest_force,
+};
+std::string to_string(SymmetryCheckAt s);
+
 struct ContinuumOptions {
   ContinuumSolver solver = ContinuumSolver::newton;
   NewtonOptions newton;
@@ -36,6 +55,9 @@ struct ContinuumOptions {
   /// Polled once per force and sub-step (and by Newton once per iteration when
   /// newton.cancel is empty); returning true stops the run by throwing Cancelled.
   CancelCheck cancel;
+  /// With newton.symmetry = mirror and newton.symmetry_check (Newton only): which equilibria
+  /// are checked to be minima of the full problem.
+  SymmetryCheckAt symmetry_check_at = SymmetryCheckAt::every_force;
   /// L-BFGS only: per-vertex force tolerance (pN), iterations per multiplier update, and
   /// augmented-Lagrangian penalty stiffnesses (pN/um^3, pN/um^5), multiplier updates.
   LbfgsOptions lbfgs;

@@ -208,6 +208,9 @@ class NewtonSolver {
   /// state that is not symmetric (a full solve's).
   SectorStability check_symmetric_state(double force_pN, const Positions& x,
                                         const ConstraintMultipliers& lambda);
+  /// Turns NewtonOptions::symmetry_check on or off for the next solves (a sweep that checks
+  /// only its highest force, continuum/continuum_stretch.hpp SymmetryCheckAt).
+  void set_symmetry_check(bool on) { options_.symmetry_check = on; }
   /// Order of the mirror group the solves are reduced by (1: the full problem).
   int symmetry_order() const { return reduction_ ? reduction_->group_order : 1; }
   /// Factorises the Hessian of the main problem (see copy_method) at x (3 x N, um) with

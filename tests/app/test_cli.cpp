@@ -46,6 +46,7 @@ TEST(Cli, BadInputExitsTwoWithAClearMessage) {
       {"stretch --force 10 -n 200 --eta -1", "eta"},
       {"stretch --force 10 -n 200 --bending nope", "nope"},
       {"stretch --force 10 --model nope", "nope"},
+      {"stretch --force 10 --model continuum --symmetry mirror --symmetry-check top", "top"},
       {"fig7 --force 10,5 --method discrete:150 --out /tmp/rbc_cli_never", "increase"},
       {"fig7 --method bogus:1", "bogus"},
       {"stretch --force 10 -n 200 --out /proc/rbc_cannot_write_here", "rbc_cannot_write_here"},

@@ -17,6 +17,7 @@ Evolver: the sum of its per-force CPU clock). Nothing here is run by CMake or ct
 
 Usage: compare.py --rbc PATH/rbc --work DIR [--vertices 2562] [--threads 1,2]
                   [--symmetry none|mirror] [--orientation dimple-vertex|mirror-planes]
+                  [--symmetry-check every-force|highest-force]
 """
 import argparse
 import csv
@@ -53,6 +54,10 @@ def main():
     ap.add_argument("--evolver", default="evolver-nox-d")
     ap.add_argument("--symmetry", default="none",
                     help="rbc stretch --symmetry (none | mirror: the mirror-symmetric states)")
+    ap.add_argument("--symmetry-check", default="every-force",
+                    help="rbc stretch --symmetry-check with --symmetry mirror (every-force | "
+                         "highest-force: the symmetric equilibria checked to be minima at each "
+                         "force, or at the highest force only)")
     ap.add_argument("--orientation", default="dimple-vertex",
                     help="the mesh on both sides (rbc mesh --orientation, rbc stretch "
                          "--mesh-orientation)")
@@ -76,6 +81,7 @@ def main():
 
     result = {"vertices": args.vertices, "elements": elements, "forces_pN": args.forces,
               "orientation": args.orientation, "symmetry": args.symmetry,
+              "symmetry_check": args.symmetry_check,
               "kappa_J": float(args.kappa), "evolver_bending": args.bending,
               "cpu": open("/proc/cpuinfo").read().count("processor\t:")}
 
@@ -106,7 +112,8 @@ def main():
         with open(out + ".log", "w") as log:
             wall, cpu, rss, rc = timed([args.rbc, "stretch", "--model", "continuum", "--elements",
                                         str(elements), "--force", args.forces, "--kappa", args.kappa,
-                                        "--symmetry", args.symmetry, "--mesh-orientation",
+                                        "--symmetry", args.symmetry, "--symmetry-check",
+                                        args.symmetry_check, "--mesh-orientation",
                                         args.orientation, "--out", out, "-q"],
                                        env=env, stdout=log)
         pts = []
