@@ -313,6 +313,14 @@ TEST(ContinuumSymmetry, HighestForceCheckFindsTheBucklingAndAnswersAsEveryForce)
     EXPECT_GT(highest[k].factorisations, every[k].factorisations) << forces[k];
   }
   EXPECT_TRUE(highest[3].symmetry_broken);
+  // The same through a ContinuumSweepSolver, whose second pass runs on the kept solver.
+  ContinuumSweepSolver kept_highest(highest_force_check()), kept_every(mirror_options(true));
+  const auto a = kept_highest.run(m, forces);
+  const auto b = kept_every.run(m, forces);
+  for (size_t k = 0; k < forces.size(); ++k) {
+    EXPECT_EQ(a[k].symmetry_broken, b[k].symmetry_broken) << forces[k];
+    EXPECT_EQ((a[k].x - b[k].x).cwiseAbs().maxCoeff(), 0.0) << forces[k];
+  }
   const std::vector<double> below{0.0, 38.0};
   const auto stable = run_continuum_stretch(m, below, highest_force_check());
   const auto trusted = run_continuum_stretch(m, below, mirror_options(false));
