@@ -224,14 +224,19 @@ TEST(ContinuumSymmetry, MirrorReducedStretchOnTheMirrorPlanesMeshEqualsTheFullOn
   }
 }
 
+/// The soft corner of the calibration's prior (p 25 nm, Lmax 364 nm), which buckles.
+WlcParameters soft_corner() {
+  WlcParameters w;
+  w.persistence_um = 0.025;
+  w.lmax_um = 0.364;
+  return w;
+}
+
 TEST(ContinuumSymmetry, BucklingSoftCellIsCaughtAndSolvedInFull) {
   // The soft corner of the calibration's prior (p 25 nm, Lmax 364 nm): between 38 and 67.6 pN
   // the stretched cell buckles, breaking y -> -y by ~0.5 um (the inversion stays). The full
   // solve follows the buckled branch; the symmetric state there is a saddle of higher energy.
-  WlcParameters w;
-  w.persistence_um = 0.025;
-  w.lmax_um = 0.364;
-  const ContinuumModel m = model(make_continuum_mesh(500), w);
+  const ContinuumModel m = model(make_continuum_mesh(500), soft_corner());
   const std::vector<double> forces{0.0, 38.0, 67.6, 151.0};
   const auto full = run_continuum_stretch(m, forces, ContinuumOptions{});
   const auto checked = run_continuum_stretch(m, forces, mirror_options(true));
@@ -297,10 +302,7 @@ TEST(ContinuumSymmetry, HighestForceCheckFindsTheBucklingAndAnswersAsEveryForce)
   // state is a saddle, so the sweep runs again with every force checked and answers as that
   // policy does, bit for bit, counting both passes' work. With the forces below the buckling
   // only, the one check passes.
-  WlcParameters w;
-  w.persistence_um = 0.025;
-  w.lmax_um = 0.364;
-  const ContinuumModel m = model(make_continuum_mesh(500), w);
+  const ContinuumModel m = model(make_continuum_mesh(500), soft_corner());
   const std::vector<double> forces{0.0, 38.0, 67.6, 151.0};
   const auto every = run_continuum_stretch(m, forces, mirror_options(true));
   const auto highest = run_continuum_stretch(m, forces, highest_force_check());
@@ -386,11 +388,8 @@ TEST(ContinuumSymmetry, KeptSweepSolverRunsTheNextModelAsANewOneThroughTheBuckli
   // ContinuumSweepSolver keeps its NewtonSolver between runs on one mesh. A cold run of the
   // soft cell that buckles (its full Hessian built only then) after a run of the stiff one equals
   // the soft cell's run on a new sweep solver, bit for bit.
-  WlcParameters soft;
-  soft.persistence_um = 0.025;
-  soft.lmax_um = 0.364;
   const TriMesh mesh = make_continuum_mesh(500);
-  const ContinuumModel stiff = model(mesh), buckling = model(mesh, soft);
+  const ContinuumModel stiff = model(mesh), buckling = model(mesh, soft_corner());
   const std::vector<double> forces{0.0, 38.0, 67.6};
   ContinuumSweepSolver reused(mirror_options());
   const auto first = reused.run(stiff, forces);
