@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <stdexcept>
@@ -15,6 +16,16 @@
 #include "core/progress.hpp"
 
 namespace {
+
+/// Whether the kernel refuses to overcommit memory (vm.overcommit_memory = 2).
+bool strict_overcommit() {
+  std::FILE* f = std::fopen("/proc/sys/vm/overcommit_memory", "r");
+  if (!f) return false;
+  int mode = 0;
+  const bool read = std::fscanf(f, "%d", &mode) == 1;
+  std::fclose(f);
+  return read && mode == 2;
+}
 
 /// glibc malloc: keep freed blocks instead of returning them to the kernel. Each Newton
 /// solve allocates and frees the same multi-megabyte buffers (CHOLMOD's factor and permuted
@@ -31,11 +42,16 @@ namespace {
 /// 1,500 faults and 0.48 -> 0.39 s of CPU, peak memory 59 -> 71 MiB (README, "Memory: the
 /// heap on huge pages"). Advice only: where the kernel gives no huge pages nothing changes.
 /// Memory beyond the reserve (and other threads' arenas) keeps 4 KiB pages.
+///
+/// glibc also adds the top pad to each new per-thread arena, making all of it writable at once;
+/// under strict overcommit (vm.overcommit_memory = 2, found on HPC nodes) that counts against the
+/// commit limit for every OpenMP/MPI thread, so the reserve (not the thresholds) is skipped there.
 void keep_freed_memory() {
   constexpr int kHeapReserveBytes = 256 << 20;
   constexpr std::uintptr_t kHugePage = std::uintptr_t{2} << 20;
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
+  if (strict_overcommit()) return;
   mallopt(M_TOP_PAD, kHeapReserveBytes);
   // A block larger than the start-up heap's free top grows the heap by it plus the pad; freed,
   // it returns to the top, which the trim threshold keeps.

@@ -15,6 +15,8 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
 #include "core/blas_threads.hpp"
 #include "core/validation.hpp"
@@ -42,19 +44,60 @@ namespace detail {
 namespace huge {
 constexpr size_t kPageBytes = size_t{2} << 20;
 constexpr size_t kHugeBlockBytes = size_t{4} << 20;
+/// Freed mappings kept for reuse, at most this many bytes and blocks: CHOLMOD maps its update
+/// workspace afresh at every numeric factorisation (23 MB at the full spectrin level, 4 MB at
+/// 9,680 continuum elements), whose pages would otherwise fault in again each time (without
+/// transparent huge pages, ~3,500 faults of ~11 us per factorisation of a 104 MB factor).
+constexpr size_t kIdleBytes = size_t{64} << 20;
+constexpr size_t kIdleBlocks = 4;
+struct Block {
+  size_t bytes = 0;   ///< requested
+  size_t length = 0;  ///< mapped (a multiple of kPageBytes)
+};
 struct Registry {
   std::mutex mutex;
-  std::unordered_map<void*, size_t> bytes;  ///< each huge block's requested size
+  std::unordered_map<void*, Block> live;
+  std::vector<std::pair<void*, size_t>> idle;  ///< freed mappings and their lengths
+  size_t idle_bytes = 0;
 };
+/// Never destroyed: a block freed during static destruction still finds it.
 Registry& registry() {
-  static Registry r;
-  return r;
+  static Registry* r = new Registry;
+  return *r;
 }
 size_t mapped_bytes(size_t bytes) {
   return (bytes + kPageBytes - 1) / kPageBytes * kPageBytes;
 }
-void* map_block(size_t bytes) {
+/// A block of `bytes` (>= kHugeBlockBytes) on a 2 MiB-aligned mapping of its own: a kept idle
+/// one of the same length, else a new one. `zeroed`: its first `bytes` read 0 (new mappings
+/// start zeroed). Null when the size is not representable or the kernel refuses.
+void* map_block(size_t bytes, bool zeroed) {
+  if (bytes > std::numeric_limits<size_t>::max() - 2 * kPageBytes) return nullptr;
   const size_t length = mapped_bytes(bytes);
+  Registry& reg = registry();
+  void* reused = nullptr;
+  {
+    const std::lock_guard<std::mutex> lock(reg.mutex);
+    for (auto it = reg.idle.begin(); it != reg.idle.end(); ++it)
+      if (it->second == length) {
+        reused = it->first;
+        reg.idle.erase(it);
+        reg.idle_bytes -= length;
+        break;
+      }
+    if (reused) {
+      try {
+        reg.live.emplace(reused, Block{bytes, length});
+      } catch (...) {
+        munmap(reused, length);
+        return nullptr;
+      }
+    }
+  }
+  if (reused) {
+    if (zeroed) std::memset(reused, 0, bytes);
+    return reused;
+  }
   void* raw = mmap(nullptr, length + kPageBytes, PROT_READ | PROT_WRITE,
                    MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (raw == MAP_FAILED) return nullptr;
@@ -65,10 +108,13 @@ void* map_block(size_t bytes) {
   if (kPageBytes - head > 0) munmap(reinterpret_cast<char*>(aligned) + length, kPageBytes - head);
   void* block = reinterpret_cast<void*>(aligned);
   madvise(block, length, MADV_HUGEPAGE);  // advice only: without it the block still works
+  bool registered = false;
   try {
-    const std::lock_guard<std::mutex> lock(registry().mutex);
-    registry().bytes.emplace(block, bytes);
+    const std::lock_guard<std::mutex> lock(reg.mutex);
+    registered = reg.live.emplace(block, Block{bytes, length}).second;
   } catch (...) {
+  }
+  if (!registered) {  // out of memory, or an address already live (cannot happen)
     munmap(block, length);
     return nullptr;
   }
@@ -76,26 +122,37 @@ void* map_block(size_t bytes) {
 }
 /// The requested size of a huge block, 0 for any other pointer.
 size_t block_bytes(void* p) {
-  const std::lock_guard<std::mutex> lock(registry().mutex);
-  const auto it = registry().bytes.find(p);
-  return it == registry().bytes.end() ? 0 : it->second;
+  Registry& reg = registry();
+  const std::lock_guard<std::mutex> lock(reg.mutex);
+  const auto it = reg.live.find(p);
+  return it == reg.live.end() ? 0 : it->second.bytes;
 }
 void* allocate(size_t bytes) {
-  return bytes >= kHugeBlockBytes ? map_block(bytes) : std::malloc(bytes);
+  return bytes >= kHugeBlockBytes ? map_block(bytes, false) : std::malloc(bytes);
 }
 void* allocate_zeroed(size_t count, size_t size) {
   if (size != 0 && count > std::numeric_limits<size_t>::max() / size) return nullptr;
-  return count * size >= kHugeBlockBytes ? map_block(count * size)  // mappings start zeroed
-                                         : std::calloc(count, size);
+  return count * size >= kHugeBlockBytes ? map_block(count * size, true) : std::calloc(count, size);
 }
 void release(void* p) {
   if (!p) return;
   {
-    const std::lock_guard<std::mutex> lock(registry().mutex);
-    const auto it = registry().bytes.find(p);
-    if (it != registry().bytes.end()) {
-      munmap(p, mapped_bytes(it->second));
-      registry().bytes.erase(it);
+    Registry& reg = registry();
+    const std::lock_guard<std::mutex> lock(reg.mutex);
+    const auto it = reg.live.find(p);
+    if (it != reg.live.end()) {
+      const size_t length = it->second.length;
+      reg.live.erase(it);
+      bool kept = false;
+      if (reg.idle.size() < kIdleBlocks && length <= kIdleBytes - reg.idle_bytes) {
+        try {
+          reg.idle.emplace_back(p, length);
+          reg.idle_bytes += length;
+          kept = true;
+        } catch (...) {
+        }
+      }
+      if (!kept) munmap(p, length);
       return;
     }
   }

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -288,6 +289,27 @@ TEST(SparseCholesky, CholmodsLargeBlocksLieOnAlignedMappingsAndKeepTheirContents
   EXPECT_EQ(*std::max_element(zeros, zeros + kMiB), 0.0);
   SuiteSparse_free(zeros);
   SuiteSparse_free(SuiteSparse_calloc(10, 10));  // small blocks: malloc's
+  // A freed mapping may be handed out again (kept for reuse): calloc's must still read 0, and
+  // a block freed while another of its size is live is a different one.
+  for (int round = 0; round < 3; ++round) {
+    auto* dirty = static_cast<unsigned char*>(SuiteSparse_malloc(6 * kMiB, 1));
+    ASSERT_NE(dirty, nullptr);
+    EXPECT_TRUE(aligned(dirty));
+    std::fill(dirty, dirty + 6 * kMiB, static_cast<unsigned char>(0xAB));
+    auto* other = static_cast<unsigned char*>(SuiteSparse_malloc(6 * kMiB, 1));
+    ASSERT_NE(other, nullptr);
+    EXPECT_NE(other, dirty);
+    SuiteSparse_free(dirty);
+    auto* clean = static_cast<unsigned char*>(SuiteSparse_calloc(6 * kMiB, 1));
+    ASSERT_NE(clean, nullptr);
+    EXPECT_TRUE(aligned(clean));
+    EXPECT_EQ(*std::max_element(clean, clean + 6 * kMiB), 0) << round;
+    SuiteSparse_free(clean);
+    SuiteSparse_free(other);
+  }
+  // A size within two pages of SIZE_MAX is refused, not wrapped to an empty mapping.
+  EXPECT_EQ(SuiteSparse_malloc(std::numeric_limits<size_t>::max() - 8, 1), nullptr);
+  EXPECT_EQ(SuiteSparse_malloc((size_t{1} << 61) - 1, 8), nullptr);
   // A factor of more than 4 MiB (the grid Laplacian of 22,500 unknowns) on such a mapping.
   const int m = 150, n = m * m;
   const Eigen::SparseMatrix<double> a = grid_lower(m, 4.1);
