@@ -42,6 +42,7 @@ namespace detail {
 /// (300 MB of factor) spent 0.8 s in page faults (README, "Sparse Cholesky: the factor on huge
 /// pages"). Smaller blocks come from malloc as before.
 namespace huge {
+namespace {  // internal linkage: this file alone uses them
 constexpr size_t kPageBytes = size_t{2} << 20;
 constexpr size_t kHugeBlockBytes = size_t{4} << 20;
 /// Freed mappings kept for reuse, at most this many bytes and blocks: CHOLMOD maps its update
@@ -177,8 +178,10 @@ void install() {
     SuiteSparse_config.free_func = release;
   });
 }
+}  // namespace
 }  // namespace huge
 
+namespace {
 /// CHOLMOD's view of an n x n lower triangle in CSC arrays with sorted rows (no copy; CHOLMOD
 /// reads them only). values null: the pattern alone.
 cholmod_sparse lower_csc_view(int n, const int* outer, const int* inner, double* values) {
@@ -196,6 +199,7 @@ cholmod_sparse lower_csc_view(int n, const int* outer, const int* inner, double*
   a.packed = 1;
   return a;
 }
+}  // namespace
 
 /// Eigen's CHOLMOD wrapper with a deep copy: Eigen offers none, and a kept factorisation must
 /// survive while its original is refactorised (SparseCholesky::clone). The copy is CHOLMOD's own
@@ -303,6 +307,7 @@ struct PermutedPattern {
   }
 };
 
+namespace {  // internal linkage, as the allocator
 /// The block size b in {3, 2} of which a's lower triangle is made: every stored entry (r, c),
 /// r >= c, lies in a block (r / b, c / b) stored whole (its lower half on the diagonal). 1 if
 /// neither. Needs a compressed matrix (no duplicate entries).
@@ -374,6 +379,7 @@ std::vector<int> block_metis_order(const Eigen::SparseMatrix<double>& a, int b,
   return perm;
 }
 
+}  // namespace
 }  // namespace detail
 
 struct SparseCholesky::Impl {
