@@ -613,6 +613,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
       if (explicit_choice.empty() && cmd->get_option(name)->count() > 0) explicit_choice = name;
     const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
     const bool symmetry_given = cmd->get_option("--symmetry")->count() > 0;
+    const bool check_given = cmd->get_option("--symmetry-check")->count() > 0;
     std::string changed_physics;  // options that leave the table's default physics
     for (const char* name :
          {"--bending", "--dihedral-mapping", "--mesh-quality", "--mesh-orientation", "--contact",
@@ -620,7 +621,8 @@ void add_stretch_command(CLI::App& app, Action& action) {
           "--h0", "--q", "--eta", "--tolerance"})
       if (cmd->get_option(name)->count() > 0)
         changed_physics += (changed_physics.empty() ? "" : ", ") + std::string(name);
-    action = [o, explicit_choice, accuracy_given, symmetry_given, changed_physics]() -> int {
+    action = [o, explicit_choice, accuracy_given, symmetry_given, check_given,
+              changed_physics]() -> int {
       if (accuracy_given) {
         choose_stretch_method(*o, explicit_choice, symmetry_given);
         if (!changed_physics.empty()) {
@@ -630,6 +632,13 @@ void add_stretch_command(CLI::App& app, Action& action) {
           o->accuracy_choice["warning"] = "defaults changed by " + changed_physics;
         }
       }
+      // --symmetry-check chooses among the continuum's checks of symmetric equilibria: refused
+      // where there are none to choose (rather than ignored).
+      if (check_given && (o->model != StretchModel::continuum || o->symmetry != Symmetry::mirror))
+        throw std::invalid_argument(
+            "--symmetry-check applies to --model continuum with --symmetry mirror, got --model " +
+            std::string(o->model == StretchModel::continuum ? "continuum" : "discrete") +
+            " with --symmetry " + to_string(o->symmetry));
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(kStretchOptionNames, [&]() -> int {
         return o->model == StretchModel::discrete ? run_discrete(*o) : run_continuum(*o);
