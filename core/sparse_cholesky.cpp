@@ -40,7 +40,10 @@ namespace detail {
 /// here): their first touch then faults once per 2 MiB instead of once per 4 KiB page. On this
 /// project's VMs a 4 KiB fault costs 11 us, so the first factorisation of the full spectrin level
 /// (300 MB of factor) spent 0.8 s in page faults (README, "Sparse Cholesky: the factor on huge
-/// pages"). Smaller blocks come from malloc as before.
+/// pages"). Smaller blocks come from malloc as before. A realloc that stays within its block's
+/// 2 MiB-rounded length resizes in place. Nothing may call SuiteSparse_start() once they are
+/// installed (nothing in the project does; CHOLMOD 3's cholmod_start does not): it resets the
+/// hooks to the C library's, whose free() must not see a mapped block.
 namespace huge {
 namespace {  // internal linkage: this file alone uses them
 constexpr size_t kPageBytes = size_t{2} << 20;
@@ -159,8 +162,21 @@ void release(void* p) {
   }
   std::free(p);
 }
+/// Resizes a huge block in place when `bytes` (>= kHugeBlockBytes) still fits its mapping's
+/// length rounded the same way (e.g. 5 -> 5.5 MiB on a 6 MiB mapping): true, and the block
+/// now holds `bytes`. False for any other pointer or size.
+bool resize_in_place(void* p, size_t bytes) {
+  if (bytes < kHugeBlockBytes) return false;
+  Registry& reg = registry();
+  const std::lock_guard<std::mutex> lock(reg.mutex);
+  const auto it = reg.live.find(p);
+  if (it == reg.live.end() || mapped_bytes(bytes) != it->second.length) return false;
+  it->second.bytes = bytes;
+  return true;
+}
 void* reallocate(void* p, size_t bytes) {
   if (!p) return allocate(bytes);
+  if (resize_in_place(p, bytes)) return p;
   const size_t old = block_bytes(p);
   if (old == 0 && bytes < kHugeBlockBytes) return std::realloc(p, bytes);
   void* q = allocate(bytes);
@@ -389,6 +405,7 @@ struct SparseCholesky::Impl {
   bool analysed = false, ok = false;
   Eigen::Index n = 0;
   int block_size = 1;  ///< the blocks the last analysis ordered (1: the unknowns)
+  int analyses = 0;    ///< symbolic analyses made (SparseCholesky::analyses)
   std::shared_ptr<const detail::PermutedPattern> pattern;
   std::vector<double> values;  ///< the permuted matrix's values (allocated at a factorisation)
 
@@ -458,6 +475,7 @@ SparseCholesky SparseCholesky::clone() const {
     c.impl_->n = impl_->n;
     c.impl_->block_size = impl_->block_size;
   }
+  c.impl_->analyses = impl_->analyses;
   return c;
 }
 
@@ -556,6 +574,7 @@ void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
                              std::to_string(n) + " unknowns)");
   m.pattern = std::move(pat);
   m.analysed = true;
+  ++m.analyses;
   m.n = n;
 }
 
@@ -644,6 +663,10 @@ Eigen::Index SparseCholesky::rows() const {
 
 int SparseCholesky::ordering_block_size() const {
   return impl_->analysed ? impl_->block_size : 1;
+}
+
+int SparseCholesky::analyses() const {
+  return impl_->analyses;
 }
 
 }  // namespace rbc

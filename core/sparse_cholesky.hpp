@@ -108,6 +108,9 @@ class SparseCholesky {
   /// The block size b whose graph the last analysis ordered (SparseCholeskyOptions::
   /// block_ordering): 3 or 2, or 1 for the unknowns' own graph (and before an analysis).
   int ordering_block_size() const;
+  /// Symbolic analyses made so far: analyze() calls and the analyses factorize() makes on a
+  /// pattern other than the one analysed (a clone starts with its original's count).
+  int analyses() const;
 
  private:
   struct Impl;

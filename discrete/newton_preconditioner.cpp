@@ -149,10 +149,11 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
       s.factor.analyze(h);
       s.analysed = true;
       s.stats.factor_nonzeros = s.factor.factor_nonzeros();
-      ++s.stats.analyses;
       s.stats.analysis_cpu_s += thread_cpu_seconds() - analysis_start_cpu_s;
     }
     const bool ok = s.factor.factorize(h);
+    // Counted by the factorisation itself: one factorize() makes on a changed pattern counts too.
+    s.stats.analyses = s.factor.analyses();
     clock.lap(s.stats.factorisation_s, s.stats.factorisation_cpu_s);
     if (!ok) ++s.stats.failed_attempts;
     return ok;

@@ -84,6 +84,27 @@ TEST(SparseCholesky, SolvesAPositiveDefiniteSystemAndRefusesAnIndefiniteOne) {
   EXPECT_THROW(SparseCholesky{o}, std::invalid_argument);
 }
 
+TEST(SparseCholesky, CountsEveryAnalysisIncludingTheOnesAFactorisationMakes) {
+  // The count the preconditioners report (NewtonPreconditioner::Statistics::analyses): an
+  // explicit analysis, none for a refactorisation of the same pattern, one for a factorisation
+  // of another pattern; a clone carries the count.
+  const Eigen::SparseMatrix<double> a = grid_lower(8, 4.1), b = grid_lower(9, 4.1);
+  SparseCholesky c;
+  EXPECT_EQ(c.analyses(), 0);
+  c.analyze(a);
+  EXPECT_EQ(c.analyses(), 1);
+  ASSERT_TRUE(c.factorize(a));
+  ASSERT_TRUE(c.factorize(a, 0.5));
+  EXPECT_EQ(c.analyses(), 1);
+  ASSERT_TRUE(c.factorize(b));
+  EXPECT_EQ(c.analyses(), 2);
+  EXPECT_EQ(c.rows(), 81);
+  EXPECT_EQ(c.clone().analyses(), 2);
+  SparseCholesky fresh;
+  ASSERT_TRUE(fresh.factorize(a));  // analysed by the factorisation
+  EXPECT_EQ(fresh.analyses(), 1);
+}
+
 TEST(SparseCholesky, RelaxedAmalgamationSolvesTheSameSystemWithWiderSupernodes) {
   // A 2-D grid (5-point stencil plus a diagonal shift: SPD) of 900 unknowns, METIS-ordered: its
   // separators give supernodes a few columns wide, which the relaxed amalgamation merges at the
@@ -271,7 +292,26 @@ TEST(SparseCholesky, CholmodsLargeBlocksLieOnAlignedMappingsAndKeepTheirContents
   for (size_t k = 0; k < 5 * kMiB; ++k)
     same = same && bigger[k] == static_cast<unsigned char>(k * 7 + 3);
   EXPECT_TRUE(same);
-  auto* small = static_cast<unsigned char*>(SuiteSparse_realloc(1000, 9 * kMiB, 1, bigger, &ok));
+  // Within the same 2 MiB-rounded mapping (9 -> 9.5 -> 8.5 MiB on 10 MiB): the same block,
+  // its contents kept; across the rounding (-> 11 MiB) a new mapping.
+  auto* resized = static_cast<unsigned char*>(
+      SuiteSparse_realloc(9 * kMiB + kMiB / 2, 9 * kMiB, 1, bigger, &ok));
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(resized, bigger);
+  resized = static_cast<unsigned char*>(
+      SuiteSparse_realloc(8 * kMiB + kMiB / 2, 9 * kMiB + kMiB / 2, 1, resized, &ok));
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(resized, bigger);
+  std::fill(resized + 5 * kMiB, resized + 8 * kMiB + kMiB / 2, static_cast<unsigned char>(0x5A));
+  bigger = static_cast<unsigned char*>(
+      SuiteSparse_realloc(11 * kMiB, 8 * kMiB + kMiB / 2, 1, resized, &ok));
+  ASSERT_TRUE(ok);
+  EXPECT_TRUE(aligned(bigger));
+  for (size_t k = 0; k < 5 * kMiB; ++k)
+    same = same && bigger[k] == static_cast<unsigned char>(k * 7 + 3);
+  for (size_t k = 5 * kMiB; k < 8 * kMiB + kMiB / 2; ++k) same = same && bigger[k] == 0x5A;
+  EXPECT_TRUE(same);
+  auto* small = static_cast<unsigned char*>(SuiteSparse_realloc(1000, 11 * kMiB, 1, bigger, &ok));
   ASSERT_TRUE(ok);
   for (size_t k = 0; k < 1000; ++k)
     same = same && small[k] == static_cast<unsigned char>(k * 7 + 3);
