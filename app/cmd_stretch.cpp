@@ -1,5 +1,7 @@
 // `rbc stretch`: the optical-tweezers stretch (Mills et al. 2004) of one model over a list
 // of forces, by continuation: each force starts from the previous equilibrium.
+#include <omp.h>
+
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -13,6 +15,7 @@
 #include "app/warm_start.hpp"
 #include "compare/accuracy_choice.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "core/blas_threads.hpp"
 #include "core/defaults.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
@@ -175,13 +178,18 @@ StretchRow to_row(const Point& p, int elements) {
 /// so at any moment it says which results are complete. Fields: "complete" (true only when every
 /// requested force was solved and stretch.csv written), "status" (running | interrupted |
 /// failed | finished), "reason" (why it is incomplete), "forces_requested_pN", "forces_complete"
-/// (force and shape files of each solved force), and at the end "points" as in --json.
+/// (force and shape files of each solved force), "openmp_threads", "blas" (library, OpenBLAS
+/// kernel and build; core/blas_threads.hpp), and at the end "points" as in --json.
 class StretchManifest {
  public:
   StretchManifest(std::string dir, nlohmann::json run, const std::vector<double>& forces)
       : dir_(std::move(dir)), run_(std::move(run)) {
     run_["forces_requested_pN"] = forces;
     run_["forces_complete"] = nlohmann::json::array();
+    // What ran it: the threads and the BLAS kernel set the speed and the last bits.
+    const BlasInfo blas = blas_info();
+    run_["openmp_threads"] = omp_get_max_threads();
+    run_["blas"] = {{"library", blas.library}, {"core", blas.core}, {"config", blas.config}};
   }
   void running() { write(false, "running", "the run has not finished"); }
   void force_done(double force_pN, const std::string& shape_base) {

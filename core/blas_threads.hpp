@@ -12,7 +12,23 @@
 #include <dlfcn.h>
 #include <omp.h>
 
+#include <string>
+
 namespace rbc {
+
+/// The BLAS this process runs, for run records and benchmark output: which OpenBLAS kernel is
+/// in use changes the factorisation's speed by 15-25 % on the project's machines (README,
+/// "Which OpenBLAS kernel") and its rounding. Looked up at run time like ScopedBlasThreads.
+struct BlasInfo {
+  std::string library;  ///< "OpenBLAS", or "unknown" for a BLAS without OpenBLAS's entry points
+  /// OpenBLAS's kernel (openblas_get_corename, e.g. "haswell", "skylakex"): the CPU's, or the
+  /// one OPENBLAS_CORETYPE names, chosen when the library was loaded. Empty if unknown.
+  std::string core;
+  std::string config;  ///< openblas_get_config (version and build options); empty if unknown
+  int threads = 0;     ///< openblas_get_num_threads now; 0 if unknown
+};
+/// Defined below ScopedBlasThreads.
+BlasInfo blas_info();
 
 class ScopedBlasThreads {
  public:
@@ -58,5 +74,18 @@ class ScopedBlasThreads {
   bool active_ = false;
   int saved_blas_ = 0, saved_omp_ = 1, saved_levels_ = 1;
 };
+
+inline BlasInfo blas_info() {
+  using Text = char* (*)();
+  const auto corename = reinterpret_cast<Text>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
+  const auto config = reinterpret_cast<Text>(dlsym(RTLD_DEFAULT, "openblas_get_config"));
+  const auto threads = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  BlasInfo b;
+  b.library = corename ? "OpenBLAS" : "unknown";
+  if (corename && corename()) b.core = corename();
+  if (config && config()) b.config = config();
+  if (threads) b.threads = threads();
+  return b;
+}
 
 }  // namespace rbc

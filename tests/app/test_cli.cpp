@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -101,6 +103,36 @@ TEST(Cli, StretchJsonHasTheDocumentedFieldsAndWritesFilesThatOpen) {
   for (const char* f : {"stretch.csv", "run.json", "shape_0.0pN.h5", "shape_0.0pN.xdmf",
                         "shape_50.0pN.h5", "shape_50.0pN.xdmf"})
     EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
+}
+
+// run.json records what ran the job: the OpenMP threads and the BLAS, whose kernel (here chosen
+// through OPENBLAS_CORETYPE, as the machines of this project do) sets the factorisation's speed
+// and last bits.
+TEST(Cli, StretchManifestRecordsTheThreadsAndTheBlasKernel) {
+  for (const std::string kernel : {"Haswell", "Sandybridge"}) {
+    const std::string dir = fresh_dir("manifest_blas_" + kernel);
+    const std::string cmd =
+        "env OPENBLAS_CORETYPE=" + kernel + " OMP_NUM_THREADS=1 " + std::string(RBC_BINARY_DIR) +
+        "/rbc stretch --model discrete --force 0 -n 200 --quiet --out " + dir + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::array<char, 512> buf{};
+    std::string out;
+    while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+    const int status = pclose(p);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
+    std::ifstream in(dir + "/run.json");
+    const auto j = nlohmann::json::parse(in);
+    EXPECT_EQ(j.at("openmp_threads").get<int>(), 1);
+    const auto& blas = j.at("blas");
+    if (blas.at("library") != "OpenBLAS") GTEST_SKIP() << "not OpenBLAS: " << blas.dump();
+    std::string core = blas.at("core").get<std::string>();
+    std::string want = kernel;
+    for (auto* t : {&core, &want})
+      for (char& c : *t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    EXPECT_EQ(core, want) << blas.dump();
+    EXPECT_NE(blas.at("config").get<std::string>().find("OpenBLAS"), std::string::npos);
+  }
 }
 
 // A resumed Monte Carlo run rebuilds the checkpoint's network (size and bending model) without
