@@ -5,20 +5,31 @@
 // wake-ups cost more than its arithmetic (measured, note_speed.md: at 1,000 continuum
 // elements a quarter of the CPU time was futex wake-ups). One BLAS thread also makes the
 // factorisation's rounding independent of the machine's core count. The OpenBLAS entry
-// points are looked up at run time, so any BLAS works (then this is a no-op). The OpenMP
+// points are weak references, so any BLAS works (then this is a no-op). The OpenMP
 // build of OpenBLAS (Debian's openblas-openmp) sets the caller's OpenMP thread count in
 // openblas_set_num_threads, so the guard restores that count too: the caller's element
 // loops keep their threads.
-#include <dlfcn.h>
 #include <omp.h>
 
 #include <string>
+
+// OpenBLAS's own entry points, as weak references: null where the process runs another BLAS.
+// Weak references resolve through the loading object's own dependencies, so they are found in
+// the Python extension too, which Python loads privately (RTLD_LOCAL): a lookup by
+// dlsym(RTLD_DEFAULT) sees only the global scope and found nothing there, so this guard did
+// nothing in the Python package (tests/python/test_api.py checks blas_info() there).
+extern "C" {
+int openblas_get_num_threads() __attribute__((weak));
+void openblas_set_num_threads(int) __attribute__((weak));
+char* openblas_get_corename() __attribute__((weak));
+char* openblas_get_config() __attribute__((weak));
+}
 
 namespace rbc {
 
 /// The BLAS this process runs, for run records and benchmark output: which OpenBLAS kernel is
 /// in use changes the factorisation's speed by 15-25 % on the project's machines (README,
-/// "Which OpenBLAS kernel") and its rounding. Looked up at run time like ScopedBlasThreads.
+/// "Which OpenBLAS kernel") and its rounding. Found as ScopedBlasThreads finds OpenBLAS.
 struct BlasInfo {
   std::string library;  ///< "OpenBLAS", or "unknown" for a BLAS without OpenBLAS's entry points
   /// OpenBLAS's kernel (openblas_get_corename, e.g. "haswell", "skylakex"): the CPU's, or the
@@ -62,29 +73,17 @@ class ScopedBlasThreads {
     int (*get)() = nullptr;
     void (*set)(int) = nullptr;
   };
-  static const Api& openblas() {
-    static const Api api = [] {
-      Api a;
-      a.get = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
-      a.set = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
-      return a;
-    }();
-    return api;
-  }
+  static Api openblas() { return Api{&openblas_get_num_threads, &openblas_set_num_threads}; }
   bool active_ = false;
   int saved_blas_ = 0, saved_omp_ = 1, saved_levels_ = 1;
 };
 
 inline BlasInfo blas_info() {
-  using Text = char* (*)();
-  const auto corename = reinterpret_cast<Text>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
-  const auto config = reinterpret_cast<Text>(dlsym(RTLD_DEFAULT, "openblas_get_config"));
-  const auto threads = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
   BlasInfo b;
-  b.library = corename ? "OpenBLAS" : "unknown";
-  if (corename && corename()) b.core = corename();
-  if (config && config()) b.config = config();
-  if (threads) b.threads = threads();
+  b.library = &openblas_get_corename ? "OpenBLAS" : "unknown";
+  if (&openblas_get_corename && openblas_get_corename()) b.core = openblas_get_corename();
+  if (&openblas_get_config && openblas_get_config()) b.config = openblas_get_config();
+  if (&openblas_get_num_threads) b.threads = openblas_get_num_threads();
   return b;
 }
 

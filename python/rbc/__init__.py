@@ -47,6 +47,7 @@ from ._rbc import (  # noqa: F401  (re-exported API)
     PatchRule,
     StericParameters,
     WlcParameters,
+    blas_info,
     continuum_mesh,
     diameters,
     moduli,

@@ -1,6 +1,7 @@
 // The `_rbc` extension module: bindings over the libraries (core, discrete, homogenise,
 // continuum); the pure-Python package `rbc` (python/rbc/) wraps it.
 #include "common.hpp"
+#include "core/blas_threads.hpp"
 
 PYBIND11_MODULE(_rbc, m) {
   namespace py = pybind11;
@@ -24,4 +25,19 @@ PYBIND11_MODULE(_rbc, m) {
   bind_homogenise(m);
   bind_mc(m);
   bind_infer(m);
+  m.def(
+      "blas_info",
+      [] {
+        const rbc::BlasInfo b = rbc::blas_info();
+        py::dict d;
+        d["library"] = b.library;
+        d["core"] = b.core;
+        d["config"] = b.config;
+        d["threads"] = b.threads;
+        return d;
+      },
+      "The BLAS this process runs, as `rbc stretch --out`'s run.json records it: dict with "
+      "'library' ('OpenBLAS' or 'unknown'), 'core' (OpenBLAS's kernel, e.g. 'Haswell': set by "
+      "OPENBLAS_CORETYPE or the CPU when the library was loaded), 'config' (its build) and "
+      "'threads' (its thread count now; the factorisations run on one).");
 }

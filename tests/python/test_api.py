@@ -1,6 +1,7 @@
 """The Python edge: defaults and validation as the CLI's (ValueError naming quantity, value and
 expectation), enums accepted as strings, numpy views without copies, meshio conversion,
 non-convergence reported per force and raised only when asked."""
+import os
 import pickle
 
 import numpy as np
@@ -168,3 +169,19 @@ def test_progress_lines_reach_the_callback():
     lines = []
     rbc.stretch("discrete", [0, 20], vertices=150, progress=lines.append)
     assert any(line.startswith("F = 20 pN") for line in lines), lines
+
+
+def test_blas_info_names_the_kernel_the_environment_chose():
+    # The extension finds OpenBLAS although Python loads it privately (RTLD_LOCAL): the kernel
+    # is the one OPENBLAS_CORETYPE names where it is set (as on the project's machines).
+    info = rbc.blas_info()
+    assert set(info) == {"library", "core", "config", "threads"}
+    with open("/proc/self/maps") as maps:  # which BLAS the process loaded, told independently
+        loaded = "openblas" in maps.read()
+    if not loaded:
+        pytest.skip(f"OpenBLAS is not loaded: {info}")
+    assert info["library"] == "OpenBLAS", info
+    assert "OpenBLAS" in info["config"] and info["threads"] >= 1 and info["core"]
+    wanted = os.environ.get("OPENBLAS_CORETYPE")
+    if wanted:
+        assert info["core"].lower() == wanted.lower()
