@@ -41,6 +41,10 @@ struct BlasInfo {
 /// Defined below ScopedBlasThreads.
 BlasInfo blas_info();
 
+/// Each guard sets and restores the calling thread's settings only, which is what guards alive
+/// at once in several threads need: OpenBLAS's OpenMP build sizes each call's team from the
+/// caller's OpenMP thread count (set by openblas_set_num_threads for the caller), and libgomp
+/// keeps max-active-levels per thread (tests/core/test_blas_threads.cpp).
 class ScopedBlasThreads {
  public:
   /// threads <= 0: leave the thread counts alone.
