@@ -636,7 +636,7 @@ void add_bench_command(CLI::App& app, Action& action) {
       benchmark::Initialize(&argc, argv.data());
       if (benchmark::ReportUnrecognizedArguments(argc, argv.data())) return 2;
       // The BLAS kernel in the context block (and in --benchmark_format=json's "context"): it
-      // moves the factorisation rows by 15-25 % on the project's machines.
+      // moves the factorisation rows by 14-25 % on the project's machines.
       const BlasInfo blas = blas_info();
       benchmark::AddCustomContext("blas",
                                   blas.library + (blas.core.empty() ? "" : " " + blas.core));

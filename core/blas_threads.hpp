@@ -28,7 +28,7 @@ char* openblas_get_config() __attribute__((weak));
 namespace rbc {
 
 /// The BLAS this process runs, for run records and benchmark output: which OpenBLAS kernel is
-/// in use changes the factorisation's speed by 15-25 % on the project's machines (README,
+/// in use changes the factorisation's speed by 14-25 % on the project's machines (README,
 /// "Which OpenBLAS kernel") and its rounding. Found as ScopedBlasThreads finds OpenBLAS.
 struct BlasInfo {
   std::string library;  ///< "OpenBLAS", or "unknown" for a BLAS without OpenBLAS's entry points
