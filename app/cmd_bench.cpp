@@ -635,11 +635,19 @@ void add_bench_command(CLI::App& app, Action& action) {
       int argc = static_cast<int>(argv.size());
       benchmark::Initialize(&argc, argv.data());
       if (benchmark::ReportUnrecognizedArguments(argc, argv.data())) return 2;
-      // The BLAS kernel in the context block (and in --benchmark_format=json's "context"): it
+      // The BLAS kernel in the context block (and in --benchmark_out=FILE.json's "context"): it
       // moves the factorisation rows by 14-25 % on the project's machines.
       const BlasInfo blas = blas_info();
       benchmark::AddCustomContext("blas",
                                   blas.library + (blas.core.empty() ? "" : " " + blas.core));
+      // Whether AVX-512 kernels could run (OPENBLAS_CORETYPE=SkylakeX): these machines have
+      // it and set Haswell (README, "Which OpenBLAS kernel runs").
+#if defined(__x86_64__) && defined(__GNUC__)
+      __builtin_cpu_init();
+      benchmark::AddCustomContext("cpu_avx512f", __builtin_cpu_supports("avx512f") ? "yes" : "no");
+#else
+      benchmark::AddCustomContext("cpu_avx512f", "no");  // not an x86-64 CPU
+#endif
       SpeedupReporter reporter;
       benchmark::RunSpecifiedBenchmarks(&reporter);
       benchmark::Shutdown();

@@ -135,6 +135,23 @@ TEST(Cli, StretchManifestRecordsTheThreadsAndTheBlasKernel) {
   }
 }
 
+// rbc bench names the BLAS kernel and whether the CPU has AVX-512 in its context block (the
+// kernel moves the factorisation rows by 14-25 %), the latter as this process's CPUID says.
+TEST(Cli, BenchContextNamesTheBlasKernelAndTheCpusAvx512) {
+  const CommandRun r = rbc(
+      "bench stretch --benchmark_filter=discrete/energy_gradient/500 --benchmark_min_time=0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("blas: "), std::string::npos) << r.output;
+#if defined(__x86_64__) && defined(__GNUC__)
+  __builtin_cpu_init();
+  const bool has_avx512f = __builtin_cpu_supports("avx512f");
+#else
+  const bool has_avx512f = false;
+#endif
+  const std::string avx512 = std::string("cpu_avx512f: ") + (has_avx512f ? "yes" : "no");
+  EXPECT_NE(r.output.find(avx512), std::string::npos) << r.output;
+}
+
 // A resumed Monte Carlo run rebuilds the checkpoint's network (size and bending model) without
 // being told, continues the chain to the requested total, and refuses a contradicting option.
 TEST(Cli, McResumeRebuildsTheCheckpointsNetwork) {
