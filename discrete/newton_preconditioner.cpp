@@ -152,8 +152,12 @@ bool NewtonPreconditioner::refresh(const Positions& x, const ConstraintMultiplie
       s.stats.analysis_cpu_s += thread_cpu_seconds() - analysis_start_cpu_s;
     }
     const bool ok = s.factor.factorize(h);
-    // Counted by the factorisation itself: one factorize() makes on a changed pattern counts too.
-    s.stats.analyses = s.factor.analyses();
+    // Counted by the factorisation itself: one factorize() makes on a changed pattern counts too
+    // (and then changes the factor's size).
+    if (s.factor.analyses() != s.stats.analyses) {
+      s.stats.analyses = s.factor.analyses();
+      s.stats.factor_nonzeros = s.factor.factor_nonzeros();
+    }
     clock.lap(s.stats.factorisation_s, s.stats.factorisation_cpu_s);
     if (!ok) ++s.stats.failed_attempts;
     return ok;
