@@ -11,17 +11,16 @@
 
 #include "calibrate/smooth_patch.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "core/blas_threads.hpp"  // OpenBLAS entry points (weak)
 #include "core/geometry.hpp"
 #include "core/units.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
 
-extern "C" void openblas_set_num_threads(int) __attribute__((weak));
-
 namespace rbc {
 
 void use_single_threaded_blas() {
-  if (!openblas_set_num_threads) return;
+  if (!&openblas_set_num_threads) return;
   // OpenBLAS's OpenMP build (Debian's libopenblas0-openmp, what .ci/bootstrap.sh installs) also
   // sets OpenMP's thread count here: without restoring it every later parallel region, the
   // forward runs' executor included, ran on one thread (measured: `rbc infer` used one core

@@ -56,16 +56,14 @@ class ScopedBlasThreads {
     // CHOLMOD's supernodal code opens its own regions with num_threads(4) (SuiteSparse 5's
     // CHOLMOD_OMP_NUM_THREADS); with one thread requested, no region may be active.
     if (threads == 1) omp_set_max_active_levels(0);
-    const Api& api = openblas();
-    if (api.get && api.set) {
-      saved_blas_ = api.get();
-      api.set(threads);
+    if (&openblas_get_num_threads && &openblas_set_num_threads) {
+      saved_blas_ = openblas_get_num_threads();
+      openblas_set_num_threads(threads);
     }
   }
   ~ScopedBlasThreads() {
     if (!active_) return;
-    const Api& api = openblas();
-    if (api.set && saved_blas_ > 0) api.set(saved_blas_);
+    if (&openblas_set_num_threads && saved_blas_ > 0) openblas_set_num_threads(saved_blas_);
     omp_set_num_threads(saved_omp_);
     omp_set_max_active_levels(saved_levels_);
   }
@@ -73,11 +71,6 @@ class ScopedBlasThreads {
   ScopedBlasThreads& operator=(const ScopedBlasThreads&) = delete;
 
  private:
-  struct Api {
-    int (*get)() = nullptr;
-    void (*set)(int) = nullptr;
-  };
-  static Api openblas() { return Api{&openblas_get_num_threads, &openblas_set_num_threads}; }
   bool active_ = false;
   int saved_blas_ = 0, saved_omp_ = 1, saved_levels_ = 1;
 };
@@ -85,8 +78,9 @@ class ScopedBlasThreads {
 inline BlasInfo blas_info() {
   BlasInfo b;
   b.library = &openblas_get_corename ? "OpenBLAS" : "unknown";
-  if (&openblas_get_corename && openblas_get_corename()) b.core = openblas_get_corename();
-  if (&openblas_get_config && openblas_get_config()) b.config = openblas_get_config();
+  if (const char* core = &openblas_get_corename ? openblas_get_corename() : nullptr) b.core = core;
+  if (const char* config = &openblas_get_config ? openblas_get_config() : nullptr)
+    b.config = config;
   if (&openblas_get_num_threads) b.threads = openblas_get_num_threads();
   return b;
 }
