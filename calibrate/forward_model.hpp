@@ -142,8 +142,10 @@ struct ForwardRun {
 /// regions, so a factorisation could sum in an order that depends on OMP_NUM_THREADS; the
 /// difference measured at 1e-12 in the log-evidence came from the rest mesh, built on one
 /// thread now). With forward solves run one per thread, BLAS threads buy nothing.
-/// run_inference() calls it; a no-op when the BLAS is not OpenBLAS. OpenMP's thread count is
-/// left as it was (OpenBLAS's OpenMP build changes it too).
+/// `rbc infer` calls it (every MPI rank); run_inference() holds the same setting for its own
+/// duration only (core/blas_threads.hpp, ScopedProcessBlasThreads), so a library caller's BLAS
+/// gets its threads back. A no-op when the BLAS is not OpenBLAS. OpenMP's thread count is left
+/// as it was (OpenBLAS's OpenMP build changes it too).
 void use_single_threaded_blas();
 
 class ForwardModel {

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "compare/experiment.hpp"
+#include "core/blas_threads.hpp"
 #include "core/geometry.hpp"
 #include "core/units.hpp"
 
@@ -195,7 +196,9 @@ LinearModuli sample_moduli(const ForwardParameters& p) {
 InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress,
                               const ExecutorFactory& factory) {
   const InferOptions& o = problem.options();
-  use_single_threaded_blas();
+  // One BLAS thread for the run's duration only (forward_model.hpp, use_single_threaded_blas):
+  // a Python session's numpy gets its threads back afterwards.
+  const ScopedProcessBlasThreads single_blas(1);
   const Executor executor =
       factory ? factory(problem) : omp_executor(problem.prior(), problem.likelihood(), o.threads);
   const auto on_stage = [&](const StageInfo& s) {

@@ -11,6 +11,7 @@
 // loops keep their threads.
 #include <omp.h>
 
+#include <mutex>
 #include <string>
 
 // OpenBLAS's own entry points, as weak references: null where the process runs another BLAS.
@@ -41,10 +42,46 @@ struct BlasInfo {
 /// Defined below ScopedBlasThreads.
 BlasInfo blas_info();
 
-/// Each guard sets and restores the calling thread's settings only, which is what guards alive
+namespace detail {
+/// OpenBLAS's own thread count (blas_cpu_number, what openblas_get_num_threads returns) is one
+/// per process, unlike the OpenMP settings the guards also change. Guards alive at once in
+/// several threads share it: the first to start saves it, the last to end restores it. Each
+/// guard restoring what it saw (the earlier code) let a guard that started while another held
+/// the count restore that guard's 1 for good, and every later BLAS caller of the process (numpy,
+/// in the Python package) stayed on one thread (tests/core/test_blas_threads.cpp). This is
+/// process-wide state because the count it mirrors is.
+struct BlasCountHolders {
+  std::mutex mutex;
+  int holders = 0;  ///< guards alive that set the count
+  int saved = 0;    ///< the count before the first of them
+};
+inline BlasCountHolders& blas_count_holders() {
+  static BlasCountHolders h;
+  return h;
+}
+/// Sets OpenBLAS's count to `threads` as one more holder; false without OpenBLAS. In OpenBLAS's
+/// OpenMP build this also sets the calling thread's OpenMP count.
+inline bool hold_blas_count(int threads) {
+  if (!&openblas_get_num_threads || !&openblas_set_num_threads) return false;
+  BlasCountHolders& h = blas_count_holders();
+  const std::lock_guard<std::mutex> lock(h.mutex);
+  if (h.holders++ == 0) h.saved = openblas_get_num_threads();
+  openblas_set_num_threads(threads);
+  return true;
+}
+/// Ends a hold_blas_count; the last holder restores the count from before the first.
+inline void release_blas_count() {
+  BlasCountHolders& h = blas_count_holders();
+  const std::lock_guard<std::mutex> lock(h.mutex);
+  if (--h.holders == 0 && h.saved > 0) openblas_set_num_threads(h.saved);
+}
+}  // namespace detail
+
+/// Each guard sets and restores the calling thread's OpenMP settings, which is what guards alive
 /// at once in several threads need: OpenBLAS's OpenMP build sizes each call's team from the
 /// caller's OpenMP thread count (set by openblas_set_num_threads for the caller), and libgomp
-/// keeps max-active-levels per thread (tests/core/test_blas_threads.cpp).
+/// keeps max-active-levels per thread. OpenBLAS's process-wide count is restored by the last
+/// guard to end (detail::BlasCountHolders; tests/core/test_blas_threads.cpp).
 class ScopedBlasThreads {
  public:
   /// threads <= 0: leave the thread counts alone.
@@ -56,14 +93,11 @@ class ScopedBlasThreads {
     // CHOLMOD's supernodal code opens its own regions with num_threads(4) (SuiteSparse 5's
     // CHOLMOD_OMP_NUM_THREADS); with one thread requested, no region may be active.
     if (threads == 1) omp_set_max_active_levels(0);
-    if (&openblas_get_num_threads && &openblas_set_num_threads) {
-      saved_blas_ = openblas_get_num_threads();
-      openblas_set_num_threads(threads);
-    }
+    holds_blas_ = detail::hold_blas_count(threads);
   }
   ~ScopedBlasThreads() {
     if (!active_) return;
-    if (&openblas_set_num_threads && saved_blas_ > 0) openblas_set_num_threads(saved_blas_);
+    if (holds_blas_) detail::release_blas_count();
     omp_set_num_threads(saved_omp_);
     omp_set_max_active_levels(saved_levels_);
   }
@@ -71,8 +105,34 @@ class ScopedBlasThreads {
   ScopedBlasThreads& operator=(const ScopedBlasThreads&) = delete;
 
  private:
-  bool active_ = false;
-  int saved_blas_ = 0, saved_omp_ = 1, saved_levels_ = 1;
+  bool active_ = false, holds_blas_ = false;
+  int saved_omp_ = 1, saved_levels_ = 1;
+};
+
+/// OpenBLAS's process-wide count only, held as ScopedBlasThreads holds it; the calling thread's
+/// OpenMP count is kept. For a caller that runs its own parallel region around many BLAS-calling
+/// tasks (calibrate's run_inference, whose forward runs each take one core): it used to set the
+/// count to 1 for the rest of the process, so numpy ran on one thread after `rbc.infer` in
+/// Python (tests/calibrate/test_recovery.cpp).
+class ScopedProcessBlasThreads {
+ public:
+  explicit ScopedProcessBlasThreads(int threads) {
+    if (threads <= 0) return;
+    const int omp_threads = omp_get_max_threads();
+    holds_blas_ = detail::hold_blas_count(threads);
+    omp_set_num_threads(omp_threads);
+  }
+  ~ScopedProcessBlasThreads() {
+    if (!holds_blas_) return;
+    const int omp_threads = omp_get_max_threads();
+    detail::release_blas_count();
+    omp_set_num_threads(omp_threads);
+  }
+  ScopedProcessBlasThreads(const ScopedProcessBlasThreads&) = delete;
+  ScopedProcessBlasThreads& operator=(const ScopedProcessBlasThreads&) = delete;
+
+ private:
+  bool holds_blas_ = false;
 };
 
 inline BlasInfo blas_info() {

@@ -1,6 +1,7 @@
 // Parameter recovery: data simulated with the project's own model, inferred back with it.
 // Its own executable (ctest label `calibrate`): ~26 s of CPU at 200 elements.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <filesystem>
 #include <fstream>
@@ -9,6 +10,7 @@
 
 #include "calibrate/forward_model.hpp"
 #include "calibrate/infer.hpp"
+#include "core/blas_threads.hpp"
 
 namespace rbc {
 namespace {
@@ -71,7 +73,21 @@ TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
     o.sampler.samples = 60;
     o.sampler.chain_length = 2;
     o.sampler.seed = 5;
+    // OpenBLAS's process-wide count, at a value no default gives: run_inference runs its forward
+    // solves on one BLAS thread and gives the caller's count back (it used to leave 1 for good).
+    const int blas_before = &openblas_get_num_threads ? openblas_get_num_threads() : 0;
+    if (&openblas_set_num_threads) {
+      const int omp_threads = omp_get_max_threads();
+      openblas_set_num_threads(3);
+      omp_set_num_threads(omp_threads);
+    }
     const InferenceResult r = run_inference(o);
+    if (&openblas_get_num_threads) {
+      EXPECT_EQ(openblas_get_num_threads(), 3);
+      const int omp_threads = omp_get_max_threads();
+      openblas_set_num_threads(blas_before);
+      omp_set_num_threads(omp_threads);
+    }
     ASSERT_EQ(r.status, TmcmcStatus::converged);
     EXPECT_EQ(r.counts.failed, 0);
     const double t[2] = {s.p_nm, s.lmax_nm};

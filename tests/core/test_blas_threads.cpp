@@ -77,6 +77,49 @@ TEST(ScopedBlasThreads, OverlappingGuardsInTwoThreadsEachHoldTheirOwnThread) {
   EXPECT_EQ(omp_get_max_active_levels(), levels_before);
 }
 
+// OpenBLAS's own count is one per process: guards overlapping in two threads, ended in either
+// order, give back the count from before the first of them, and it stays at the guards' 1 while
+// any of them holds. (Each guard restoring the count it saw at its start left 1 for good when B
+// started while A held it: numpy in the same Python process then ran on one thread.)
+TEST(ScopedBlasThreads, OverlappingGuardsGiveBackTheProcessWideCount) {
+  if (!&openblas_get_num_threads || !&openblas_set_num_threads)
+    GTEST_SKIP() << "no OpenBLAS entry points";
+  const int count_before = openblas_get_num_threads();
+  const int omp_before = omp_get_max_threads();
+  openblas_set_num_threads(3);  // not the guards' 1, nor a likely default
+  omp_set_num_threads(omp_before);
+  for (const bool a_ends_first : {true, false}) {
+    SCOPED_TRACE(a_ends_first ? "A, B, A ends, B ends" : "A, B, B ends, A ends");
+    Steps steps;
+    int count_between = -1;
+    // Steps: 1 A holds, 2 B holds, 3 the first ends (A or B), 4 the count read, 5 the second ends.
+    const auto run = [&](bool first, bool starts_first) {
+      if (!starts_first) steps.wait_for(1);
+      {
+        const ScopedBlasThreads guard(1);
+        steps.advance();  // 1 or 2
+        steps.wait_for(first ? 2 : 4);
+      }
+      if (first) {
+        steps.advance();  // 3
+      } else {
+        steps.advance();  // 5
+      }
+    };
+    std::thread a([&] { run(a_ends_first, true); });
+    std::thread b([&] { run(!a_ends_first, false); });
+    steps.wait_for(3);
+    count_between = openblas_get_num_threads();  // the second guard still holds
+    steps.advance();                             // 4
+    a.join();
+    b.join();
+    EXPECT_EQ(count_between, 1);
+    EXPECT_EQ(openblas_get_num_threads(), 3);
+  }
+  openblas_set_num_threads(count_before);
+  omp_set_num_threads(omp_before);
+}
+
 // A guard nested in another in one thread: the inner one's end leaves the outer's settings.
 TEST(ScopedBlasThreads, NestedGuardsRestoreOnlyAtTheOutermost) {
   const int levels_before = omp_get_max_active_levels();

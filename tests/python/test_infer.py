@@ -1,6 +1,7 @@
 """rbc.infer (TMCMC, calibrate/) from Python: the CLI's numbers for the same inputs, bad input
 named, and the emcee cross-check of examples/emcee_crosscheck.py at small size (one parameter,
 a cheap likelihood)."""
+import ctypes
 import os
 import sys
 
@@ -37,6 +38,26 @@ def test_infer_equals_rbc_infer(small_data):
     summary = py["parameters"]
     summary = summary[0] if isinstance(summary, list) else summary["sigma-scale"]
     assert py["samples"].mean() == pytest.approx(summary["mean"], rel=1e-12)
+
+
+def test_infer_gives_the_process_its_blas_threads_back(small_data):
+    # The forward solves run on one OpenBLAS thread; numpy shares that OpenBLAS, so the count
+    # must come back afterwards (rbc.infer used to leave 1 for the rest of the session).
+    ext = ctypes.CDLL(rbc._rbc.__file__)
+    if not hasattr(ext, "openblas_set_num_threads"):
+        pytest.skip("the extension's BLAS is not OpenBLAS")
+    before = ext.openblas_get_num_threads()
+    omp_threads = ext.omp_get_max_threads() if hasattr(ext, "omp_get_max_threads") else None
+    ext.openblas_set_num_threads(3)  # no default gives 3 on the project's 2-core machines
+    try:
+        rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=30,
+                  seed=4)
+        assert ext.openblas_get_num_threads() == 3
+        assert rbc.blas_info()["threads"] == 3
+    finally:
+        ext.openblas_set_num_threads(before)
+        if omp_threads is not None:
+            ext.omp_set_num_threads(omp_threads)
 
 
 def test_bad_inference_input_raises_value_error(small_data):
