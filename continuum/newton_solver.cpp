@@ -167,6 +167,9 @@ namespace {
 constexpr double kSectorShift = 1e-8;
 /// Largest vertex displacement (um) of the push off an unstable symmetric state.
 constexpr double kSymmetryPushUm = 1e-3;
+/// Pushes tried, each 10x the one before (1e-3, 1e-2, 1e-1 um), while the full solve ends
+/// unconverged or within the push of the saddle.
+constexpr int kSymmetryPushAttempts = 3;
 /// A start farther than this (um, any coordinate) from its symmetric part is not symmetric.
 constexpr double kSymmetricStartUm = 1e-6;
 
@@ -369,13 +372,36 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
                                std::to_string(st.unstable_character) +
                                "): solving without the symmetry");
         Eigen::VectorXd push = stability_->sector_direction(st.unstable_character, 1);
-        xf += (kSymmetryPushUm / push.cwiseAbs().maxCoeff()) * push;
+        push /= push.cwiseAbs().maxCoeff();
         if (!full_newton_)
           full_newton_ = std::make_unique<ShiftedNewton>(shifted_newton_options(options_));
+        const Eigen::VectorXd saddle = xf, saddle_lambda = l;
         const int before = r.iterations, fact = r.factorisations;
-        r = full_newton_->solve(full, xf, l, on_iteration, lim);
-        r.iterations += before;
-        r.factorisations += fact;
+        int iterations = 0, factorisations = 0;
+        // Newton seeks critical points, not minima: just past the bifurcation, where the
+        // saddle's negative curvature is weak, the full solve from a small push can creep
+        // back or stall near the saddle (measured: a soft cell, p = 30 nm, Lmax = 500 nm, at
+        // 108.8 pN, 2e-5 um from it after 50 iterations from a 1e-3 um push, where the
+        // buckled state is 0.025 um away in D_T; from a 1e-2 um push it converged there). Then
+        // the push grows tenfold (kSymmetryPushAttempts).
+        double push_um = kSymmetryPushUm;
+        for (int attempt = 1;; ++attempt, push_um *= 10) {
+          xf = saddle + push_um * push;
+          l = saddle_lambda;
+          r = full_newton_->solve(full, xf, l, on_iteration, lim);
+          iterations += r.iterations;
+          factorisations += r.factorisations;
+          if (r.status == NewtonStatus::infeasible_start || attempt == kSymmetryPushAttempts) break;
+          const double asymmetry =
+              (expand(*reduction_, symmetric_part(*reduction_, xf)) - xf).cwiseAbs().maxCoeff();
+          if (r.status == NewtonStatus::converged && asymmetry >= push_um) break;  // left it
+          if (progress)
+            report(progress, "  ended " + std::to_string(asymmetry) +
+                                 " um from the symmetric saddle, " + to_string(r.status) +
+                                 ": pushing 10x farther");
+        }
+        r.iterations = before + iterations;
+        r.factorisations = fact + factorisations;
         res.symmetry_order = 1;
         res.status = r.status;
         res.iterations = r.iterations;

@@ -125,7 +125,9 @@ struct NewtonOptions {
   /// minimum of the full problem (core/symmetry_stability.hpp: one full Hessian and |G| - 1
   /// sector factorisations); where it is not (the cell buckles: measured for a soft cell,
   /// p = 25 nm, Lmax = 364 nm, at 67.6 pN, the y -> -y mirror breaks by 0.48 um), the state
-  /// is pushed 1e-3 um along the unstable sector and solved in full. A start that is itself
+  /// is pushed 1e-3 um along the unstable sector and solved in full (pushed 10x and 100x
+  /// farther where that solve ends unconverged or within the push of the saddle, as it can just
+  /// past the bifurcation, where the landscape is flat). A start that is itself
   /// not symmetric (a buckled state of the previous force) is solved in full. Off: trust the
   /// symmetry (faster; a saddle is then reported as an equilibrium).
   bool symmetry_check = true;
