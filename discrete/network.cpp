@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "core/geometry.hpp"
+#include "core/multiversion.hpp"
 #include "core/parallel.hpp"
 #include "discrete/link_energy.hpp"
 #include "discrete/network_energy.hpp"
@@ -77,43 +78,61 @@ double inplane_energy(const Network& net, const Positions& x, Positions* grad, d
   return collapsed ? inf : *links + *steric;
 }
 
+/// Links [begin, end) of inplane_energy from the shared geometry: their energy (+infinity at or
+/// past Lmax), dE_e/dL_e added into dl (pN) unless null. Compiled for x86-64-v3 too.
+RBC_HOT_CLONES double links_from_geometry(const WlcDensity& wlc, const double* lbar_um,
+                                          const double* length_um, int begin, int end, double* dl) {
+  constexpr double sqrt3 = 1.73205080756887729353;
+  double s = 0;
+  for (int e = begin; e < end; ++e) {
+    const double len = length_um[e], lbar2 = lbar_um[e] * lbar_um[e];
+    const DensityValue v = evaluate_stretch(wlc, len / lbar_um[e], 1);
+    if (!(v.v < std::numeric_limits<double>::infinity()))
+      return std::numeric_limits<double>::infinity();
+    s += 0.5 * sqrt3 * lbar2 * v.v;
+    if (dl) dl[e] += sqrt3 * v.dv * len;
+  }
+  return s;
+}
+
+/// Faces [begin, end) of inplane_energy from the shared geometry: their steric energy, dE_f/dA_f
+/// added into da unless null; collapsed (and the sum so far returned) at a face below
+/// kCollapsedFaceRatio of its rest area. Compiled for x86-64-v3 too.
+RBC_HOT_CLONES double faces_from_geometry(double C, const StericParameters& steric,
+                                          const double* abar_um2, const double* area_um2, int begin,
+                                          int end, double* da, bool& collapsed) {
+  double s = 0;
+  for (int f = begin; f < end; ++f) {
+    const double abar = abar_um2[f], ratio = area_um2[f] / abar;
+    if (ratio < kCollapsedFaceRatio) {
+      collapsed = true;
+      break;
+    }
+    const StericDensity d = steric_density(C, steric, ratio, 1);
+    s += abar * d.v;
+    if (da) da[f] += d.dv;
+  }
+  return s;
+}
+
 /// inplane_energy from the shared geometry: dE_e/dL_e = sqrt3 V'(z) L_e (link_energy.hpp),
 /// dE_f/dA_f = s'(J) (steric_energy.hpp).
 double inplane_energy(const Network& net, const NetworkGeometry& geo, GeometricGradient* grad,
                       double* links, double* steric) {
-  constexpr double sqrt3 = 1.73205080756887729353;
   const Topology& t = net.topo;
   const double inf = std::numeric_limits<double>::infinity();
   const int ne = t.num_edges(), nf = t.num_faces();
   double partial[kMaxChunks] = {0, 0, 0, 0}, face_partial[kMaxChunks] = {0, 0, 0, 0};
   bool collapsed[kMaxChunks] = {false, false, false, false};
+  double* dl = grad ? grad->edge_length.data() : nullptr;
+  double* da = grad ? grad->face_area.data() : nullptr;
   const auto links_chunk = [&](int c, int begin, int end) {
-    double s = 0;
-    for (int e = begin; e < end && s < inf; ++e) {
-      const double len = geo.edge_length[e], lbar2 = net.lbar_um(e) * net.lbar_um(e);
-      const DensityValue v = evaluate(net.wlc, len * len / lbar2, 1);
-      if (!(v.v < inf)) {
-        s = inf;
-        break;
-      }
-      s += 0.5 * sqrt3 * lbar2 * v.v;
-      if (grad) grad->edge_length[e] += sqrt3 * v.dv * len;
-    }
-    partial[c] = s;
+    partial[c] =
+        links_from_geometry(net.wlc, net.lbar_um.data(), geo.edge_length.data(), begin, end, dl);
   };
   const auto faces_chunk = [&](int c, int begin, int end) {
-    double s = 0;
-    for (int f = begin; f < end; ++f) {
-      const double abar = net.abar_um2(f), ratio = geo.face_area[f] / abar;
-      if (ratio < kCollapsedFaceRatio) {
-        collapsed[c] = true;
-        break;
-      }
-      const StericDensity d = steric_density(net.steric_C_pN_per_um, net.steric, ratio, 1);
-      s += abar * d.v;
-      if (grad) grad->face_area[f] += d.dv;
-    }
-    face_partial[c] = s;
+    face_partial[c] = faces_from_geometry(net.steric_C_pN_per_um, net.steric, net.abar_um2.data(),
+                                          geo.face_area.data(), begin, end, da, collapsed[c]);
   };
   for_each_chunk_pair(ne, links_chunk, nf, faces_chunk, Then::independent);
   *links = 0;

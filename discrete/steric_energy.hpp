@@ -2,6 +2,7 @@
 // Steric face term of Model 1 (MODEL.md section 2, paper eq. (2) second sum; Boey,
 // Boal & Discher 1998): keeps the WLC network from collapsing.
 #include <Eigen/Core>
+#include <cmath>
 #include <string>
 
 #include "core/geometry.hpp"
@@ -28,8 +29,24 @@ double steric_constant(const WlcDensity& w, const StericParameters& s);
 struct StericDensity {
   double v = 0, dv = 0, d2v = 0;
 };
-/// derivatives = 1 skips d2v (left 0; v and dv carry the same bits).
-StericDensity steric_density(double C, const StericParameters& s, double J, int derivatives = 2);
+/// derivatives = 1 skips d2v (left 0; v and dv carry the same bits). Inline, as wlc.hpp's
+/// evaluate: called once per face in the energy loops.
+inline StericDensity steric_density(double C, const StericParameters& s, double J,
+                                    int derivatives = 2) {
+  const bool linear = s.q == 1.0;  // the paper's q; pow(J, 1) is J exactly, and slow
+  const double jq = linear ? J : std::pow(J, s.q);
+  // One division for the common q = 1 (divisions bound the energy loops' throughput).
+  const double inv_den = 1.0 / (jq + s.eta);
+  StericDensity r;
+  r.v = 2.0 * C * inv_den;
+  // d/dJ J^q = q J^(q-1), written with jq/J to stay finite-safe for J > 0; 1 at q = 1.
+  const double djq = linear ? 1.0 : s.q * jq / J;
+  r.dv = -2.0 * C * djq * (inv_den * inv_den);
+  if (derivatives < 2) return r;
+  const double d2jq = linear ? 0.0 : s.q * (s.q - 1.0) * jq / (J * J);
+  r.d2v = -2.0 * C * (d2jq - 2.0 * djq * djq * inv_den) * (inv_den * inv_den);
+  return r;
+}
 
 /// The steric face term through its face area, in any coordinates of dimension N (the 9
 /// vertex coordinates of a mesh face, the 4 edge-vector components of a planar periodic

@@ -101,37 +101,6 @@ double max_admissible_z(const WlcDensity& w) {
                                            : std::numeric_limits<double>::infinity();
 }
 
-DensityValue evaluate(const WlcDensity& w, double z, int derivatives) {
-  DensityValue r;
-  if (w.expansion != WlcExpansion::full) {
-    const int order = w.expansion == WlcExpansion::order2   ? 2
-                      : w.expansion == WlcExpansion::order3 ? 3
-                                                            : 4;
-    const double d = z - 1.0;
-    for (int j = order; j >= 0; --j) r.v = r.v * d + w.taylor[j];
-    for (int j = order; j >= 1; --j) r.dv = r.dv * d + j * w.taylor[j];
-    if (derivatives > 1)
-      for (int j = order; j >= 2; --j) r.d2v = r.d2v * d + j * (j - 1) * w.taylor[j];
-    return r;
-  }
-  const double x = w.x0 * std::sqrt(z);
-  if (!(x < 1.0) || !(z > 0.0)) {
-    r.v = std::numeric_limits<double>::infinity();
-    return r;
-  }
-  const double om = 1.0 - x;
-  const double phi = (3 * x * x - 2 * x * x * x) / om;
-  const double dphi = (6 * x - 9 * x * x + 4 * x * x * x) / (om * om);
-  const double dx = w.x0 * w.x0 / (2 * x);  // dx/dz
-  r.v = w.prefactor_pN_per_um * phi;
-  r.dv = w.prefactor_pN_per_um * dphi * dx;
-  if (derivatives < 2) return r;
-  const double d2phi = (6 - 12 * x + 12 * x * x - 4 * x * x * x) / (om * om * om);
-  const double d2x = -w.x0 * w.x0 * w.x0 * w.x0 / (4 * x * x * x);  // d2x/dz2
-  r.d2v = w.prefactor_pN_per_um * (d2phi * dx * dx + dphi * d2x);
-  return r;
-}
-
 double derivative_at_rest(const WlcDensity& w, int n) {
   static constexpr double factorial[5] = {1, 1, 2, 6, 24};
   if (n < 0 || n > 4) throw std::invalid_argument("derivative order must be 0..4");

@@ -2,6 +2,8 @@
 // Worm-like-chain spectrin links through the universal energy density V(z)
 // (MODEL.md section 2; Hartmann 2008 eq. (5); Marko & Siggia 1995; Li et al. 2005 Table 1).
 #include <array>
+#include <cmath>
+#include <limits>
 #include <string>
 
 #include "core/defaults.hpp"
@@ -57,10 +59,60 @@ struct DensityValue {
   double v = 0, dv = 0, d2v = 0;
 };
 
+namespace detail {
+/// V and its z-derivatives from the Taylor coefficients, at d = z - 1.
+inline DensityValue evaluate_expansion(const WlcDensity& w, double d, int derivatives) {
+  DensityValue r;
+  const int order = w.expansion == WlcExpansion::order2   ? 2
+                    : w.expansion == WlcExpansion::order3 ? 3
+                                                          : 4;
+  for (int j = order; j >= 0; --j) r.v = r.v * d + w.taylor[j];
+  for (int j = order; j >= 1; --j) r.dv = r.dv * d + j * w.taylor[j];
+  if (derivatives > 1)
+    for (int j = order; j >= 2; --j) r.d2v = r.d2v * d + j * (j - 1) * w.taylor[j];
+  return r;
+}
+/// The full law at x = x0 sqrt(z) = L/Lmax.
+inline DensityValue evaluate_full(const WlcDensity& w, double x, int derivatives) {
+  DensityValue r;
+  if (!(x < 1.0) || !(x > 0.0)) {
+    r.v = std::numeric_limits<double>::infinity();
+    return r;
+  }
+  // One division: q = 1/((1 - x) x) gives 1/(1 - x) = q x and 1/x = q (1 - x) (divisions bound
+  // the energy loops' throughput; the result moves by a few ulps).
+  const double om = 1.0 - x;
+  const double q = 1.0 / (om * x);
+  const double inv_om = q * x, inv_x = q * om;
+  const double phi = (3 * x * x - 2 * x * x * x) * inv_om;
+  const double dphi = (6 * x - 9 * x * x + 4 * x * x * x) * (inv_om * inv_om);
+  const double dx = 0.5 * w.x0 * w.x0 * inv_x;  // dx/dz = x0^2/(2x)
+  r.v = w.prefactor_pN_per_um * phi;
+  r.dv = w.prefactor_pN_per_um * dphi * dx;
+  if (derivatives < 2) return r;
+  const double d2phi = (6 - 12 * x + 12 * x * x - 4 * x * x * x) * (inv_om * inv_om * inv_om);
+  const double d2x = -0.25 * w.x0 * w.x0 * w.x0 * w.x0 * (inv_x * inv_x * inv_x);  // d2x/dz2
+  r.d2v = w.prefactor_pN_per_um * (d2phi * dx * dx + dphi * d2x);
+  return r;
+}
+}  // namespace detail
+
 /// Evaluates V(z) and its first two derivatives. For the full law, z at or beyond
 /// 1/x0^2 (link at Lmax) returns v = +infinity: callers treat it as infeasible.
-/// derivatives = 1 skips d2v (left 0; v and dv carry the same bits).
-DensityValue evaluate(const WlcDensity& w, double z, int derivatives = 2);
+/// derivatives = 1 skips d2v (left 0; v and dv carry the same bits). Inline: the energy loops
+/// call it once per link, and a call per link cost 7 % of a discrete energy + gradient.
+inline DensityValue evaluate(const WlcDensity& w, double z, int derivatives = 2) {
+  if (w.expansion != WlcExpansion::full) return detail::evaluate_expansion(w, z - 1.0, derivatives);
+  return detail::evaluate_full(w, w.x0 * std::sqrt(z), derivatives);
+}
+
+/// evaluate() at z = stretch^2, stretch = L/Lbar (> 0), for callers that hold the stretch: the
+/// full law needs no square root then.
+inline DensityValue evaluate_stretch(const WlcDensity& w, double stretch, int derivatives = 2) {
+  if (w.expansion != WlcExpansion::full)
+    return detail::evaluate_expansion(w, stretch * stretch - 1.0, derivatives);
+  return detail::evaluate_full(w, w.x0 * stretch, derivatives);
+}
 
 /// Largest admissible z: 1/x0^2 for the full law (link at Lmax), +infinity for expansions.
 double max_admissible_z(const WlcDensity& w);
