@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "homogenise/density_derivatives.hpp"
@@ -70,6 +71,15 @@ TEST(DensityDerivatives, MatchDiscreteEvaluateAndExactTaylorData) {
       EXPECT_NEAR(d[0], v.v, 1e-12 * std::abs(v.v));
       EXPECT_NEAR(d[1], v.dv, 1e-12 * std::abs(v.dv) + 1e-14);
       EXPECT_NEAR(d[2], v.d2v, 1e-12 * std::abs(v.d2v) + 1e-14);
+      // The same law from the stretch L/Lbar = sqrt(z) (the energy loops' entry point).
+      const DensityValue s = evaluate_stretch(w, std::sqrt(z));
+      EXPECT_NEAR(d[0], s.v, 1e-12 * std::abs(s.v));
+      EXPECT_NEAR(d[1], s.dv, 1e-12 * std::abs(s.dv) + 1e-14);
+      EXPECT_NEAR(d[2], s.d2v, 1e-12 * std::abs(s.d2v) + 1e-14);
+    }
+    if (e == WlcExpansion::full) {  // at and past Lmax (stretch 1/x0): infeasible
+      EXPECT_EQ(evaluate_stretch(w, 1.0 / w.x0).v, std::numeric_limits<double>::infinity());
+      EXPECT_EQ(evaluate_stretch(w, 1.01 / w.x0).v, std::numeric_limits<double>::infinity());
     }
     // At z = 1 the jets of discrete/wlc.cpp give V''' and V'''' independently.
     const auto d1 = density_derivatives(w, 1.0);
