@@ -167,9 +167,10 @@ namespace {
 constexpr double kSectorShift = 1e-8;
 /// Largest vertex displacement (um) of the push off an unstable symmetric state.
 constexpr double kSymmetryPushUm = 1e-3;
-/// Pushes tried, each 10x the one before (1e-3, 1e-2, 1e-1 um), while the full solve ends
-/// unconverged or within the push of the saddle.
+/// Pushes tried (1e-3, 1e-2, 1e-1 um), each kSymmetryPushGrowth times the one before, while the
+/// full solve ends unconverged or back on the saddle.
 constexpr int kSymmetryPushAttempts = 3;
+constexpr double kSymmetryPushGrowth = 10.0;
 /// A start farther than this (um, any coordinate) from its symmetric part is not symmetric.
 constexpr double kSymmetricStartUm = 1e-6;
 
@@ -376,41 +377,52 @@ NewtonResult NewtonSolver::solve(double force_pN, Positions& x, ConstraintMultip
         if (!full_newton_)
           full_newton_ = std::make_unique<ShiftedNewton>(shifted_newton_options(options_));
         const Eigen::VectorXd saddle = xf, saddle_lambda = l;
-        const int before = r.iterations, fact = r.factorisations;
-        int iterations = 0, factorisations = 0;
+        int iterations = r.iterations, factorisations = r.factorisations;
         // Newton seeks critical points, not minima: just past the bifurcation, where the
         // saddle's negative curvature is weak, the full solve from a small push can creep
         // back or stall near the saddle (measured: a soft cell, p = 30 nm, Lmax = 500 nm, at
-        // 108.8 pN, 2e-5 um from it after 50 iterations from a 1e-3 um push, where the
-        // buckled state is 0.025 um away in D_T; from a 1e-2 um push it converged there). Then
-        // the push grows tenfold (kSymmetryPushAttempts).
+        // 108.8 pN, 1e-5 um in D_T from it at the iteration limit after a 1e-3 um push, where
+        // the buckled state is 0.025 um away; from a 1e-2 um push it converged there). Then the
+        // push grows by kSymmetryPushGrowth, kSymmetryPushAttempts pushes in all. The answer is
+        // the first attempt that converged off the saddle, else the first attempt's (the one
+        // answer before retries existed).
         double push_um = kSymmetryPushUm;
-        for (int attempt = 1;; ++attempt, push_um *= 10) {
-          xf = saddle + push_um * push;
-          l = saddle_lambda;
-          r = full_newton_->solve(full, xf, l, on_iteration, lim);
-          iterations += r.iterations;
-          factorisations += r.factorisations;
-          if (r.status == NewtonStatus::infeasible_start || attempt == kSymmetryPushAttempts) break;
+        for (int attempt = 1; attempt <= kSymmetryPushAttempts;
+             ++attempt, push_um *= kSymmetryPushGrowth) {
+          Eigen::VectorXd xa = saddle + push_um * push, la = saddle_lambda;
+          ShiftedNewtonResult ra = full_newton_->solve(full, xa, la, on_iteration, lim);
+          iterations += ra.iterations;
+          factorisations += ra.factorisations;
+          res.chord_steps += ra.chord_steps;
+          res.krylov_iterations += ra.krylov_iterations;
+          res.krylov_fallbacks += ra.krylov_fallbacks;
+          res.largest_shift = std::max(res.largest_shift, ra.largest_shift);
           const double asymmetry =
-              (expand(*reduction_, symmetric_part(*reduction_, xf)) - xf).cwiseAbs().maxCoeff();
-          if (r.status == NewtonStatus::converged && asymmetry >= push_um) break;  // left it
-          if (progress)
-            report(progress, "  ended " + std::to_string(asymmetry) +
-                                 " um from the symmetric saddle, " + to_string(r.status) +
-                                 ": pushing 10x farther");
+              (expand(*reduction_, symmetric_part(*reduction_, xa)) - xa).cwiseAbs().maxCoeff();
+          const bool left = ra.status == NewtonStatus::converged && asymmetry > kSymmetricStartUm;
+          const NewtonStatus status = ra.status;
+          if (attempt == 1 || left) {
+            r = std::move(ra);
+            xf = std::move(xa);
+            l = std::move(la);
+          }
+          if (left || status == NewtonStatus::infeasible_start ||
+              status == NewtonStatus::time_budget || attempt == kSymmetryPushAttempts)
+            break;
+          if (progress) {
+            std::ostringstream m;
+            m << "  ended " << asymmetry << " um from the symmetric saddle (" << to_string(status)
+              << "): pushing " << kSymmetryPushGrowth << " times farther";
+            report(progress, m.str());
+          }
         }
-        r.iterations = before + iterations;
-        r.factorisations = fact + factorisations;
+        r.iterations = iterations;
+        r.factorisations = factorisations;
         res.symmetry_order = 1;
         res.status = r.status;
         res.iterations = r.iterations;
         res.factorisations = r.factorisations;
-        res.chord_steps += r.chord_steps;
-        res.krylov_iterations += r.krylov_iterations;
-        res.krylov_fallbacks += r.krylov_fallbacks;
         res.residual_pN = r.residual;
-        res.largest_shift = std::max(res.largest_shift, r.largest_shift);
         if (r.status == NewtonStatus::infeasible_start) return res;
       }
     }

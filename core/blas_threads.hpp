@@ -81,7 +81,9 @@ inline void release_blas_count() {
 /// at once in several threads need: OpenBLAS's OpenMP build sizes each call's team from the
 /// caller's OpenMP thread count (set by openblas_set_num_threads for the caller), and libgomp
 /// keeps max-active-levels per thread. OpenBLAS's process-wide count is restored by the last
-/// guard to end (detail::BlasCountHolders; tests/core/test_blas_threads.cpp).
+/// guard to end (detail::BlasCountHolders; tests/core/test_blas_threads.cpp). While several hold
+/// it, it is the last one set: guards alive at once should ask for the same count (every caller
+/// in the project asks for 1).
 class ScopedBlasThreads {
  public:
   /// threads <= 0: leave the thread counts alone.
@@ -92,8 +94,8 @@ class ScopedBlasThreads {
     saved_levels_ = omp_get_max_active_levels();
     // CHOLMOD's supernodal code opens its own regions with num_threads(4) (SuiteSparse 5's
     // CHOLMOD_OMP_NUM_THREADS); with one thread requested, no region may be active.
+    holds_blas_ = detail::hold_blas_count(threads);  // first: it may throw (the mutex)
     if (threads == 1) omp_set_max_active_levels(0);
-    holds_blas_ = detail::hold_blas_count(threads);
   }
   ~ScopedBlasThreads() {
     if (!active_) return;

@@ -29,8 +29,9 @@ double steric_constant(const WlcDensity& w, const StericParameters& s);
 struct StericDensity {
   double v = 0, dv = 0, d2v = 0;
 };
-/// derivatives = 1 skips d2v (left 0; v and dv carry the same bits). Inline, as wlc.hpp's
-/// evaluate: called once per face in the energy loops.
+/// J > 0: a collapsed face is the callers' to refuse (discrete/network.hpp, kCollapsedFaceRatio);
+/// at q = 1, J = 0 gives finite values. derivatives = 1 skips d2v (left 0; v and dv carry the same
+/// bits). Inline, as wlc.hpp's evaluate: called once per face in the energy loops.
 inline StericDensity steric_density(double C, const StericParameters& s, double J,
                                     int derivatives = 2) {
   const bool linear = s.q == 1.0;  // the paper's q; pow(J, 1) is J exactly, and slow

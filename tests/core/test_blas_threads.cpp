@@ -100,11 +100,7 @@ TEST(ScopedBlasThreads, OverlappingGuardsGiveBackTheProcessWideCount) {
         steps.advance();  // 1 or 2
         steps.wait_for(first ? 2 : 4);
       }
-      if (first) {
-        steps.advance();  // 3
-      } else {
-        steps.advance();  // 5
-      }
+      steps.advance();  // 3 (the first to end) or 5
     };
     std::thread a([&] { run(a_ends_first, true); });
     std::thread b([&] { run(!a_ends_first, false); });

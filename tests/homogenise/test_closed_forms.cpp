@@ -78,7 +78,8 @@ TEST(DensityDerivatives, MatchDiscreteEvaluateAndExactTaylorData) {
       EXPECT_NEAR(d[2], s.d2v, 1e-12 * std::abs(s.d2v) + 1e-14);
     }
     if (e == WlcExpansion::full) {  // at and past Lmax (stretch 1/x0): infeasible
-      EXPECT_EQ(evaluate_stretch(w, 1.0 / w.x0).v, std::numeric_limits<double>::infinity());
+      EXPECT_EQ(evaluate_stretch(w, std::nextafter(1.0 / w.x0, 2.0 / w.x0)).v,
+                std::numeric_limits<double>::infinity());
       EXPECT_EQ(evaluate_stretch(w, 1.01 / w.x0).v, std::numeric_limits<double>::infinity());
     }
     // At z = 1 the jets of discrete/wlc.cpp give V''' and V'''' independently.
