@@ -89,13 +89,22 @@ inline JuelicherCell juelicher_cell(const BendingParameters& p, double sum_lt_um
 /// The cell of vertex v from per-edge L_e theta_e (lt(e), um) and per-face areas (af(f),
 /// um^2) given by accessors: the one place the sums M_v = 1/2 sum_e L_e theta_e and
 /// A_v = 1/3 sum_f A_f are formed, over topo.vertex_edges(v) and topo.vertex_faces(v) in their
-/// order. Used by juelicher_cells and by the Monte Carlo sampler (cached or trial values).
+/// order. Used by juelicher_cells and by the Monte Carlo sampler (cached or trial values);
+/// juelicher_vertex_sums gives the two sums alone (for callers that form the cells in blocks).
+template <class EdgeLt, class FaceArea>
+void juelicher_vertex_sums(const Topology& topo, int v, EdgeLt&& lt, FaceArea&& af,
+                           double& sum_lt_um, double& sum_area_um2) {
+  double m = 0, a = 0;
+  for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e) m += lt(*e);
+  for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) a += af(*f);
+  sum_lt_um = m;
+  sum_area_um2 = a;
+}
 template <class EdgeLt, class FaceArea>
 JuelicherCell juelicher_vertex_cell(const Topology& topo, const BendingParameters& p, int v,
                                     EdgeLt&& lt, FaceArea&& af) {
   double m = 0, a = 0;
-  for (const int* e = topo.vertex_edges.begin(v); e != topo.vertex_edges.end(v); ++e) m += lt(*e);
-  for (const int* f = topo.vertex_faces.begin(v); f != topo.vertex_faces.end(v); ++f) a += af(*f);
+  juelicher_vertex_sums(topo, v, lt, af, m, a);
   return juelicher_cell(p, m, a);
 }
 

@@ -72,13 +72,14 @@ inline DensityValue evaluate_expansion(const WlcDensity& w, double d, int deriva
     for (int j = order; j >= 2; --j) r.d2v = r.d2v * d + j * (j - 1) * w.taylor[j];
   return r;
 }
-/// The full law at x = x0 sqrt(z) = L/Lmax.
-inline DensityValue evaluate_full(const WlcDensity& w, double x, int derivatives) {
+/// The full law at x = x0 sqrt(z) = L/Lmax: v = +infinity (dv = d2v = 0) unless 0 < x < 1.
+/// Without branches (an infeasible x is replaced by 1/2 before any arithmetic, so no operation
+/// sees a NaN or divides by zero, and the infinity is selected at the end), so loops over links
+/// vectorise; a feasible x gives the bits of the branching form.
+inline DensityValue evaluate_full(const WlcDensity& w, double x_in, int derivatives) {
+  const bool feasible = x_in < 1.0 && x_in > 0.0;
+  const double x = feasible ? x_in : 0.5;
   DensityValue r;
-  if (!(x < 1.0) || !(x > 0.0)) {
-    r.v = std::numeric_limits<double>::infinity();
-    return r;
-  }
   // One division: q = 1/((1 - x) x) gives 1/(1 - x) = q x and 1/x = q (1 - x) (divisions bound
   // the energy loops' throughput; the result moves by a few ulps).
   const double om = 1.0 - x;
@@ -87,12 +88,12 @@ inline DensityValue evaluate_full(const WlcDensity& w, double x, int derivatives
   const double phi = (3 * x * x - 2 * x * x * x) * inv_om;
   const double dphi = (6 * x - 9 * x * x + 4 * x * x * x) * (inv_om * inv_om);
   const double dx = 0.5 * w.x0 * w.x0 * inv_x;  // dx/dz = x0^2/(2x)
-  r.v = w.prefactor_pN_per_um * phi;
-  r.dv = w.prefactor_pN_per_um * dphi * dx;
+  r.v = feasible ? w.prefactor_pN_per_um * phi : std::numeric_limits<double>::infinity();
+  r.dv = feasible ? w.prefactor_pN_per_um * dphi * dx : 0.0;
   if (derivatives < 2) return r;
   const double d2phi = (6 - 12 * x + 12 * x * x - 4 * x * x * x) * (inv_om * inv_om * inv_om);
   const double d2x = -0.25 * w.x0 * w.x0 * w.x0 * w.x0 * (inv_x * inv_x * inv_x);  // d2x/dz2
-  r.d2v = w.prefactor_pN_per_um * (d2phi * dx * dx + dphi * d2x);
+  r.d2v = feasible ? w.prefactor_pN_per_um * (d2phi * dx * dx + dphi * d2x) : 0.0;
   return r;
 }
 }  // namespace detail

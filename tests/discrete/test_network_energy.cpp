@@ -6,6 +6,7 @@
 // say +infinity for the same infeasible states.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -94,21 +95,56 @@ TEST(SharedGeometry, HingeAnglesAreasAndTotalsAreThoseOfTheGeometryKernels) {
   EXPECT_EQ(geo.volume_um3, enclosed_volume(c.x, t));
 }
 
+TEST(SharedGeometry, HingeAnglesOfEveryRangeAndSignAreThoseOfAtan2) {
+  // The hinge angles' own atan2 (branch-free Cephes, three argument ranges, four quadrants)
+  // against core/geometry.hpp's dihedral_angle (std::atan2) on a crumpled cell, whose angles
+  // cover |theta| < 33.4 deg, the middle range, > 67.5 deg and > 90 deg (a negative cosine),
+  // of both signs.
+  testing::SmallCell c;
+  const Topology& t = c.net.topo;
+  Positions x = c.x;
+  testing::perturb(x, 0.35, 3);
+  const NetworkGeometry geo = network_geometry(x, t);
+  constexpr double kPi = 3.14159265358979323846;
+  int shallow = 0, middle = 0, steep = 0, obtuse = 0, negative = 0;
+  for (int e = 0; e < t.num_edges(); ++e) {
+    const double theta = dihedral_angle(x.col(t.edges(0, e)), x.col(t.edges(1, e)),
+                                        x.col(t.edge_opposite(0, e)), x.col(t.edge_opposite(1, e)));
+    EXPECT_NEAR(geo.hinge_angle[e], theta, 1e-13) << e;
+    const double a = std::abs(theta);
+    shallow += a<0.58, middle += a> 0.59 && a<1.17, steep += a> 1.18;
+    obtuse += a > 0.5 * kPi, negative += theta < 0;
+  }
+  EXPECT_GT(shallow, 0);
+  EXPECT_GT(middle, 0);
+  EXPECT_GT(steep, 0);
+  EXPECT_GT(obtuse, 0);
+  EXPECT_GT(negative, 0);
+  EXPECT_LT(negative, t.num_edges());
+}
+
 TEST(SharedGeometry, InfeasibleStatesAreInfiniteOnBothPaths) {
   testing::SmallCell c;
   const double inf = std::numeric_limits<double>::infinity();
-  // A link past Lmax: move one vertex 10 um out (Lmax = Lbar/x0 ~ 3 Lbar < 10 um here).
-  Positions far = c.x;
-  far.col(0) += Eigen::Vector3d(10.0, 0.0, 0.0);
+  const Topology& t = c.net.topo;
   ASSERT_LT(c.net.lbar_um.maxCoeff() / c.net.wlc.x0, 9.0);
-  // A collapsed face: one vertex onto the midpoint of its opposite edge in face 0.
-  Positions flat = c.x;
-  const auto f = c.net.topo.faces.col(0);
-  flat.col(f(0)) = 0.5 * (flat.col(f(1)) + flat.col(f(2)));
-  for (const Positions* x : {&far, &flat}) {
-    Positions g;
-    EXPECT_EQ(network_energy(c.net, *x, c.load, &g), inf);
-    EXPECT_EQ(sum_network_terms(term_by_term(c.net), c.net, *x, c.load, &g, nullptr), inf);
+  // The energy loops work in blocks of 128 links or faces: the infeasible element at the start,
+  // inside and at the end of the lists (the last face and the last vertex's links).
+  ASSERT_GT(t.num_faces(), 3 * 128);
+  for (const int k : {0, t.num_faces() / 2 + 7, t.num_faces() - 1}) {
+    // A link past Lmax: move one vertex 10 um out (Lmax = Lbar/x0 ~ 3 Lbar < 10 um here).
+    const int v = std::min(k, t.num_vertices - 1);
+    Positions far = c.x;
+    far.col(v) += Eigen::Vector3d(10.0, 0.0, 0.0);
+    // A collapsed face: one vertex onto the midpoint of its opposite edge in face k.
+    Positions flat = c.x;
+    const auto f = t.faces.col(k);
+    flat.col(f(0)) = 0.5 * (flat.col(f(1)) + flat.col(f(2)));
+    for (const Positions* x : {&far, &flat}) {
+      Positions g;
+      EXPECT_EQ(network_energy(c.net, *x, c.load, &g), inf) << k;
+      EXPECT_EQ(sum_network_terms(term_by_term(c.net), c.net, *x, c.load, &g, nullptr), inf) << k;
+    }
   }
 }
 

@@ -81,6 +81,16 @@ TEST(DensityDerivatives, MatchDiscreteEvaluateAndExactTaylorData) {
       EXPECT_EQ(evaluate_stretch(w, std::nextafter(1.0 / w.x0, 2.0 / w.x0)).v,
                 std::numeric_limits<double>::infinity());
       EXPECT_EQ(evaluate_stretch(w, 1.01 / w.x0).v, std::numeric_limits<double>::infinity());
+      // Outside 0 < L < Lmax (the law is evaluated without branches): v = +infinity and both
+      // derivatives exactly 0, never a NaN, for every derivative count (and no invalid operation:
+      // the trapping build, -DRBC_TRAP_FP=ON, runs this too).
+      for (double x : {1.0, 1.5, 0.0, -0.2, std::numeric_limits<double>::infinity()})
+        for (int derivatives : {1, 2}) {
+          const DensityValue r = detail::evaluate_full(w, x, derivatives);
+          EXPECT_EQ(r.v, std::numeric_limits<double>::infinity()) << x;
+          EXPECT_EQ(r.dv, 0.0) << x;
+          EXPECT_EQ(r.d2v, 0.0) << x;
+        }
     }
     // At z = 1 the jets of discrete/wlc.cpp give V''' and V'''' independently.
     const auto d1 = density_derivatives(w, 1.0);
