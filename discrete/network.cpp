@@ -91,6 +91,7 @@ RBC_HOT_CLONES double links_from_geometry(const WlcDensity& wlc, const double* l
     for (int e = begin; e < end; ++e) {
       const double len = length_um[e], lbar2 = lbar_um[e] * lbar_um[e];
       const DensityValue v = evaluate_stretch(wlc, len / lbar_um[e], 1);
+      if (!(v.v < inf)) return inf;  // not a number (positions)
       s += 0.5 * sqrt3 * lbar2 * v.v;
       if (dl) dl[e] += sqrt3 * v.dv * len;
     }
