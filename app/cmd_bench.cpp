@@ -19,6 +19,7 @@
 #include "core/rest_shape.hpp"
 #include "discrete/mc_sampler.hpp"
 #include "discrete/network.hpp"
+#include "discrete/newton_preconditioner.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
 
@@ -47,6 +48,29 @@ void BM_DiscreteEnergyGradient(benchmark::State& state) {
   state.counters["ns_per_vertex"] = benchmark::Counter(
       static_cast<double>(net.topo.num_vertices) * static_cast<double>(state.iterations()),
       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+/// One application of the stretch's Newton preconditioner (a solve with its Cholesky factor and
+/// the Woodbury correction) at the rest shape of range(0) vertices; range(1) = 0 solves in
+/// double, 1 in single precision (SolvePrecision).
+void BM_DiscretePreconditionerApply(benchmark::State& state) {
+  const Network& net = cached_network(static_cast<int>(state.range(0)));
+  NewtonPreconditionerOptions o;
+  o.solve_precision =
+      state.range(1) == 1 ? SolvePrecision::single_precision : SolvePrecision::double_precision;
+  NewtonPreconditioner pre(net, o);
+  if (!pre.refresh(net.rest, ConstraintMultipliers{}, 1.0)) {
+    state.SkipWithError("the preconditioner's factorisation failed");
+    return;
+  }
+  Eigen::VectorXd v = Eigen::VectorXd::Ones(3 * net.topo.num_vertices);
+  for (auto _ : state) {
+    Eigen::VectorXd w = v;
+    pre.apply(w);
+    benchmark::DoNotOptimize(w.data());
+  }
+  state.counters["vertices"] = net.topo.num_vertices;
+  state.counters["factor_entries"] = pre.statistics().factor_nonzeros;
 }
 
 void BM_DiscreteStretch88(benchmark::State& state) {
@@ -511,8 +535,9 @@ void add_bench_command(CLI::App& app, Action& action) {
   auto args = std::make_shared<std::vector<std::string>>();
   auto* cmd = app.add_subcommand(
       "bench",
-      "Benchmarks: `rbc bench stretch` (discrete energy+gradient and time to equilibrium "
-      "at 88 pN for N = 500, 2000, 8000, 27500), `rbc bench mc` (Monte Carlo vertex moves/s "
+      "Benchmarks: `rbc bench stretch` (discrete energy+gradient, one preconditioner solve in "
+      "double and single precision, and time to equilibrium at 88 pN for N = 500, 2000, 8000, "
+      "27500), `rbc bench mc` (Monte Carlo vertex moves/s "
       "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up), `rbc bench sweep` "
       "(issue 11's rows: force sweeps, warm re-solves, each also in energy+gradient "
       "evaluations; issue 14's continuum recovery row); extra arguments go "
@@ -530,6 +555,13 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Arg(8000)
             ->Arg(27500)
             ->Unit(benchmark::kMicrosecond);
+        benchmark::RegisterBenchmark("discrete/preconditioner_apply",
+                                     BM_DiscretePreconditionerApply)
+            ->Args({2000, 0})
+            ->Args({2000, 1})
+            ->Args({27500, 0})
+            ->Args({27500, 1})
+            ->Unit(benchmark::kMillisecond);
         benchmark::RegisterBenchmark("discrete/stretch_88pN", BM_DiscreteStretch88)
             ->Arg(500)
             ->Arg(2000)

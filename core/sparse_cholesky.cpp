@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/blas_threads.hpp"
+#include "core/supernodal_solve.hpp"
 #include "core/validation.hpp"
 
 namespace rbc {
@@ -282,6 +283,8 @@ class CopyableCholmod final
     return m_info == Eigen::Success;
   }
   bool has_factor() const { return m_cholmodFactor != nullptr; }
+  /// CHOLMOD's factor (null before an analysis), read only.
+  const cholmod_factor* raw() const { return m_cholmodFactor; }
   /// The fill-reducing permutation of the analysis (L L' = A(perm, perm)); null without one.
   const int* permutation() const {
     return m_cholmodFactor ? static_cast<const int*>(m_cholmodFactor->Perm) : nullptr;
@@ -408,6 +411,60 @@ struct SparseCholesky::Impl {
   int analyses = 0;    ///< symbolic analyses made (SparseCholesky::analyses)
   std::shared_ptr<const detail::PermutedPattern> pattern;
   std::vector<double> values;  ///< the permuted matrix's values (allocated at a factorisation)
+  /// The factor rounded to float (SolvePrecision::single_precision, supernodal factors only;
+  /// used when single_ready) and the analysis its structure was copied from.
+  SinglePrecisionFactor single;
+  bool single_ready = false;
+  int single_analysis = -1;
+
+  /// Rounds the (successful) factor to float into `single`, its structure copied once per
+  /// analysis. A simplicial factor, or one with an entry or inverse pivot beyond float's range,
+  /// leaves single_ready false (solved in double). Entries below float's smallest normal number
+  /// become 0 (a subnormal operand costs a microcode assist per use on x86).
+  void round_factor() {
+    single_ready = false;
+    const cholmod_factor* l = factor.raw();
+    if (!l || !l->is_super || l->xtype != CHOLMOD_REAL || !single_precision_solves_available())
+      return;
+    const int nsuper = static_cast<int>(l->nsuper);
+    const int* super = static_cast<const int*>(l->super);
+    const int* pi = static_cast<const int*>(l->pi);
+    const int* px = static_cast<const int*>(l->px);
+    if (single_analysis != analyses || single.supernodes() != nsuper) {
+      single.n = static_cast<int>(l->n);
+      single.super.assign(super, super + nsuper + 1);
+      single.row_start.assign(pi, pi + nsuper + 1);
+      single.value_start.assign(px, px + nsuper + 1);
+      const int* rows = static_cast<const int*>(l->s);
+      single.rows.assign(rows, rows + pi[nsuper]);
+      single.max_rows = 0;
+      for (int k = 0; k < nsuper; ++k)
+        single.max_rows = std::max(single.max_rows, pi[k + 1] - pi[k]);
+      single_analysis = analyses;
+    }
+    const double* x = static_cast<const double*>(l->x);
+    const size_t entries = static_cast<size_t>(px[nsuper]);
+    single.values.resize(entries);
+    constexpr float kLargest = std::numeric_limits<float>::max();
+    constexpr float kSmallest = std::numeric_limits<float>::min();
+    bool representable = true;
+    for (size_t k = 0; k < entries; ++k) {
+      const float f = static_cast<float>(x[k]);
+      single.values[k] = std::abs(f) < kSmallest ? 0.0f : f;
+      representable &= std::abs(f) <= kLargest;
+    }
+    single.inverse_diagonal.resize(static_cast<size_t>(single.n));
+    for (int k = 0; k < nsuper; ++k) {
+      const size_t nrow = static_cast<size_t>(pi[k + 1] - pi[k]);
+      for (int j = super[k]; j < super[k + 1]; ++j) {
+        const size_t c = static_cast<size_t>(j - super[k]);
+        const float inv = static_cast<float>(1.0 / x[static_cast<size_t>(px[k]) + c * nrow + c]);
+        single.inverse_diagonal[static_cast<size_t>(j)] = inv;
+        representable &= std::abs(inv) <= kLargest && std::abs(inv) >= kSmallest;
+      }
+    }
+    single_ready = representable;
+  }
 
   /// Configures f for `unknowns` unknowns. `natural`: the analysis of the permuted matrix (no
   /// ordering and no postorder: the order of `permuted` is already CHOLMOD's postordered one);
@@ -474,6 +531,9 @@ SparseCholesky SparseCholesky::clone() const {
     c.impl_->ok = impl_->ok;
     c.impl_->n = impl_->n;
     c.impl_->block_size = impl_->block_size;
+    c.impl_->single = impl_->single;
+    c.impl_->single_ready = impl_->single_ready;
+    c.impl_->single_analysis = impl_->single_analysis;
   }
   c.impl_->analyses = impl_->analyses;
   return c;
@@ -597,6 +657,8 @@ bool SparseCholesky::factorize(const Eigen::SparseMatrix<double>& a, double diag
     if (pat.gather[k] >= 0) p[pat.gather[k]] = v[k];
   const ScopedBlasThreads blas(m.options.blas_threads);
   m.ok = m.factor.factorize_lower(pat.n, pat.outer.data(), pat.inner.data(), p, diagonal_shift);
+  m.single_ready = false;
+  if (m.ok && m.options.solve_precision == SolvePrecision::single_precision) m.round_factor();
   return m.ok;
 }
 
@@ -613,7 +675,13 @@ Eigen::VectorXd SparseCholesky::solve(const Eigen::VectorXd& b) const {
   const std::vector<int>& perm = impl_->pattern->perm;
   Eigen::VectorXd bp(b.rows());
   for (Eigen::Index k = 0; k < b.rows(); ++k) bp(k) = b(perm[k]);
-  const Eigen::VectorXd xp = impl_->factor.solve(bp);
+  Eigen::VectorXd xp;
+  if (impl_->single_ready) {
+    solve_in_place(impl_->single, bp.data());
+    xp.swap(bp);
+  } else {
+    xp = impl_->factor.solve(bp);
+  }
   Eigen::VectorXd x(b.rows());
   for (Eigen::Index k = 0; k < b.rows(); ++k) x(perm[k]) = xp(k);
   return x;
@@ -635,8 +703,10 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
   // factor entries, memory traffic dominates and 2 columns cost 1.7x one).
   constexpr Eigen::Index kNarrowColumns = 3;
   constexpr double kInCacheFactorEntries = 2.0e6;
-  if (b.cols() > 1 && b.cols() <= kNarrowColumns &&
-      static_cast<double>(impl_->factor.cholmod().lnz) < kInCacheFactorEntries) {
+  if (impl_->single_ready) {
+    for (Eigen::Index j = 0; j < b.cols(); ++j) solve_in_place(impl_->single, bp.col(j).data());
+  } else if (b.cols() > 1 && b.cols() <= kNarrowColumns &&
+             static_cast<double>(impl_->factor.cholmod().lnz) < kInCacheFactorEntries) {
     for (Eigen::Index j = 0; j < b.cols(); ++j) {
       const Eigen::VectorXd xj = impl_->factor.solve(Eigen::VectorXd(bp.col(j)));
       bp.col(j) = xj;

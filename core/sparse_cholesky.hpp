@@ -29,6 +29,18 @@ enum class FillOrdering {
   nested_dissection,  ///< CHOLMOD's own nested dissection (NESDIS)
 };
 
+/// Precision of SparseCholesky::solve.
+enum class SolvePrecision {
+  double_precision,  ///< CHOLMOD's solve on the double factor
+  /// After each successful supernodal factorisation the factor is also kept rounded to float,
+  /// and solve() substitutes with that copy (core/supernodal_solve.hpp: half the memory
+  /// traffic, arithmetic in double): the solve of a matrix within ~1e-7 relative of the one
+  /// factorised, for preconditioners whose factor does not fit in cache. Costs 4 bytes per
+  /// factor entry. A simplicial factor (SparseCholeskyOptions::supernodal_min_unknowns) is
+  /// solved in double.
+  single_precision,
+};
+
 struct SparseCholeskyOptions {
   FillOrdering ordering = FillOrdering::metis;
   /// METIS orders the graph of the b x b blocks (b = 3, else 2) when the pattern is made of
@@ -60,6 +72,7 @@ struct SparseCholeskyOptions {
   /// (core/blas_threads.hpp); 0 = the caller's. One keeps the rounding independent of the
   /// core count and avoids thread wake-ups on CHOLMOD's many small BLAS calls.
   int blas_threads = 1;
+  SolvePrecision solve_precision = SolvePrecision::double_precision;
   /// Throws std::invalid_argument naming the quantity: thresholds >= 0, threads in [0, 1024].
   void validate() const;
 };
@@ -96,7 +109,7 @@ class SparseCholesky {
   bool factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift = 0.0);
   /// True after a successful factorize().
   bool factorised() const;
-  /// Solves a x = b with the last successful factorisation.
+  /// Solves a x = b with the last successful factorisation (in the options' precision).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
   /// Nonzeros of the factor L (0 before the first factorisation).

@@ -35,6 +35,7 @@ SparseCholeskyOptions cholesky_options(const NewtonPreconditionerOptions& o) {
   c.supernodal_min_unknowns = o.supernodal_min_unknowns;
   c.blas_threads = o.blas_threads;
   c.relaxed_amalgamation_below = 0;
+  c.solve_precision = o.solve_precision;
   return c;
 }
 

@@ -37,6 +37,14 @@ struct NewtonPreconditionerOptions {
   /// on (0 = always supernodal: measured faster from 750 unknowns on, once BLAS runs on one
   /// thread).
   int supernodal_min_unknowns = 0;
+  /// Precision of the preconditioner's solves (core/sparse_cholesky.hpp). Single by default:
+  /// the solves read the whole factor twice per L-BFGS iteration and are bound by memory
+  /// traffic; in float they take 24 instead of 34-44 ms at N = 27,042 (3.2e7 factor entries)
+  /// and 0.32 instead of 0.57 ms at N = 1,962 (`rbc bench stretch
+  /// --benchmark_filter=preconditioner_apply`). A preconditioner needs no more accuracy: the
+  /// solve is that of a matrix within float rounding of the one factorised (relative error
+  /// ~ cond 1e-7; 8e-7 measured on the mirror-reduced N = 252 matrix, cond 7.8e3).
+  SolvePrecision solve_precision = SolvePrecision::single_precision;
 };
 
 class NewtonPreconditioner {

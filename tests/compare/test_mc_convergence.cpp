@@ -142,14 +142,17 @@ TEST(McConvergence, TinyStudyConvergesAndWritesItsFiles) {
   ASSERT_TRUE(r.reference.converged);
   ASSERT_GT(r.reference.axial_um, 0);
 
-  // Minimiser: the error shrinks (non-strictly) as the tolerance tightens, and the tightest
-  // (ten times looser than the reference's 1e-3 pN) is within the L-BFGS scatter measured
-  // above (6.4e-4 um at 1e-2 pN; bound 1e-2 um, 0.1 % of D_A).
+  // Minimiser: the error shrinks with the tolerance. A stop at largest vertex force r leaves
+  // D_A off by about r over the stiffness of the softest mode that moves it: each error is
+  // below 0.1 um/pN times its tolerance (measured above: 0.017-0.064 um/pN), so the tightest
+  // (ten times looser than the reference's 1e-3 pN) is within 1e-3 um, and it is far below
+  // the loosest. Their order within the scatter is not asserted: where L-BFGS stops inside a
+  // tolerance depends on the path (with the preconditioner's single-precision solves: 7e-6 um
+  // at 1e-1 pN, 1.4e-5 um at 1e-2 pN).
   ASSERT_EQ(r.minimiser.size(), o.force_tolerances_pN.size());
-  for (size_t k = 1; k < r.minimiser.size(); ++k)
-    EXPECT_LE(r.minimiser[k].axial_error_um, r.minimiser[k - 1].axial_error_um)
-        << "tolerance " << r.minimiser[k].force_tolerance_pN;
-  EXPECT_LT(r.minimiser.back().axial_error_um, 1e-2);
+  for (const auto& m : r.minimiser)
+    EXPECT_LE(m.axial_error_um, 0.1 * m.force_tolerance_pN) << "tolerance " << m.force_tolerance_pN;
+  EXPECT_LT(r.minimiser.back().axial_error_um, 0.1 * r.minimiser.front().axial_error_um);
 
   // Monte Carlo: exactly the requested samples, in sweep order; and the oracle is the other
   // method: a zero-temperature quench with the reference's multipliers descends to the same

@@ -1,0 +1,138 @@
+// The single-precision solve of a supernodal factor (core/supernodal_solve.hpp, through
+// SparseCholeskyOptions::solve_precision) against the double one: the error float rounding
+// allows and no less (it is a float solve), the same bits for one or several right-hand sides
+// and for a clone, and the double solve wherever the float one does not apply (a simplicial
+// factor, entries beyond float's range).
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <random>
+#include <vector>
+
+#include "core/sparse_cholesky.hpp"
+
+namespace rbc {
+namespace {
+
+/// A 2-D grid of m x m nodes with 3 unknowns each (lower triangle, full 3 x 3 blocks, as the
+/// discrete Hessian): node blocks 12.1 I + a random symmetric part (entries < 0.1) on the
+/// diagonal, -w I (w in [0.5, 1], per pair) to each of the 8 neighbours of the 9-point
+/// stencil. Diagonally dominant, hence SPD with condition number ~ 10; METIS orders it into
+/// supernodes from 1 to a few hundred columns wide, row counts of every remainder mod 4.
+Eigen::SparseMatrix<double> block_grid_lower(int m, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 3 * m * m;
+  std::vector<Eigen::Triplet<double>> t;
+  auto node = [m](int i, int j) { return i * m + j; };
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      const int a = node(i, j);
+      Eigen::Matrix3d d = Eigen::Matrix3d::Identity() * 12.1;
+      Eigen::Matrix3d r;
+      for (double& v : r.reshaped()) v = 0.05 * u(rng);
+      d += r + r.transpose();
+      for (int p = 0; p < 3; ++p)
+        for (int q = 0; q <= p; ++q) t.emplace_back(3 * a + p, 3 * a + q, d(p, q));
+      const int di[4] = {0, 1, 1, 1}, dj[4] = {1, -1, 0, 1};
+      for (int k = 0; k < 4; ++k) {
+        const int i2 = i + di[k], j2 = j + dj[k];
+        if (i2 >= m || j2 < 0 || j2 >= m) continue;
+        const int b = node(i2, j2);  // b > a: the block (b, a) is in the lower triangle
+        const double w = 0.5 + 0.5 * (u(rng) + 1.0) / 2.0;
+        for (int p = 0; p < 3; ++p)
+          for (int q = 0; q < 3; ++q) t.emplace_back(3 * b + p, 3 * a + q, p == q ? -w : 0.0);
+      }
+    }
+  Eigen::SparseMatrix<double> a(n, n);
+  a.setFromTriplets(t.begin(), t.end());
+  a.makeCompressed();
+  return a;
+}
+
+/// The full symmetric matrix of a lower triangle.
+Eigen::SparseMatrix<double> symmetric_of(const Eigen::SparseMatrix<double>& lower) {
+  Eigen::SparseMatrix<double> full = lower.selfadjointView<Eigen::Lower>();
+  return full;
+}
+
+SparseCholeskyOptions precision(SolvePrecision p) {
+  SparseCholeskyOptions o;
+  o.solve_precision = p;
+  return o;
+}
+
+TEST(SinglePrecisionSolve, ErrsByFloatRoundingAndNoMore) {
+  const Eigen::SparseMatrix<double> a = block_grid_lower(40, 7);  // 4,800 unknowns
+  const Eigen::SparseMatrix<double> full = symmetric_of(a);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(a.rows());
+  for (double& v : b) v = u(rng);
+  SparseCholesky dbl(precision(SolvePrecision::double_precision));
+  SparseCholesky sgl(precision(SolvePrecision::single_precision));
+  ASSERT_TRUE(dbl.factorize(a));
+  ASSERT_TRUE(sgl.factorize(a));
+  const Eigen::VectorXd xd = dbl.solve(b), xs = sgl.solve(b);
+  // The double solve is exact to ~1e-15; the float one to its rounding, u = 6e-8, times the
+  // condition number (~10) and a growth with the length of the sums (the residual's bound is
+  // ~ n_row u |L||L'| |x|; measured: 1.1e-7 both): below 1e-6, far above double rounding.
+  EXPECT_LT((full * xd - b).norm(), 1e-13 * b.norm());
+  const double error = (xs - xd).norm() / xd.norm();
+  EXPECT_LT(error, 1e-6);
+  EXPECT_GT(error, 1e-12);  // a float solve, not the double one
+  EXPECT_LT((full * xs - b).norm(), 1e-6 * b.norm());
+}
+
+TEST(SinglePrecisionSolve, SeveralColumnsAndAClonesSolveGiveTheSameBits) {
+  const Eigen::SparseMatrix<double> a = block_grid_lower(23, 3);  // 1,587 unknowns
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::MatrixXd b(a.rows(), 3);
+  for (double& v : b.reshaped()) v = u(rng);
+  SparseCholesky c(precision(SolvePrecision::single_precision));
+  ASSERT_TRUE(c.factorize(a));
+  const Eigen::MatrixXd x = c.solve(b);
+  const SparseCholesky copy = c.clone();
+  for (Eigen::Index j = 0; j < b.cols(); ++j) {
+    const Eigen::VectorXd xj = c.solve(Eigen::VectorXd(b.col(j)));
+    EXPECT_EQ(xj, Eigen::VectorXd(x.col(j))) << "column " << j;
+    EXPECT_EQ(copy.solve(Eigen::VectorXd(b.col(j))), xj) << "column " << j;
+  }
+  // A refactorisation (another matrix, same pattern) replaces the float copy.
+  const Eigen::SparseMatrix<double> a2 = 2.0 * a;
+  ASSERT_TRUE(c.factorize(a2));
+  const Eigen::VectorXd half = c.solve(Eigen::VectorXd(b.col(0)));
+  EXPECT_LT((2.0 * half - x.col(0)).norm(), 1e-5 * x.col(0).norm());
+}
+
+TEST(SinglePrecisionSolve, FallsBackToTheDoubleSolveWhereFloatDoesNotApply) {
+  const Eigen::SparseMatrix<double> a = block_grid_lower(12, 9);  // 432 unknowns
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(a.rows());
+  for (double& v : b) v = u(rng);
+  // A simplicial factor: the double solve, bit for bit.
+  {
+    SparseCholeskyOptions o = precision(SolvePrecision::single_precision);
+    o.supernodal_min_unknowns = 1 << 30;
+    SparseCholeskyOptions od = o;
+    od.solve_precision = SolvePrecision::double_precision;
+    SparseCholesky s(o), d(od);
+    ASSERT_TRUE(s.factorize(a));
+    ASSERT_TRUE(d.factorize(a));
+    EXPECT_EQ(s.solve(b), d.solve(b));
+  }
+  // Entries beyond float's range (the matrix scaled by 1e80, its factor by 1e40): the double
+  // solve, exact to double rounding (a float solve could not even hold the entries).
+  {
+    const Eigen::SparseMatrix<double> big = 1e80 * a;
+    SparseCholesky s(precision(SolvePrecision::single_precision));
+    ASSERT_TRUE(s.factorize(big));
+    const Eigen::VectorXd x = s.solve(b);
+    EXPECT_LT((symmetric_of(big) * x - b).norm(), 1e-12 * b.norm());
+  }
+}
+
+}  // namespace
+}  // namespace rbc
