@@ -96,17 +96,32 @@ inline void dots(const float* a, std::ptrdiff_t ld, const float* b, int w, int m
   }
 }
 
+/// Supernode k of l: its first column, its column and row counts, its dense block, its rows
+/// and its columns' inverse pivots.
+struct Supernode {
+  Supernode(const SinglePrecisionFactor& l, int k)
+      : first(l.super[k]),
+        ncol(l.super[k + 1] - first),
+        nrow(l.row_start[k + 1] - l.row_start[k]),
+        block(l.values.data() + l.value_start[k]),
+        rows(l.rows.data() + l.row_start[k]),
+        inverse_diagonal(l.inverse_diagonal.data() + first) {}
+  int first, ncol, nrow;
+  const float* block;
+  const int* rows;
+  const float* inverse_diagonal;
+};
+
 /// L y = b, supernode by supernode; buf holds the supernode's rows (own columns, then the ones
 /// below).
 RBC_HOT_CLONES void forward(const SinglePrecisionFactor& l, float* x, float* buf) {
   const int nsuper = l.supernodes();
   float s[kBlock];
   for (int k = 0; k < nsuper; ++k) {
-    const int first = l.super[k], ncol = l.super[k + 1] - first;
-    const int nrow = l.row_start[k + 1] - l.row_start[k];
-    const float* block = l.values.data() + l.value_start[k];
-    const int* rows = l.rows.data() + l.row_start[k];
-    const float* inv = l.inverse_diagonal.data() + first;
+    const Supernode sn(l, k);
+    const int first = sn.first, ncol = sn.ncol, nrow = sn.nrow;
+    const float *block = sn.block, *inv = sn.inverse_diagonal;
+    const int* rows = sn.rows;
     for (int i = 0; i < ncol; ++i) buf[i] = x[first + i];
     for (int i = ncol; i < nrow; ++i) buf[i] = 0.0f;
     for (int j = 0; j < ncol; j += kBlock) {
@@ -128,11 +143,10 @@ RBC_HOT_CLONES void forward(const SinglePrecisionFactor& l, float* x, float* buf
 RBC_HOT_CLONES void backward(const SinglePrecisionFactor& l, float* x, float* buf) {
   float d[kBlock];
   for (int k = l.supernodes() - 1; k >= 0; --k) {
-    const int first = l.super[k], ncol = l.super[k + 1] - first;
-    const int nrow = l.row_start[k + 1] - l.row_start[k];
-    const float* block = l.values.data() + l.value_start[k];
-    const int* rows = l.rows.data() + l.row_start[k];
-    const float* inv = l.inverse_diagonal.data() + first;
+    const Supernode sn(l, k);
+    const int first = sn.first, ncol = sn.ncol, nrow = sn.nrow;
+    const float *block = sn.block, *inv = sn.inverse_diagonal;
+    const int* rows = sn.rows;
     for (int i = 0; i < ncol; ++i) buf[i] = x[first + i];
     for (int i = ncol; i < nrow; ++i) buf[i] = x[rows[i]];
     const int last = (ncol - 1) / kBlock * kBlock;
