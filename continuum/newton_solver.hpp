@@ -257,6 +257,9 @@ class NewtonSolver {
   std::unique_ptr<SymmetryStabilityCheck> stability_;
   std::unique_ptr<ShiftedNewton> full_newton_;  ///< solves that leave the symmetric states
   MeshSymmetry reduced_group_symmetry_;         ///< the group reduction_ is of
+  /// The rest mesh's distance from its symmetric part under reduction_ (um, largest
+  /// coordinate): ~1e-15 on the project's meshes (rounding).
+  double rest_asymmetry_um_ = 0.0;
   void update_reduction();
   /// The sector check at the symmetric state xf (3N) with multipliers l, every sector
   /// assembled from the representative elements. `at_xf`: full's point at xf if the caller
