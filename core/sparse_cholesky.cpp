@@ -677,8 +677,9 @@ Eigen::VectorXd SparseCholesky::solve(const Eigen::VectorXd& b) const {
   for (Eigen::Index k = 0; k < b.rows(); ++k) bp(k) = b(perm[k]);
   Eigen::VectorXd xp;
   if (impl_->single_ready) {
-    solve_in_place(impl_->single, bp.data());
-    xp.swap(bp);
+    xp = bp;
+    solve_in_place(impl_->single, xp.data());
+    if (!xp.allFinite()) xp = impl_->factor.solve(bp);  // beyond float's range: in double
   } else {
     xp = impl_->factor.solve(bp);
   }
@@ -704,7 +705,12 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
   constexpr Eigen::Index kNarrowColumns = 3;
   constexpr double kInCacheFactorEntries = 2.0e6;
   if (impl_->single_ready) {
-    for (Eigen::Index j = 0; j < b.cols(); ++j) solve_in_place(impl_->single, bp.col(j).data());
+    for (Eigen::Index j = 0; j < b.cols(); ++j) {
+      Eigen::VectorXd xj = bp.col(j);
+      solve_in_place(impl_->single, xj.data());
+      if (!xj.allFinite()) xj = impl_->factor.solve(Eigen::VectorXd(bp.col(j)));  // in double
+      bp.col(j) = xj;
+    }
   } else if (b.cols() > 1 && b.cols() <= kNarrowColumns &&
              static_cast<double>(impl_->factor.cholmod().lnz) < kInCacheFactorEntries) {
     for (Eigen::Index j = 0; j < b.cols(); ++j) {

@@ -33,10 +33,12 @@ enum class FillOrdering {
 enum class SolvePrecision {
   double_precision,  ///< CHOLMOD's solve on the double factor
   /// After each successful supernodal factorisation the factor is also kept rounded to float,
-  /// and solve() substitutes with that copy (core/supernodal_solve.hpp: half the memory
-  /// traffic, arithmetic in double): the solve of a matrix within ~1e-7 relative of the one
-  /// factorised, for preconditioners whose factor does not fit in cache. Costs 4 bytes per
-  /// factor entry. A simplicial factor (SparseCholeskyOptions::supernodal_min_unknowns) is
+  /// and solve() substitutes with that copy in float (core/supernodal_solve.hpp: half the
+  /// memory traffic and half the arithmetic's width): the solve of a matrix within ~1e-7
+  /// relative of the one factorised, for preconditioners whose factor does not fit in cache.
+  /// Costs 4 bytes per factor entry. A simplicial factor
+  /// (SparseCholeskyOptions::supernodal_min_unknowns), a factor with an entry beyond float's
+  /// range, and a right-hand side whose float solve is not finite (beyond float's range) are
   /// solved in double.
   single_precision,
 };

@@ -2,7 +2,7 @@
 // SparseCholeskyOptions::solve_precision) against the double one: the error float rounding
 // allows and no less (it is a float solve), the same bits for one or several right-hand sides
 // and for a clone, and the double solve wherever the float one does not apply (a simplicial
-// factor, entries beyond float's range).
+// factor, entries or a right-hand side beyond float's range).
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -131,6 +131,21 @@ TEST(SinglePrecisionSolve, FallsBackToTheDoubleSolveWhereFloatDoesNotApply) {
     ASSERT_TRUE(s.factorize(big));
     const Eigen::VectorXd x = s.solve(b);
     EXPECT_LT((symmetric_of(big) * x - b).norm(), 1e-12 * b.norm());
+  }
+  // A right-hand side beyond float's range (1e40) on a factor within it: the float solve would
+  // give infinities; the double one answers, exact to double rounding.
+  {
+    SparseCholesky s(precision(SolvePrecision::single_precision));
+    ASSERT_TRUE(s.factorize(a));
+    const Eigen::VectorXd huge = 1e40 * b;
+    const Eigen::VectorXd x = s.solve(huge);
+    ASSERT_TRUE(x.allFinite());
+    EXPECT_LT((symmetric_of(a) * x - huge).norm(), 1e-12 * huge.norm());
+    Eigen::MatrixXd two(huge.size(), 2);
+    two << huge, b;
+    const Eigen::MatrixXd y = s.solve(two);
+    EXPECT_EQ(Eigen::VectorXd(y.col(0)), x);
+    EXPECT_EQ(Eigen::VectorXd(y.col(1)), s.solve(b));
   }
 }
 
