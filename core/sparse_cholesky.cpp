@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/blas_threads.hpp"
+#include "core/supernodal_factor.hpp"
 #include "core/supernodal_solve.hpp"
 #include "core/validation.hpp"
 
@@ -416,6 +417,60 @@ struct SparseCholesky::Impl {
   SinglePrecisionFactor single;
   bool single_ready = false;
   int single_analysis = -1;
+  /// SolvePrecision::single_precision_factorisation: the float factorisation's workspace;
+  /// whether CHOLMOD's double factor holds the current factorisation too (made lazily, for a
+  /// right-hand side whose float solve leaves float's range); the current shift.
+  SupernodalFactorWorkspace single_work;
+  bool double_ready = false;
+  double shift = 0.0;
+
+  /// Copies the supernodal structure of the analysis into `single` (once per analysis). False
+  /// for a simplicial analysis or a build without the float solves.
+  bool copy_structure() {
+    const cholmod_factor* l = factor.raw();
+    if (!l || !l->is_super || !single_precision_solves_available()) return false;
+    const int nsuper = static_cast<int>(l->nsuper);
+    if (single_analysis == analyses && single.supernodes() == nsuper) return true;
+    const int* super = static_cast<const int*>(l->super);
+    const int* pi = static_cast<const int*>(l->pi);
+    const int* px = static_cast<const int*>(l->px);
+    single.n = static_cast<int>(l->n);
+    single.super.assign(super, super + nsuper + 1);
+    single.row_start.assign(pi, pi + nsuper + 1);
+    single.value_start.assign(px, px + nsuper + 1);
+    const int* rows = static_cast<const int*>(l->s);
+    single.rows.assign(rows, rows + pi[nsuper]);
+    single.max_rows = 0;
+    for (int k = 0; k < nsuper; ++k) single.max_rows = std::max(single.max_rows, pi[k + 1] - pi[k]);
+    single_analysis = analyses;
+    single_work = SupernodalFactorWorkspace{};
+    return true;
+  }
+
+  /// The double factorisation of the current matrix (CHOLMOD), if not made yet.
+  bool ensure_double() {
+    if (double_ready) return true;
+    const detail::PermutedPattern& pat = *pattern;
+    const ScopedBlasThreads blas(options.blas_threads);
+    double_ready =
+        factor.factorize_lower(pat.n, pat.outer.data(), pat.inner.data(), values.data(), shift);
+    return double_ready;
+  }
+
+  /// Solves the permuted system in place: in float where single_ready (in double where that
+  /// result is not finite), else in double.
+  void solve_permuted(Eigen::VectorXd& xp) {
+    if (single_ready) {
+      const Eigen::VectorXd bp = xp;
+      solve_in_place(single, xp.data());
+      if (xp.allFinite()) return;
+      xp = bp;  // beyond float's range: in double
+      if (!ensure_double())
+        throw std::runtime_error(
+            "sparse Cholesky: the double factorisation of a matrix factorised in float failed");
+    }
+    xp = factor.solve(Eigen::VectorXd(xp));
+  }
 
   /// Rounds the (successful) factor to float into `single`, its structure copied once per
   /// analysis. A simplicial factor, or one with an entry or inverse pivot beyond float's range,
@@ -424,24 +479,11 @@ struct SparseCholesky::Impl {
   void round_factor() {
     single_ready = false;
     const cholmod_factor* l = factor.raw();
-    if (!l || !l->is_super || l->xtype != CHOLMOD_REAL || !single_precision_solves_available())
-      return;
+    if (!l || l->xtype != CHOLMOD_REAL || !copy_structure()) return;
     const int nsuper = static_cast<int>(l->nsuper);
     const int* super = static_cast<const int*>(l->super);
     const int* pi = static_cast<const int*>(l->pi);
     const int* px = static_cast<const int*>(l->px);
-    if (single_analysis != analyses || single.supernodes() != nsuper) {
-      single.n = static_cast<int>(l->n);
-      single.super.assign(super, super + nsuper + 1);
-      single.row_start.assign(pi, pi + nsuper + 1);
-      single.value_start.assign(px, px + nsuper + 1);
-      const int* rows = static_cast<const int*>(l->s);
-      single.rows.assign(rows, rows + pi[nsuper]);
-      single.max_rows = 0;
-      for (int k = 0; k < nsuper; ++k)
-        single.max_rows = std::max(single.max_rows, pi[k + 1] - pi[k]);
-      single_analysis = analyses;
-    }
     const double* x = static_cast<const double*>(l->x);
     const size_t entries = static_cast<size_t>(px[nsuper]);
     single.values.resize(entries);
@@ -534,6 +576,9 @@ SparseCholesky SparseCholesky::clone() const {
     c.impl_->single = impl_->single;
     c.impl_->single_ready = impl_->single_ready;
     c.impl_->single_analysis = impl_->single_analysis;
+    c.impl_->double_ready = impl_->double_ready;
+    c.impl_->shift = impl_->shift;
+    c.impl_->values = impl_->values;
   }
   c.impl_->analyses = impl_->analyses;
   return c;
@@ -653,11 +698,34 @@ bool SparseCholesky::factorize(const Eigen::SparseMatrix<double>& a, double diag
   m.values.resize(pat.inner.size());
   const double* v = a.valuePtr();
   double* p = m.values.data();
+  bool finite = true;
   for (size_t k = 0; k < pat.gather.size(); ++k)
-    if (pat.gather[k] >= 0) p[pat.gather[k]] = v[k];
+    if (pat.gather[k] >= 0) {
+      p[pat.gather[k]] = v[k];
+      finite &= std::isfinite(v[k]);
+    }
+  m.shift = diagonal_shift;
+  m.single_ready = m.double_ready = false;
+  // A non-finite entry: not positive definite (CHOLMOD's supernodal factorisation through
+  // OpenBLAS's dpotrf let a NaN pivot through as a success, and its factor was NaN).
+  if (!finite) return m.ok = false;
   const ScopedBlasThreads blas(m.options.blas_threads);
+  if (m.options.solve_precision == SolvePrecision::single_precision_factorisation &&
+      m.copy_structure()) {
+    switch (factorize_single(pat.outer.data(), pat.inner.data(), p, diagonal_shift, m.single,
+                             m.single_work)) {
+      case SingleFactorStatus::factorised:
+        m.ok = m.single_ready = true;
+        return true;
+      case SingleFactorStatus::not_positive_definite:
+        m.ok = false;
+        return false;
+      case SingleFactorStatus::out_of_range:
+        break;  // in double
+    }
+  }
   m.ok = m.factor.factorize_lower(pat.n, pat.outer.data(), pat.inner.data(), p, diagonal_shift);
-  m.single_ready = false;
+  m.double_ready = m.ok;
   if (m.ok && m.options.solve_precision == SolvePrecision::single_precision) m.round_factor();
   return m.ok;
 }
@@ -675,14 +743,8 @@ Eigen::VectorXd SparseCholesky::solve(const Eigen::VectorXd& b) const {
   const std::vector<int>& perm = impl_->pattern->perm;
   Eigen::VectorXd bp(b.rows());
   for (Eigen::Index k = 0; k < b.rows(); ++k) bp(k) = b(perm[k]);
-  Eigen::VectorXd xp;
-  if (impl_->single_ready) {
-    xp = bp;
-    solve_in_place(impl_->single, xp.data());
-    if (!xp.allFinite()) xp = impl_->factor.solve(bp);  // beyond float's range: in double
-  } else {
-    xp = impl_->factor.solve(bp);
-  }
+  impl_->solve_permuted(bp);
+  const Eigen::VectorXd& xp = bp;
   Eigen::VectorXd x(b.rows());
   for (Eigen::Index k = 0; k < b.rows(); ++k) x(perm[k]) = xp(k);
   return x;
@@ -707,8 +769,7 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
   if (impl_->single_ready) {
     for (Eigen::Index j = 0; j < b.cols(); ++j) {
       Eigen::VectorXd xj = bp.col(j);
-      solve_in_place(impl_->single, xj.data());
-      if (!xj.allFinite()) xj = impl_->factor.solve(Eigen::VectorXd(bp.col(j)));  // in double
+      impl_->solve_permuted(xj);
       bp.col(j) = xj;
     }
   } else if (b.cols() > 1 && b.cols() <= kNarrowColumns &&

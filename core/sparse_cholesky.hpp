@@ -41,6 +41,16 @@ enum class SolvePrecision {
   /// range, and a right-hand side whose float solve is not finite (beyond float's range) are
   /// solved in double.
   single_precision,
+  /// The factorisation itself in float as well (core/supernodal_factor.hpp: a left-looking
+  /// supernodal factorisation on CHOLMOD's symbolic analysis with OpenBLAS's single-precision
+  /// kernels, about twice the double rate), then solves as single_precision. factorize()
+  /// returns false where a pivot is not positive in float: the matrix is not positive definite
+  /// to within float rounding (~1e-7 relative times the fronts' sizes; for preconditioners
+  /// whose matrices carry a shift well above that). A matrix or factor beyond float's range is
+  /// factorised in double instead; a right-hand side whose float solve is not finite is solved
+  /// with a double factorisation made then. A simplicial analysis (below
+  /// supernodal_min_unknowns) and builds without SSE2 factorise and solve in double.
+  single_precision_factorisation,
 };
 
 struct SparseCholeskyOptions {
@@ -106,7 +116,8 @@ class SparseCholesky {
   /// Numeric factorisation of a + diagonal_shift I (analyses first if a's pattern is not the one
   /// analysed). The shift is added to each diagonal entry as the entry is assembled, as
   /// adding it to a's diagonal would, without a copy of a. Returns false if the shifted matrix
-  /// is not numerically positive definite; the factor is then invalid. A non-finite shift:
+  /// is not numerically positive definite (or has a non-finite entry in its lower triangle); the
+  /// factor is then invalid. A non-finite shift:
   /// std::invalid_argument.
   bool factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift = 0.0);
   /// True after a successful factorize().

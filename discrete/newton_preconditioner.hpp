@@ -37,14 +37,18 @@ struct NewtonPreconditionerOptions {
   /// on (0 = always supernodal: measured faster from 750 unknowns on, once BLAS runs on one
   /// thread).
   int supernodal_min_unknowns = 0;
-  /// Precision of the preconditioner's solves (core/sparse_cholesky.hpp). Single by default:
-  /// the solves read the whole factor twice per L-BFGS iteration and are bound by memory
-  /// traffic; in float they take 24 instead of 34-44 ms at N = 27,042 (3.2e7 factor entries)
-  /// and 0.32 instead of 0.57 ms at N = 1,962 (`rbc bench stretch
-  /// --benchmark_filter=preconditioner_apply`). A preconditioner needs no more accuracy: the
-  /// solve is that of a matrix within float rounding of the one factorised (relative error
-  /// ~ cond 1e-7; 8e-7 measured on the mirror-reduced N = 252 matrix, cond 7.8e3).
-  SolvePrecision solve_precision = SolvePrecision::single_precision;
+  /// Precision of the preconditioner's factorisation and solves (core/sparse_cholesky.hpp).
+  /// Single for both by default. The solves read the whole factor twice per L-BFGS iteration
+  /// and are bound by memory traffic: in float they take 24 instead of 34-44 ms at N = 27,042
+  /// (3.2e7 factor entries) and 0.32 instead of 0.57 ms at N = 1,962 (`rbc bench stretch
+  /// --benchmark_filter=preconditioner_apply`). The factorisation is bound by the dense
+  /// kernels' rate, twice as high in float: `rbc bench sweep` row
+  /// discrete/88pN_from_0pN/27500/0 5.8-6.6 -> 3.8-4.4 s (session 20). A preconditioner needs
+  /// no more accuracy: it is the exact inverse of a matrix within float rounding of the
+  /// Hessian (relative error ~ cond 1e-7 and the fronts' sizes; measured on the mirror-reduced
+  /// N = 252 matrix, cond 7.8e3: 8e-7 with the double factor rounded, 1.2e-5 factorised in
+  /// float).
+  SolvePrecision solve_precision = SolvePrecision::single_precision_factorisation;
 };
 
 class NewtonPreconditioner {

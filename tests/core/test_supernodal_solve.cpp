@@ -2,10 +2,17 @@
 // SparseCholeskyOptions::solve_precision) against the double one: the error float rounding
 // allows and no less (it is a float solve), the same bits for one or several right-hand sides
 // and for a clone, and the double solve wherever the float one does not apply (a simplicial
-// factor, entries or a right-hand side beyond float's range).
+// factor, entries or a right-hand side beyond float's range). And the factorisation in single
+// precision (core/supernodal_factor.hpp, SolvePrecision::single_precision_factorisation): a
+// factor of the matrix to float rounding (residuals, against the double factor), the same
+// definiteness verdict as the double factorisation on either side of the smallest eigenvalue,
+// the same bits run to run, for a clone and with the shift given apart, and the double
+// factorisation wherever float cannot hold the matrix or the solution.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -147,6 +154,138 @@ TEST(SinglePrecisionSolve, FallsBackToTheDoubleSolveWhereFloatDoesNotApply) {
     EXPECT_EQ(Eigen::VectorXd(y.col(0)), x);
     EXPECT_EQ(Eigen::VectorXd(y.col(1)), s.solve(b));
   }
+}
+
+TEST(SinglePrecisionFactorisation, FactorsTheMatrixToFloatRounding) {
+  // 4,800 unknowns: supernodes of 3 to a few hundred columns, each updated by up to dozens of
+  // descendants, so every branch of the left-looking loop runs (a skipped or misplaced update
+  // would leave residuals of ~(w / 12)^2 ~ 1e-3, not 1e-7).
+  const Eigen::SparseMatrix<double> a = block_grid_lower(40, 7);
+  const Eigen::SparseMatrix<double> full = symmetric_of(a);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(a.rows());
+  for (double& v : b) v = u(rng);
+  SparseCholesky dbl(precision(SolvePrecision::double_precision));
+  SparseCholesky rounded(precision(SolvePrecision::single_precision));
+  SparseCholesky sgl(precision(SolvePrecision::single_precision_factorisation));
+  ASSERT_TRUE(dbl.factorize(a));
+  ASSERT_TRUE(rounded.factorize(a));
+  ASSERT_TRUE(sgl.factorize(a));
+  const Eigen::VectorXd xd = dbl.solve(b), xr = rounded.solve(b), xs = sgl.solve(b);
+  // Float rounding in the factorisation too: the same order as the rounded double factor's
+  // solve (measured 1.1e-7 there), far above double rounding.
+  const double error = (xs - xd).norm() / xd.norm();
+  EXPECT_LT(error, 1e-6);
+  EXPECT_GT(error, 1e-12);
+  EXPECT_LT(error, 10.0 * (xr - xd).norm() / xd.norm() + 1e-7);
+  EXPECT_LT((full * xs - b).norm(), 1e-6 * b.norm());
+  // Several right-hand sides at once: column by column, the same bits.
+  Eigen::MatrixXd two(b.size(), 2);
+  two << b, 2.0 * b;
+  const Eigen::MatrixXd y = sgl.solve(two);
+  EXPECT_EQ(Eigen::VectorXd(y.col(0)), xs);
+}
+
+TEST(SinglePrecisionFactorisation, FindsTheSameDefinitenessAsTheDoubleFactorisation) {
+  const Eigen::SparseMatrix<double> a = block_grid_lower(12, 9);  // 432 unknowns
+  const Eigen::MatrixXd dense = Eigen::MatrixXd(symmetric_of(a));
+  const double lowest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense).eigenvalues()(0);
+  ASSERT_GT(lowest, 1.0);  // the grid is diagonally dominant
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(a.rows());
+  for (double& v : b) v = u(rng);
+  // Shifted to just above / below the smallest eigenvalue (by 1e-3 of the diagonal, ~1e4 float
+  // roundings): definite, then indefinite, in float as in double. The indefinite one fails
+  // wherever its pivot turns negative, so the verdict is the factorisation's, not a first pivot.
+  for (const double margin : {1e-2, -1e-2}) {
+    SparseCholesky dbl(precision(SolvePrecision::double_precision));
+    SparseCholesky sgl(precision(SolvePrecision::single_precision_factorisation));
+    const bool definite = margin > 0.0;
+    EXPECT_EQ(dbl.factorize(a, -lowest + margin), definite) << margin;
+    EXPECT_EQ(sgl.factorize(a, -lowest + margin), definite) << margin;
+    EXPECT_EQ(sgl.factorised(), definite);
+    if (!definite) continue;
+    // Condition number ~ 20 / 1e-2: the float factor's error grows with it, and the
+    // preconditioner's solve stays a solve (residual to ~ cond 1e-7).
+    const Eigen::VectorXd xd = dbl.solve(b), xs = sgl.solve(b);
+    EXPECT_LT((xs - xd).norm() / xd.norm(), 2e3 * 1e-6);
+  }
+  // The shift given apart is the shift added to the diagonal, bit for bit.
+  Eigen::SparseMatrix<double> shifted = a;
+  for (int k = 0; k < shifted.rows(); ++k) shifted.coeffRef(k, k) += 0.5;
+  SparseCholesky s1(precision(SolvePrecision::single_precision_factorisation));
+  SparseCholesky s2(precision(SolvePrecision::single_precision_factorisation));
+  ASSERT_TRUE(s1.factorize(a, 0.5));
+  ASSERT_TRUE(s2.factorize(shifted));
+  EXPECT_EQ(s1.solve(b), s2.solve(b));
+}
+
+TEST(SinglePrecisionFactorisation, IsReproducibleAndClonesKeepTheirFactor) {
+  const Eigen::SparseMatrix<double> a = block_grid_lower(23, 3);  // 1,587 unknowns
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(a.rows());
+  for (double& v : b) v = u(rng);
+  SparseCholesky c(precision(SolvePrecision::single_precision_factorisation));
+  SparseCholesky again(precision(SolvePrecision::single_precision_factorisation));
+  ASSERT_TRUE(c.factorize(a));
+  ASSERT_TRUE(again.factorize(a));
+  const Eigen::VectorXd x = c.solve(b);
+  EXPECT_EQ(again.solve(b), x);
+  const SparseCholesky copy = c.clone();
+  ASSERT_TRUE(c.factorize(2.0 * a));  // the original refactorised: the copy keeps a's factor
+  EXPECT_EQ(copy.solve(b), x);
+  EXPECT_LT((2.0 * c.solve(b) - x).norm(), 1e-5 * x.norm());
+}
+
+TEST(SinglePrecisionFactorisation, FactorisesInDoubleWhereFloatCannotHoldTheProblem) {
+  const Eigen::SparseMatrix<double> a = block_grid_lower(12, 9);  // 432 unknowns
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(a.rows());
+  for (double& v : b) v = u(rng);
+  // Entries beyond float's range: factorised and solved in double, exact to double rounding.
+  {
+    const Eigen::SparseMatrix<double> big = 1e80 * a;
+    SparseCholesky s(precision(SolvePrecision::single_precision_factorisation));
+    ASSERT_TRUE(s.factorize(big));
+    const Eigen::VectorXd x = s.solve(b);
+    EXPECT_LT((symmetric_of(big) * x - b).norm(), 1e-12 * b.norm());
+  }
+  // Entries so small that the inverse pivots leave float's range (1e-40: subnormal): in double.
+  {
+    const Eigen::SparseMatrix<double> tiny = 1e-40 * a;
+    SparseCholesky s(precision(SolvePrecision::single_precision_factorisation));
+    ASSERT_TRUE(s.factorize(tiny));
+    const Eigen::VectorXd x = s.solve(b);
+    EXPECT_LT((symmetric_of(tiny) * x - b).norm(), 1e-12 * b.norm());
+  }
+  // A right-hand side beyond float's range on a float factor: the double factorisation is made
+  // then, and answers exactly; an ordinary right-hand side afterwards is still the float solve.
+  {
+    SparseCholesky s(precision(SolvePrecision::single_precision_factorisation));
+    ASSERT_TRUE(s.factorize(a));
+    const Eigen::VectorXd before = s.solve(b);
+    const Eigen::VectorXd huge = 1e40 * b;
+    const Eigen::VectorXd x = s.solve(huge);
+    ASSERT_TRUE(x.allFinite());
+    EXPECT_LT((symmetric_of(a) * x - huge).norm(), 1e-12 * huge.norm());
+    EXPECT_EQ(s.solve(b), before);
+  }
+  // A NaN entry, on the diagonal or off it: not positive definite in every precision, no
+  // factor (OpenBLAS's dpotrf had let a NaN pivot through as a success).
+  for (const int column : {5, 6})
+    for (const SolvePrecision p :
+         {SolvePrecision::double_precision, SolvePrecision::single_precision,
+          SolvePrecision::single_precision_factorisation}) {
+      Eigen::SparseMatrix<double> bad = a;
+      bad.coeffRef(6, column) = std::numeric_limits<double>::quiet_NaN();
+      SparseCholesky s(precision(p));
+      EXPECT_FALSE(s.factorize(bad)) << column;
+      EXPECT_FALSE(s.factorised()) << column;
+    }
 }
 
 }  // namespace
