@@ -463,7 +463,9 @@ struct SparseCholesky::Impl {
     if (single_ready) {
       const Eigen::VectorXd bp = xp;
       solve_in_place(single, xp.data());
-      if (xp.allFinite()) return;
+      // A non-finite right-hand side gives a non-finite answer in any precision: no double
+      // factorisation for it.
+      if (xp.allFinite() || !bp.allFinite()) return;
       xp = bp;  // beyond float's range: in double
       if (!ensure_double())
         throw std::runtime_error(

@@ -122,7 +122,10 @@ class SparseCholesky {
   bool factorize(const Eigen::SparseMatrix<double>& a, double diagonal_shift = 0.0);
   /// True after a successful factorize().
   bool factorised() const;
-  /// Solves a x = b with the last successful factorisation (in the options' precision).
+  /// Solves a x = b with the last successful factorisation (in the options' precision). Not
+  /// for concurrent calls on one object: CHOLMOD's solve writes its workspace, and under
+  /// single_precision_factorisation a right-hand side whose float solve overflows makes the
+  /// double factorisation then (clones are independent).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
   /// Nonzeros of the factor L (0 before the first factorisation).

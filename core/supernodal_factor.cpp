@@ -87,8 +87,11 @@ SingleFactorStatus factorize_single(const int* a_outer, const int* a_inner, cons
     const int psi = l.row_start[su], nsrow = l.row_start[su + 1] - psi;
     float* ls = l.values.data() + l.value_start[su];
     for (int i = 0; i < nsrow; ++i) w.map[static_cast<std::size_t>(rows[psi + i])] = i;
-    // 1. The supernode's columns of a (+ shift on the diagonal).
+    // 1. The supernode's columns of a, + shift on the diagonal (also where a stores no diagonal
+    // entry, as adding the shift to a's diagonal would; a stored one is summed in double first).
     std::fill(ls, ls + static_cast<std::ptrdiff_t>(nsrow) * nscol, 0.0f);
+    for (int j = 0; j < nscol; ++j)
+      ls[static_cast<std::ptrdiff_t>(j) * nsrow + j] = static_cast<float>(shift);
     for (int k = k1; k < k2; ++k) {
       float* column = ls + static_cast<std::ptrdiff_t>(k - k1) * nsrow;
       for (int p = a_outer[k]; p < a_outer[k + 1]; ++p) {

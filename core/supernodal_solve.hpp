@@ -30,7 +30,7 @@ struct SinglePrecisionFactor {
   std::vector<std::int64_t> value_start;  ///< nsuper + 1 offsets into values
   std::vector<int> rows;                  ///< row indices of each supernode
   std::vector<float> values;              ///< the supernodes' dense blocks, rounded to float
-  std::vector<float> inverse_diagonal;    ///< 1 / L(j, j) from the double factor, rounded
+  std::vector<float> inverse_diagonal;    ///< 1 / L(j, j), computed in double and rounded
   int max_rows = 0;                       ///< largest row count of a supernode
   int supernodes() const { return static_cast<int>(super.size()) - 1; }
 };

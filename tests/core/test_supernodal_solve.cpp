@@ -212,6 +212,24 @@ TEST(SinglePrecisionFactorisation, FindsTheSameDefinitenessAsTheDoubleFactorisat
     const Eigen::VectorXd xd = dbl.solve(b), xs = sgl.solve(b);
     EXPECT_LT((xs - xd).norm() / xd.norm(), 2e3 * 1e-6);
   }
+  // A diagonal entry a does not store gets the shift too, as in double: a tridiagonal matrix,
+  // diagonal 4 but (20, 20) missing, shifted by 4, is definite and factorised exactly.
+  {
+    std::vector<Eigen::Triplet<double>> t;
+    for (int k = 0; k < 50; ++k) {
+      if (k != 20) t.emplace_back(k, k, 4.0);
+      if (k + 1 < 50) t.emplace_back(k + 1, k, -1.0);
+    }
+    Eigen::SparseMatrix<double> tri(50, 50);
+    tri.setFromTriplets(t.begin(), t.end());
+    SparseCholeskyOptions o = precision(SolvePrecision::single_precision_factorisation);
+    o.supernodal_min_unknowns = 0;
+    SparseCholesky dbl(precision(SolvePrecision::double_precision)), sgl(o);
+    ASSERT_TRUE(dbl.factorize(tri, 4.0));
+    ASSERT_TRUE(sgl.factorize(tri, 4.0));
+    const Eigen::VectorXd c = Eigen::VectorXd::Ones(50);
+    EXPECT_LT((sgl.solve(c) - dbl.solve(c)).norm(), 1e-6 * dbl.solve(c).norm());
+  }
   // The shift given apart is the shift added to the diagonal, bit for bit.
   Eigen::SparseMatrix<double> shifted = a;
   for (int k = 0; k < shifted.rows(); ++k) shifted.coeffRef(k, k) += 0.5;
@@ -264,15 +282,30 @@ TEST(SinglePrecisionFactorisation, FactorisesInDoubleWhereFloatCannotHoldTheProb
   }
   // A right-hand side beyond float's range on a float factor: the double factorisation is made
   // then, and answers exactly; an ordinary right-hand side afterwards is still the float solve.
+  // After a refactorisation (of 2a) that double factor is not reused, in the object or in a
+  // clone made before; a clone made after makes its own.
   {
     SparseCholesky s(precision(SolvePrecision::single_precision_factorisation));
     ASSERT_TRUE(s.factorize(a));
+    const SparseCholesky early = s.clone();
     const Eigen::VectorXd before = s.solve(b);
     const Eigen::VectorXd huge = 1e40 * b;
     const Eigen::VectorXd x = s.solve(huge);
     ASSERT_TRUE(x.allFinite());
     EXPECT_LT((symmetric_of(a) * x - huge).norm(), 1e-12 * huge.norm());
     EXPECT_EQ(s.solve(b), before);
+    const Eigen::SparseMatrix<double> a2 = 2.0 * a;
+    ASSERT_TRUE(s.factorize(a2));
+    const SparseCholesky late = s.clone();
+    for (const SparseCholesky* c : {static_cast<const SparseCholesky*>(&s), &late}) {
+      const Eigen::VectorXd y = c->solve(huge);
+      EXPECT_LT((symmetric_of(a2) * y - huge).norm(), 1e-12 * huge.norm());
+    }
+    EXPECT_LT((symmetric_of(a) * early.solve(huge) - huge).norm(), 1e-12 * huge.norm());
+    // A NaN right-hand side: a NaN answer, as in double.
+    Eigen::VectorXd nan = b;
+    nan(3) = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_FALSE(s.solve(nan).allFinite());
   }
   // A NaN entry, on the diagonal or off it: not positive definite in every precision, no
   // factor (OpenBLAS's dpotrf had let a NaN pivot through as a success).
