@@ -64,6 +64,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     std::vector<unsigned> reference_seeds = AccuracyStudyOptions{}.reference_seeds;
     std::vector<unsigned> spread_seeds = AccuracyStudyOptions{}.spread_seeds;
     int reference_vertices = AccuracyStudyOptions{}.reference_vertices;
+    double reference_tolerance = AccuracyStudyOptions{}.reference_force_tolerance_pN;
     int spread_max = AccuracyStudyOptions{}.spread_max_resolution;
     std::vector<Symmetry> symmetries = AccuracyStudyOptions{}.symmetries;
     std::string cache;
@@ -124,6 +125,10 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "--accuracy-table: reference network size, 100 to 40,000")
       ->check(integer_in(100, 40000))
       ->capture_default_str();
+  cmd->add_option("--reference-tolerance", o->reference_tolerance,
+                  "--accuracy-table: force tolerance of the reference sweeps (pN per vertex, 1e-8 "
+                  "to 1e-3; the table's entries keep the methods' default 1e-3 pN)")
+      ->capture_default_str();
   cmd->add_option("--symmetries", o->symmetries,
                   "--accuracy-table: solver paths each default-mesh sweep is run with, none or "
                   "none,mirror (default none,mirror: every method at its best; a mirror row has "
@@ -152,6 +157,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         ao.spread_seeds = o->spread_seeds;
         ao.spread_max_resolution = o->spread_max;
         ao.reference_vertices = o->reference_vertices;
+        ao.reference_force_tolerance_pN = o->reference_tolerance;
         ao.symmetries = o->symmetries;
         ao.cache_dir = o->cache.empty() ? o->out + "/runs" : o->cache;
         naming_options({{"accuracy study", "--reference-seeds"}}, [&] {

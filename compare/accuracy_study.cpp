@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -33,6 +34,12 @@ void AccuracyStudyOptions::validate() const {
   if (reference_vertices < 100 || reference_vertices > 40000)
     throw std::invalid_argument("reference vertices must be in [100, 40000], got " +
                                 std::to_string(reference_vertices));
+  if (!(reference_force_tolerance_pN >= 1e-8 && reference_force_tolerance_pN <= 1e-3)) {
+    std::ostringstream m;
+    m << "reference force tolerance must be in [1e-8, 1e-3] pN, got "
+      << reference_force_tolerance_pN << " pN";
+    throw std::invalid_argument(m.str());
+  }
   if (symmetries.empty())
     throw std::invalid_argument("accuracy study needs at least one solver path (symmetry)");
   for (size_t k = 0; k < symmetries.size(); ++k)
@@ -118,6 +125,7 @@ bool same_family(const Method& a, const Method& b) {
 struct Sweep {
   Method method;
   Symmetry symmetry = Symmetry::none;
+  bool reference = false;  ///< a reference sweep (its own tolerance), not a table entry
 };
 
 /// 0 none, 1 mirror: the symmetry column of the CSV files.
@@ -125,16 +133,35 @@ double symmetry_code(Symmetry s) {
   return s == Symmetry::mirror ? 1.0 : 0.0;
 }
 
-std::string cache_base(const std::string& dir, const Method& m, Symmetry symmetry) {
-  return (std::filesystem::path(dir) / (m.name() + (symmetry == Symmetry::mirror ? "_mirror" : "")))
-      .string();
+/// A tolerance as printed in messages and comments (shortest form, e.g. 1e-05).
+std::string format_tolerance(double pN) {
+  std::ostringstream m;
+  m << pN;
+  return m.str();
 }
 
-void write_cached_run(const std::string& dir, const StudyRun& s) {
+/// The cache file's base name: the method's name, "_mirror", and for a reference sweep
+/// "_ref" with its force tolerance (e.g. discrete_N27500_r2_ref1e-05), so a changed
+/// tolerance does not reuse another's sweeps.
+std::string cache_base(const std::string& dir, const Method& m, Symmetry symmetry,
+                       double reference_tolerance_pN) {
+  std::string name = m.name() + (symmetry == Symmetry::mirror ? "_mirror" : "");
+  if (reference_tolerance_pN > 0) {
+    char tol[32];
+    std::snprintf(tol, sizeof tol, "_ref%.0e", reference_tolerance_pN);
+    name += tol;
+  }
+  return (std::filesystem::path(dir) / name).string();
+}
+
+void write_cached_run(const std::string& dir, const StudyRun& s, double reference_tolerance_pN) {
   const MethodRun& r = s.run;
   CsvTable pts;
   pts.comments = {"one sweep of the accuracy study: " + r.method.label() + ", rotation seed " +
-                  std::to_string(r.method.rotation_seed) + ", symmetry " + to_string(r.symmetry)};
+                  std::to_string(r.method.rotation_seed) + ", symmetry " + to_string(r.symmetry) +
+                  (s.reference ? ", reference sweep at force tolerance " +
+                                     format_tolerance(reference_tolerance_pN) + " pN"
+                               : "")};
   pts.header = {"force_pN",  "axial_um", "transverse_um", "iterations",
                 "converged", "residual", "wall_s"};
   for (const auto& p : r.points)
@@ -148,14 +175,16 @@ void write_cached_run(const std::string& dir, const StudyRun& s) {
   meta.rows.push_back({static_cast<double>(r.vertices), static_cast<double>(r.elements), r.cpu_s,
                        r.total_s - r.setup_s, r.eval_cpu_s, s.unit_eval_cpu_s, r.patch_plus_um2,
                        r.patch_minus_um2, r.surface_um2, r.setup_s});
-  const std::string base = cache_base(dir, r.method, r.symmetry);
+  const std::string base =
+      cache_base(dir, r.method, r.symmetry, s.reference ? reference_tolerance_pN : 0.0);
   write_csv(base + ".meta.csv", meta);
   write_csv(base + ".csv", pts);  // written last: its presence marks a complete entry
 }
 
 bool read_cached_run(const std::string& dir, const Method& m, Symmetry symmetry,
-                     const std::vector<double>& forces, StudyRun& out) {
-  const std::string base = cache_base(dir, m, symmetry);
+                     double reference_tolerance_pN, const std::vector<double>& forces,
+                     StudyRun& out) {
+  const std::string base = cache_base(dir, m, symmetry, reference_tolerance_pN);
   if (!std::filesystem::exists(base + ".csv") || !std::filesystem::exists(base + ".meta.csv"))
     return false;
   const CsvTable pts = read_csv(base + ".csv");
@@ -164,6 +193,7 @@ bool read_cached_run(const std::string& dir, const Method& m, Symmetry symmetry,
     return false;
   for (size_t k = 0; k < forces.size(); ++k)
     if (pts.rows[k].size() < 7 || std::abs(pts.rows[k][0] - forces[k]) > 1e-9) return false;
+  out.reference = reference_tolerance_pN > 0;
   MethodRun& r = out.run;
   r = MethodRun{};
   r.method = m;
@@ -188,12 +218,12 @@ bool read_cached_run(const std::string& dir, const Method& m, Symmetry symmetry,
 /// triangulation (seed 0) is swept once per solver path, rotated ones in full only.
 std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
   std::vector<Sweep> out;
-  auto add_one = [&](const Method& m, Symmetry symmetry) {
+  auto add_one = [&](const Method& m, Symmetry symmetry, bool reference = false) {
     for (const auto& e : out)
       if (same_family(e.method, m) && e.method.rotation_seed == m.rotation_seed &&
-          e.symmetry == symmetry)
+          e.symmetry == symmetry && e.reference == reference)
         return;
-    out.push_back({m, symmetry});
+    out.push_back({m, symmetry, reference});
   };
   auto add = [&](MethodKind kind, int resolution, WlcExpansion order, unsigned seed) {
     const Method m{kind, resolution, order, seed};
@@ -212,10 +242,12 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
       if (order == WlcExpansion::order2 && e <= o.spread_max_resolution)
         for (unsigned s : o.spread_seeds) add(MethodKind::continuum, e, order, s);
     }
-  for (unsigned s : o.reference_seeds) {
-    add_one({MethodKind::discrete, o.reference_vertices, WlcExpansion::full, s}, Symmetry::none);
-    if (s == 0) add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, s);
-  }
+  // The reference size is also a table entry (default mesh, default tolerance), then the
+  // reference sweeps at their own tolerance.
+  add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, 0);
+  for (unsigned s : o.reference_seeds)
+    add_one({MethodKind::discrete, o.reference_vertices, WlcExpansion::full, s}, Symmetry::none,
+            true);
   return out;
 }
 
@@ -234,7 +266,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
   // Reference: mean and spread of the full-level runs.
   std::vector<const StudyRun*> ref;
   for (const auto& r : st.runs)
-    if (r.run.method.kind == MethodKind::discrete &&
+    if (r.reference && r.run.method.kind == MethodKind::discrete &&
         r.run.method.resolution == o.reference_vertices && r.run.symmetry == Symmetry::none)
       ref.push_back(&r);
   if (ref.empty()) throw std::runtime_error("accuracy study: no reference run");
@@ -266,7 +298,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
   // Rows: every method and resolution, errors worst over its rotations.
   for (const auto& s : st.runs) {
     const MethodRun& r = s.run;
-    if (r.method.rotation_seed != 0 || r.points.size() != nf) continue;
+    if (s.reference || r.method.rotation_seed != 0 || r.points.size() != nf) continue;
     AccuracyRow row;
     row.method = r.method;
     row.symmetry = r.symmetry;
@@ -278,7 +310,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     row.cost_eg = s.unit_eval_cpu_s > 0 ? r.cpu_s / s.unit_eval_cpu_s : 0;
     std::vector<const MethodRun*> family;
     for (const auto& t : st.runs)  // the rotations, and this row's own default-mesh sweep
-      if (same_family(t.run.method, r.method) && t.run.points.size() == nf &&
+      if (!t.reference && same_family(t.run.method, r.method) && t.run.points.size() == nf &&
           (t.run.method.rotation_seed != 0 || t.run.symmetry == r.symmetry))
         family.push_back(&t.run);
     row.rotations = static_cast<int>(family.size());
@@ -356,21 +388,28 @@ std::vector<StudyRun> run_accuracy_sweeps(const AccuracyStudyOptions& o,
   if (!o.cache_dir.empty()) ensure_output_directory(o.cache_dir);
   std::vector<StudyRun> runs;
   double unit_eval = 0;  // measured once per process, on first need
-  for (const auto& [m, symmetry] : study_methods(o)) {
+  for (const auto& [m, symmetry, reference] : study_methods(o)) {
     StudyRun s;
-    if (!o.cache_dir.empty() && read_cached_run(o.cache_dir, m, symmetry, o.forces_pN, s)) {
+    const double tolerance_pN = reference ? o.reference_force_tolerance_pN : 0.0;
+    if (!o.cache_dir.empty() &&
+        read_cached_run(o.cache_dir, m, symmetry, tolerance_pN, o.forces_pN, s)) {
       runs.push_back(std::move(s));
       continue;
     }
     if (unit_eval == 0)
       unit_eval = network_evaluation_cpu_seconds(make_discrete_network(o.cost_unit_vertices));
-    report(progress, "accuracy study: " + m.name() + ", symmetry " + to_string(symmetry));
+    report(progress,
+           "accuracy study: " + m.name() + ", symmetry " + to_string(symmetry) +
+               (reference ? ", reference (force tolerance " + std::to_string(tolerance_pN) + " pN)"
+                          : ""));
     RunMethodOptions ro;
     ro.measure_evaluation = true;
     ro.symmetry = symmetry;
+    ro.discrete_force_tolerance_pN = tolerance_pN;
     s.run = run_method(m, o.forces_pN, progress, ro);
     s.unit_eval_cpu_s = unit_eval;
-    if (!o.cache_dir.empty()) write_cached_run(o.cache_dir, s);
+    s.reference = reference;
+    if (!o.cache_dir.empty()) write_cached_run(o.cache_dir, s, tolerance_pN);
     runs.push_back(std::move(s));
   }
   return runs;
@@ -406,7 +445,8 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   std::ostringstream refline;
   refline << "reference: discrete network at the full spectrin level (" << o.reference_vertices
           << " requested vertices), mean over " << o.reference_seeds.size()
-          << " triangulation rotations; largest relative sd " << st.reference_relative_sd
+          << " triangulation rotations, force tolerance " << o.reference_force_tolerance_pN
+          << " pN; largest relative sd " << st.reference_relative_sd
           << ", relative standard error of the mean " << st.reference_relative_se;
   // accuracy_cost.csv: one row per method and resolution.
   CsvTable t;

@@ -129,6 +129,8 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   const double cpu0 = process_cpu_seconds();
   StretchOptions so;
   so.symmetry = ro.symmetry;
+  if (ro.discrete_force_tolerance_pN > 0)
+    so.minimiser.force_tolerance = ro.discrete_force_tolerance_pN;
   const auto pts = run_stretch(net, forces, so, [&](const std::string& msg) {
     if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
   });

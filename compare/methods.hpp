@@ -60,6 +60,9 @@ struct RunMethodOptions {
   /// Symmetry::mirror: solve on the mirror-symmetric states, each checked for stability
   /// (StretchOptions::symmetry, NewtonOptions::symmetry); the mesh is unchanged.
   Symmetry symmetry = Symmetry::none;
+  /// Discrete methods: the minimiser's force tolerance (pN per vertex); 0 = StretchOptions'
+  /// default (1e-3 pN).
+  double discrete_force_tolerance_pN = 0;
 };
 
 /// CPU time (s) of one call of `eval`: the median of 7 batches of at least 20 ms CPU each.

@@ -1,5 +1,5 @@
 set terminal pngcairo size 1100,700 enhanced font 'DejaVu Sans,12'
-set output '.accuracy_cost.png.partial-10971'
+set output '.accuracy_cost.png.partial-27010'
 set datafile separator ','
 set datafile commentschars '#'
 set title 'Accuracy against cost, 13 Mills forces'
@@ -13,8 +13,8 @@ set yrange [1e-4:0.1]
 set title noenhanced
 set xlabel noenhanced
 set ylabel noenhanced
-set arrow from graph 0, first 0.00148007 to graph 1, first 0.00148007 nohead dt 2 lc rgb '#777777'
-set label 'reference spread (sd over rotations)' at graph 0.02, first 0.00170208 noenhanced tc rgb '#777777'
+set arrow from graph 0, first 0.00107994 to graph 1, first 0.00107994 nohead dt 2 lc rgb '#777777'
+set label 'reference spread (sd over rotations)' at graph 0.02, first 0.00124193 noenhanced tc rgb '#777777'
 plot 'cost_continuum_full.csv' skip 1 using 1:2 with linespoints title 'continuum full law' noenhanced lc rgb '#1f77b4' pt 7 lw 2 dt 1, \
      'cost_continuum_full_mirror.csv' skip 1 using 1:2 with linespoints title 'continuum full law, mirror' noenhanced lc rgb '#1f77b4' pt 6 lw 2 dt 2, \
      'cost_continuum_p2.csv' skip 1 using 1:2 with linespoints title 'continuum p = 2' noenhanced lc rgb '#2ca02c' pt 7 lw 2 dt 1, \

@@ -41,8 +41,9 @@ TEST(AccuracyStudy, ObservedOrderIsTheSlopeInMeshSize) {
 
 /// A synthetic run: D_A = a + slope F, D_T = t - 0.01 F at the given forces.
 StudyRun synthetic_run(MethodKind kind, int resolution, unsigned seed, double a, double t,
-                       double cpu_s, const std::vector<double>& forces) {
+                       double cpu_s, const std::vector<double>& forces, bool reference = false) {
   StudyRun s;
+  s.reference = reference;
   s.run.method = {kind, resolution,
                   kind == MethodKind::discrete ? WlcExpansion::full : WlcExpansion::order2, seed};
   s.run.vertices = resolution;
@@ -61,10 +62,12 @@ TEST(AccuracyStudy, ReferenceIsTheMeanOverRotationsAndErrorsAreRelative) {
   o.reference_vertices = 27500;
   o.reference_seeds = {0, 1, 2};
   std::vector<StudyRun> runs;
-  // Reference D_A(0) = 8, 8.1, 7.9 -> mean 8, sd 0.1; D_T(0) = 8 each.
-  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.0, 8.0, 100, o.forces_pN));
-  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 1, 8.1, 8.0, 100, o.forces_pN));
-  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 2, 7.9, 8.0, 100, o.forces_pN));
+  // Reference sweeps (their own tolerance): D_A(0) = 8, 8.1, 7.9 -> mean 8, sd 0.1; D_T(0) = 8.
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.0, 8.0, 100, o.forces_pN, true));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 1, 8.1, 8.0, 100, o.forces_pN, true));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 2, 7.9, 8.0, 100, o.forces_pN, true));
+  // The reference size at the default tolerance: a table entry (0.5 % long), not the reference.
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.04, 8.0, 50, o.forces_pN));
   // A coarse network 2 % long in D_A at 0 pN, and a rotation of it 1 % long.
   runs.push_back(synthetic_run(MethodKind::discrete, 500, 0, 8.16, 8.0, 1, o.forces_pN));
   runs.push_back(synthetic_run(MethodKind::discrete, 500, 1, 8.08, 8.0, 1, o.forces_pN));
@@ -74,7 +77,10 @@ TEST(AccuracyStudy, ReferenceIsTheMeanOverRotationsAndErrorsAreRelative) {
   EXPECT_NEAR(st.reference[0].axial_sd_um, 0.1, 1e-12);
   EXPECT_NEAR(st.reference_relative_sd, 0.1 / 8.0, 1e-12);  // largest at F = 0 (smallest D_A)
   EXPECT_NEAR(st.reference_relative_se, 0.1 / 8.0 / std::sqrt(3.0), 1e-12);
-  ASSERT_EQ(st.rows.size(), 2u);  // N = 500 and the reference's default triangulation
+  ASSERT_EQ(st.rows.size(), 2u);  // N = 500 and the reference size's table sweep
+  EXPECT_EQ(st.rows[1].method.resolution, 27500);
+  EXPECT_EQ(st.rows[1].rotations, 1);  // the reference sweeps are not its rotations
+  EXPECT_NEAR(st.rows[1].error_by_force[0], 0.04 / 8.0, 1e-12);
   const AccuracyRow& r = st.rows[0];
   EXPECT_EQ(r.method.resolution, 500);
   EXPECT_NEAR(r.error_by_force[0], 0.16 / 8.0, 1e-12);
@@ -97,8 +103,9 @@ TEST(AccuracyStudy, MirrorRowsShareTheMeshErrorsButNotTheReferenceOrTheCost) {
   o.reference_vertices = 27500;
   o.reference_seeds = {0, 1};
   std::vector<StudyRun> runs;
-  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.0, 8.0, 100, o.forces_pN));
-  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 1, 8.2, 8.0, 100, o.forces_pN));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.0, 8.0, 100, o.forces_pN, true));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 1, 8.2, 8.0, 100, o.forces_pN, true));
+  runs.push_back(synthetic_run(MethodKind::discrete, 27500, 0, 8.0, 8.0, 50, o.forces_pN));
   StudyRun far = synthetic_run(MethodKind::discrete, 27500, 0, 9.0, 8.0, 40, o.forces_pN);
   far.run.symmetry = Symmetry::mirror;  // would move the reference mean if it were counted
   runs.push_back(far);
@@ -108,7 +115,7 @@ TEST(AccuracyStudy, MirrorRowsShareTheMeshErrorsButNotTheReferenceOrTheCost) {
   runs.push_back(mirror);
   runs.push_back(synthetic_run(MethodKind::discrete, 500, 1, 8.2, 8.0, 4, o.forces_pN));
   const AccuracyStudy st = assemble_accuracy_study(o, runs);
-  EXPECT_NEAR(st.reference[0].axial_um, 8.1, 1e-12);  // (8.0 + 8.2)/2: full sweeps only
+  EXPECT_NEAR(st.reference[0].axial_um, 8.1, 1e-12);  // (8.0 + 8.2)/2: reference sweeps only
   ASSERT_EQ(st.rows.size(), 4u);                      // N = 500 and 27,500, each full and mirror
   auto row = [&](int resolution, Symmetry symmetry) -> const AccuracyRow& {
     for (const auto& r : st.rows)
