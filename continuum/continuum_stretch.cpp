@@ -320,7 +320,7 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
     const Diameters d = measure_diameters(x);
     p.axial_um = d.axial_um;
     p.transverse_um = d.transverse_um;
-    p.fields = element_fields(model, x);
+    if (options.element_fields) p.fields = element_fields(model, x);
     {
       std::ostringstream m;
       m << "F = " << f << " pN: D_A = " << p.axial_um << " um, D_T = " << p.transverse_um << " um, "

@@ -108,6 +108,18 @@ TEST(ContinuumStretch, ConstraintsHeldAndDiametersMonotoneAtEveryForce) {
   // Stretching raises I2 where the beads pull; the stress field is tensile along x there.
   EXPECT_GT(pts.back().fields.i2.maxCoeff(), 0.1);
   EXPECT_GT(pts.back().fields.tension_max_pN_per_um.maxCoeff(), 1.0);
+  // Without the fields (ContinuumOptions::element_fields): the same solve, bit for bit, and
+  // empty fields.
+  ContinuumOptions bare;
+  bare.element_fields = false;
+  const auto lean = run_continuum_stretch(m, forces, bare);
+  ASSERT_EQ(lean.size(), pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) {
+    EXPECT_EQ(lean[i].x, pts[i].x) << forces[i];
+    EXPECT_EQ(lean[i].iterations, pts[i].iterations) << forces[i];
+    EXPECT_EQ(lean[i].fields.i1.size(), 0);
+    EXPECT_EQ(pts[i].fields.i1.size(), m.num_elements());
+  }
 }
 
 TEST(ContinuumStretch, DiametersAt88pNConvergeUnderRefinement) {
