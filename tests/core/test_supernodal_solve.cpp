@@ -57,6 +57,15 @@ Eigen::SparseMatrix<double> block_grid_lower(int m, unsigned seed) {
   return a;
 }
 
+/// n entries uniform in [-1, 1], from `seed`.
+Eigen::VectorXd random_vector(Eigen::Index n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd b(n);
+  for (double& v : b) v = u(rng);
+  return b;
+}
+
 /// The full symmetric matrix of a lower triangle.
 Eigen::SparseMatrix<double> symmetric_of(const Eigen::SparseMatrix<double>& lower) {
   Eigen::SparseMatrix<double> full = lower.selfadjointView<Eigen::Lower>();
@@ -69,13 +78,21 @@ SparseCholeskyOptions precision(SolvePrecision p) {
   return o;
 }
 
+/// `scale` a, a matrix whose entries float cannot hold (beyond its range, or subnormal), is
+/// factorised and solved in double whatever the precision asked for: exact to double rounding.
+void expect_double_solve_of_scaled(SolvePrecision p, const Eigen::SparseMatrix<double>& a,
+                                   double scale, const Eigen::VectorXd& b) {
+  const Eigen::SparseMatrix<double> scaled = scale * a;
+  SparseCholesky s(precision(p));
+  ASSERT_TRUE(s.factorize(scaled));
+  const Eigen::VectorXd x = s.solve(b);
+  EXPECT_LT((symmetric_of(scaled) * x - b).norm(), 1e-12 * b.norm()) << scale;
+}
+
 TEST(SinglePrecisionSolve, ErrsByFloatRoundingAndNoMore) {
   const Eigen::SparseMatrix<double> a = block_grid_lower(40, 7);  // 4,800 unknowns
   const Eigen::SparseMatrix<double> full = symmetric_of(a);
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::VectorXd b(a.rows());
-  for (double& v : b) v = u(rng);
+  const Eigen::VectorXd b = random_vector(a.rows(), 11);
   SparseCholesky dbl(precision(SolvePrecision::double_precision));
   SparseCholesky sgl(precision(SolvePrecision::single_precision));
   ASSERT_TRUE(dbl.factorize(a));
@@ -115,10 +132,7 @@ TEST(SinglePrecisionSolve, SeveralColumnsAndAClonesSolveGiveTheSameBits) {
 
 TEST(SinglePrecisionSolve, FallsBackToTheDoubleSolveWhereFloatDoesNotApply) {
   const Eigen::SparseMatrix<double> a = block_grid_lower(12, 9);  // 432 unknowns
-  std::mt19937 rng(2);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::VectorXd b(a.rows());
-  for (double& v : b) v = u(rng);
+  const Eigen::VectorXd b = random_vector(a.rows(), 2);
   // A simplicial factor: the double solve, bit for bit.
   {
     SparseCholeskyOptions o = precision(SolvePrecision::single_precision);
@@ -131,14 +145,8 @@ TEST(SinglePrecisionSolve, FallsBackToTheDoubleSolveWhereFloatDoesNotApply) {
     EXPECT_EQ(s.solve(b), d.solve(b));
   }
   // Entries beyond float's range (the matrix scaled by 1e80, its factor by 1e40): the double
-  // solve, exact to double rounding (a float solve could not even hold the entries).
-  {
-    const Eigen::SparseMatrix<double> big = 1e80 * a;
-    SparseCholesky s(precision(SolvePrecision::single_precision));
-    ASSERT_TRUE(s.factorize(big));
-    const Eigen::VectorXd x = s.solve(b);
-    EXPECT_LT((symmetric_of(big) * x - b).norm(), 1e-12 * b.norm());
-  }
+  // solve (a float solve could not even hold the entries).
+  expect_double_solve_of_scaled(SolvePrecision::single_precision, a, 1e80, b);
   // A right-hand side beyond float's range (1e40) on a factor within it: the float solve would
   // give infinities; the double one answers, exact to double rounding.
   {
@@ -162,10 +170,7 @@ TEST(SinglePrecisionFactorisation, FactorsTheMatrixToFloatRounding) {
   // would leave residuals of ~(w / 12)^2 ~ 1e-3, not 1e-7).
   const Eigen::SparseMatrix<double> a = block_grid_lower(40, 7);
   const Eigen::SparseMatrix<double> full = symmetric_of(a);
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::VectorXd b(a.rows());
-  for (double& v : b) v = u(rng);
+  const Eigen::VectorXd b = random_vector(a.rows(), 13);
   SparseCholesky dbl(precision(SolvePrecision::double_precision));
   SparseCholesky rounded(precision(SolvePrecision::single_precision));
   SparseCholesky sgl(precision(SolvePrecision::single_precision_factorisation));
@@ -192,10 +197,7 @@ TEST(SinglePrecisionFactorisation, FindsTheSameDefinitenessAsTheDoubleFactorisat
   const Eigen::MatrixXd dense = Eigen::MatrixXd(symmetric_of(a));
   const double lowest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense).eigenvalues()(0);
   ASSERT_GT(lowest, 1.0);  // the grid is diagonally dominant
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::VectorXd b(a.rows());
-  for (double& v : b) v = u(rng);
+  const Eigen::VectorXd b = random_vector(a.rows(), 4);
   // Shifted to just above / below the smallest eigenvalue (by 1e-3 of the diagonal, ~1e4 float
   // roundings): definite, then indefinite, in float as in double. The indefinite one fails
   // wherever its pivot turns negative, so the verdict is the factorisation's, not a first pivot.
@@ -242,10 +244,7 @@ TEST(SinglePrecisionFactorisation, FindsTheSameDefinitenessAsTheDoubleFactorisat
 
 TEST(SinglePrecisionFactorisation, IsReproducibleAndClonesKeepTheirFactor) {
   const Eigen::SparseMatrix<double> a = block_grid_lower(23, 3);  // 1,587 unknowns
-  std::mt19937 rng(8);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::VectorXd b(a.rows());
-  for (double& v : b) v = u(rng);
+  const Eigen::VectorXd b = random_vector(a.rows(), 8);
   SparseCholesky c(precision(SolvePrecision::single_precision_factorisation));
   SparseCholesky again(precision(SolvePrecision::single_precision_factorisation));
   ASSERT_TRUE(c.factorize(a));
@@ -260,26 +259,11 @@ TEST(SinglePrecisionFactorisation, IsReproducibleAndClonesKeepTheirFactor) {
 
 TEST(SinglePrecisionFactorisation, FactorisesInDoubleWhereFloatCannotHoldTheProblem) {
   const Eigen::SparseMatrix<double> a = block_grid_lower(12, 9);  // 432 unknowns
-  std::mt19937 rng(6);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::VectorXd b(a.rows());
-  for (double& v : b) v = u(rng);
-  // Entries beyond float's range: factorised and solved in double, exact to double rounding.
-  {
-    const Eigen::SparseMatrix<double> big = 1e80 * a;
-    SparseCholesky s(precision(SolvePrecision::single_precision_factorisation));
-    ASSERT_TRUE(s.factorize(big));
-    const Eigen::VectorXd x = s.solve(b);
-    EXPECT_LT((symmetric_of(big) * x - b).norm(), 1e-12 * b.norm());
-  }
-  // Entries so small that the inverse pivots leave float's range (1e-40: subnormal): in double.
-  {
-    const Eigen::SparseMatrix<double> tiny = 1e-40 * a;
-    SparseCholesky s(precision(SolvePrecision::single_precision_factorisation));
-    ASSERT_TRUE(s.factorize(tiny));
-    const Eigen::VectorXd x = s.solve(b);
-    EXPECT_LT((symmetric_of(tiny) * x - b).norm(), 1e-12 * b.norm());
-  }
+  const Eigen::VectorXd b = random_vector(a.rows(), 6);
+  // Entries beyond float's range, or so small they are subnormal in float (1e-40): factorised
+  // and solved in double.
+  for (const double scale : {1e80, 1e-40})
+    expect_double_solve_of_scaled(SolvePrecision::single_precision_factorisation, a, scale, b);
   // A right-hand side beyond float's range on a float factor: the double factorisation is made
   // then, and answers exactly; an ordinary right-hand side afterwards is still the float solve.
   // After a refactorisation (of 2a) that double factor is not reused, in the object or in a
