@@ -76,6 +76,9 @@ ShiftedNewtonOptions shifted_newton_options(const NewtonOptions& o) {
   c.cholesky.ordering = o.ordering;
   c.cholesky.supernodal_min_unknowns = o.supernodal_min_unknowns;
   c.cholesky.blas_threads = o.blas_threads;
+  // A float factor only where the Krylov correction makes the steps exact on the double d2L.
+  c.cholesky.solve_precision =
+      o.krylov_iterations > 0 ? o.factor_precision : SolvePrecision::double_precision;
   c.cancel = o.cancel;
   return c;
 }
@@ -238,8 +241,11 @@ SectorStability NewtonSolver::check_sectors(const NewtonProblem& full, const Eig
                                             const Eigen::VectorXd& l, const NewtonPoint* at_xf) {
   if (!reduction_) return {};
   if (!stability_) {
-    stability_ = std::make_unique<SymmetryStabilityCheck>(
-        reduced_group_symmetry_, shifted_newton_options(options_).cholesky);
+    // The stability verdict (is each sector's Hessian definite?) is taken in double, whatever
+    // the Newton steps' precision: near a buckling force it must not move with float rounding.
+    SparseCholeskyOptions check = shifted_newton_options(options_).cholesky;
+    check.solve_precision = SolvePrecision::double_precision;
+    stability_ = std::make_unique<SymmetryStabilityCheck>(reduced_group_symmetry_, check);
     for (int k = 0; k < stability_->sectors(); ++k)
       reduced_hessian_->add_sector(stability_->sector_reduction(k));
   }

@@ -61,6 +61,16 @@ struct NewtonOptions {
   /// One by default: CHOLMOD's many small BLAS calls scale poorly (thread wake-ups) and one
   /// thread keeps the rounding independent of the core count.
   int blas_threads = 1;
+  /// Precision of the factorisation of K = d2L + shift (core/sparse_cholesky.hpp). Single by
+  /// default (session 20): with the Krylov correction (krylov_iterations > 0, the default)
+  /// the factor only preconditions the CG on the double d2L, so the steps, iterations and
+  /// equilibria are those of the double factor (9,680 elements, 0 and 88 pN: the same 5 and 9
+  /// iterations, diameters within 4e-12 relative), and the factorisation runs at the float
+  /// kernels' rate (88 pN from 0 pN: 0.80 -> 0.40 s). Without the correction
+  /// (krylov_iterations = 0) a float factor would make the Newton steps inexact, so the
+  /// factorisation is then in double whatever this says; the mirror-sector stability checks
+  /// always factorise in double.
+  SolvePrecision factor_precision = SolvePrecision::single_precision_factorisation;
   /// Keep the last factorisation between solve() calls (continuation in force, warm
   /// re-solves): the first iteration of the next solve is a chord step on it (with the
   /// Krylov correction an exact Newton step preconditioned by it). On by default since the

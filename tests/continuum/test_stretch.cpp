@@ -122,6 +122,32 @@ TEST(ContinuumStretch, ConstraintsHeldAndDiametersMonotoneAtEveryForce) {
   }
 }
 
+TEST(ContinuumStretch, FloatFactorReachesTheDoubleFactorsEquilibria) {
+  // NewtonOptions::factor_precision: with the Krylov correction the float factor only
+  // preconditions, so the equilibria agree to the Newton tolerance (1e-6 pN; diameters far
+  // closer than the 1e-4 the issue allows) with about the same iterations; without the
+  // correction the factorisation stays double, bit for bit.
+  const ContinuumModel m = small_model(500);
+  const std::vector<double> forces = {0, 88, 193};
+  ContinuumOptions sgl, dbl;
+  dbl.newton.factor_precision = SolvePrecision::double_precision;
+  const auto a = run_continuum_stretch(m, forces, sgl);
+  const auto b = run_continuum_stretch(m, forces, dbl);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_TRUE(a[i].converged && b[i].converged) << forces[i];
+    EXPECT_NEAR(a[i].axial_um, b[i].axial_um, 1e-7 * b[i].axial_um) << forces[i];
+    EXPECT_NEAR(a[i].transverse_um, b[i].transverse_um, 1e-7 * b[i].transverse_um) << forces[i];
+    EXPECT_LE(std::abs(a[i].iterations - b[i].iterations), 2) << forces[i];
+  }
+  EXPECT_NE(a.back().x, b.back().x);  // the float factor does change the path
+  ContinuumOptions sgl0 = sgl, dbl0 = dbl;
+  sgl0.newton.krylov_iterations = dbl0.newton.krylov_iterations = 0;
+  const auto c = run_continuum_stretch(m, forces, sgl0);
+  const auto d = run_continuum_stretch(m, forces, dbl0);
+  for (size_t i = 0; i < c.size(); ++i) EXPECT_EQ(c[i].x, d[i].x) << forces[i];
+}
+
 TEST(ContinuumStretch, DiametersAt88pNConvergeUnderRefinement) {
   std::vector<double> da, dt;
   for (int el : {320, 720, 1620}) {  // h ratio 1.5 between meshes
