@@ -110,11 +110,14 @@ def main():
         out = os.path.join(w, f"rbc_{t}t")
         load = load_average()
         with open(out + ".log", "w") as log:
+            # --symmetry-check is refused without --symmetry mirror.
+            check = (["--symmetry-check", args.symmetry_check] if args.symmetry == "mirror"
+                     else [])
             wall, cpu, rss, rc = timed([args.rbc, "stretch", "--model", "continuum", "--elements",
                                         str(elements), "--force", args.forces, "--kappa", args.kappa,
-                                        "--symmetry", args.symmetry, "--symmetry-check",
-                                        args.symmetry_check, "--mesh-orientation",
-                                        args.orientation, "--out", out, "-q"],
+                                        "--symmetry", args.symmetry] + check +
+                                       ["--mesh-orientation", args.orientation, "--out", out,
+                                        "-q"],
                                        env=env, stdout=log)
         pts = []
         with open(os.path.join(out, "stretch.csv")) as f:
