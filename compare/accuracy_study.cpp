@@ -141,14 +141,14 @@ std::string format_tolerance(double pN) {
 }
 
 /// The cache file's base name: the method's name, "_mirror", and for a reference sweep
-/// "_ref" with its force tolerance (e.g. discrete_N27500_r2_ref1e-05), so a changed
-/// tolerance does not reuse another's sweeps.
+/// "_ref" with its force tolerance to 6 digits (e.g. discrete_N27500_r2_ref1e-05); the meta
+/// file also stores the tolerance, which must match for the file to be reused.
 std::string cache_base(const std::string& dir, const Method& m, Symmetry symmetry,
                        double reference_tolerance_pN) {
   std::string name = m.name() + (symmetry == Symmetry::mirror ? "_mirror" : "");
   if (reference_tolerance_pN > 0) {
     char tol[32];
-    std::snprintf(tol, sizeof tol, "_ref%.0e", reference_tolerance_pN);
+    std::snprintf(tol, sizeof tol, "_ref%.6g", reference_tolerance_pN);
     name += tol;
   }
   return (std::filesystem::path(dir) / name).string();
@@ -175,6 +175,10 @@ void write_cached_run(const std::string& dir, const StudyRun& s, double referenc
   meta.rows.push_back({static_cast<double>(r.vertices), static_cast<double>(r.elements), r.cpu_s,
                        r.total_s - r.setup_s, r.eval_cpu_s, s.unit_eval_cpu_s, r.patch_plus_um2,
                        r.patch_minus_um2, r.surface_um2, r.setup_s});
+  if (s.reference) {  // the reference sweeps' tolerance, checked when the file is read
+    meta.header.push_back("force_tolerance_pN");
+    meta.rows[0].push_back(reference_tolerance_pN);
+  }
   const std::string base =
       cache_base(dir, r.method, r.symmetry, s.reference ? reference_tolerance_pN : 0.0);
   write_csv(base + ".meta.csv", meta);
@@ -190,6 +194,11 @@ bool read_cached_run(const std::string& dir, const Method& m, Symmetry symmetry,
   const CsvTable pts = read_csv(base + ".csv");
   const CsvTable meta = read_csv(base + ".meta.csv");
   if (meta.rows.size() != 1 || meta.rows[0].size() < 10 || pts.rows.size() != forces.size())
+    return false;
+  // A reference sweep is reused only at the tolerance asked for (its name keeps 6 digits).
+  if (reference_tolerance_pN > 0 &&
+      (meta.rows[0].size() < 11 ||
+       std::abs(meta.rows[0][10] - reference_tolerance_pN) > 1e-12 * reference_tolerance_pN))
     return false;
   for (size_t k = 0; k < forces.size(); ++k)
     if (pts.rows[k].size() < 7 || std::abs(pts.rows[k][0] - forces[k]) > 1e-9) return false;
@@ -398,10 +407,10 @@ std::vector<StudyRun> run_accuracy_sweeps(const AccuracyStudyOptions& o,
     }
     if (unit_eval == 0)
       unit_eval = network_evaluation_cpu_seconds(make_discrete_network(o.cost_unit_vertices));
-    report(progress,
-           "accuracy study: " + m.name() + ", symmetry " + to_string(symmetry) +
-               (reference ? ", reference (force tolerance " + std::to_string(tolerance_pN) + " pN)"
-                          : ""));
+    report(progress, "accuracy study: " + m.name() + ", symmetry " + to_string(symmetry) +
+                         (reference ? ", reference (force tolerance " +
+                                          format_tolerance(tolerance_pN) + " pN)"
+                                    : ""));
     RunMethodOptions ro;
     ro.measure_evaluation = true;
     ro.symmetry = symmetry;
@@ -525,10 +534,11 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   CsvTable cv;
   cv.comments = {"every sweep of the study: diameters (um) per force, bead patch areas (um^2)",
                  "kind: 0 discrete, 1 continuum; order: 0 full law, 2, 3, 4; seed: rotation; "
-                 "symmetry: 0 full problem, 1 --symmetry mirror"};
+                 "symmetry: 0 full problem, 1 --symmetry mirror; reference: 1 for the reference "
+                 "sweeps (at the reference force tolerance), 0 for the table's (default)"};
   cv.header = {"kind",        "order",          "resolution",      "seed",          "vertices",
                "elements",    "force_pN",       "axial_um",        "transverse_um", "converged",
-               "surface_um2", "patch_plus_um2", "patch_minus_um2", "symmetry"};
+               "surface_um2", "patch_plus_um2", "patch_minus_um2", "symmetry",      "reference"};
   for (const auto& s : st.runs) {
     const MethodRun& r = s.run;
     for (const auto& p : r.points)
@@ -539,7 +549,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
            static_cast<double>(r.method.resolution), static_cast<double>(r.method.rotation_seed),
            static_cast<double>(r.vertices), static_cast<double>(r.elements), p.force_pN, p.axial_um,
            p.transverse_um, p.converged ? 1.0 : 0.0, r.surface_um2, r.patch_plus_um2,
-           r.patch_minus_um2, symmetry_code(r.symmetry)});
+           r.patch_minus_um2, symmetry_code(r.symmetry), s.reference ? 1.0 : 0.0});
   }
   write_csv(dir + "/convergence.csv", cv);
   // richardson.csv

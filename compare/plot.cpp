@@ -18,7 +18,10 @@ void render_plot(const PlotSpec& spec, const std::string& dir, const std::string
   std::ostringstream g;
   g << "set terminal pngcairo size " << spec.width_px << "," << spec.height_px
     << " enhanced font 'DejaVu Sans,12'\n"
-    << "set output '" << fs::path(tmp_png).filename().string() << "'\n"
+    // The script names the final PNG (run by hand it writes NAME.png); rbc passes the
+    // temporary's name in `rbc_output` and renames it when gnuplot succeeds.
+    << "if (!exists('rbc_output')) rbc_output = '" << name << ".png'\n"
+    << "set output rbc_output\n"
     << "set datafile separator ','\nset datafile commentschars '#'\n"
     << "set title '" << spec.title << "'\nset xlabel '" << spec.xlabel << "'\nset ylabel '"
     << spec.ylabel << "'\nset key " << spec.key << "\nset grid\n";
@@ -40,7 +43,8 @@ void render_plot(const PlotSpec& spec, const std::string& dir, const std::string
   g << "\nset output\n";
   const std::string script = (fs::path(dir) / (name + ".gp")).string();
   write_text_atomic(script, g.str());
-  const std::string cmd = "cd '" + dir + "' && gnuplot '" + name + ".gp' 2>&1";
+  const std::string cmd = "cd '" + dir + "' && gnuplot -e \"rbc_output='" +
+                          fs::path(tmp_png).filename().string() + "'\" '" + name + ".gp' 2>&1";
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe)
     throw std::runtime_error("cannot run gnuplot (is it installed? apt-get install gnuplot-nox)");

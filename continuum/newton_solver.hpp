@@ -66,10 +66,11 @@ struct NewtonOptions {
   /// the factor only preconditions the CG on the double d2L, so the steps, iterations and
   /// equilibria are those of the double factor (9,680 elements, 0 and 88 pN: the same 5 and 9
   /// iterations, diameters within 4e-12 relative), and the factorisation runs at the float
-  /// kernels' rate (88 pN from 0 pN: 0.80 -> 0.40 s). Without the correction
-  /// (krylov_iterations = 0) a float factor would make the Newton steps inexact, so the
-  /// factorisation is then in double whatever this says; the mirror-sector stability checks
-  /// always factorise in double.
+  /// kernels' rate (88 pN from 0 pN: 0.80 -> 0.40 s). Where the correction does not run on
+  /// every step a float factor would make those steps inexact, so the factorisation is then
+  /// in double whatever this says: krylov_iterations = 0, or krylov_initial_shift at or below
+  /// the correction's kept shift (1e-8; calibrate's forward model), whose lagged chord steps
+  /// skip the correction. The mirror-sector stability checks always factorise in double.
   SolvePrecision factor_precision = SolvePrecision::single_precision_factorisation;
   /// Keep the last factorisation between solve() calls (continuation in force, warm
   /// re-solves): the first iteration of the next solve is a chord step on it (with the

@@ -427,7 +427,10 @@ ShiftedNewtonResult ShiftedNewton::solve(const NewtonProblem& pb, Eigen::VectorX
     // Lagged correction of a factorisation made at no more than the kept shift: the step is
     // already exact for the Hessian the correction would use (it would stop after one
     // projection, a wasted solve).
-    const bool exact_already = lagged && !(factor_shift_ - o.krylov_kept_shift * factor_scale_ > 0);
+    // (Only with a double factor: a float one is itself a model of K.)
+    const bool exact_already =
+        lagged && o.cholesky.solve_precision != SolvePrecision::single_precision_factorisation &&
+        !(factor_shift_ - o.krylov_kept_shift * factor_scale_ > 0);
     if (krylov && exact_already) {
       last_krylov_iterations_ = 0;
     } else if (krylov) {

@@ -1,5 +1,6 @@
 set terminal pngcairo size 1100,700 enhanced font 'DejaVu Sans,12'
-set output '.accuracy_cost.png.partial-27010'
+if (!exists('rbc_output')) rbc_output = 'accuracy_cost.png'
+set output rbc_output
 set datafile separator ','
 set datafile commentschars '#'
 set title 'Accuracy against cost, 13 Mills forces'

@@ -1,5 +1,6 @@
 set terminal pngcairo size 1100,700 enhanced font 'DejaVu Sans,12'
-set output '.accuracy_resolution.png.partial-27010'
+if (!exists('rbc_output')) rbc_output = 'accuracy_resolution.png'
+set output rbc_output
 set datafile separator ','
 set datafile commentschars '#'
 set title 'Error against resolution, 13 Mills forces'

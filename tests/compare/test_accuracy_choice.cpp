@@ -5,7 +5,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
+#include <string>
 
 #include "compare/accuracy_choice.hpp"
 #include "compare/accuracy_study.hpp"
@@ -349,6 +351,58 @@ TEST(AccuracyStudy, CostTableReadsWithOrWithoutTheSymmetryColumn) {
     EXPECT_EQ(old.rows[k].cost_eg, now.rows[k].cost_eg);
   }
   EXPECT_THROW(load_accuracy_cost((dir / "wrong.csv").string()), std::runtime_error);
+  fs::remove_all(dir);
+}
+
+// The reference sweeps are cached per force tolerance: a tolerance that rounds to the same
+// short name, or a file whose stored tolerance differs, is swept again, never reused.
+TEST(AccuracyStudy, ReferenceSweepsAreCachedPerTolerance) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "rbc_reference_cache_test";
+  fs::remove_all(dir);
+  AccuracyStudyOptions o;
+  o.forces_pN = {0.0};
+  o.discrete_vertices = {};
+  o.continuum_elements = {};
+  o.reference_vertices = 100;
+  o.reference_seeds = {0};
+  o.spread_seeds = {};
+  o.symmetries = {Symmetry::none};
+  o.cost_unit_vertices = 100;
+  o.cache_dir = dir.string();
+  o.reference_force_tolerance_pN = 1e-5;
+  const auto files = [&] {
+    return std::distance(fs::directory_iterator(dir), fs::directory_iterator{});
+  };
+  const std::vector<StudyRun> first = run_accuracy_sweeps(o, {});
+  ASSERT_EQ(first.size(), 2u);  // the reference size's table sweep and the reference sweep
+  EXPECT_EQ(static_cast<int>(first[0].reference) + static_cast<int>(first[1].reference), 1);
+  EXPECT_EQ(files(), 4);  // a points file and a meta file each
+  const std::vector<StudyRun> again = run_accuracy_sweeps(o, {});  // read back
+  ASSERT_EQ(again.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(again[k].reference, first[k].reference);
+    EXPECT_NEAR(again[k].run.points[0].axial_um, first[k].run.points[0].axial_um, 1e-8);
+  }
+  o.reference_force_tolerance_pN = 1.4e-5;  // "1e-05" to one digit: swept on its own
+  run_accuracy_sweeps(o, {});
+  EXPECT_EQ(files(), 6);
+  EXPECT_TRUE(fs::exists(dir / "discrete_N100_ref1.4e-05.csv"));
+  // A meta file whose stored tolerance is not the one asked for is swept again (rewritten).
+  const fs::path meta = dir / "discrete_N100_ref1e-05.meta.csv";
+  std::ifstream in(meta);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  const size_t at = text.rfind("1e-05");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 5, "2e-05");
+  std::ofstream(meta) << text;
+  o.reference_force_tolerance_pN = 1e-5;
+  run_accuracy_sweeps(o, {});
+  std::ifstream back(meta);
+  const std::string rewritten((std::istreambuf_iterator<char>(back)),
+                              std::istreambuf_iterator<char>());
+  EXPECT_EQ(rewritten.find("2e-05"), std::string::npos);
   fs::remove_all(dir);
 }
 
