@@ -580,7 +580,9 @@ SparseCholesky SparseCholesky::clone() const {
     c.impl_->single_analysis = impl_->single_analysis;
     c.impl_->double_ready = impl_->double_ready;
     c.impl_->shift = impl_->shift;
-    c.impl_->values = impl_->values;
+    // The matrix's values only where the copy may still need its double factorisation (a float
+    // factor without one: ensure_double); a refactorisation rewrites them all.
+    if (impl_->single_ready && !impl_->double_ready) c.impl_->values = impl_->values;
   }
   c.impl_->analyses = impl_->analyses;
   return c;
