@@ -1,6 +1,9 @@
 #include "core/h5file.hpp"
 
 #include <stdexcept>
+#include <utility>
+
+#include "core/fnv1a.hpp"
 
 namespace rbc {
 namespace {
@@ -197,6 +200,114 @@ std::string H5File::read_attribute_string(const std::string& name) const {
     fail(path_, "cannot read attribute " + name);
   s.resize(s.find('\0') == std::string::npos ? s.size() : s.find('\0'));
   return s;
+}
+
+namespace {
+
+/// The datatype's description (HDF5's own encoding of it: class, size, byte order, and for
+/// floating point the sign, exponent and mantissa layout and the bias), then the bytes of an
+/// attribute or dataset as stored (that datatype, no conversion). Both count: the same bytes
+/// read through another description are another value.
+std::string stored_bytes(hid_t type, hssize_t elements, const std::function<herr_t(void*)>& read,
+                         const std::string& path, const std::string& what) {
+  const size_t size = H5Tget_size(type);
+  if (size == 0 || elements < 0 || static_cast<double>(size) * static_cast<double>(elements) > 1e10)
+    fail(path, what + " has an implausible size");
+  size_t encoded = 0;
+  if (H5Tencode(type, nullptr, &encoded) < 0 || encoded == 0 || encoded > (size_t(1) << 16))
+    fail(path, "cannot read the datatype of " + what);
+  std::string bytes(encoded + size * static_cast<size_t>(elements), '\0');
+  if (H5Tencode(type, bytes.data(), &encoded) < 0)
+    fail(path, "cannot read the datatype of " + what);
+  if (bytes.size() > encoded && read(bytes.data() + encoded) < 0) fail(path, "cannot read " + what);
+  return bytes;
+}
+
+struct ChecksumVisit {
+  const std::string* path;
+  std::vector<std::pair<std::string, std::string>> items;  // (name, shape + bytes)
+  std::string error;
+};
+
+herr_t visit_dataset(hid_t group, const char* name, const H5L_info_t*, void* data) {
+  auto& v = *static_cast<ChecksumVisit*>(data);
+  const Handle object(H5Oopen(group, name, H5P_DEFAULT), H5Oclose);
+  if (!object.ok()) {
+    v.error = std::string("cannot open object ") + name;
+    return -1;
+  }
+  if (H5Iget_type(object.get()) != H5I_DATASET) return 0;
+  try {
+    const Handle type(H5Dget_type(object.get()), H5Tclose);
+    const Handle space(H5Dget_space(object.get()), H5Sclose);
+    if (!type.ok() || !space.ok()) throw std::runtime_error("");
+    const int rank = H5Sget_simple_extent_ndims(space.get());
+    if (rank < 0 || rank > 8) throw std::runtime_error("");
+    std::vector<hsize_t> dims(static_cast<size_t>(rank));
+    if (rank > 0 && H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr) < 0)
+      throw std::runtime_error("");
+    std::string record(reinterpret_cast<const char*>(dims.data()), dims.size() * sizeof(hsize_t));
+    record += stored_bytes(
+        type.get(), H5Sget_simple_extent_npoints(space.get()),
+        [&](void* b) {
+          return H5Dread(object.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, b);
+        },
+        *v.path, std::string("dataset ") + name);
+    v.items.emplace_back(std::string("/") + name, std::move(record));
+  } catch (const std::exception&) {
+    v.error = std::string("cannot read dataset ") + name;
+    return -1;
+  }
+  return 0;
+}
+
+struct AttributeVisit {
+  const std::string* path;
+  const std::string* skip;
+  std::vector<std::pair<std::string, std::string>> items;
+  std::string error;
+};
+
+herr_t visit_attribute(hid_t location, const char* name, const H5A_info_t*, void* data) {
+  auto& v = *static_cast<AttributeVisit*>(data);
+  if (*v.skip == name) return 0;
+  try {
+    const Handle a(H5Aopen(location, name, H5P_DEFAULT), H5Aclose);
+    if (!a.ok()) throw std::runtime_error("");
+    const Handle type(H5Aget_type(a.get()), H5Tclose);
+    const Handle space(H5Aget_space(a.get()), H5Sclose);
+    if (!type.ok() || !space.ok()) throw std::runtime_error("");
+    v.items.emplace_back(name, stored_bytes(
+                                   type.get(), H5Sget_simple_extent_npoints(space.get()),
+                                   [&](void* b) { return H5Aread(a.get(), type.get(), b); },
+                                   *v.path, std::string("attribute ") + name));
+  } catch (const std::exception&) {
+    v.error = std::string("cannot read attribute ") + name;
+    return -1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::uint64_t H5File::content_checksum(const std::string& skip_attribute) const {
+  ChecksumVisit sets{&path_, {}, {}};
+  if (H5Lvisit(id_, H5_INDEX_NAME, H5_ITER_INC, visit_dataset, &sets) < 0)
+    fail(path_, sets.error.empty() ? "cannot list its datasets" : sets.error);
+  AttributeVisit attributes{&path_, &skip_attribute, {}, {}};
+  hsize_t at = 0;
+  if (H5Aiterate2(id_, H5_INDEX_NAME, H5_ITER_INC, &at, visit_attribute, &attributes) < 0)
+    fail(path_, attributes.error.empty() ? "cannot list its attributes" : attributes.error);
+  Fnv1a f;
+  for (const auto* items : {&sets.items, &attributes.items}) {
+    const std::uint64_t count = items->size();
+    f.add(&count, sizeof count);
+    for (const auto& [name, bytes] : *items) {
+      f.add(name);
+      f.add(bytes);
+    }
+  }
+  return f.h;
 }
 
 }  // namespace rbc

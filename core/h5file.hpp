@@ -7,6 +7,7 @@
 #include <hdf5.h>
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -46,6 +47,13 @@ class H5File {
   double read_attribute_double(const std::string& name) const;
   long long read_attribute_int(const std::string& name) const;
   std::string read_attribute_string(const std::string& name) const;
+
+  /// FNV-1a checksum (core/fnv1a.hpp) of the file's contents: every dataset's path, shape and
+  /// bytes as stored, and every attribute of the root group, name and bytes as stored, each in
+  /// name order; the root attribute named `skip_attribute` is left out (the one holding the
+  /// checksum). Equal contents give equal checksums whatever the file's layout; a changed value
+  /// changes it. Throws std::runtime_error naming the file if an object cannot be read.
+  std::uint64_t content_checksum(const std::string& skip_attribute) const;
 
   const std::string& path() const { return path_; }
 

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "core/fnv1a.hpp"
 #include "core/h5file.hpp"
 #include "core/io.hpp"
 #include "discrete/mc_checkpoint_arrays.hpp"
@@ -20,12 +21,26 @@ namespace {
 static_assert(kMcCheckpointSeriesColumns == kMcSampleColumns);
 
 // 2: penalty_scale; bending model in the fingerprint. 3: the adaptation schedule's origin
-// (planned_sweeps, adapt_fraction) next to its absolute length adapt_sweeps.
-constexpr long long kFormat = 3;
+// (planned_sweeps, adapt_fraction) next to its absolute length adapt_sweeps. 4: a checksum of
+// every dataset and attribute (content_checksum), so a changed byte is refused, never resumed.
+constexpr long long kFormat = 4;
+/// Where the checksum of everything else in the file is kept.
+constexpr const char* kChecksumAttribute = "content_checksum";
 
+/// Refuses a checkpoint of another format version, or one whose contents no longer match the
+/// checksum they were written with.
 void check_format(const H5File& h, const std::string& path) {
   const long long f = h.read_attribute_int("format");
-  if (f == kFormat) return;
+  if (f == kFormat) {
+    const std::string stored = h.read_attribute_string(kChecksumAttribute);
+    const std::string actual = hex_digits(h.content_checksum(kChecksumAttribute));
+    if (stored != actual)
+      throw std::runtime_error("checkpoint '" + path +
+                               "' is corrupt: its contents do not match the checksum written "
+                               "with them (stored " +
+                               stored + ", computed " + actual + ")");
+    return;
+  }
   if (f >= 1 && f < kFormat)
     throw std::runtime_error("checkpoint '" + path + "' has format version " + std::to_string(f) +
                              ", written by an older rbc; this rbc reads version " +
@@ -35,21 +50,8 @@ void check_format(const H5File& h, const std::string& path) {
                            std::to_string(kFormat) + ")");
 }
 
-struct Fnv1a {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  void add(const void* data, std::size_t bytes) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < bytes; ++i) {
-      h ^= p[i];
-      h *= 0x100000001b3ull;
-    }
-  }
-};
-
 std::string hex(std::uint64_t v) {
-  std::ostringstream s;
-  s << std::hex << v;
-  return s.str();
+  return hex_digits(v);
 }
 
 }  // namespace
@@ -122,6 +124,7 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     std::vector<int> mobile = u.sampler.mobile;
     if (mobile.empty()) mobile.push_back(-1);  // -1: every vertex moves
     h.write("/mobile", mobile.data(), hsize_t(mobile.size()), 1);
+    h.write_attribute(kChecksumAttribute, hex(h.content_checksum(kChecksumAttribute)));
     h.close();
   }
   tmp.commit();

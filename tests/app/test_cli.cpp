@@ -8,24 +8,25 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
+#include <vector>
+
+#include "cli_run.hpp"
+#include "core/h5file.hpp"
 
 namespace {
 namespace fs = std::filesystem;
 
 struct CommandRun {
   int exit_code;
-  std::string output;  // stdout and stderr
+  std::string output;  // stderr then stdout: messages and failure reports
+  std::string out;     // stdout alone: the JSON
 };
 
 CommandRun rbc(const std::string& args) {
-  const std::string cmd = std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 512> buf{};
-  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  const rbc::testing::CliRun r = rbc::testing::run_rbc(args, /*threads=*/0);
+  return {r.exit_code, r.all(), r.out};
 }
 
 std::string fresh_dir(const std::string& name) {
@@ -36,7 +37,7 @@ std::string fresh_dir(const std::string& name) {
 
 TEST(Cli, BadInputExitsTwoWithAClearMessage) {
   struct Case {
-    const char* args;
+    std::string args;
     const char* expect;  // a fragment the message must contain
   };
   const Case cases[] = {
@@ -52,7 +53,7 @@ TEST(Cli, BadInputExitsTwoWithAClearMessage) {
       {"stretch --force 10 -n 200 --symmetry mirror --symmetry-check highest-force",
        "--symmetry-check"},
       {"stretch --force 10 --model continuum --symmetry-check highest-force", "--symmetry none"},
-      {"fig7 --force 10,5 --method discrete:150 --out /tmp/rbc_cli_never", "increase"},
+      {"fig7 --force 10,5 --method discrete:150 --out " + fresh_dir("never_written"), "increase"},
       {"fig7 --method bogus:1", "bogus"},
       {"stretch --force 10 -n 200 --out /proc/rbc_cannot_write_here", "rbc_cannot_write_here"},
       {"mc -n 150 --temperature -5", "-5"},
@@ -70,13 +71,36 @@ TEST(Cli, BadInputExitsTwoWithAClearMessage) {
   }
 }
 
+// A run that fails after it has written some outputs (here the second shape cannot be moved into
+// place: a directory stands at its name) exits 2 and leaves no temporary file; every file it
+// leaves is complete and named by run.json, which says the run failed and why.
 TEST(Cli, FailedRunLeavesNoPartialFiles) {
   const std::string dir = fresh_dir("partial");
-  const CommandRun r = rbc("stretch --force 10,nan -n 200 --out " + dir);
+  fs::create_directories(dir + "/shape_16.0pN.h5");  // the obstacle
+  const CommandRun r = rbc("stretch --force 0,16,38 -n 200 -q --force-overwrite --out " + dir);
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  if (fs::exists(dir)) {
-    EXPECT_TRUE(fs::is_empty(dir));
+  EXPECT_NE(r.output.find("shape_16.0pN.h5"), std::string::npos) << r.output;
+  std::ifstream in(dir + "/run.json");
+  ASSERT_TRUE(in) << "no run.json";
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_FALSE(j.at("complete").get<bool>());
+  EXPECT_EQ(j.at("status").get<std::string>(), "failed");
+  EXPECT_NE(j.at("reason").get<std::string>().find("shape_16.0pN.h5"), std::string::npos);
+  std::set<std::string> named = {"run.json", "shape_16.0pN.h5"};
+  ASSERT_EQ(j.at("forces_complete").size(), 1u);  // 0 pN was written before the failure
+  for (const auto& f : j.at("forces_complete")) {
+    named.insert(f.at("shape_h5").get<std::string>());
+    named.insert(f.at("shape_xdmf").get<std::string>());
   }
+  std::set<std::string> present;
+  for (const auto& e : fs::directory_iterator(dir)) present.insert(e.path().filename().string());
+  EXPECT_EQ(present, named);  // nothing else: no temporary, no half-written table
+  // The shape that was written is complete: it reads back with every vertex.
+  std::vector<double> x;
+  const auto shape = rbc::H5File::open_read(dir + "/shape_0.0pN.h5").read("/mesh/positions_um", x);
+  EXPECT_EQ(shape.second, 3u);
+  EXPECT_EQ(x.size(), 3 * shape.first);
+  EXPECT_GT(shape.first, 100u);
 }
 
 TEST(Cli, NonEmptyOutputDirectoryIsRefusedWithoutOverwrite) {
@@ -94,7 +118,7 @@ TEST(Cli, StretchJsonHasTheDocumentedFieldsAndWritesFilesThatOpen) {
   const CommandRun r =
       rbc("stretch --model discrete --force 0,50 -n 200 --json --quiet --out " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const auto j = nlohmann::json::parse(r.output);
+  const auto j = nlohmann::json::parse(r.out);
   ASSERT_EQ(j.size(), 2u);
   for (const char* key : {"force_pN", "axial_um", "transverse_um", "energy_pNum", "iterations",
                           "converged", "wall_s", "vertices"})
@@ -167,10 +191,10 @@ TEST(Cli, McResumeRebuildsTheCheckpointsNetwork) {
   const CommandRun first =
       rbc("mc -n 150 --bending dihedral --force 20 --sweeps 20 --json -q --checkpoint " + cp);
   ASSERT_EQ(first.exit_code, 0) << first.output;
-  const auto j1 = nlohmann::json::parse(first.output);
+  const auto j1 = nlohmann::json::parse(first.out);
   const CommandRun resumed = rbc("mc --sweeps 40 --json -q --resume " + cp);
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
-  const auto j2 = nlohmann::json::parse(resumed.output);
+  const auto j2 = nlohmann::json::parse(resumed.out);
   EXPECT_EQ(j2["vertices"], j1["vertices"]);
   EXPECT_EQ(j2["bending"], "dihedral");
   EXPECT_EQ(j2["sweeps"], 40);

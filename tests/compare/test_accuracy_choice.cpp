@@ -2,6 +2,7 @@
 // statistics, the table file, and the --accuracy choice with each of its refusals.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +12,8 @@
 
 #include "compare/accuracy_choice.hpp"
 #include "compare/accuracy_study.hpp"
+#include "core/io.hpp"
+#include "test_output.hpp"
 
 namespace rbc {
 namespace {
@@ -264,8 +267,7 @@ TEST(AccuracyChoice, ParsesPercentages) {
 
 TEST(AccuracyChoice, TableFileRoundTripsAndRefusesMalformedFiles) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "rbc_accuracy_table_test";
-  fs::create_directories(dir);
+  const fs::path dir = testing::fresh_output_dir("accuracy_table_round_trip");
   auto write = [&](const std::string& name, const std::string& text) {
     const std::string path = (dir / name).string();
     std::ofstream(path) << text;
@@ -328,9 +330,7 @@ TEST(AccuracyStudy, CostTableReadsWithOrWithoutTheSymmetryColumn) {
   bool any_mirror = false;
   for (const AccuracyRow& r : now.rows) any_mirror = any_mirror || r.symmetry == Symmetry::mirror;
   EXPECT_TRUE(any_mirror);
-  const fs::path dir = fs::temp_directory_path() / "rbc_accuracy_cost_test";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = testing::fresh_output_dir("accuracy_cost_symmetry_column");
   std::ifstream in(committed);
   std::ofstream older(dir / "older.csv"), wrong(dir / "wrong.csv");
   std::string line;
@@ -358,8 +358,7 @@ TEST(AccuracyStudy, CostTableReadsWithOrWithoutTheSymmetryColumn) {
 // short name, or a file whose stored tolerance differs, is swept again, never reused.
 TEST(AccuracyStudy, ReferenceSweepsAreCachedPerTolerance) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "rbc_reference_cache_test";
-  fs::remove_all(dir);
+  const fs::path dir = testing::fresh_output_dir("accuracy_reference_cache");
   AccuracyStudyOptions o;
   o.forces_pN = {0.0};
   o.discrete_vertices = {};
@@ -389,20 +388,32 @@ TEST(AccuracyStudy, ReferenceSweepsAreCachedPerTolerance) {
   EXPECT_EQ(files(), 6);
   EXPECT_TRUE(fs::exists(dir / "discrete_N100_ref1.4e-05.csv"));
   // A meta file whose stored tolerance is not the one asked for is swept again (rewritten).
-  const fs::path meta = dir / "discrete_N100_ref1e-05.meta.csv";
-  std::ifstream in(meta);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  in.close();
-  const size_t at = text.rfind("1e-05");
-  ASSERT_NE(at, std::string::npos);
-  text.replace(at, 5, "2e-05");
-  std::ofstream(meta) << text;
+  // The tolerance is read and changed as a number in its named column: the timing columns of
+  // the same file hold arbitrary numbers, so no text search can tell them apart.
+  const std::string meta = (dir / "discrete_N100_ref1e-05.meta.csv").string();
+  const auto tolerance_column = [](const CsvTable& t) {
+    return static_cast<size_t>(std::find(t.header.begin(), t.header.end(), "force_tolerance_pN") -
+                               t.header.begin());
+  };
+  const auto stored_tolerance = [&] {
+    const CsvTable t = read_csv(meta);
+    const size_t col = tolerance_column(t);
+    if (col >= t.header.size() || t.rows.size() != 1 || t.rows[0].size() <= col) {
+      ADD_FAILURE() << meta << " has no single force_tolerance_pN value";
+      return -1.0;
+    }
+    return t.rows[0][col];
+  };
+  EXPECT_EQ(stored_tolerance(), 1e-5);
+  CsvTable edited = read_csv(meta);
+  ASSERT_LT(tolerance_column(edited), edited.header.size());
+  edited.rows.at(0).at(tolerance_column(edited)) = 2e-5;
+  write_csv(meta, edited);
+  ASSERT_EQ(stored_tolerance(), 2e-5);
   o.reference_force_tolerance_pN = 1e-5;
   run_accuracy_sweeps(o, {});
-  std::ifstream back(meta);
-  const std::string rewritten((std::istreambuf_iterator<char>(back)),
-                              std::istreambuf_iterator<char>());
-  EXPECT_EQ(rewritten.find("2e-05"), std::string::npos);
+  EXPECT_EQ(stored_tolerance(), 1e-5);  // swept again, rewritten at the tolerance asked for
+  EXPECT_EQ(files(), 6);
   fs::remove_all(dir);
 }
 

@@ -1,5 +1,5 @@
 // Typed stability rows: a value the sweep did not reach is written as "not reached" (CSV) and
-// "reached": false without a value (JSON), never as inf, NaN or null (issue 15).
+// "reached": false without a value (JSON), never as inf, NaN or null.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "compare/stability.hpp"
+#include "test_output.hpp"
 
 namespace rbc {
 namespace {
@@ -31,9 +32,7 @@ TEST(StabilityRows, UnreachedValuesAreNamedNeverNonFinite) {
                     ""});
   r.rows.push_back({StabilityStudy::solver_budget, "discrete N=150", "force_pN", 300,
                     StabilityMetric::iterations, 42.0, ""});
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / "rbc_test_stability_rows").string();
-  std::filesystem::remove_all(dir);
+  const std::string dir = testing::fresh_output_dir("stability_rows_unreached").string();
   write_stability(r, dir);
   const std::string csv = slurp(dir + "/stability.csv");
   const std::string json_text = slurp(dir + "/stability.json");

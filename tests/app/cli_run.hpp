@@ -1,0 +1,51 @@
+#pragma once
+// Runs the built `rbc` executable for a CLI test: exit code, stdout and stderr kept apart (JSON
+// is read from stdout alone, so a library warning on stderr cannot break it), OpenMP pinned to
+// the threads the caller names so that two processes compared bit for bit run alike.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+namespace rbc::testing {
+
+struct CliRun {
+  int exit_code = -1;  ///< the process's exit status, -1 if it did not exit normally
+  std::string out;     ///< stdout
+  std::string err;     ///< stderr
+  /// stderr then stdout, for messages and failure reports (never parsed as JSON).
+  std::string all() const { return err + out; }
+};
+
+/// `OMP_NUM_THREADS=threads build/rbc ARGS` (threads <= 0: the environment's setting); stderr
+/// goes through a file of this process's own under build/test_output/cli_stderr.
+inline CliRun run_rbc(const std::string& args, int threads = 1) {
+  static std::atomic<int> calls{0};
+  const std::filesystem::path dir =
+      std::filesystem::path(RBC_BINARY_DIR) / "test_output" / "cli_stderr";
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path err_path =
+      dir / (std::to_string(getpid()) + "_" + std::to_string(calls++) + ".txt");
+  const std::string env = threads > 0 ? "OMP_NUM_THREADS=" + std::to_string(threads) + " " : "";
+  const std::string cmd =
+      env + std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2> '" + err_path.string() + "'";
+  CliRun r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  for (size_t n; (n = std::fread(buf.data(), 1, buf.size(), p)) > 0;) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(err_path);
+  r.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  std::filesystem::remove(err_path);
+  return r;
+}
+
+}  // namespace rbc::testing
