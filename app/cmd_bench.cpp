@@ -201,9 +201,10 @@ ContinuumOptions continuum_options(const benchmark::State& state, int index) {
   return o;
 }
 
-/// Issue 11 rows: continuum p = 2 over forces from rest (continuation), range(0) elements,
-/// range(1) = number of leading Mills forces (13 = all; 8 = 0..87.6 pN is not the issue's
-/// 8-force list, which is {0,16,38,67.6,87.6,130,172.8,193}: range(1) = 0 selects that).
+/// Trade-off rows: continuum p = 2 over forces from rest (continuation), range(0) elements,
+/// range(1) = number of leading Mills forces (13 = all; 8 = 0..87.6 pN is not the
+/// 8-force list of the sweep rows, which is {0,16,38,67.6,87.6,130,172.8,193}: range(1) = 0 selects
+/// that).
 void BM_ContinuumSweep(benchmark::State& state) {
   const ContinuumModel& m =
       cached_continuum(static_cast<int>(state.range(0)), 1.0, bench_orientation(state, 2));
@@ -304,7 +305,7 @@ void BM_ContinuumWarmKept(benchmark::State& state) {
   }
 }
 
-/// Issue 14's speed row: shape recovery after release from the 88 pN equilibrium, range(0)
+/// The recovery speed row: shape recovery after release from the 88 pN equilibrium, range(0)
 /// elements (1000 = the 1 % resolution, p = 2), dt = 1 ms for range(1) ms of simulated time
 /// (1000 = 1 s), eta_m = 0.7 pN s/um; the static equilibrium is not timed.
 void BM_ContinuumRecovery(benchmark::State& state) {
@@ -551,8 +552,8 @@ void add_bench_command(CLI::App& app, Action& action) {
       "double and single precision, and time to equilibrium at 88 pN for N = 500, 2000, 8000, "
       "27500), `rbc bench mc` (Monte Carlo vertex moves/s "
       "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up), `rbc bench sweep` "
-      "(issue 11's rows: force sweeps, warm re-solves, each also in energy+gradient "
-      "evaluations; issue 14's continuum recovery row); extra arguments go "
+      "(force sweeps and warm re-solves, each also in energy+gradient "
+      "evaluations, and the continuum recovery row); extra arguments go "
       "to Google Benchmark");
   cmd->allow_extras();
   cmd->prefix_command();
@@ -582,7 +583,7 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Unit(benchmark::kSecond)
             ->Iterations(1);
       } else if (suite == "sweep") {
-        // The rows of issue 11's table, one benchmark per row (note_speed.md).
+        // The speed table's rows, one benchmark per row.
         const auto once = [](benchmark::internal::Benchmark* b) {
           return b->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
         };
@@ -614,7 +615,7 @@ void add_bench_command(CLI::App& app, Action& action) {
                  ->Args({1000, 2, 0})
                  ->Args({1000, 1, 1})
                  ->Args({1000, 2, 1}));
-        // Issue 14: 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
+        // 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
         once(benchmark::RegisterBenchmark("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)
                  ->Args({1000, 1000}));
         // range(1): preconditioner threshold (-1: the default; 0: always; huge: never); last
@@ -624,7 +625,7 @@ void add_bench_command(CLI::App& app, Action& action) {
                  ->Args({250, -1, 1})
                  ->Args({250, 0, 0})
                  ->Args({250, 1 << 30, 0})
-                 // Issue 11: the full spectrin level, 13 forces (target <= 60 s).
+                 // The full spectrin level, 13 forces (target <= 60 s).
                  ->Args({27500, -1, 0})
                  ->Args({27500, -1, 1}));
         once(benchmark::RegisterBenchmark("discrete/warm13_persistence_1pc", BM_DiscreteWarm)

@@ -1,4 +1,4 @@
-// `rbc mc`: Metropolis Monte Carlo of the spectrin network at finite temperature (issue 6), with
+// `rbc mc`: Metropolis Monte Carlo of the spectrin network at finite temperature, with
 // means and blocking errors of D_A, D_T and the energy, checkpoint/restart and time series.
 //
 // Start: the zero-temperature equilibrium at the requested force (discrete/stretch.hpp

@@ -1,4 +1,4 @@
-// `rbc stability` and `rbc report` (issue 5).
+// `rbc stability` and `rbc report`.
 #include <cmath>
 #include <iostream>
 

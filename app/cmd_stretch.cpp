@@ -386,7 +386,7 @@ int run_discrete(const StretchCli& o) {
       manifest);
 }
 
-// Continuum branch (issue 4): surface FEM with the homogenised law of the given order.
+// Continuum branch: surface FEM with the homogenised law of the given order.
 int run_continuum(const StretchCli& o) {
   const std::vector<double> forces = parse_force_list(o.forces);
   for (double f : forces) validate_continuum_force(f);

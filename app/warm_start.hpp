@@ -1,6 +1,6 @@
 #pragma once
 // `rbc stretch --warm-start DIR`: the equilibria a previous `rbc stretch --out DIR` left
-// (issue 11), read back as the library's StretchState so each force is re-solved from its
+//, read back as the library's StretchState so each force is re-solved from its
 // previous equilibrium after a small parameter change instead of by continuation from rest.
 #include <string>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-// The accuracy-cost study behind `rbc stretch --accuracy` (issue 11): every method and
+// The accuracy-cost study behind `rbc stretch --accuracy`: every method and
 // resolution stretched over the 13 Mills forces, measured against a reference built from
 // the full spectrin level on several rotated triangulations, with the cost of each run in
 // equivalent energy+gradient evaluations (CPU time, machine independent to first order).
@@ -30,7 +30,7 @@ struct AccuracyStudyOptions {
   std::vector<unsigned> reference_seeds = {0, 1, 2, 3, 4};
   /// The reference sweeps' force tolerance (pN per vertex), far tighter than the methods'
   /// default 1e-3 pN: at the full spectrin level a global mode is so soft that a per-vertex
-  /// force tolerance pins D_T loosely. Against 1e-6 pN (seed 0, 13 forces, session 20): 1e-3
+  /// force tolerance pins D_T loosely. Against 1e-6 pN (seed 0, 13 forces): 1e-3
   /// pN errs by up to 3.2e-3 relative (D_T at 130 pN), 1e-4 pN by 4.1e-4, 1e-5 pN by 1.3e-4,
   /// ten times below the rotations' spread (1.5e-3); the table ranks differences down to
   /// ~1e-3. 1e-6 pN itself is out of reach on some rotations (seed 1 stalls at 5e-6 pN at

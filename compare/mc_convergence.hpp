@@ -1,5 +1,5 @@
 #pragma once
-// Time to the same accuracy (issue 6): Monte Carlo against the minimiser for the
+// Time to the same accuracy: Monte Carlo against the minimiser for the
 // zero-temperature answer of one network at one force.
 //
 // Both methods start from the rest shape of the same network and are scored against the same

@@ -331,7 +331,7 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
 
 }  // namespace rbc
 
-// ---- Calibration section (cached `rbc infer --out` results; issue 12) ----
+// ---- Calibration section (cached `rbc infer --out` results) ----
 
 namespace rbc {
 namespace {
@@ -475,7 +475,7 @@ CachedCalibration read_cached_calibration(const std::string& dir) {
   c.failed = static_cast<long long>(number_at(j["forward_runs"], "failed", file));
   if (j.contains("timing")) c.wall_s = j["timing"].value("wall_s", 0.0);
   if (!j.contains("data") || !j["data"].is_array() || j["data"].empty())
-    cache_error(file, "field 'data' missing or empty (written by rbc infer since issue 12)");
+    cache_error(file, "field 'data' missing or empty (every rbc infer writes it)");
   for (const auto& d : j["data"]) {
     c.force_pN.push_back(number_at(d, "force_pN", file));
     c.axial_um.push_back(number_at(d, "axial_um", file));

@@ -1,5 +1,5 @@
 #pragma once
-// Where each method stops working, found by sweeps rather than asserted (issue 5):
+// Where each method stops working, found by sweeps rather than asserted:
 // Taylor orders against the full WLC, solver budgets at extreme forces, the discrete
 // answer against triangle quality, the steric regularisation, and the coarsest
 // resolutions that still give 1 % and 5 % (from a trade-off study).

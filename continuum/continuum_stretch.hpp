@@ -61,7 +61,7 @@ struct ContinuumOptions {
   /// Whether each point carries its per-element fields (ContinuumStretchPoint::fields: I1, I2,
   /// principal tensions; what `rbc stretch --out` writes). Off for loops that read only the
   /// diameters and states, e.g. repeated warm re-solves: the fields cost ~8 % of a kept warm
-  /// re-solve at 1,000 elements (session 20). Off: fields stays empty.
+  /// re-solve at 1,000 elements. Off: fields stays empty.
   bool element_fields = true;
   /// L-BFGS only: per-vertex force tolerance (pN), iterations per multiplier update, and
   /// augmented-Lagrangian penalty stiffnesses (pN/um^3, pN/um^5), multiplier updates.

@@ -62,7 +62,7 @@ struct NewtonOptions {
   /// thread keeps the rounding independent of the core count.
   int blas_threads = 1;
   /// Precision of the factorisation of K = d2L + shift (core/sparse_cholesky.hpp). Single by
-  /// default (session 20): with the Krylov correction (krylov_iterations > 0, the default)
+  /// default: with the Krylov correction (krylov_iterations > 0, the default)
   /// the factor only preconditions the CG on the double d2L, so the steps, iterations and
   /// equilibria are those of the double factor (9,680 elements, 0 and 88 pN: the same 5 and 9
   /// iterations, diameters within 4e-12 relative), and the factorisation runs at the float

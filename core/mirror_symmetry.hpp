@@ -1,6 +1,6 @@
 #pragma once
 // Mirror symmetry of a mesh and of a scene on it, and the reduction of a problem to its
-// symmetric configurations (issue 11: "the equilibrium is symmetric under x -> -x, y -> -y,
+// symmetric configurations ("the equilibrium is symmetric under x -> -x, y -> -y,
 // z -> -z until something buckles").
 //
 // The stretch scene (Evans-Fung cell, beads pulling along x) is invariant under the

@@ -1,5 +1,5 @@
 #pragma once
-// Function multiversioning for the hot element loops (issue 11): RBC_HOT_CLONES compiles a
+// Function multiversioning for the hot element loops: RBC_HOT_CLONES compiles a
 // function twice, for the portable x86-64 baseline and for x86-64-v3 (AVX2, FMA, BMI2), and
 // the dynamic loader picks the best one for the machine once (GCC target_clones, an ifunc).
 // The build stays portable: no -march=native. Fused multiply-add contraction is off for the

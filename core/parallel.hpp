@@ -1,5 +1,5 @@
 #pragma once
-// Deterministic parallel assembly of per-element contributions (issue 10): the elements
+// Deterministic parallel assembly of per-element contributions: the elements
 // are split into fixed-size chunks that depend on the element count only, never on the
 // thread count; chunk 0 accumulates straight into the caller's gradient, every other chunk
 // into its own zeroed buffer, and the chunks are then added in index order (per vertex).

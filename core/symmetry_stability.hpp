@@ -1,6 +1,6 @@
 #pragma once
 // Whether a symmetric critical point found on the mirror-symmetric states (core/
-// reduced_problem.hpp) is a minimum of the full problem: "check, don't assume" (issue 11). At a
+// reduced_problem.hpp) is a minimum of the full problem: "check, don't assume". At a
 // symmetric state the full Hessian of an invariant problem is block diagonal over the sectors of
 // the group's characters (core/mirror_symmetry.hpp nontrivial_characters); the symmetric solve
 // sees the trivial sector only. The invariant constraints' gradients vanish on the other

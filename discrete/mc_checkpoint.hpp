@@ -1,5 +1,5 @@
 #pragma once
-// Checkpoint and restart of a Monte Carlo run (issue 6) in HDF5 (core/h5file.hpp). The file holds
+// Checkpoint and restart of a Monte Carlo run in HDF5 (core/h5file.hpp). The file holds
 // everything that defines the chain at a sweep boundary, so a resumed run continues the SAME
 // chain bit for bit: positions, the raw GSL mt19937 state of every stream (gsl_rng_state bytes),
 // the step size, the sweep count, the run setup (temperature, force, fixed multipliers, seed,

@@ -58,7 +58,7 @@ std::vector<double> mc_startup_forces(double force_pN) {
         static_cast<int>(std::ceil(std::log(force_pN / kLinearUpTo_pN) / std::log(kRatio)));
     for (int k = 1; k <= geometric; ++k)
       f.push_back(kLinearUpTo_pN * std::pow(force_pN / kLinearUpTo_pN, double(k) / geometric));
-    f.back() = force_pN;  // (up to 200 pN the last entry is F k/k, exactly as issue 6 computed it)
+    f.back() = force_pN;  // (up to 200 pN the last entry is F k/k exactly)
   }
   return f;
 }

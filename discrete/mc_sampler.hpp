@@ -1,5 +1,5 @@
 #pragma once
-// Metropolis Monte Carlo of the spectrin network at finite temperature (issue 6): single-vertex
+// Metropolis Monte Carlo of the spectrin network at finite temperature: single-vertex
 // moves with O(1) local energy differences, on exactly the free energy network_energy() gives
 // the minimiser (MODEL.md section 2), sampled at beta = 1/(kB T), kB T from core/units.hpp.
 //

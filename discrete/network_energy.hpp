@@ -1,5 +1,5 @@
 #pragma once
-// The shared-geometry evaluation path of a network model (issue 11). One pass computes what
+// The shared-geometry evaluation path of a network model. One pass computes what
 // several terms need from x: every face's area vector and area, the totals A and V, every
 // hinge's length and dihedral angle. Each term then turns these into its energy and the
 // coefficients of four geometric derivatives (dE/dA_f, dE/dV, dE/dL_e, dE/dtheta_e), and one

@@ -43,11 +43,11 @@ struct NewtonPreconditionerOptions {
   /// (3.2e7 factor entries) and 0.32 instead of 0.57 ms at N = 1,962 (`rbc bench stretch
   /// --benchmark_filter=preconditioner_apply`). The factorisation is bound by the dense
   /// kernels' rate, twice as high in float: `rbc bench sweep` row
-  /// discrete/88pN_from_0pN/27500/0 5.8-6.6 -> 3.8-4.4 s (session 20). A preconditioner needs
-  /// no more accuracy: it is the exact inverse of a matrix within float rounding of the
-  /// Hessian (relative error ~ cond 1e-7 and the fronts' sizes; measured on the mirror-reduced
-  /// N = 252 matrix, cond 7.8e3: 8e-7 with the double factor rounded, 1.2e-5 factorised in
-  /// float).
+  /// discrete/88pN_from_0pN/27500/0 5.8-6.6 s in double, 3.8-4.4 s in single precision. A
+  /// preconditioner needs no more accuracy: it is the exact inverse of a matrix within float
+  /// rounding of the Hessian (relative error ~ cond 1e-7 and the fronts' sizes; measured on the
+  /// mirror-reduced N = 252 matrix, cond 7.8e3: 8e-7 with the double factor rounded, 1.2e-5
+  /// factorised in float).
   SolvePrecision solve_precision = SolvePrecision::single_precision_factorisation;
 };
 

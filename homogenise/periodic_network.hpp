@@ -50,7 +50,7 @@ struct PeriodicNetwork {
 /// Largest hexagonal patch (n x n cells) `rbc moduli` accepts: the cell problem there (N =
 /// 10,000 vertices, sparse LDL^T per Newton step) takes 9 Newton iterations and 3.4 s CPU;
 /// at n = 200 (the former maximum) the factorisation fill of the periodic 40,000-vertex patch
-/// made it run for more than 2 min of CPU without finishing (case 31, issue 15).
+/// made it run for more than 2 min of CPU without finishing (shared/reliability case 31).
 inline constexpr int kMaxHexagonalPatchCells = 100;
 
 /// The n x n rhombus of the hexagonal lattice with spacing a (um): vertices i g1 + j g2,

@@ -1,4 +1,4 @@
-// The reliability audit's input cases (issue 15, notes/reliability_cases.md), one test each:
+// The reliability audit's input cases (shared/reliability/cases.md), one test each:
 // bad input is refused up front with exit 2 and one line "rbc: error: <option> <value>: ...",
 // before any work (each refusal takes well under a second) and without writing anything.
 // Every command runs in its own empty working directory, as the audit ran them.

@@ -111,7 +111,7 @@ TEST(McConvergence, InvalidOptionsThrowNamingTheValue) {
   o = {};
   o.mc_target_acceptance = 1.0;
   throws_with(o, "acceptance");
-  o.mc_target_acceptance = 0.9;  // at 0 K acceptance cannot exceed 1/2 (issue 15, case 30)
+  o.mc_target_acceptance = 0.9;  // at 0 K acceptance cannot exceed 1/2 (reliability case 30)
   throws_with(o, "(0, 0.5)");
   o.mc_temperature_K = 300;  // at a finite temperature it can
   o.mc_budget_s = 1e9;       // ... but the budget is bounded (one day)

@@ -1,4 +1,4 @@
-// Per-term finite-difference tests of the continuum model (issue 10, STYLE.md 2): the
+// Per-term finite-difference tests of the continuum model (STYLE.md 2): the
 // membrane element, the Helfrich (Juelicher) bending term and the area/volume constraint
 // curvature, each through its own unit, on a randomly perturbed mesh; the central-difference
 // error of the gradient and of the Hessian must decay at second order as h halves

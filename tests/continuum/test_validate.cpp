@@ -1,4 +1,4 @@
-// The validate() of the continuum options (issue 15): defaults pass, every number finite and in
+// The validate() of the continuum options: defaults pass, every number finite and in
 // its documented range, the message naming quantity, range and value; the documented force bound.
 #include <gtest/gtest.h>
 

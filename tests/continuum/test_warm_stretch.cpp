@@ -1,4 +1,4 @@
-// Warm re-solve of the continuum stretch (issue 11): after a 1 % change of the persistence
+// Warm re-solve of the continuum stretch: after a 1 % change of the persistence
 // length, Newton from the previous parameters' equilibria reaches the cold continuation's
 // equilibrium within the solver tolerance, in fewer Newton iterations; a state of another
 // mesh is refused.

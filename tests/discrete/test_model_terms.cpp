@@ -1,4 +1,4 @@
-// "Adding a bending law touches one unit" (issue 10): a network model is the list of its terms
+// "Adding a bending law touches one unit": a network model is the list of its terms
 // (discrete/network.hpp NetworkTerm); the production models are network_terms(net), and a test
 // builds its own model from a list that swaps in a test-only bending law, through the same
 // interface, and stretches it with the production driver (run_stretch, Newton-preconditioned:

@@ -1,4 +1,4 @@
-// The shared-geometry evaluation path (discrete/network_energy.hpp, issue 11): one geometry
+// The shared-geometry evaluation path (discrete/network_energy.hpp): one geometry
 // pass and one chain-rule assembly for the whole production list. Its oracle is the
 // term-by-term sum of the same list (each term's own kernel, finite-difference tested in
 // test_term_derivatives.cpp): the two agree to round-off in the energy, every part and every

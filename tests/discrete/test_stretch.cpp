@@ -1,4 +1,4 @@
-// Physics of the discrete optical-tweezers stretch (issue 2 acceptance).
+// Physics of the discrete optical-tweezers stretch (the acceptance checks).
 #include <gtest/gtest.h>
 
 #include "core/geometry.hpp"

@@ -1,4 +1,4 @@
-// Per-term finite-difference tests (issue 10, STYLE.md 2): every discrete energy term's
+// Per-term finite-difference tests (STYLE.md 2): every discrete energy term's
 // value, gradient and (where Newton uses it) Hessian, through the term's own unit, on a
 // randomly perturbed cell mesh; the central-difference error must decay at second order as
 // h halves (observed order in [1.8, 2.2], tests/fd_order.hpp).

@@ -1,4 +1,4 @@
-// The validate() of every discrete options struct (issue 15): defaults pass; every number must be
+// The validate() of every discrete options struct: defaults pass; every number must be
 // finite and inside its documented range, and the message names the quantity, the range (in the
 // user's units) and the value.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Warm re-solve of the discrete stretch (issue 11): after a 1 % change of the persistence
+// Warm re-solve of the discrete stretch: after a 1 % change of the persistence
 // length, solving each force from the previous parameters' equilibria reaches the same
 // equilibrium as the cold continuation from the rest shape, within the solver tolerance,
 // in fewer minimiser iterations; a state of another mesh or other forces is refused.

@@ -1,4 +1,4 @@
-// Budgets of the cell problem (issue 15, case 31: `rbc moduli --cells 100` ran all 200 Newton
+// Budgets of the cell problem (reliability case 31: `rbc moduli --cells 100` ran all 200 Newton
 // iterations at 1.1e-10 pN against a 1e-10 pN tolerance): a relaxation whose residual stalls at
 // the round-off floor ends there, with the affine map recovered (Theorem 3) and the floor
 // flagged; without the rule it runs to its iteration limit; the cancel hook stops it.

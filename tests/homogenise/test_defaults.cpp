@@ -1,4 +1,4 @@
-// Every default defined once (issue 10): the library's internal-unit defaults are the natural-
+// Every default defined once: the library's internal-unit defaults are the natural-
 // unit constants of core/defaults.hpp through the one conversion, so a front end converting a
 // user's (default) nm/J input gets the same bits as a library user taking the struct defaults.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Validation of the homogenisation inputs (issue 15): the user's membrane parameters (nm, K) and
+// Validation of the homogenisation inputs: the user's membrane parameters (nm, K) and
 // the disordered-network options, every number finite and in its documented range.
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Run the continuum p = 2 force sweep in Surface Evolver and in rbc, one after the other,
-and tabulate time, diameters, residual and drift side by side (issue 11's Evolver row).
+and tabulate time, diameters, residual and drift side by side.
 
 Steps (all output under --work):
   1. rbc mesh -n VERTICES --quality phi-minimised --orientation O --out WORK/mesh   (the

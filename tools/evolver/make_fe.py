@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Write a Surface Evolver datafile (.fe) of the project's continuum p = 2 stretch scene.
 
-Not part of the build or the test suite: a comparison kit for issue 11 (speed against
+Not part of the build or the test suite: a comparison kit (speed against
 Surface Evolver, Debian package evolver-nox). See tools/evolver/README.md.
 
 Input: the rest mesh written by `rbc mesh -n N --quality phi-minimised --out DIR`

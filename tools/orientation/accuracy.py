@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Accuracy and cost of the mirror-planes triangulation (rbc stretch --mesh-orientation
-mirror-planes) against the default one, over the 13 Mills forces (issue 11).
+mirror-planes) against the default one, over the 13 Mills forces.
 
 For every size it runs, one after the other, on one thread:
   rbc stretch --model M (--vertices N | --elements E) --force MILLS --symmetry mirror
