@@ -42,7 +42,7 @@ struct McCli {
   double temperature_K = 300.0;
   long long sweeps = 2000;
   unsigned long seed = 1;
-  int streams = 0;  // 0: one per OpenMP thread
+  int streams = 2;  // fixed by default, so the chain does not depend on the thread count
   double adapt_fraction = 0.2;
   long long adapt_sweeps = -1;  // -1: adapt_fraction x sweeps
   int sample_every = 1;
@@ -329,8 +329,9 @@ void add_mc_command(CLI::App& app, Action& action) {
           ->check(unsigned_integer())
           ->capture_default_str();
   cmd->add_option("--streams", o->streams,
-                  "RNG streams = parallel chunks (0: one per thread; at most 1024); the chain "
-                  "depends on it")
+                  "RNG streams = parallel chunks, at most 1024; the chain depends on the streams, "
+                  "never on the threads (0: one per OpenMP thread, so the chain then depends on "
+                  "them)")
       ->check(integer_in(0, kMaxMcStreams))
       ->capture_default_str();
   auto* adapt_fraction =

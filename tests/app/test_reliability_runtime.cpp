@@ -414,6 +414,22 @@ json chain_fields(const std::string& out) {
   return j;
 }
 
+TEST(ReliabilityRuntime, DefaultMonteCarloChainDoesNotDependOnTheThreadCount) {
+  // The default number of RNG streams is fixed (not one per thread): the same command on one
+  // and on two OpenMP threads samples the same chain, field for field.
+  const std::string args = "mc -n 150 --force 20 --sweeps 40 -q --json";
+  const CommandRun one = rbc(args, 1), two = rbc(args, 2);
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  ASSERT_EQ(two.exit_code, 0) << two.output;
+  json a = chain_fields(one.out), b = chain_fields(two.out);
+  EXPECT_EQ(a.at("threads").get<int>(), 1);
+  EXPECT_EQ(b.at("threads").get<int>(), 2);
+  a.erase("threads");
+  b.erase("threads");
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(a.at("streams").get<int>(), 2);
+}
+
 TEST(ReliabilityRuntime, CorruptCheckpointIsRefusedWithExitTwo) {
   // Bytes changed in a valid checkpoint: the resume is refused with exit 2 and one error line,
   // or, where the byte was slack (unused by HDF5), continues exactly as the intact checkpoint
