@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # The main job with defaults: installs what is missing (apt-get), builds (Release), and
 # runs the paper's Fig. 7 comparison (microscopic and continuum models against Mills 2004).
+# Only what the `rbc` executable needs is installed and built (no test suite, no Python
+# package: ./test.sh adds those).
 # Outputs: results/fig7/ (fig7.png, fig7_fit.csv, per-method CSVs, fig7.json).
 set -euo pipefail
 cd "$(dirname "$0")"
-.ci/bootstrap.sh rbc
+.ci/bootstrap.sh --lean rbc
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"  # idle OpenMP threads sleep
 out="${RBC_OUT:-results/fig7}"
 ./build/rbc fig7 --out "$out" --force-overwrite "$@"

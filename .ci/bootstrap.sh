@@ -1,18 +1,36 @@
 #!/usr/bin/env bash
-# Shared by ./run.sh and ./test.sh: install the Debian packages the build needs (only
-# those missing), then configure and build in ./build (Release). Usage:
-#   .ci/bootstrap.sh [cmake targets...]     (no targets: build everything)
+# Shared by ./run.sh and ./test.sh: installs the Debian packages the build needs (only those
+# missing), then configures and builds in ./build (Release). Usage:
+#   .ci/bootstrap.sh [targets...]          the whole project's packages (tests, Python package,
+#                                          fuzzing); configured with the tests and the Python
+#                                          package on; no targets: builds everything
+#   .ci/bootstrap.sh --lean [targets...]   only the packages the `rbc` executable needs; a new
+#                                          build/ is configured without the tests and the Python
+#                                          package, an existing one keeps its choice (a ./run.sh
+#                                          after ./test.sh does not drop the tests)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+lean=0
+if [ "${1:-}" = "--lean" ]; then
+  lean=1
+  shift
+fi
 
+# What `rbc` links and runs: compilers, the libraries, OpenBLAS's OpenMP build (the one the
+# BLAS thread tests assume), gnuplot (rbc fig7 and tradeoff plot through it), Google Benchmark
+# (rbc bench) and Open MPI (rbc infer under mpirun).
 packages=(build-essential cmake pkg-config libeigen3-dev libcgal-dev libgsl-dev libhdf5-dev
-          libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
-          libsuitesparse-dev libopenblas0-openmp gnuplot-nox
-          # MPI (rbc infer over many machines), the Python package and its tests
-          libopenmpi-dev openmpi-bin pybind11-dev python3-dev python3-numpy python3-scipy
-          python3-pytest python3-matplotlib python3-meshio python3-emcee python3-h5py
-          # fuzz targets (.ci/fuzz.sh): clang with libFuzzer and its sanitizer runtimes
-          clang libfuzzer-14-dev libclang-rt-14-dev)
+          libcli11-dev nlohmann-json3-dev libbenchmark-dev libsuitesparse-dev libopenblas0-openmp
+          gnuplot-nox libopenmpi-dev openmpi-bin)
+if ((!lean)); then
+  # The test suite, the Python package and its tests (the install check makes a virtual
+  # environment: venv, setuptools, wheel), the fuzz targets (clang with libFuzzer and its
+  # sanitizer runtimes).
+  packages+=(libgtest-dev libgmock-dev pybind11-dev python3-dev python3-numpy python3-scipy
+             python3-pytest python3-matplotlib python3-meshio python3-emcee python3-h5py
+             python3-venv python3-setuptools python3-wheel
+             clang libfuzzer-14-dev libclang-rt-14-dev)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -25,10 +43,19 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
 fi
 
+options=(-DCMAKE_BUILD_TYPE=Release)
+command -v ccache >/dev/null &&  # ccache when present (not required)
+  options+=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+if ((lean)); then
+  # Off only where build/ has no choice yet: an option already in the cache stays as it is.
+  for option in RBC_BUILD_TESTS RBC_BUILD_PYTHON; do
+    grep -qs "^$option:" build/CMakeCache.txt || options+=("-D$option=OFF")
+  done
+else
+  options+=(-DRBC_BUILD_TESTS=ON -DRBC_BUILD_PYTHON=ON)
+fi
 jobs=$(nproc 2>/dev/null || echo 2)
-launcher=()  # ccache when present (not required)
-command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "${launcher[@]}" >&2
+cmake -S . -B build "${options[@]}" >&2
 if (($#)); then
   for t in "$@"; do cmake --build build --target "$t" -j "$jobs" >&2; done
 else

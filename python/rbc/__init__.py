@@ -58,7 +58,8 @@ from ._rbc import (  # noqa: F401  (re-exported API)
     thermal_energy_pNum,
 )
 
-__version__ = "0.1"
+#: The version of the compiled core, as `rbc --version` prints it (e.g. "0.1.0+g5a3eb55").
+__version__ = _rbc.__version__
 
 #: The forces of `rbc stretch` (pN): those of Mills et al. 2004.
 DEFAULT_FORCES_PN = (0.0, 16.0, 19.5, 30.6, 38.0, 46.6, 67.6, 87.6, 108.8, 130.0, 151.0, 172.8,

@@ -2,11 +2,14 @@
 // continuum); the pure-Python package `rbc` (python/rbc/) wraps it.
 #include "common.hpp"
 #include "core/blas_threads.hpp"
+#include "core/version.hpp"
 
 PYBIND11_MODULE(_rbc, m) {
   namespace py = pybind11;
   using namespace rbc::py_bind;
   m.doc() = "rbc: multiscale red blood cell mechanics (Hartmann 2008), compiled core";
+  // The version `rbc --version` prints (core/version.hpp); rbc.__version__ re-exports it.
+  m.attr("__version__") = rbc::version_string();
   // A solve that did not converge, raised only when asked (check=True); carries residual_pN.
   static py::exception<std::runtime_error> convergence_error(m, "ConvergenceError",
                                                              PyExc_RuntimeError);
