@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "continuum/continuum_stretch.hpp"
+#include "continuum_tangent_hessian.hpp"
 #include "core/units.hpp"
 #include "fixtures.hpp"
 #include "hessian_check.hpp"
@@ -28,37 +29,6 @@ ContinuumModel small_model(int elements, const BendingParameters& b = {}) {
 
 Positions unflat(const Eigen::VectorXd& v) {
   return Eigen::Map<const Eigen::Matrix3Xd>(v.data(), 3, v.size() / 3);
-}
-
-// Smallest eigenvalue (pN/um) of the Lagrangian Hessian d2E + lambda_A d2A + lambda_V d2V at x,
-// restricted to the constraints' tangent space {d : dA.d = dV.d = 0} without the motions that
-// cost nothing under the load along x (the three translations and the turn about x): Z' H Z
-// with Z an orthonormal basis of that space (Householder QR of the six excluded directions),
-// dense, by Eigen's symmetric eigensolver. Positive at a strict constrained minimum.
-double smallest_tangent_eigenvalue(const ContinuumModel& m, const Positions& x,
-                                   const ConstraintMultipliers& l) {
-  BlockHessian h(m.topo);
-  h.set_zero();
-  add_continuum_hessian(m, x, h);
-  add_constraint_hessian(x, m.topo, l.area_pN_per_um, l.volume_pN_per_um2, h);
-  const Eigen::MatrixXd hd = Eigen::MatrixXd(h.matrix());
-  const ConstraintValues c = evaluate_constraints(x, m.topo);
-  const Eigen::Index n = hd.rows();
-  Eigen::MatrixXd excluded = Eigen::MatrixXd::Zero(n, 6);
-  excluded.col(0) = flat(c.grad_area);
-  excluded.col(1) = flat(c.grad_volume);
-  const Eigen::Vector3d centre = x.rowwise().mean();
-  for (Eigen::Index i = 0; i < x.cols(); ++i) {
-    for (int a = 0; a < 3; ++a) excluded(3 * i + a, 2 + a) = 1.0;
-    const Eigen::Vector3d r = x.col(i) - centre;
-    excluded.block<3, 1>(3 * i, 5) = Eigen::Vector3d::UnitX().cross(r);
-  }
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(excluded);
-  const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(n, n);
-  const Eigen::MatrixXd z = q.rightCols(n - 6);
-  const Eigen::MatrixXd hz = z.transpose() * hd * z;
-  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(hz, Eigen::EigenvaluesOnly)
-      .eigenvalues()(0);
 }
 
 TEST(ContinuumModel, LagrangianHessianMatchesFiniteDifferences) {
@@ -249,8 +219,10 @@ TEST(ContinuumStretch, LargeJumpReachesTheSteppedEquilibriumAndNonConvergenceIsR
   EXPECT_LT(a.residual_pN, ContinuumOptions{}.newton.force_tolerance_pN);
   EXPECT_LT(b.residual_pN, ContinuumOptions{}.newton.force_tolerance_pN);
   // Both are strict constrained minima: the tangent-space Hessian is positive definite there.
-  const double la = smallest_tangent_eigenvalue(m, a.x, a.multipliers);
-  const double lb = smallest_tangent_eigenvalue(m, b.x, b.multipliers);
+  const double la = testing::smallest_tangent_eigenvalue(
+      testing::tangent_hessian(m, a.x, a.multipliers, a.force_pN));
+  const double lb = testing::smallest_tangent_eigenvalue(
+      testing::tangent_hessian(m, b.x, b.multipliers, b.force_pN));
   ASSERT_GT(la, 0);
   ASSERT_GT(lb, 0);
   // Tolerances from the solver's stopping point. A state with net vertex forces r (largest
