@@ -25,11 +25,14 @@ packages=(build-essential cmake pkg-config libeigen3-dev libcgal-dev libgsl-dev 
 if ((!lean)); then
   # The test suite, the Python package and its tests (the install check makes a virtual
   # environment: venv, setuptools, wheel), the fuzz targets (clang with libFuzzer and its
-  # sanitizer runtimes).
+  # sanitizer runtimes) and the documentation.
   packages+=(libgtest-dev libgmock-dev pybind11-dev python3-dev python3-numpy python3-scipy
              python3-pytest python3-matplotlib python3-meshio python3-emcee python3-h5py
              python3-venv python3-setuptools python3-wheel
-             clang libfuzzer-14-dev libclang-rt-14-dev)
+             clang libfuzzer-14-dev libclang-rt-14-dev
+             # the documentation site (docs/, .ci/docs.sh)
+             python3-sphinx python3-myst-parser python3-breathe doxygen furo
+             python3-sphinx-copybutton python3-sphinxcontrib.bibtex)
 fi
 missing=()
 for p in "${packages[@]}"; do
