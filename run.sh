@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The main job with defaults: installs what is missing (apt-get), builds (Release), and
 # runs the paper's Fig. 7 comparison (microscopic and continuum models against Mills 2004).
 # Only what the `rbc` executable needs is installed and built (no test suite, no Python

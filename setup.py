@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Builds the rbc Python package with CMake (setuptools drives it; Debian 12 has no
 scikit-build): the pure-Python files of python/rbc and the extension rbc._rbc, the CMake target
 rbc_python (python/CMakeLists.txt).

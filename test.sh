@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The developer's test command. Without flags: installs what is missing (apt-get), builds
 # everything (Release) in build/ and runs the whole suite through ctest (C++, and the Python and
 # MPI tests registered there); exit status is ctest's (an empty suite fails).

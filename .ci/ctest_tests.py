@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Lists the tests of a ctest build directory by what they run, one name a line.
 
   .ci/ctest_tests.py BUILD python   tests whose command runs Python (pytest or a python* binary)

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The documentation job: builds the Sphinx site with warnings as errors and nitpicky references
 # (sphinx-build -E -W --keep-going -n) and runs every shell and Python block of the tutorials,
 # checking the numbers their text states (docs/run_snippets.py). The two run side by side (the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Fuzz job: builds the libFuzzer targets of fuzz/ with clang++ in build-fuzz/ (-DRBC_FUZZ=ON) and
 # runs each for RBC_FUZZ_SECONDS (default 60) from its committed seed corpus fuzz/corpus/<target>/.
 # New inputs go to build-fuzz/corpus/<target>/ (the committed corpus is never written); a crash,

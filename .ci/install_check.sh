@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Install check: `cmake --install` of a built tree, a downstream CMake project against it, and the
 # Python package pip-installed into a virtual environment. Usage: .ci/install_check.sh BUILD_DIR
 # (a configured and built build directory with the Python package on, as ./test.sh leaves build/).

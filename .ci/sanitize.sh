@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Sanitizer job: configures build-asan/ (-DRBC_SANITIZE=ON: ASan + LeakSanitizer + UBSan, -O1 -g1,
 # every finding fatal), builds everything and runs the C++ suite through ctest with leak
 # detection on. Python tests are left to the normal build (an instrumented module cannot be loaded

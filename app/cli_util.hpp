@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Small helpers shared by the sub-commands: list parsing, progress to stderr, option checks
 // that name the option, output-directory checks, file-name tags.

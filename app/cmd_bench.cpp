@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc bench`: Google Benchmark timings (speed targets live here, never in tests).
 #include <benchmark/benchmark.h>
 #include <omp.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc dynamics`: overdamped dynamics of either model (MODEL.md section 6) by backward Euler
 // minimising movements: shape recovery after release (Hochmuth, Worthy & Evans 1979), the
 // time course of a stretch (paper Fig. 6), and the Helfrich relaxation (paper Fig. 5,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc fig7`: the paper's Fig. 7 against Mills 2004, with goodness of fit per method.
 #include <iomanip>
 #include <iostream>

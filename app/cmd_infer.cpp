@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc infer`: Bayesian calibration of the spectrin parameters from force-diameter data
 // (MODEL.md section 7; calibrate/infer.hpp). Under mpirun every rank runs this command; rank 0
 // samples and writes, the others serve forward runs (calibrate/mpi_executor.hpp).

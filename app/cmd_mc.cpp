@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc mc`: Metropolis Monte Carlo of the spectrin network at finite temperature, with
 // means and blocking errors of D_A, D_T and the energy, checkpoint/restart and time series.
 //

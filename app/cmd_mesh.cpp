@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc mesh`: generate the Evans-Fung rest triangulation and report its quality.
 #include <iomanip>
 #include <iostream>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc moduli`: closed-form and numerically homogenised moduli of the spectrin network
 // (MODEL.md section 3; Hartmann 2008 Sec. 3.2-3.4, 4.3), for the perfect hexagonal lattice
 // or for disordered periodic networks.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc psi`: tabulates the homogenised density Psi and its stress along a deformation path,
 // so the Taylor orders and the full WLC can be compared where they part (MODEL.md
 // section 3; Hartmann 2008 Sec. 3.4, Appendix A), or evaluates Psi at one deformation.

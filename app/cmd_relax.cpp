@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc relax`: Canham-Helfrich relaxation of the Evans-Fung rest shape at fixed area and
 // volume, in-plane elasticity off (paper Sec. 5.3.1, Fig. 5; Li et al. 2005): how far is
 // the measured shape from a bending minimiser, for each spontaneous curvature H0?

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc stability` and `rbc report`.
 #include <cmath>
 #include <iostream>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc stretch`: the optical-tweezers stretch (Mills et al. 2004) of one model over a list
 // of forces, by continuation: each force starts from the previous equilibrium.
 #include <omp.h>

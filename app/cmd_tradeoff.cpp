@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc tradeoff`: accuracy against wall time for every method and resolution.
 #include <algorithm>
 #include <iomanip>

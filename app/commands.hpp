@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Sub-command registry of the `rbc` executable. Each add_*_command registers one
 // sub-command (options with documented defaults) and, when it is selected on the command

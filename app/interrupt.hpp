@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // SIGINT/SIGTERM for the `rbc` executable, through the library's cancel hook
 // (core/progress.hpp). The handlers only touch lock-free atomics (async-signal-safe):

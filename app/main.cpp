@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // rbc: multiscale red blood cell mechanics (Hartmann 2008). One executable, one
 // sub-command per job; see app/commands.hpp for the exit-code contract.
 #include <malloc.h>

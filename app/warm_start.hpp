@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // `rbc stretch --warm-start DIR`: the equilibria a previous `rbc stretch --out DIR` left
 //, read back as the library's StretchState so each force is re-solved from its

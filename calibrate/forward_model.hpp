@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The forward model of the calibration: optical-tweezers diameters D_A(F), D_T(F) at the
 // data's forces for one set of physical parameters, by the discrete network or the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Bayesian calibration of the spectrin parameters from force-diameter data (MODEL.md
 // section 7): the library behind `rbc infer` (and the Python binding rbc.infer).

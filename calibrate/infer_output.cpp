@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Files of `rbc infer --out DIR`: summary, posterior samples, corner plot, predictive Fig. 7.
 #include <array>
 #include <cstdio>

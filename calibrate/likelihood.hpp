@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The likelihood of force-diameter data (MODEL.md section 7): independent Gaussians on the
 // axial and transverse diameters,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // TMCMC over MPI ranks (OpenMPI): a master-worker pool with dynamic scheduling in which the
 // master computes too. `mpirun -np K rbc infer ...` runs the same command on K ranks; every

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #include "calibrate/prior_spec.hpp"
 
 #include <cmath>

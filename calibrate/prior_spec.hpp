@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The inferred parameters of `rbc infer` and their uniform prior boxes, in the natural units
 // of the command line (nm, J, dimensionless), with the parsers of --params and --prior.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Bead contact patches with fractional area weights, so the load is a continuous function
 // of the contact fraction (discrete/tweezers.hpp's by_area rule snaps to whole vertices,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Transitional Markov chain Monte Carlo (TMCMC; J. Ching and Y.-C. Chen, "Transitional
 // Markov chain Monte Carlo method for Bayesian model updating, model class selection, and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 # CHOLMOD (SuiteSparse) as the imported target rbc::cholmod: Debian's libsuitesparse-dev ships no
 # CMake package, so the header and the libraries are looked up directly. Included by the build
 # (top-level CMakeLists.txt) and by the installed package config (rbcConfig.cmake), which thus

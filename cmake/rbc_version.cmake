@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The version string of a build (core/version.hpp): the project version, plus "+g<hash>" from git
 # when the source tree is a checkout not exactly at the tag v<version>, plus "-dirty" when its
 # tracked files differ from that commit. The one place this string is computed: the build runs

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // `rbc stretch --accuracy P%`: the cheapest method and resolution of the committed trade-off
 // table (data/tradeoff/accuracy_by_force.csv, written by `rbc tradeoff --accuracy-table`)

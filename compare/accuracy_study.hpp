@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The accuracy-cost study behind `rbc stretch --accuracy`: every method and
 // resolution stretched over the 13 Mills forces, measured against a reference built from

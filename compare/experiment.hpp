@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The Mills et al. 2004 optical-tweezers measurements (data/README.md) and goodness of fit.
 #include <iosfwd>

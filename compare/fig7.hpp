@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The paper's Fig. 7: axial and transverse diameters against force for the Mills 2004
 // measurements, the microscopic (discrete) model and the continuum model orders.

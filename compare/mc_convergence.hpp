@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Time to the same accuracy: Monte Carlo against the minimiser for the
 // zero-temperature answer of one network at one force.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The models the comparison runs, behind one call: a method (model + resolution + law)
 // stretched over a list of forces returns a curve of diameters with its cost.

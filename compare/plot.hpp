@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Publication-style PNG plots through gnuplot (pngcairo): the data are written as CSV next
 // to the picture, so every plotted number is traceable to a file.

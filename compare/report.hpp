@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // `rbc report`: Fig. 7, the trade-off and the stability map in one Markdown report whose
 // every number is traceable to a CSV next to it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Where each method stops working, found by sweeps rather than asserted:
 // Taylor orders against the full WLC, solver budgets at extreme forces, the discrete

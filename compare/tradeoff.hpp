@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Accuracy against cost for every method and resolution at one force, measured against a
 // stated reference: Richardson extrapolation of the two finest discrete networks.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The continuum Newton Hessian's pattern: core/block_pattern.hpp's BlockMatrix (the one
 // block assembler) over every vertex pair that shares a closed vertex star, the reach of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The continuum membrane of MODEL.md section 4 (paper's Model 2, static): a surface finite
 // element mesh of the Evans-Fung rest shape, chosen freely and independent of any spectrin

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Optical-tweezers stretch of the continuum model (MODEL.md sections 2 and 4; paper
 // Sec. 5.3.2, Fig. 7): for each force, the constrained equilibrium by sparse Newton

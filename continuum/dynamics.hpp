@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Overdamped dynamics of the continuum membrane (MODEL.md section 6): backward Euler as a
 // minimising movement,

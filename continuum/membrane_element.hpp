@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // In-plane hyperelastic linear triangle on a surface (MODEL.md sections 3-4; paper eq. (15),
 // (17)): the energy of one element is its reference area times the membrane law's areal

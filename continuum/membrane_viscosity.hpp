@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Viscous membrane of the continuum model (MODEL.md section 6; Evans and Hochmuth 1976):
 // Rayleigh potential of the surface rate of deformation D (symmetric surface velocity

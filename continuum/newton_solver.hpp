@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Sparse Newton method for the constrained continuum equilibrium (MODEL.md section 4):
 //   stationary points of L(x, lambda) = E(x) + lambda_A (A(x) - A0) + lambda_V (V(x) - V0),

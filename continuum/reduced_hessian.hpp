@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The continuum Lagrangian Hessian on the mirror-symmetric states, P' d2L P (core/
 // mirror_symmetry.hpp), assembled from one element per orbit. For an invariant element energy

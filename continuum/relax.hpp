@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Rest-shape relaxation (paper Sec. 5.3.1, Fig. 5; Li et al. 2005): minimise the
 // Canham-Helfrich energy at fixed total area and enclosed volume from the Evans-Fung

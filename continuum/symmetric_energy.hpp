@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The continuum energy, its gradient and the area and volume constraints at a mirror-symmetric
 // state (core/mirror_symmetry.hpp), from one element per orbit, for the reduced problem's

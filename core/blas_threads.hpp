@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Scoped thread count of OpenBLAS, whose pthreads build (Debian's default libopenblas0)
 // ignores OpenMP's thread count: CHOLMOD's supernodal factorisation issues thousands of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The one block-sparse assembler of the project: a symmetric 3N x 3N matrix of 3 x 3 vertex
 // blocks (Newton Hessians of vertex-based energies) with a fixed pattern built once per mesh.

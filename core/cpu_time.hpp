@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // CPU clocks for the statistics and benchmarks that quote CPU time next to wall time (the
 // machines are shared, so CPU time is the figure that compares run to run).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The physical defaults of the model, defined once, in the natural units a user states them
 // in (nm, J, K): Li et al. 2005 / Table 1 of the paper for the spectrin WLC, Table 2 for the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // FNV-1a, 64 bits (Fowler, Noll and Vo; the parameters of the IETF draft
 // draft-eastlake-fnv): a fast, non-cryptographic hash for fingerprints and content checksums of

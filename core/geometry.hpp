@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Geometry kernels on triangle meshes, each with its analytic gradient.
 // Lengths in um, areas in um^2, volumes in um^3, angles in rad.

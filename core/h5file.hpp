@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Minimal RAII access to HDF5 files: 2-D double/int datasets and scalar attributes. Every HDF5
 // identifier (file, dataset, dataspace, attribute, datatype, group) is owned by an object that

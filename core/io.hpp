@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Files people open: CSV and JSON for numbers, HDF5 + XDMF for meshes and fields
 // (ParaView reads the .xdmf). Every writer is atomic: it writes a temporary file in the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Closed, oriented triangle meshes: positions and the connectivity the energies need.
 #include <Eigen/Core>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Mirror symmetry of a mesh and of a scene on it, and the reduction of a problem to its
 // symmetric configurations ("the equilibrium is symmetric under x -> -x, y -> -y,

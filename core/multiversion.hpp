@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Function multiversioning for the hot element loops: RBC_HOT_CLONES compiles a
 // function twice, for the portable x86-64 baseline and for x86-64-v3 (AVX2, FMA, BMI2), and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Deterministic parallel assembly of per-element contributions: the elements
 // are split into fixed-size chunks that depend on the element count only, never on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The one channel through which library code reports progress, and the one hook through which
 // a caller cancels long work; drivers decide where progress goes (stderr for the CLI, nowhere

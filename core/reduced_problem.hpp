@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // A problem over 3N vertex coordinates restricted to the configurations symmetric under a
 // mirror group (core/mirror_symmetry.hpp): x = P q. The reduced problem evaluates the full one

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The Evans-Fung biconcave rest shape and closed triangulations of it.
 #include <string>

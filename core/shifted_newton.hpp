@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The project's one shifted Newton method with backtracking line search, for
 //   stationary points of L(x, lambda) = f(x) + lambda' c(x),   c(x) = 0 (m >= 0 equalities),

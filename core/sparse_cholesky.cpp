@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #include "core/sparse_cholesky.hpp"
 
 #include <malloc.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The project's sparse Cholesky factorisation: LL' of a symmetric positive definite sparse
 // matrix by CHOLMOD (SuiteSparse), behind this small interface so that no public header

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // A supernodal Cholesky factorisation A + shift I = L L' computed in single precision, on the
 // supernodal structure of CHOLMOD's symbolic analysis (core/supernodal_solve.hpp's

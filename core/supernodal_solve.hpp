@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // A supernodal Cholesky factor L (A = L L') kept in single precision, and its forward and back
 // substitution in single precision: the solves of a preconditioner whose factor does not fit in

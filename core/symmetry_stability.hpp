@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Whether a symmetric critical point found on the mirror-symmetric states (core/
 // reduced_problem.hpp) is a minimum of the full problem: "check, don't assume". At a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Internal units: length um, force pN, energy pN*um (= 1e-18 J), time s.
 // Derived: moduli pN/um (= uN/m), pressure pN/um^2 (= Pa), bending rigidity pN*um.

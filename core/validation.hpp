@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Checks of caller-supplied parameters, shared by every options struct's validate() so that
 // every message reads the same way: the quantity, what was expected, the value received, e.g.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The version of this build of rbc, for `rbc --version`, `rbc.__version__` and the records of
 // every output. Defined in one generated translation unit (cmake/version.cpp.in, written by

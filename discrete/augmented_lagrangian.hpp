@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The one augmented-Lagrangian driver for the area and volume constraints (MODEL.md section 2,
 // "Area and volume"; Nocedal & Wright, Numerical Optimization, 2nd ed., Algorithm 17.4 with the

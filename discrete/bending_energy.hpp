@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Bending of the lipid bilayer: Canham-Helfrich F_CH = (kappa/2) int (H - H0)^2 dA,
 // H = C1 + C2 (MODEL.md section 2; paper eq. (7)), discretised on the network.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Total area and enclosed volume held by an augmented Lagrangian (MODEL.md section 2,
 // "Area and volume"): the lipid bilayer is near-inextensible and the cytosol incompressible.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Overdamped dynamics of the discrete network (MODEL.md section 6): gradient flow of the
 // free energy E (discrete/network.hpp) under the link dashpots' Rayleigh potential

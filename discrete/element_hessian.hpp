@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Second derivatives of the per-element geometric measures (triangle area, tetrahedron
 // volume, hinge length x angle) that every Newton-type Hessian of the project uses: the

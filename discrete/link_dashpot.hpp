@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Link dashpots of the discrete network (MODEL.md section 6): a dashpot in parallel with
 // every spectrin link, force gamma dL/dt along the link, Rayleigh potential

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Spectrin link term of Model 1 (MODEL.md section 2, paper eq. (2) first sum).
 #include <Eigen/Core>

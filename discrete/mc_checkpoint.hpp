@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Checkpoint and restart of a Monte Carlo run in HDF5 (core/h5file.hpp). The file holds
 // everything that defines the chain at a sweep boundary, so a resumed run continues the SAME

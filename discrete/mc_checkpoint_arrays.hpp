@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The checks applied to the arrays of a Monte Carlo checkpoint once they are read
 // (discrete/mc_checkpoint.cpp), on plain buffers: nothing of it needs HDF5 or GSL, so the fuzz

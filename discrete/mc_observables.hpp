@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Statistics of Monte Carlo time series with honest errors: the standard error of a mean of
 // correlated samples from the integrated autocorrelation time with Geyer's initial monotone

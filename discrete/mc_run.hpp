@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // A Monte Carlo run of the network: the sampler plus its time series of observables, in a form
 // that can be checkpointed at any sweep boundary and resumed bit for bit

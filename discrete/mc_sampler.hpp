@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Metropolis Monte Carlo of the spectrin network at finite temperature: single-vertex
 // moves with O(1) local energy differences, on exactly the free energy network_energy() gives

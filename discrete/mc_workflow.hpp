@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The Monte Carlo workflow as `rbc mc` and the Python MonteCarlo run it, as library functions:
 // the zero-temperature start (force continuation, discrete/stretch.hpp), the rules a resumed

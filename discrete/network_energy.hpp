@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The shared-geometry evaluation path of a network model. One pass computes what
 // several terms need from x: every face's area vector and area, the totals A and V, every

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #include "discrete/network_hessian.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // A projected-Newton Hessian of the network's free energy, the preconditioner of the
 // zero-temperature stretch (discrete/stretch.hpp). Prepared state (the block sparsity

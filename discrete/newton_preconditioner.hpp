@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Prepared state of the stretch's Newton-type preconditioner: the network Hessian
 // (discrete/network_hessian.hpp) factorised by core/sparse_cholesky.hpp (CHOLMOD, supernodal,

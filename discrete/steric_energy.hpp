@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Steric face term of Model 1 (MODEL.md section 2, paper eq. (2) second sum; Boey,
 // Boal & Discher 1998): keeps the WLC network from collapsing.

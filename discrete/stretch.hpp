@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Zero-temperature optical-tweezers stretch of the discrete network: for each force, the
 // free energy is minimised (L-BFGS) from the previous equilibrium (continuation in force),

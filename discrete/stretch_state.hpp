@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The state a stretch leaves behind and a warm re-solve starts from: one equilibrium
 // (positions and the area/volume multipliers) per force. Shared by the discrete

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Optical-tweezers load (MODEL.md section 2, "Optical tweezers"; Mills et al. 2004).
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Worm-like-chain spectrin links through the universal energy density V(z)
 // (MODEL.md section 2; Hartmann 2008 eq. (5); Marko & Siggia 1995; Li et al. 2005 Table 1).

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Sphinx configuration of the rbc documentation site.
 
 Built by `cmake --build build --target docs` or `.ci/docs.sh [BUILD_DIR]`, always with warnings

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Option tables of the `rbc` sub-commands, read from the executable's own --help.
 
 As a Sphinx extension (listed in conf.py) it adds two directives, so the user guide's tables

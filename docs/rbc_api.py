@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Sphinx extension: one C++ header's API, in the header's own order, through Breathe.
 
     ```{rbc-header} discrete/stretch.hpp

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Runs the shell and Python blocks of the documentation pages and checks their stated numbers.
 
 Usage: /usr/bin/python3 docs/run_snippets.py [--build BUILD_DIR] [PAGE.md ...]

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Cross-check of the calibration: rbc.infer (TMCMC, the library behind `rbc infer`) against
 emcee (Foreman-Mackey et al. 2013, an independent, well-kept affine-invariant ensemble sampler)
 on the same likelihood, rbc.InferenceProblem.log_likelihood.

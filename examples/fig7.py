@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """The paper's Fig. 7 from Python: axial and transverse diameters against the optical-tweezers
 force, discrete network and continuum model against Mills et al. 2004, plotted with matplotlib.
 

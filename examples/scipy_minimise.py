@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Minimise the spectrin network's free energy with scipy.optimize instead of the project's own
 solver, and check that both land on the same equilibrium.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Fuzz target: the CSV reader (core/csv.cpp, parse_csv) and the Mills data file on top of it
 // (compare/experiment.cpp, parse_experiment). The only allowed failure is std::runtime_error; an
 // accepted table must keep the documented contract: every row as wide as the header, and an

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Fuzz target: the checks applied to the arrays of a loaded Monte Carlo checkpoint
 // (discrete/mc_checkpoint_arrays.cpp, check_mc_checkpoint_arrays) before rbc mc --resume uses
 // them. The input bytes are decoded into the arrays and counts of a checkpoint; every byte 0

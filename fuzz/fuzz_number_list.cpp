@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Fuzz target: the CLI's number and force lists (app/cli_util.cpp, parse_number_list and
 // parse_force_list). The only allowed failure is std::invalid_argument; an accepted list must
 // keep the documented contract: one finite value per comma-separated item (>= 0 for forces).

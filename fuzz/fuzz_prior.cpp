@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Fuzz target: the calibration's prior and parameter-list strings (calibrate/prior_spec.cpp,
 // `rbc infer --prior persistence=3:20 --params persistence,lmax`). The only allowed failure is
 // std::invalid_argument; an accepted prior must be a finite, non-empty, physical box (the

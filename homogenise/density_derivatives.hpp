@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // V(z) and its derivatives up to the fourth, as the orientation-averaged laws need them
 // (the smooth-in-b^2 forms of the full WLC average use V''' and V'''').

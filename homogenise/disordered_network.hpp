@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Disordered periodic spectrin networks: a jittered triangular lattice on a square torus,
 // triangulated by periodic Delaunay (homogenise/periodic_delaunay.hpp), every link and face

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Homogenised dissipation of the spectrin network (MODEL.md section 6): the cell problem for
 // the link dashpots (discrete/link_dashpot.hpp), R = sum_links gamma/2 (dL_e/dt)^2, under a

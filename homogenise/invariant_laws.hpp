@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Isotropic invariant-form densities Psi(I1, I2) of the homogenised hexagonal network
 // (MODEL.md section 3; Hartmann 2008 Sec. 3.4 and Appendix A), offered to continuum/

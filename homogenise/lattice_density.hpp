@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The anisotropic cell-problem density of the perfect hexagonal lattice (MODEL.md section 3;
 // Hartmann 2008 eq. (11), Theorem 3):

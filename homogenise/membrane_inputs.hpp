@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The in-plane material as a user states it: spectrin lengths in nm, temperature in K,
 // steric q and eta. Converted to internal units (um) once, here, for the sub-commands.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The contract between a constitutive law and the continuum finite elements (STYLE.md 4):
 // an isotropic areal strain-energy density Psi(I1, I2) with its first and second

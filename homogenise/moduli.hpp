@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Linear (small-strain) moduli of the homogenised spectrin network in closed form
 // (MODEL.md section 3; Hartmann 2008 Sec. 4.3). All moduli in pN/um (= uN/m).

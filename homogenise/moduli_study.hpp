@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The `rbc moduli` study as a library function (used by the CLI and the Python package):
 // closed-form moduli (Sec. 4.3), the paper's explicit formulas, and the numerical cell problem

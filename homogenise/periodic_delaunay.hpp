@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Periodic 2D Delaunay triangulation of a point set on a square torus. The only door to
 // CGAL (Periodic_2_Delaunay_triangulation_2, CGAL 5.5): it stays in periodic_delaunay.cpp,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The numerical cell problem (MODEL.md section 3; Hartmann 2008 Sec. 3.2-3.3, Theorems 2-3):
 // a periodic planar spectrin network carrying the SAME energy units as discrete/ (one

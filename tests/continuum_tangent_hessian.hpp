@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The constrained Hessian of a continuum equilibrium on its tangent space, dense: an
 // independent stability check for tests (strict minimum or saddle) and the implicit-function

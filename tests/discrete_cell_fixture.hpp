@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Shared fixture of the discrete tests: a small (N ~ 250) perturbed cell network carrying
 // a force and non-zero constraint multipliers, so that no energy term or derivative

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Observed order of the central-difference error of an energy term's derivatives (STYLE.md
 // 2; MFEM's practice). Along a seeded random unit direction d, the central differences

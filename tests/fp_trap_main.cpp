@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // GoogleTest main of the floating-point-trapping test configuration (cmake -DRBC_TRAP_FP=ON,
 // STYLE.md 8): enables hardware traps before any test runs, so an invalid operation (the
 // birth of a NaN: 0/0, inf - inf, sqrt(-1), ...) raises SIGFPE where it happens instead of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Parameter sets spanning the admissible range (units um, K), shared by the homogenise tests.
 #include <utility>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Where a test writes its files: a directory of its own inside the build tree, never a fixed
 // path under the shared temporary directory (two build trees running their suites at once must

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Uses an installed rbc (find_package(rbc), target rbc::continuum): the area of a continuum mesh
 // of the Evans-Fung rest shape and one optical-tweezers stretch of it, with the defaults of
 // `rbc stretch --model continuum --elements 500 --force 0,88` (the order-2 law of the default

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """rbc: multiscale red blood cell membrane mechanics (Hartmann 2008) from Python.
 
 The compiled core (``rbc._rbc``, pybind11) binds the C++ libraries directly -- not the ``rbc``

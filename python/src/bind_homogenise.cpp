@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Homogenisation (homogenise/): linear moduli in closed form and from the periodic cell
 // problem, as `rbc moduli` computes them, and the density Psi with its stress, as `rbc psi`.
 #include <Eigen/Dense>

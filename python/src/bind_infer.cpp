@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Bayesian calibration (calibrate/infer.hpp): the inference problem (data, forward model, prior
 // box, the likelihood `rbc infer` samples) and the TMCMC run, as `rbc infer` sets them up.
 #include <nlohmann/json.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Metropolis Monte Carlo of the network (discrete/mc_run.hpp), started as `rbc mc` starts it
 // (discrete/mc_workflow.hpp mc_zero_temperature_start: the zero-temperature equilibrium at the
 // force by the continuation mc_startup_forces(), on one OpenMP thread), its multipliers held

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Meshes: the Evans-Fung rest triangulation, continuum meshes and user meshes, with their
 // quality report; positions (N, 3) float64 um and faces (F, 3) int32 as views without copies.
 #include "common.hpp"

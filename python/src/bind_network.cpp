@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The spectrin network of Model 1 (discrete/network.hpp): its prepared state, the free energy
 // with gradient, and the sparse Hessian (discrete/network_hessian.hpp) for users' own solvers.
 #include "common.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Enums, parameter objects (natural units at the Python edge, the library's validate()) and the
 // shared helpers declared in common.hpp.
 #include <cmath>

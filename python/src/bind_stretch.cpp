@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The optical-tweezers stretch of both models, as `rbc stretch` runs it (app/cmd_stretch.cpp):
 // same meshes, parameters, solver options and continuation; the GIL is released while solving
 // and the solvers' cancel hooks poll Python's signal handlers.

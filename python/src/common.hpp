@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Shared helpers of the Python bindings: numpy views of Eigen storage (no copies where the
 // layout allows), enum arguments given as strings, the cancel hook and the parameter objects

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The `_rbc` extension module: bindings over the libraries (core, discrete, homogenise,
 // continuum); the pure-Python package `rbc` (python/rbc/) wraps it.
 #include "common.hpp"

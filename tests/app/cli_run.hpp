@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Runs the built `rbc` executable for a CLI test: exit code, stdout and stderr kept apart (JSON
 // is read from stdout alone, so a library warning on stderr cannot break it), OpenMP pinned to

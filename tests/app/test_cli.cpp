@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The command-line contract: bad input gives exit code 2 and one clear line, never a
 // crash or a partial file; good input gives the documented fields.
 #include <gtest/gtest.h>

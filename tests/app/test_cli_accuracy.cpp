@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc stretch --accuracy P%` against the committed trade-off table (data/tradeoff/): each
 // refusal exits 2 with one line before any work, and the chosen method's diameters meet P
 // against the table's own reference at two forces.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc dynamics`: bad input is refused with exit 2 before any work and nothing is
 // written; a step that does not converge is halved (bounded), said on stderr, and a trajectory
 // that still fails exits 1 with the residual in scientific notation; and the whole-cell

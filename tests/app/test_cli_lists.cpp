@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Number and force lists on the command line (app/cli_util.cpp, fuzzed by fuzz/fuzz_number_list):
 // every comma separates two items, so an empty item ("16," or "16,,38") is refused with exit 2
 // before any work, like any other malformed item.

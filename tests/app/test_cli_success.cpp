@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Success paths of the study commands (`rbc fig7`, `rbc tradeoff`, `rbc stability`, `rbc
 // report`): exit 0, every documented output present and parseable, and numbers that equal what
 // another command or a formula computes independently: a method's diameters equal `rbc stretch

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The reliability audit's input cases (shared/reliability/cases.md), one test each:
 // bad input is refused up front with exit 2 and one line "rbc: error: <option> <value>: ...",
 // before any work (each refusal takes well under a second) and without writing anything.

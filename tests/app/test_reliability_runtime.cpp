@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Runtime reliability of the `rbc` executable (start-up continuation, corrupt checkpoints,
 // interrupts, resume): random SIGINT/SIGTERM interrupts leave no temporary file, only complete and
 // readable outputs, a manifest that says what is complete and a checkpoint that resumes; exit

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc stretch --warm-start DIR`: a re-solve after a small parameter change from the
 // equilibria of an earlier `--out` reaches the same equilibrium as the cold continuation, in
 // fewer Newton iterations, and is refused (exit 2, naming what differs) unless the model, the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The forward model of the calibration: smooth contact patches, warm starts, determinism,
 // physical monotonicity.
 #include <gtest/gtest.h>

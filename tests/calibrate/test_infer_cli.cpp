@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc infer` from the command line: bad input exits 2 naming the value before any forward
 // run and leaves nothing behind; the posterior samples depend on the seed only (1 and 2
 // threads, 1 and 3 MPI ranks).

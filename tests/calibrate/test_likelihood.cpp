@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The Gaussian likelihood of force-diameter data and the checked data parser.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The --params and --prior parsers: good input parsed, bad input named.
 #include <gtest/gtest.h>
 

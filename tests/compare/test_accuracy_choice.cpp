@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The accuracy-cost study's pieces on synthetic data: Richardson chains, the reference
 // statistics, the table file, and the --accuracy choice with each of its refusals.
 #include <gtest/gtest.h>

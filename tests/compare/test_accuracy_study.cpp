@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The accuracy-cost study end to end on tiny sizes: run_accuracy_study's table recomputed in
 // the test from its own sweeps (reference = mean over the reference rotations; a row's error =
 // largest relative error of D_A and D_T, worst over its rotations, max over forces and per

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The verdicts on the paper's three claims (check_claims) on hand-built inputs whose verdict
 // follows from the claim's stated rule: below and above every threshold, one rounding step
 // either side of a threshold that no double reaches exactly, exactly at a threshold that one

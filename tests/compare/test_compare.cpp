@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // compare/: goodness of fit, reference extrapolation, Pareto front, and tiny end-to-end
 // runs of fig7, tradeoff, stability and report checking the files people open.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The Mills data file reader (compare/experiment.hpp): the project's two readings load with the
 // documented table, and every kind of bad file is refused naming the file, the row, the column
 // and the value (rbc infer --data-file passes user files through it).

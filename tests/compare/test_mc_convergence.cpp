@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // compare/mc_convergence: time to the same accuracy, Monte Carlo against the minimiser, on a
 // tiny network with a short budget (the study itself), plus the time-to-accuracy rule and
 // the input checks.

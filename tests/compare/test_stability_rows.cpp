@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Typed stability rows: a value the sweep did not reach is written as "not reached" (CSV) and
 // "reached": false without a value (JSON), never as inf, NaN or null.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Finite-difference check of a Hessian against its analytic gradient (STYLE.md 2; MFEM's
 // practice): along a seeded random unit direction d, the central difference of the

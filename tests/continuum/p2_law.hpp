@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // An independent closed-form p = 2 membrane law for the continuum tests, written straight
 // from MODEL.md section 3 (paper Sec. 3.4):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Convergence of the continuum model's Canham-Helfrich discretisation (Juelicher's operator,
 // shared with discrete/) under mesh refinement, against independent truths: 8 pi kappa on
 // the sphere, and the Evans-Fung surface's F_CH by 1D quadrature of the surface of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Membrane viscosity (continuum/membrane_viscosity.hpp): finite-difference gradient and
 // Hessian with second-order decay on a perturbed mesh, rigid-motion invariance, and the
 // closed-form dissipation of a homogeneous rate of deformation.

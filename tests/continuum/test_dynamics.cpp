@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Backward-Euler dynamics of the continuum membrane (continuum/dynamics.hpp): energy
 // decrease with exact constraints, first-order time-step convergence, the end of a stretch
 // at the static equilibrium, and the Kelvin-Voigt relaxation of a flat patch.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Factorisation reuse in the continuum backward-Euler step (continuum/dynamics.hpp): chord
 // steps across iterations and time steps, with the extrapolated start, converge to the same
 // trajectory as plain Newton (one fresh factorisation per iteration) within the step

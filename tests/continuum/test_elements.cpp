@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The continuum element kernels: membrane triangle (patch test, derivatives, invariance),
 // geometry Hessians, hinge and Juelicher-Helfrich Hessians (STYLE.md 2-3).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The continuum Newton method's switch from lagged to current Hessians far from the solution
 // (NewtonOptions::krylov_exact_when_far, core/shifted_newton.hpp): the same equilibria, with
 // fewer factorisations where the force steps are large.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The Canham-Helfrich rest-shape relaxation (continuum/relax.hpp relax_helfrich, behind
 // `rbc relax`) against independent truths:
 //  - a sphere at its own area and volume is stationary for any H0, with the closed-form

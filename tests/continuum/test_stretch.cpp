@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The assembled continuum model and its constrained Newton solver: full-model derivatives,
 // rigid-motion invariance, constraints held at every force, mesh convergence of the
 // diameters, agreement with L-BFGS, infeasible steps and non-convergence reported.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The continuum stretch on the mirror-symmetric states (NewtonOptions::symmetry,
 // core/mirror_symmetry.hpp) against the full problem: the same equilibria within the Newton
 // tolerance at every force, the reported residual is the full problem's (to rounding where the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Per-term finite-difference tests of the continuum model (STYLE.md 2): the
 // membrane element, the Helfrich (Juelicher) bending term and the area/volume constraint
 // curvature, each through its own unit, on a randomly perturbed mesh; the central-difference

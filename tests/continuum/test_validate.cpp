@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The validate() of the continuum options: defaults pass, every number finite and in
 // its documented range, the message naming quantity, range and value; the documented force bound.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Warm re-solve of the continuum stretch: after a 1 % change of the persistence
 // length, Newton from the previous parameters' equilibria reaches the cold continuation's
 // equilibrium within the solver tolerance, in fewer Newton iterations; a state of another

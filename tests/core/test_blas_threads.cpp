@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // core/blas_threads.hpp: the scoped BLAS thread count and what the process runs.
 #include "core/blas_threads.hpp"
 

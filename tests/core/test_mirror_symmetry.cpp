@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Mirror symmetry and the symmetry reduction (core/mirror_symmetry.hpp,
 // core/reduced_problem.hpp) against independent truths: the symmetry group of the icosphere
 // the rest shape is built from (a five-fold axis along z: the mirror y -> -y and the inversion

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // RestShapeOptions::rotation_seed: a uniformly random, reproducible turn of the
 // triangulation on the cell (the reference spread of the accuracy study rests on it).
 #include <gtest/gtest.h>

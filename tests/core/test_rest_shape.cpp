@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The Evans-Fung rest shape and its triangulations: vertex counts, input checks, the surface's
 // area and volume by the test's own quadrature of the MODEL.md profile (and the reference
 // constants against it), the meshes' second-order convergence to those measures, vertices on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The project's shifted Newton (core/shifted_newton.hpp) and sparse Cholesky
 // (core/sparse_cholesky.hpp) against closed forms: the minimiser of a separable quartic, the
 // closest point of a sphere (Lagrange multiplier known), a double well entered where the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The single-precision solve of a supernodal factor (core/supernodal_solve.hpp, through
 // SparseCholeskyOptions::solve_precision) against the double one: the error float rounding
 // allows and no less (it is a float solve), the same bits for one or several right-hand sides

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The atomic writers' temporary files (core/io.hpp): a temporary that is not committed is
 // removed on unwinding (exceptions, cancelled runs), a committed one replaces its target, and
 // the registry a signal handler empties lists exactly the live ones.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // core/validation.hpp: the one shared check every options struct's validate() uses.
 #include "core/validation.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The augmented-Lagrangian driver on a problem with a closed-form inner minimiser:
 // E(a, v) = 1/2 (a - c_a)^2 + 1/2 (v - c_v)^2 with the "area" a and the "volume" v held at
 // a0, v0. The augmented Lagrangian at multipliers (lA, lV) and penalty s k is minimised by

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Deterministic reductions: core/parallel.hpp splits elements into chunks that
 // depend on the element count only, so the energy and every gradient bit are the same with
 // 1, 2 and 3 OpenMP threads. The network (N ~ 17,000: ~51,000 links, ~34,000 faces) is large

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Link dashpots (discrete/link_dashpot.hpp): finite-difference gradient and Hessian with
 // second-order error decay on a perturbed mesh, rigid-motion invariance, the zero at x_n.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Backward-Euler dynamics of the discrete network (discrete/dynamics.hpp) and the recovery
 // fit of Hochmuth, Worthy & Evans (1979).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Finite-difference and invariance tests of every discrete energy term (STYLE.md 2-3).
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Checkpoint and restart of MC runs: a resumed run continues the same chain bit for bit; a
 // checkpoint of another network, a corrupt or truncated file is refused; no half file is left.
 #include <gtest/gtest.h>

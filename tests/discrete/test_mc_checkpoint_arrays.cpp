@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The checks applied to a loaded checkpoint's arrays (discrete/mc_checkpoint_arrays.hpp): a
 // checkpoint written from a real chain passes, and each way a file can lie is refused. The RNG
 // check reads GSL's mt19937 state through its own copy of the layout, so that layout is tested

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The Monte Carlo workflow of `rbc mc` / Python MonteCarlo as library functions
 // (discrete/mc_workflow.hpp): zero-temperature start, resume rules, summary JSON.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // "Adding a bending law touches one unit": a network model is the list of its terms
 // (discrete/network.hpp NetworkTerm); the production models are network_terms(net), and a test
 // builds its own model from a list that swaps in a test-only bending law, through the same

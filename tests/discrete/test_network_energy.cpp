@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The shared-geometry evaluation path (discrete/network_energy.hpp): one geometry
 // pass and one chain-rule assembly for the whole production list. Its oracle is the
 // term-by-term sum of the same list (each term's own kernel, finite-difference tested in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The stretch preconditioner's Hessian (discrete/network_hessian.hpp, element_hessian.hpp):
 // finite-difference checks of every second derivative (STYLE.md 2), the semidefinite
 // projection, and agreement of preconditioned and plain L-BFGS equilibria.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Physics of the discrete optical-tweezers stretch (the acceptance checks).
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The stretch's factorisation policy (StretchOptions::refactorise_at_force_start): keeping the
 // previous force's factorisation at the start of the next one reaches the same equilibria as
 // refactorising at every force start, within the solver tolerance, with fewer factorisations;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The discrete stretch on the mirror-symmetric states (StretchOptions::symmetry,
 // core/mirror_symmetry.hpp) against the full problem: the same equilibria within the effect of
 // the force tolerance at every force, with the Newton preconditioner and with plain L-BFGS;

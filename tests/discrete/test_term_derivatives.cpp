@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Per-term finite-difference tests (STYLE.md 2): every discrete energy term's
 // value, gradient and (where Newton uses it) Hessian, through the term's own unit, on a
 // randomly perturbed cell mesh; the central-difference error must decay at second order as

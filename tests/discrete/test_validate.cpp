@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The validate() of every discrete options struct: defaults pass; every number must be
 // finite and inside its documented range, and the message names the quantity, the range (in the
 // user's units) and the value.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Warm re-solve of the discrete stretch: after a 1 % change of the persistence
 // length, solving each force from the previous parameters' equilibria reaches the same
 // equilibrium as the cold continuation from the rest shape, within the solver tolerance,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The periodic cell problem (Theorem 3): the affine map minimises the perfect lattice,
 // Psi_hom equals the lattice density at every patch size, the numerical moduli equal the
 // closed forms, and the assembled gradient/Hessian pass finite differences.

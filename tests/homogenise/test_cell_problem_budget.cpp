@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Budgets of the cell problem (reliability case 31: `rbc moduli --cells 100` ran all 200 Newton
 // iterations at 1.1e-10 pN against a 1e-10 pN tolerance): a relaxation whose residual stalls at
 // the round-off floor ends there, with the affine map recovered (Theorem 3) and the floor

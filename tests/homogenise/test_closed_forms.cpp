@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Closed-form moduli (MODEL.md section 3, paper Sec. 4.3) and the density's higher
 // derivatives: reference numbers, an independent formula, and finite differences.
 #include <gtest/gtest.h>

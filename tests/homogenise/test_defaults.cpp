@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Every default defined once: the library's internal-unit defaults are the natural-
 // unit constants of core/defaults.hpp through the one conversion, so a front end converting a
 // user's (default) nm/J input gets the same bits as a library user taking the struct defaults.

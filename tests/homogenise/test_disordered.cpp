@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Disordered periodic networks from periodic Delaunay: topology on the torus, relaxation
 // lowers energy and stiffness, the Schur tangent is the second derivative of the relaxed
 // energy, and X = 0 recovers the lattice.

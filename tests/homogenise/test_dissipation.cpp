@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Homogenised dissipation of the link dashpots (homogenise/dissipation.hpp) and the
 // relaxation of a periodic network patch under backward Euler (MODEL.md section 6).
 #include <gtest/gtest.h>

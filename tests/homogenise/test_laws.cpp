@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Invariant-form laws Psi_p(I1, I2) and the anisotropic lattice density Psi(F):
 // Appendix A against GSL quadrature over the lattice orientation, symmetry and isotropy,
 // finite-difference tests of every derivative, and the domain.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The library form of `rbc moduli`: the Theorem 3 check (Hartmann 2008 Sec. 3.4) against its
 // closed form and invariances, and the study's JSON against the closed-form moduli.
 #include <gtest/gtest.h>

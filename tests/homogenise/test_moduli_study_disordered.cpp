@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The disordered-network moduli study (run_moduli_study with ModuliNetwork::disordered, the
 // library form of `rbc moduli --network disordered`) against independent truths:
 //  - its seed statistics are the mean and sample standard deviation of per-seed cell problems

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Validation of the homogenisation inputs: the user's membrane parameters (nm, K) and
 // the disordered-network options, every number finite and in its documented range.
 #include <gtest/gtest.h>

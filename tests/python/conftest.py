@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Shared fixtures of the Python package tests (run by ctest with PYTHONPATH=build/python,
 RBC_EXECUTABLE=build/rbc and OMP_NUM_THREADS=1, so every reduction sums in one order and the
 CLI and the package give bit-identical numbers)."""

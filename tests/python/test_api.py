@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """The Python edge: defaults and validation as the CLI's (ValueError naming quantity, value and
 expectation), enums accepted as strings, numpy views without copies, meshio conversion,
 non-convergence reported per force and raised only when asked."""

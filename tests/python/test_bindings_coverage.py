@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Bindings checked against independent truths: rbc.network_energy_parts (its parts sum to
 rbc.network_energy's total; the tweezer, constraint and penalty parts follow their formulas,
 evaluated here in numpy), rbc.MonteCarlo.series (its length, sweeps and last sample follow the

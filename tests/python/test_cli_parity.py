@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """The package computes what the CLI computes: same inputs, same numbers (exact comparisons of
 the JSON fields, apart from wall-clock timings)."""
 import numpy as np

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """The GIL is released during solves: two Python threads solving at once give the results of one
 after the other; spawn process pools work after OpenMP has run; Ctrl-C (KeyboardInterrupt) and a
 cancel callback stop long work through the library's cancel hook."""

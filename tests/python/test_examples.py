@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """The examples run (at small sizes) and say what they should."""
 import os
 import subprocess

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """rbc.infer (TMCMC, calibrate/) from Python: the CLI's numbers for the same inputs, bad input
 named, and the emcee cross-check of examples/emcee_crosscheck.py at small size (one parameter,
 a cheap likelihood)."""

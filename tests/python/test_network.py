@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """rbc.network_energy and rbc.network_hessian against finite differences taken from Python, and a
 scipy minimisation of the network energy against the project's own equilibrium."""
 import os

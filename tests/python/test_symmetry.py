@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """rbc.stretch(symmetry="mirror"), both models: the points say how each force was solved
 (symmetry_order, symmetry_broken), the package gives what `rbc stretch --symmetry mirror` gives,
 the mirror-reduced equilibria are the full ones within the force tolerance's effect, and a

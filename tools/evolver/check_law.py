@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Check that the Evolver datafile of make_fe.py carries the project's p = 2 law exactly.
 
 At a deformed shape written by `rbc stretch --model continuum --out DIR` (DIR/shape_*.h5),

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Run the continuum p = 2 force sweep in Surface Evolver and in rbc, one after the other,
 and tabulate time, diameters, residual and drift side by side.
 

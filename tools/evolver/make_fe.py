@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Write a Surface Evolver datafile (.fe) of the project's continuum p = 2 stretch scene.
 
 Not part of the build or the test suite: a comparison kit (speed against

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Accuracy and cost of the mirror-planes triangulation (rbc stretch --mesh-orientation
 mirror-planes) against the default one, over the 13 Mills forces.
 

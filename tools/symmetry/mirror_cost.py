@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Process CPU of a 13-force Mills sweep without and with the mirror symmetry, one thread.
 
 Usage: /usr/bin/python3 tools/symmetry/mirror_cost.py [--rbc build/rbc]
