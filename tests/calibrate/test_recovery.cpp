@@ -1,5 +1,6 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Parameter recovery: data simulated with the project's own model, inferred back with it.
-// Its own executable (ctest label `calibrate`): ~26 s of CPU at 200 elements.
+// Its own executable (ctest label `calibrate`): ~20 s of CPU at 200 elements, 200 samples.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -47,14 +48,26 @@ std::string simulate_data(const std::string& name, const ForwardOptions& fo,
 // Parameter recovery (acceptance item): data simulated with the project's own model at two
 // parameter sets away from the paper's (p = 7.5 nm, Lmax = 237.75 nm), noise sd 0.05 um on
 // every diameter (error bars 0.05 um, no reading uncertainty); inference of persistence and
-// lmax with the same model. For a correct sampler each 90 % interval holds the truth with
-// probability 0.9; the noise seeds are the first ones tried. A second, tighter-false-alarm
-// check: |posterior mean - truth| < 3.3 posterior sd (0.1 % per check for a Gaussian posterior).
+// lmax with the same model. The seeds are fixed (not selected to pass).
+// Check: |posterior mean - truth| < 4.5 posterior sd for each parameter and set (4 checks).
+// Its false-alarm rate: (mean - truth)/sd = (Z + e)/r, where Z = (exact posterior mean -
+// truth)/(exact sd) is N(0, 1) over the noise for a linearised model (flat prior, Gaussian
+// noise; the posterior is a narrow ridge, so the model is close to linear across it), and e =
+// (sample mean - exact mean)/(exact sd), r = sample sd / exact sd are the sampler's Monte Carlo
+// errors. On a ridge (the posterior correlation of p and Lmax is -0.95 to -0.997) a population
+// of 200 keeps few independent points, so e and r matter: running TMCMC with these options (200
+// samples, 2 Metropolis steps, 4 islands) 4,000 times on a Gaussian of correlation 0.997 in a
+// box of the same relative size (+-5 sd) gives e of sd 0.29 and r of mean 1.07, sd 0.15 and
+// 0.1 % quantile 0.69. Averaging P(|Z + e| > 4.5 r) over those runs gives 5.9e-5 per check:
+// 2.4e-4 over the test (Bonferroni; 1.0e-3 at 4 sd). At 60 samples e has sd 0.66 and r falls to
+// 0.39: 6.5 sd would be needed for the same rate, and 3.3 sd fails 3.4 % of the runs.
+// Power: detects a bias of the pipeline above ~5 posterior sd (p: ~6 nm, Lmax: ~80 nm at this
+// noise).
 // Prior box p 3:16 nm, Lmax 150:300 nm: a 4 x 4 grid over it converges at every point at
 // continuum:2:200 and these forces (D_A(150 pN) from 9.0 to 22.4 um); beyond it (p > 16 nm
 // with Lmax > 300 nm) the cell stretches past D_A = 25 um and Newton slows to linear
 // convergence (calibrate/forward_model.hpp), so failures there would end the run.
-TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
+TEST(Recovery, PosteriorMeansLieWithinFourAndAHalfSdOfTheTruthForTwoParameterSets) {
   const ForwardOptions fo = small_options();
   struct Set {
     double p_nm, lmax_nm;
@@ -70,11 +83,11 @@ TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
     o.parameters = {Parameter::persistence, Parameter::lmax};
     o.priors = {{Parameter::persistence, 3, 16}, {Parameter::lmax, 150, 300}};
     o.reading_uncertainty_um = 0;
-    o.sampler.samples = 60;
+    o.sampler.samples = 200;
     o.sampler.chain_length = 2;
     o.sampler.seed = 5;
     // OpenBLAS's process-wide count, at a value no default gives: run_inference runs its forward
-    // solves on one BLAS thread and gives the caller's count back (it used to leave 1 for good).
+    // solves on one BLAS thread and gives the caller's count back.
     const int blas_before = &openblas_get_num_threads ? openblas_get_num_threads() : 0;
     if (&openblas_set_num_threads) {
       const int omp_threads = omp_get_max_threads();
@@ -95,9 +108,7 @@ TEST(Recovery, NinetyPercentIntervalsContainTheTruthForTwoParameterSets) {
       const Summary& q = r.parameters[k];
       std::cout << q.name << ": truth " << t[k] << ", mean " << q.mean << " sd " << q.sd
                 << ", 90 % [" << q.q05 << ", " << q.q95 << "]\n";
-      EXPECT_LT(q.q05, t[k]) << q.name << " truth " << t[k];
-      EXPECT_GT(q.q95, t[k]) << q.name << " truth " << t[k];
-      EXPECT_LT(std::abs(q.mean - t[k]), 3.3 * q.sd) << q.name;
+      EXPECT_LT(std::abs(q.mean - t[k]), 4.5 * q.sd) << q.name << " truth " << t[k];
     }
   }
 }
