@@ -26,7 +26,9 @@ CommandRun rbc(const std::string& args) {
   // and a shared file let one case read the other's messages.
   const std::string err = std::string(RBC_BINARY_DIR) + "/test_output/warm_stderr_" +
                           ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".txt";
-  const std::string cmd = std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2>" + err;
+  // Two OpenMP threads in every run: warm and cold runs are compared across processes.
+  const std::string cmd =
+      "OMP_NUM_THREADS=2 " + std::string(RBC_BINARY_DIR) + "/rbc " + args + " 2>" + err;
   FILE* p = popen(cmd.c_str(), "r");
   std::string out;
   std::array<char, 512> buf{};
