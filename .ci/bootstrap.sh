@@ -35,17 +35,7 @@ if ((!lean)); then
              python3-sphinx python3-myst-parser python3-breathe doxygen furo
              python3-sphinx-copybutton python3-sphinxcontrib.bibtex)
 fi
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "installing missing packages: ${missing[*]}" >&2
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
-fi
+.ci/apt_install.sh "${packages[@]}"
 
 options=(-DCMAKE_BUILD_TYPE=Release)
 command -v ccache >/dev/null &&  # ccache when present (not required)

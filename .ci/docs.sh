@@ -14,18 +14,7 @@ build=$(realpath -m "${1:-build}")
 
 packages=(python3-sphinx python3-myst-parser python3-breathe doxygen furo
           python3-sphinx-copybutton python3-sphinxcontrib.bibtex)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "docs: installing ${missing[*]}" >&2
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-    "${missing[@]}" >/dev/null
-fi
+.ci/apt_install.sh "${packages[@]}"
 
 if [ ! -f "$build/CMakeCache.txt" ]; then
   echo "docs: $build is not a configured build directory (run ./test.sh or cmake first)" >&2
