@@ -74,8 +74,7 @@ int main(int argc, char** argv) {
   CLI::App app{"rbc - multiscale red blood cell membrane mechanics (Hartmann 2008 model)"};
   app.require_subcommand(1, 1);
   app.fallthrough(false);
-  app.set_version_flag("--version", rbc::version_string(),
-                       "Print the version (core/version.hpp) and exit");
+  app.set_version_flag("--version", rbc::version_string(), "Print the version and exit");
   rbc::app::Action action;
   rbc::app::add_mesh_command(app, action);
   rbc::app::add_stretch_command(app, action);

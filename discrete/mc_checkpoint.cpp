@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <sstream>
 #include <stdexcept>
 #include <tuple>
 
@@ -51,10 +50,6 @@ void check_format(const H5File& h, const std::string& path) {
                            std::to_string(kFormat) + ")");
 }
 
-std::string hex(std::uint64_t v) {
-  return hex_digits(v);
-}
-
 }  // namespace
 
 std::uint64_t network_fingerprint(const Network& net) {
@@ -97,7 +92,7 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
             kMcSampleColumns);
     h.write_attribute("series_rows", static_cast<long long>(cp.series.size()));
     h.write_attribute("format", kFormat);
-    h.write_attribute("fingerprint", hex(network_fingerprint(net)));
+    h.write_attribute("fingerprint", hex_digits(network_fingerprint(net)));
     h.write_attribute("vertices", static_cast<long long>(net.topo.num_vertices));
     h.write_attribute("bending_model", to_string(net.bending_model));
     h.write_attribute("faces", static_cast<long long>(net.topo.num_faces()));
@@ -125,7 +120,7 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     std::vector<int> mobile = u.sampler.mobile;
     if (mobile.empty()) mobile.push_back(-1);  // -1: every vertex moves
     h.write("/mobile", mobile.data(), hsize_t(mobile.size()), 1);
-    h.write_attribute(kChecksumAttribute, hex(h.content_checksum(kChecksumAttribute)));
+    h.write_attribute(kChecksumAttribute, hex_digits(h.content_checksum(kChecksumAttribute)));
     h.close();
   }
   tmp.commit();
@@ -153,13 +148,13 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   const long long nv = h.read_attribute_int("vertices"), nf = h.read_attribute_int("faces");
   const std::string fp = h.read_attribute_string("fingerprint");
   if (nv != net.topo.num_vertices || nf != net.topo.num_faces() ||
-      fp != hex(network_fingerprint(net)))
+      fp != hex_digits(network_fingerprint(net)))
     throw std::invalid_argument("checkpoint '" + path + "' belongs to another network (" +
                                 std::to_string(nv) + " vertices, " + std::to_string(nf) +
                                 " faces, fingerprint " + fp + "; this network has " +
                                 std::to_string(net.topo.num_vertices) + " vertices, " +
                                 std::to_string(net.topo.num_faces()) + " faces, fingerprint " +
-                                hex(network_fingerprint(net)) + ")");
+                                hex_digits(network_fingerprint(net)) + ")");
   // Every array is read, then checked as a whole (discrete/mc_checkpoint_arrays.hpp), then used.
   McCheckpointArrays a;
   a.vertices = nv;
