@@ -18,17 +18,19 @@ if [ "${1:-}" = "--lean" ]; then
 fi
 
 # What `rbc` links and runs: compilers, the libraries, OpenBLAS's OpenMP build (the one the
-# BLAS thread tests assume), gnuplot (rbc fig7 and tradeoff plot through it), Google Benchmark
+# BLAS thread tests assume), gnuplot (rbc fig7 and tradeoff plot through it), Python with
+# numpy, h5py, meshio and matplotlib (the pictures of cells: rbc render), Google Benchmark
 # (rbc bench) and Open MPI (rbc infer under mpirun).
 packages=(build-essential cmake pkg-config libeigen3-dev libcgal-dev libgsl-dev libhdf5-dev
           libcli11-dev nlohmann-json3-dev libbenchmark-dev libsuitesparse-dev libopenblas0-openmp
-          gnuplot-nox libopenmpi-dev openmpi-bin)
+          gnuplot-nox python3-numpy python3-h5py python3-meshio python3-matplotlib
+          libopenmpi-dev openmpi-bin)
 if ((!lean)); then
   # The test suite, the Python package and its tests (the install check makes a virtual
   # environment: venv, setuptools, wheel), the fuzz targets (clang with libFuzzer and its
   # sanitizer runtimes) and the documentation.
-  packages+=(libgtest-dev libgmock-dev pybind11-dev python3-dev python3-numpy python3-scipy
-             python3-pytest python3-matplotlib python3-meshio python3-emcee python3-h5py
+  packages+=(libgtest-dev libgmock-dev pybind11-dev python3-dev python3-scipy
+             python3-pytest python3-emcee
              python3-venv python3-setuptools python3-wheel
              clang libfuzzer-14-dev libclang-rt-14-dev
              # the documentation site (docs/, .ci/docs.sh)

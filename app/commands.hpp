@@ -27,5 +27,6 @@ void add_moduli_command(CLI::App& app, Action& action);
 void add_psi_command(CLI::App& app, Action& action);
 void add_dynamics_command(CLI::App& app, Action& action);
 void add_infer_command(CLI::App& app, Action& action);
+void add_render_command(CLI::App& app, Action& action);
 
 }  // namespace rbc::app

@@ -89,6 +89,7 @@ int main(int argc, char** argv) {
   rbc::app::add_psi_command(app, action);
   rbc::app::add_dynamics_command(app, action);
   rbc::app::add_infer_command(app, action);
+  rbc::app::add_render_command(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
