@@ -205,8 +205,9 @@ def plot_shapes(shapes: Sequence[Shape], out_png: str, field: Optional[str] = No
     height = max(hi[1] - lo[1] for lo, hi in spans)
     rows = len(shapes)
     inches_per_um = 8.6 / sum(widths)
-    fig = plt.figure(figsize=(10.0, rows * (height * inches_per_um + 0.45) +
-                              (0.4 if title else 0.0)))
+    # At least 3.6 inches tall, so the colour bar's label fits beside one row.
+    fig = plt.figure(figsize=(10.0, max(3.6, rows * (height * inches_per_um + 0.45) +
+                                        (0.4 if title else 0.0))))
     grid = fig.add_gridspec(rows, 2, width_ratios=widths, left=0.01, right=0.86, wspace=0.04,
                             hspace=0.3, bottom=0.02, top=0.9 if title else 0.94)
     for r, (shape, value) in enumerate(zip(shapes, values)):
