@@ -140,6 +140,32 @@ def read_shapes(path: str) -> list:
     return shapes
 
 
+def diameters_um(points_um) -> tuple:
+    """(D_A, D_T) as rbc measures them (core/geometry.hpp): D_A = max x - min x, and D_T the
+    largest extent perpendicular to x, the diameter of the points projected on the y-z plane
+    (the largest distance between two corners of their convex hull)."""
+    points = _np.asarray(points_um, dtype=float)
+    axial = float(points[:, 0].max() - points[:, 0].min())
+    pts = sorted(set(map(tuple, points[:, 1:3])))
+    if len(pts) < 2:
+        return axial, 0.0
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    hull = []
+    for sweep in (pts, pts[::-1]):  # Andrew's monotone chain: lower, then upper hull
+        part = []
+        for q in sweep:
+            while len(part) >= 2 and cross(part[-2], part[-1], q) <= 0:
+                part.pop()
+            part.append(q)
+        hull.extend(part[:-1])
+    corners = _np.asarray(hull)
+    gaps = corners[:, None, :] - corners[None, :, :]
+    return axial, float(_np.sqrt((gaps ** 2).sum(axis=-1).max()))
+
+
 def _field_label(field: str) -> str:
     """House style: the micro sign, real subscripts, units in parentheses."""
     labels = {
@@ -217,7 +243,7 @@ def plot_shapes(shapes: Sequence[Shape], out_png: str, field: Optional[str] = No
         normals = normals / _np.where(lengths > 0, lengths, 1.0)
         rgb = cmap(norm(value))
         rgb[:, :3] *= (0.55 + 0.45 * light.shade_normals(normals, fraction=0.8))[:, None]
-        extent = shape.points_um.max(axis=0) - shape.points_um.min(axis=0)
+        axial_um, transverse_um = diameters_um(shape.points_um)
         for c, ((view, elev, azim), (lo, hi)) in enumerate(zip(views, spans)):
             ax = fig.add_subplot(grid[r, c])
             flat, depth = _project(polys.reshape(-1, 3), elev, azim)
@@ -232,8 +258,8 @@ def plot_shapes(shapes: Sequence[Shape], out_png: str, field: Optional[str] = No
             ax.set_aspect("equal")
             ax.set_axis_off()
             if c == 0:
-                ax.set_title(f"{shape.label}: $D_\\mathrm{{A}}$ = {extent[0]:.2f} µm, "
-                             f"$D_\\mathrm{{T}}$ = {extent[1]:.2f} µm", loc="left",
+                ax.set_title(f"{shape.label}: $D_\\mathrm{{A}}$ = {axial_um:.2f} µm, "
+                             f"$D_\\mathrm{{T}}$ = {transverse_um:.2f} µm", loc="left",
                              fontsize=10)
             elif r == 0:
                 ax.set_title(view, fontsize=9, color="0.4")

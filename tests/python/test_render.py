@@ -76,6 +76,21 @@ def test_the_view_from_above_has_the_ellipsoids_aspect_ratio(tmp_path):
     assert w_oblique > 1.5 * h_oblique
 
 
+def test_the_diameters_are_rbcs_d_a_and_d_t():
+    # The grid holds the ellipsoid's equator points on the x and y axes: D_A = 2a, D_T = 2b.
+    points, _ = ellipsoid(6.0, 3.0, 1.5)
+    assert render.diameters_um(points) == pytest.approx((12.0, 6.0), rel=1e-12)
+    # D_T is the widest extent across x in any direction, not the extent along y: turned by
+    # 30 degrees about x, the cell keeps its diameters.
+    t = np.radians(30.0)
+    turn = np.array([[1, 0, 0], [0, np.cos(t), -np.sin(t)], [0, np.sin(t), np.cos(t)]])
+    assert render.diameters_um(points @ turn.T) == pytest.approx((12.0, 6.0), rel=1e-12)
+    # Against all pairs of points of an irregular cloud.
+    cloud = np.random.default_rng(3).normal(size=(300, 3))
+    pairs = np.sqrt(((cloud[:, None, 1:] - cloud[None, :, 1:]) ** 2).sum(axis=-1)).max()
+    assert render.diameters_um(cloud)[1] == pytest.approx(pairs, rel=1e-12)
+
+
 def test_a_vertex_field_is_averaged_over_each_triangles_corners(tmp_path):
     points, faces = ellipsoid(2.0, 2.0, 1.0, n=6)
     write_shape(tmp_path / "s.h5", points, faces)
