@@ -150,19 +150,19 @@ void edit(rbc::StageCheckpointArrays& a, Bytes& in) {
       edit_table(a.stage_log, in);
       break;
     case 11:
-      edit_table(a.accumulators[0].second, in);
-      break;
     case 12:
-      edit_table(a.accumulators[1].second, in);
+      if (!a.accumulators.empty())
+        edit_table(a.accumulators[field % a.accumulators.size()].second, in);
       break;
     case 13:
-      a.accumulators[in.next() % 2].first = "other";
+      if (!a.accumulators.empty()) a.accumulators[in.next() % a.accumulators.size()].first = "x";
       break;
     case 14:
-      if (in.next() % 2)
-        a.accumulators.pop_back();
-      else
+      if (in.next() % 2) {
+        if (!a.accumulators.empty()) a.accumulators.pop_back();
+      } else {
         a.accumulators.push_back({"extra", {{1}, 1, 1}});
+      }
       break;
     case 15:
       a.runs = count(in.next());

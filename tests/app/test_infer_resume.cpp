@@ -308,6 +308,20 @@ TEST(InferResume, MpiRunWithAKilledRankResumesOnOneRankToTheStraightPosterior) {
   ASSERT_EQ(r.exit_code, 0) << r.all();
   expect_same_posterior(straight, out);
   EXPECT_EQ(json::parse(read_text(out / "summary.json"))["timing"]["ranks"], 1);
+
+  // SIGTERM to mpirun: it passes SIGTERM to the ranks and kills them shortly after; rank 0
+  // says at once where the last complete stage is (mpirun's exit status is its own: 1).
+  const fs::path term = dir / "term";
+  const Interrupted t = interrupt_run(args, term, 0, SIGTERM, 1, np2);
+  if (t.mid_run) {
+    EXPECT_NE(t.exit_code, 0) << t.log;
+    EXPECT_NE(t.log.find("rbc: SIGTERM received: stopping; the last complete stage is in " +
+                         (term / "checkpoint.h5").string()),
+              std::string::npos)
+        << t.log;
+  } else {
+    std::cerr << "note: the mpirun run finished before SIGTERM reached its ranks\n";
+  }
 }
 
 /// Exit 2, one "rbc: error:" line naming `expect`, and nothing new in the directory.

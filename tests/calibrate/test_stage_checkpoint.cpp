@@ -302,9 +302,23 @@ TEST(StageCheckpointArrays, InconsistentArraysAreRefused) {
        [](auto& a) {
          a.state_offsets.values = {0, 2, 3};
        }},
-      {"schedule not from 0", [](auto& a) { a.schedule.values[0] = 0.1; }},
-      {"schedule decreasing", [](auto& a) { a.schedule.values[1] = 1.0; }},
-      {"schedule above 1", [](auto& a) { a.schedule.values[2] = 1.5; }},
+      {"schedule not from 0",
+       [](auto& a) {
+         a.schedule.values[0] = 0.1;
+         a.stage_log.values[1] = 0.1;
+       }},
+      // The schedule edits keep the stage log in step, so only the schedule's own check can
+      // refuse them.
+      {"schedule decreasing",
+       [](auto& a) {
+         a.schedule.values[2] = 0.4;
+         a.stage_log.values[2 * kStageLogColumns + 1] = 0.4;
+       }},
+      {"schedule above 1",
+       [](auto& a) {
+         a.schedule.values[2] = 1.5;
+         a.stage_log.values[2 * kStageLogColumns + 1] = 1.5;
+       }},
       {"stage log beta", [](auto& a) { a.stage_log.values[kStageLogColumns + 1] = 0.4; }},
       {"stage log numbering", [](auto& a) { a.stage_log.values[kStageLogColumns] = 2; }},
       {"runs disagree", [](auto& a) { a.runs = 10; }},
