@@ -403,6 +403,9 @@ void add_infer_command(CLI::App& app, Action& action) {
       }
       r.command = own_command_line();
       if (!out.empty()) write_inference(r, out);
+      // A signal during the writing (which does not poll): the outputs are complete, the exit
+      // status still says the run was interrupted (130/143).
+      throw_if_cancelled(interrupt_check());
       if (c->json)
         std::cout << inference_json(r) << "\n";
       else
