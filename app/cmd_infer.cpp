@@ -3,18 +3,24 @@
 // (MODEL.md section 7; calibrate/infer.hpp). Under mpirun every rank runs this command; rank 0
 // samples and writes, the others serve forward runs (calibrate/mpi_executor.hpp).
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <iterator>
 #include <memory>
+#include <optional>
+#include <thread>
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/interrupt.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
+#include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
 
 namespace rbc::app {
@@ -33,7 +39,7 @@ struct InferCli {
   int threads = 0;
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   Symmetry symmetry = ForwardOptions::default_newton().symmetry;
-  std::string out;
+  std::string out, resume;
   bool json = false, overwrite = false, quiet = false, forward_check = false, trace = false;
   int repeat = 1;  ///< --forward-check: warm sweeps timed (median reported)
   std::vector<std::string> at;
@@ -151,11 +157,52 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.target_cov = c.target_cov;
   o.sampler.proposal_scale = c.proposal_scale;
   o.sampler.seed = c.seed;
+  o.sampler.cancel = interrupt_check();  // polled between stages and between chains
   o.threads = c.threads;
   o.force_tolerance_pN = c.force_tolerance_pN;
   o.symmetry = c.symmetry;
   o.validate();
   return o;
+}
+
+/// The output directory of the run (--resume DIR: DIR), checked before any work: a resumed
+/// run's directory must hold a checkpoint; a new run's must be empty (--force-overwrite aside)
+/// and, when it holds a checkpoint, the message names --resume.
+std::string checked_output_directory(const InferCli& c) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (c.resume.empty()) {
+    if (!c.out.empty() && !c.overwrite && fs::exists(fs::path(c.out) / kStageCheckpointName, ec))
+      throw std::invalid_argument("--out " + c.out +
+                                  ": holds the checkpoint of an earlier run; continue it with "
+                                  "--resume " +
+                                  c.out + " or start anew with --force-overwrite");
+    if (!c.out.empty()) check_output_directory(c.out, c.overwrite);
+    return c.out;
+  }
+  if (c.forward_check) throw std::invalid_argument("--resume: not with --forward-check");
+  if (!c.out.empty() && fs::weakly_canonical(c.out, ec) != fs::weakly_canonical(c.resume, ec))
+    throw std::invalid_argument("--out " + c.out +
+                                ": a resumed run writes into its own "
+                                "directory " +
+                                c.resume + " (leave --out out)");
+  if (!fs::is_directory(c.resume, ec))
+    throw std::invalid_argument("--resume " + c.resume + ": no such directory");
+  if (!fs::is_regular_file(fs::path(c.resume) / kStageCheckpointName, ec))
+    throw std::invalid_argument("--resume " + c.resume + ": no " + kStageCheckpointName +
+                                " in it (rbc infer --out DIR writes one after every stage)");
+  prepare_output_directory(c.resume, false, /*allow_nonempty=*/true);
+  return c.resume;
+}
+
+/// Removes the temporaries of checkpoint writes a killed run left behind (best effort).
+void remove_stale_checkpoint_temporaries(const std::string& dir) {
+  namespace fs = std::filesystem;
+  const std::string prefix = "." + std::string(kStageCheckpointName) + ".partial";
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.path().filename().string().rfind(prefix, 0) == 0 && e.is_regular_file(ec))
+      fs::remove(e.path(), ec);
 }
 
 void print_summary(const InferenceResult& r) {
@@ -207,7 +254,9 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_option("--proposal-scale", c->proposal_scale,
                   "proposal sd in units of the weighted sample sd (beta)")
       ->capture_default_str();
-  cmd->add_option("--seed", c->seed, "random seed (the posterior depends on it only)")
+  cmd->add_option("--seed", c->seed,
+                  "random seed, an integer in [0, 2^64 - 1] (the posterior depends on it only)")
+      ->check(unsigned_integer())
       ->capture_default_str();
   cmd->add_option("--threads", c->threads, "OpenMP threads for forward runs (0: OMP_NUM_THREADS)")
       ->capture_default_str();
@@ -222,7 +271,12 @@ void add_infer_command(CLI::App& app, Action& action) {
       ->type_name("TEXT")
       ->default_str(to_string(ForwardOptions::default_newton().symmetry));
   cmd->add_option("--out", c->out,
-                  "output directory (summary, samples, corner and predictive plots)");
+                  "output directory (summary, samples, corner and predictive plots; " +
+                      std::string(kStageCheckpointName) + " after every stage)");
+  cmd->add_option("--resume", c->resume,
+                  "continue the run whose --out was DIR from its last complete stage, into DIR "
+                  "(repeat the run's other options; threads and MPI ranks may differ)")
+      ->type_name("DIR");
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
   cmd->add_flag("--forward-check", c->forward_check,
                 "no inference: one cold and one warm forward sweep at the --at parameters "
@@ -242,12 +296,14 @@ void add_infer_command(CLI::App& app, Action& action) {
       const char* rank_env = std::getenv("OMPI_COMM_WORLD_RANK");
       const bool master = !rank_env || std::string(rank_env) == "0";
       // Everything that can be wrong with the input is found here, on every rank, before MPI
-      // starts and before any forward run.
+      // starts and before any forward run (the checkpoint of --resume: rank 0, below, before
+      // any forward run too).
       InferOptions o;
       std::unique_ptr<InferenceProblem> problem;
+      std::string out;
       try {
         o = to_options(*c);
-        if (!c->out.empty()) check_output_directory(c->out, c->overwrite);
+        out = checked_output_directory(*c);
         problem = std::make_unique<InferenceProblem>(o);
       } catch (const std::exception&) {
         if (!master) return 2;  // rank 0 names the error
@@ -259,7 +315,40 @@ void add_infer_command(CLI::App& app, Action& action) {
         for (const auto& a : c->at) apply_at(a, at);
         return forward_check(*problem, at, c->trace, c->repeat);
       }
+      // SIGINT/SIGTERM: the sampler stops between chains (calibrate/tmcmc.hpp), the last
+      // complete stage stays in the checkpoint, main() exits 130/143 (app/interrupt.hpp).
+      make_cancellable();
       const ProgressSink progress = stderr_progress(c->quiet || !master);
+      const std::string checkpoint = out.empty() ? std::string() : out + "/" + kStageCheckpointName;
+      std::optional<SamplerState> resume_state;
+      const auto checkpointing = [&] {
+        InferCheckpointing k;
+        k.path = checkpoint;
+        if (!c->resume.empty()) {
+          resume_state = load_stage_checkpoint(checkpoint, *problem, "--resume " + c->resume);
+          remove_stale_checkpoint_temporaries(out);
+          k.resume = &*resume_state;
+        }
+        return k;
+      };
+      std::atomic<bool> told{false};  // the interrupt note was printed
+      const auto tell_interrupted = [&] {
+        if (told.exchange(true)) return;
+        std::cerr << "rbc: " << interrupt_name() << " received: stopping"
+                  << (checkpoint.empty() || !std::filesystem::exists(checkpoint)
+                          ? std::string()
+                          : "; the last complete stage is in " + checkpoint +
+                                ", continue with --resume " + out)
+                  << "\n";
+      };
+      const auto run = [&](const ExecutorFactory& factory) {
+        try {
+          return run_inference(*problem, progress, factory, checkpointing());
+        } catch (const Cancelled&) {
+          tell_interrupted();
+          throw;
+        }
+      };
       InferenceResult r;
       if (mpi) {
         MpiSession session;
@@ -270,19 +359,41 @@ void add_infer_command(CLI::App& app, Action& action) {
             std::cerr << "rbc: error: MPI rank " << session.rank() << ": " << e.what() << "\n";
             session.abort(1);
           }
-          return 0;
+          return interrupt_signal() != 0 ? interrupt_exit_code() : 0;
         }
         report(progress, "MPI: " + std::to_string(session.size()) +
                              " ranks (master computes too), one chain per rank at a time");
+        // mpirun answers SIGINT/SIGTERM by signalling every rank and killing it about a second
+        // later (Open MPI 4.1), maybe before the next poll (a forward run, the outputs): the
+        // note is printed as soon as the signal is seen.
+        std::atomic<bool> finished{false};
+        std::thread watcher([&] {
+          const CancelCheck interrupted = interrupt_check();
+          while (!finished.load()) {
+            if (interrupted()) {
+              tell_interrupted();
+              return;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+          }
+        });
+        struct Join {
+          std::atomic<bool>& finished;
+          std::thread& t;
+          ~Join() {
+            finished = true;
+            t.join();
+          }
+        } join{finished, watcher};
         struct Stop {
           ~Stop() { mpi_stop_workers(); }
         } stop;
-        r = run_inference(*problem, progress, [](const InferenceProblem& p) {
-          return mpi_master_executor(p.prior(), p.likelihood());
+        r = run([](const InferenceProblem& p) {
+          return mpi_master_executor(p.prior(), p.likelihood(), p.options().sampler.cancel);
         });
         r.ranks = session.size();
       } else {
-        r = run_inference(*problem, progress);
+        r = run({});
       }
       if (r.status != TmcmcStatus::converged) {
         std::cerr << "rbc: error: inference stopped (" << to_string(r.status)
@@ -291,14 +402,18 @@ void add_infer_command(CLI::App& app, Action& action) {
         return 1;
       }
       r.command = own_command_line();
-      if (!c->out.empty()) write_inference(r, c->out);
+      if (!out.empty()) write_inference(r, out);
+      // A signal during the writing (which does not poll): the outputs are complete, the exit
+      // status still says the run was interrupted (130/143).
+      throw_if_cancelled(interrupt_check());
       if (c->json)
         std::cout << inference_json(r) << "\n";
       else
         print_summary(r);
-      if (!c->out.empty() && !c->json)
-        std::cout << "outputs: " << c->out
-                  << "/summary.json, posterior_samples.{csv,h5}, corner.png, predictive.png\n";
+      if (!out.empty() && !c->json)
+        std::cout << "outputs: " << out
+                  << "/summary.json, posterior_samples.{csv,h5}, corner.png, predictive.png, "
+                  << kStageCheckpointName << "\n";
       return 0;
     };
   });

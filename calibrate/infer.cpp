@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calibrate/stage_checkpoint.hpp"
 #include "compare/experiment.hpp"
 #include "core/blas_threads.hpp"
 #include "core/geometry.hpp"
@@ -196,12 +197,33 @@ LinearModuli sample_moduli(const ForwardParameters& p) {
 
 InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress,
                               const ExecutorFactory& factory) {
+  return run_inference(problem, progress, factory, InferCheckpointing{});
+}
+
+InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress,
+                              const ExecutorFactory& factory,
+                              const InferCheckpointing& checkpointing) {
   const InferOptions& o = problem.options();
   // One BLAS thread for the run's duration only (forward_model.hpp, use_single_threaded_blas):
   // a Python session's numpy gets its threads back afterwards.
   const ScopedProcessBlasThreads single_blas(1);
   const Executor executor =
-      factory ? factory(problem) : omp_executor(problem.prior(), problem.likelihood(), o.threads);
+      factory ? factory(problem)
+              : omp_executor(problem.prior(), problem.likelihood(), o.threads, o.sampler.cancel);
+  TmcmcContinuation continuation;
+  continuation.resume = checkpointing.resume;
+  if (!checkpointing.path.empty()) {
+    continuation.checkpoint = [inputs = posterior_inputs(problem),
+                               path = checkpointing.path](const SamplerState& s) {
+      write_stage_checkpoint(path, inputs, s);
+    };
+  }
+  if (const SamplerState* s = checkpointing.resume) {
+    std::ostringstream m;
+    m << "resuming after stage " << s->stage << " (beta = " << std::setprecision(4)
+      << s->schedule.back() << ", forward runs " << s->counts.runs << ")";
+    report(progress, m.str());
+  }
   const auto on_stage = [&](const StageInfo& s) {
     std::ostringstream m;
     m << "stage " << s.stage << ": beta = " << std::setprecision(4) << s.beta << ", acceptance "
@@ -211,7 +233,7 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
     report(progress, m.str());
   };
   const TmcmcResult t =
-      run_tmcmc(problem.likelihood(), problem.prior(), o.sampler, executor, on_stage);
+      run_tmcmc(problem.likelihood(), problem.prior(), o.sampler, executor, on_stage, continuation);
   InferenceResult r;
   r.status = t.status;
   for (Parameter p : o.parameters) {
@@ -266,6 +288,7 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   r.seed = o.sampler.seed;
   // The threads the forward runs used (the executor's count; MPI: per rank).
   r.threads = factory ? o.threads : (o.threads > 0 ? o.threads : omp_get_max_threads());
+  r.resumed_from_stage = checkpointing.resume ? checkpointing.resume->stage : -1;
   return r;
 }
 
@@ -335,6 +358,7 @@ std::string inference_json(const InferenceResult& r) {
   j["reading_uncertainty_um"] = r.reading_uncertainty_um;
   j["command"] = r.command;
   j["timing"] = {{"wall_s", r.wall_s}, {"threads", r.threads}, {"ranks", r.ranks}};
+  if (r.resumed_from_stage >= 0) j["timing"]["resumed_from_stage"] = r.resumed_from_stage;
   return j.dump(2);
 }
 

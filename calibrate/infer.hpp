@@ -128,6 +128,7 @@ struct InferenceResult {
   double reading_uncertainty_um = 0;
   int vertices = 0, elements = 0, samples_per_stage = 0, threads = 0, ranks = 1;
   std::uint64_t seed = 0;
+  int resumed_from_stage = -1;  ///< the checkpoint's stage a resumed run started from; -1: none
 };
 
 /// Makes the executor for a problem (e.g. calibrate/mpi_executor.hpp's master); empty =
@@ -139,6 +140,20 @@ using ExecutorFactory = std::function<Executor(const InferenceProblem&)>;
 /// forward runs failed (the caller exits 1).
 InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress = {},
                               const ExecutorFactory& executor = {});
+/// Stage checkpoints of a run (calibrate/stage_checkpoint.hpp).
+struct InferCheckpointing {
+  /// Written atomically after every completed stage (stage 0 included); empty: none.
+  std::string path;
+  /// Continue from this state (load_stage_checkpoint) instead of starting from the prior.
+  const SamplerState* resume = nullptr;
+};
+/// The same, writing and/or continuing from stage checkpoints. A run continued from a
+/// checkpoint of the same problem gives the straight run's result, bit for bit, apart from
+/// the timing fields (wall_s, stages' elapsed_s, threads, ranks, resumed_from_stage). Polls
+/// options().sampler.cancel between stages and, with the default executor, between chains.
+InferenceResult run_inference(const InferenceProblem& problem, const ProgressSink& progress,
+                              const ExecutorFactory& executor,
+                              const InferCheckpointing& checkpointing);
 /// Convenience: builds the problem and runs it.
 InferenceResult run_inference(const InferOptions& options, const ProgressSink& progress = {});
 

@@ -134,8 +134,9 @@ void MpiSession::abort(int code) const {
   std::exit(code);
 }
 
-Executor mpi_master_executor(const PriorBox& prior, const Likelihood& likelihood) {
-  return [&prior, &likelihood](const StageSetup& setup, std::vector<ChainTask>& tasks) {
+Executor mpi_master_executor(const PriorBox& prior, const Likelihood& likelihood,
+                             CancelCheck cancel) {
+  return [&prior, &likelihood, cancel](const StageSetup& setup, std::vector<ChainTask>& tasks) {
     int size = 1;
     MPI_Comm_size(MPI_COMM_WORLD, &size);
     const SingleThreadScope one_thread;
@@ -153,11 +154,17 @@ Executor mpi_master_executor(const PriorBox& prior, const Likelihood& likelihood
     };
     for (int rep = 0; rep < kDepth; ++rep)
       for (int w = 1; w < size && next < n; ++w) send(w);
-    while (done < n) {
+    bool cancelled = false;
+    // Cancelled: no further chain starts; the ones handed out are collected (done == next).
+    while (done < (cancelled ? next : n)) {
+      if (!cancelled && cancel && cancel()) {
+        cancelled = true;
+        continue;
+      }
       int flag = 0;
       MPI_Status st;
       check(MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, MPI_COMM_WORLD, &flag, &st), "MPI_Iprobe");
-      if (flag || next >= n) {
+      if (flag || next >= n || cancelled) {
         const std::vector<double> b =
             receive(flag ? st.MPI_SOURCE : MPI_ANY_SOURCE, kTagResult, st);
         unpack_result(b, tasks);
@@ -165,12 +172,13 @@ Executor mpi_master_executor(const PriorBox& prior, const Likelihood& likelihood
         const int w = st.MPI_SOURCE;
         MPI_Wait(&inflight[w].front().request, MPI_STATUS_IGNORE);  // its oldest task
         inflight[w].pop_front();
-        if (next < n) send(w);
+        if (next < n && !cancelled) send(w);
       } else {
         run_chain(setup, prior, likelihood, tasks[next++]);  // the master computes too
         ++done;
       }
     }
+    if (cancelled) throw Cancelled();
   };
 }
 

@@ -41,7 +41,10 @@ class MpiSession {
 };
 
 /// The master's executor (rank 0). Call mpi_stop_workers() when done (also after an error).
-Executor mpi_master_executor(const PriorBox& prior, const Likelihood& likelihood);
+/// With `cancel`, polled before each chain is handed out: once it is true no further chain
+/// starts, the chains in flight are collected and the executor throws rbc::Cancelled.
+Executor mpi_master_executor(const PriorBox& prior, const Likelihood& likelihood,
+                             CancelCheck cancel = {});
 /// Releases every worker from mpi_worker_loop (rank 0; idempotent).
 void mpi_stop_workers();
 /// A worker's loop (ranks > 0): serves chains until the master stops it.

@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -160,11 +161,14 @@ void run_chain(const StageSetup& setup, const PriorBox& prior, const Likelihood&
   }
 }
 
-Executor omp_executor(const PriorBox& prior, const Likelihood& likelihood, int threads) {
-  return [&prior, &likelihood, threads](const StageSetup& setup, std::vector<ChainTask>& tasks) {
+Executor omp_executor(const PriorBox& prior, const Likelihood& likelihood, int threads,
+                      CancelCheck cancel) {
+  return [&prior, &likelihood, threads, cancel](const StageSetup& setup,
+                                                std::vector<ChainTask>& tasks) {
     const int n = static_cast<int>(tasks.size());
     const int nt = threads > 0 ? threads : omp_get_max_threads();
     std::exception_ptr error;
+    std::atomic<bool> stop{false};
 #pragma omp parallel num_threads(nt)
     {
       // Inner parallel regions (the likelihood's assembly loops) at one thread, also when
@@ -172,16 +176,29 @@ Executor omp_executor(const PriorBox& prior, const Likelihood& likelihood, int t
       omp_set_num_threads(1);
 #pragma omp for schedule(dynamic)
       for (int i = 0; i < n; ++i) {
+        if (stop.load(std::memory_order_relaxed)) continue;
         try {
+          if (cancel && cancel()) {
+            stop = true;
+            continue;
+          }
           run_chain(setup, prior, likelihood, tasks[i]);
         } catch (...) {
+          stop = true;
 #pragma omp critical(rbc_tmcmc_error)
           if (!error) error = std::current_exception();
         }
       }
     }
     if (error) std::rethrow_exception(error);
+    if (stop) throw Cancelled();
   };
+}
+
+const std::vector<double>& SamplerState::accumulator(const std::string& name) const {
+  for (const auto& [key, values] : accumulators)
+    if (key == name) return values;
+  throw std::invalid_argument("sampler state has no accumulator '" + name + "'");
 }
 
 double weight_cov(const Eigen::VectorXd& l, double db) {
@@ -212,41 +229,79 @@ double next_tempering_exponent(const Eigen::VectorXd& l, double beta, double tar
   return beta + std::max(hi, 1e-300);
 }
 
+namespace {
+constexpr const char* kIslandAccumulator = "log_evidence_island";
+constexpr const char* kDeltaAccumulator = "delta_method_variance";
+
+/// Throws std::invalid_argument unless `s` can continue a run of these options and prior.
+void check_resume_state(const SamplerState& s, const PriorBox& prior, const TmcmcOptions& o) {
+  const auto refuse = [](const std::string& what) {
+    throw std::invalid_argument("cannot continue the stored sampler state: " + what);
+  };
+  if (s.sampler != "tmcmc") refuse("it was written by sampler '" + s.sampler + "', not tmcmc");
+  const int n = o.samples, d = prior.dimension();
+  if (s.theta.rows() != n || s.theta.cols() != d)
+    refuse("population of " + std::to_string(s.theta.rows()) + " x " +
+           std::to_string(s.theta.cols()) + ", expected " + std::to_string(n) + " x " +
+           std::to_string(d));
+  if (s.log_likelihood.size() != n || static_cast<int>(s.states.size()) != n)
+    refuse("log-likelihoods or warm states do not match the population");
+  if (s.stage < 0 || static_cast<int>(s.schedule.size()) != s.stage + 1 ||
+      static_cast<int>(s.stages.size()) != s.stage + 1)
+    refuse("schedule or stage log does not match stage " + std::to_string(s.stage));
+  if (s.schedule.front() != 0.0 || !(s.schedule.back() <= 1.0))
+    refuse("tempering schedule does not run from 0 towards 1");
+  if (static_cast<int>(s.accumulator(kIslandAccumulator).size()) != o.islands)
+    refuse(std::to_string(s.accumulator(kIslandAccumulator).size()) + " islands, expected " +
+           std::to_string(o.islands));
+  if (s.accumulator(kDeltaAccumulator).size() != 1) refuse("malformed accumulators");
+  for (int i = 0; i < n; ++i) {
+    std::vector<double> theta(d);
+    for (int k = 0; k < d; ++k) theta[k] = s.theta(i, k);
+    if (!prior.contains(theta))
+      refuse("sample " + std::to_string(i) + " lies outside the prior box");
+  }
+}
+}  // namespace
+
 TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
                       const TmcmcOptions& options, const Executor& executor_in,
                       const StageCallback& on_stage) {
+  return run_tmcmc(likelihood, prior, options, executor_in, on_stage, TmcmcContinuation{});
+}
+
+TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
+                      const TmcmcOptions& options, const Executor& executor_in,
+                      const StageCallback& on_stage, const TmcmcContinuation& continuation) {
   options.validate();
   prior.validate();
   if (prior.dimension() != likelihood.dimension())
     throw std::invalid_argument("prior box has " + std::to_string(prior.dimension()) +
                                 " coordinates but the likelihood " +
                                 std::to_string(likelihood.dimension()));
+  const SamplerState* resume = continuation.resume;
+  if (resume) check_resume_state(*resume, prior, options);
   const auto t0 = std::chrono::steady_clock::now();
+  // A continued run's clock goes on from the stored stage's (timing only: never compared).
+  const double elapsed_before = resume ? resume->stages.back().elapsed_s : 0.0;
   const auto elapsed = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return elapsed_before +
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   const Executor executor = executor_in ? executor_in : omp_executor(prior, likelihood);
   const int n = options.samples, d = prior.dimension();
   TmcmcResult result;
 
-  // Stage 0: prior draws.
   std::vector<ChainTask> tasks(n);
-  for (int i = 0; i < n; ++i) {
-    NormalStream rng(stream_seed(options.seed, 0, i, kPriorDraw));
-    tasks[i].index = i;
-    tasks[i].theta.resize(d);
-    for (int k = 0; k < d; ++k)
-      tasks[i].theta[k] = prior.lower[k] + rng.uniform() * (prior.upper[k] - prior.lower[k]);
-  }
   StageSetup setup;
   setup.seed = options.seed;
-  executor(setup, tasks);
   double beta = 0, var_log_z = 0;
   const int islands = options.islands;
   const auto island_begin = [n, islands](int b) {
     return static_cast<int>(static_cast<long long>(b) * n / islands);
   };
   std::vector<double> log_z_island(islands, 0.0);
+  std::vector<double> schedule = {0.0};
   int stage = 0;
   auto collect = [&](StageInfo& info) {
     long long proposed = 0, accepted = 0;
@@ -259,11 +314,55 @@ TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
     info.forward_runs = result.counts.runs;
     info.elapsed_s = elapsed();
   };
-  {
+  // The state after a completed stage, handed to the checkpoint callback.
+  auto hand_out_state = [&] {
+    if (!continuation.checkpoint) return;
+    SamplerState s;
+    s.stage = stage;
+    s.theta.resize(n, d);
+    s.log_likelihood.resize(n);
+    s.states.resize(n);
+    for (int i = 0; i < n; ++i) {
+      for (int k = 0; k < d; ++k) s.theta(i, k) = tasks[i].theta[k];
+      s.log_likelihood(i) = tasks[i].log_likelihood;
+      s.states[i] = tasks[i].state;
+    }
+    s.schedule = schedule;
+    s.accumulators = {{kIslandAccumulator, log_z_island}, {kDeltaAccumulator, {var_log_z}}};
+    s.counts = result.counts;
+    s.stages = result.stages;
+    continuation.checkpoint(s);
+  };
+  if (resume) {
+    for (int i = 0; i < n; ++i) {
+      tasks[i].index = i;
+      tasks[i].theta.resize(d);
+      for (int k = 0; k < d; ++k) tasks[i].theta[k] = resume->theta(i, k);
+      tasks[i].log_likelihood = resume->log_likelihood(i);
+      tasks[i].state = resume->states[i];
+    }
+    stage = resume->stage;
+    schedule = resume->schedule;
+    beta = schedule.back();
+    log_z_island = resume->accumulator(kIslandAccumulator);
+    var_log_z = resume->accumulator(kDeltaAccumulator).front();
+    result.counts = resume->counts;
+    result.stages = resume->stages;
+  } else {
+    // Stage 0: prior draws.
+    for (int i = 0; i < n; ++i) {
+      NormalStream rng(stream_seed(options.seed, 0, i, kPriorDraw));
+      tasks[i].index = i;
+      tasks[i].theta.resize(d);
+      for (int k = 0; k < d; ++k)
+        tasks[i].theta[k] = prior.lower[k] + rng.uniform() * (prior.upper[k] - prior.lower[k]);
+    }
+    executor(setup, tasks);
     StageInfo info;
     info.unique_fraction = 1.0;
     collect(info);
     result.stages.push_back(info);
+    hand_out_state();
     if (on_stage) on_stage(info);
   }
   Eigen::VectorXd l(n);
@@ -357,11 +456,13 @@ TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
     tasks = std::move(next_tasks);
     executor(setup, tasks);
     beta = next;
+    schedule.push_back(beta);
     info.stage = stage;
     info.beta = beta;
     info.unique_fraction = static_cast<double>(unique) / n;
     collect(info);
     result.stages.push_back(info);
+    hand_out_state();
     if (on_stage) on_stage(info);
   }
   if (result.status == TmcmcStatus::converged && failed_too_often())

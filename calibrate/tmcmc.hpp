@@ -162,8 +162,11 @@ void run_chain(const StageSetup& setup, const PriorBox& prior, const Likelihood&
 using Executor = std::function<void(const StageSetup&, std::vector<ChainTask>&)>;
 
 /// OpenMP executor: one task per thread, schedule(dynamic); inner parallel regions of the
-/// likelihood run at one thread. threads <= 0: OpenMP's default.
-Executor omp_executor(const PriorBox& prior, const Likelihood& likelihood, int threads = 0);
+/// likelihood run at one thread. threads <= 0: OpenMP's default. With `cancel`, polled before
+/// each task: once it is true no further task starts and the executor throws rbc::Cancelled
+/// when the running ones are done (the stage is abandoned; the previous stage's state stands).
+Executor omp_executor(const PriorBox& prior, const Likelihood& likelihood, int threads = 0,
+                      CancelCheck cancel = {});
 
 /// Per-stage diagnostics.
 struct StageInfo {
@@ -195,10 +198,46 @@ struct TmcmcResult {
 /// Called after each stage (progress, checks). May be empty.
 using StageCallback = std::function<void(const StageInfo&)>;
 
+/// A population sampler's state after a completed stage: everything the next stage needs, in
+/// a layout that names no sampler internals beyond "population + schedule + accumulators"
+/// (calibrate/stage_checkpoint.hpp stores it in a file). TMCMC's next stage depends on this
+/// state and the options only (Determinism above), so a run continued from it ends with the
+/// same samples, evidence and stage log as a run that never stopped, bit for bit.
+struct SamplerState {
+  std::string sampler = "tmcmc";   ///< which sampler wrote it
+  int stage = 0;                   ///< stages completed after the prior draws (0: prior only)
+  Eigen::MatrixXd theta;           ///< population, samples x dimension
+  Eigen::VectorXd log_likelihood;  ///< per sample (-infinity: failed forward run)
+  std::vector<WarmState> states;   ///< per sample (the likelihood's warm states)
+  std::vector<double> schedule;    ///< tempering exponents beta_0 = 0, ..., beta_stage
+  /// Named running sums of the sampler. TMCMC: "log_evidence_island" (log Z_b so far, one per
+  /// island) and "delta_method_variance" (sum_j cov_j^2 / N, one value).
+  std::vector<std::pair<std::string, std::vector<double>>> accumulators;
+  ForwardCounts counts;           ///< forward runs so far
+  std::vector<StageInfo> stages;  ///< the stage log, stages 0..stage
+  /// The accumulator called `name`; throws std::invalid_argument if there is none.
+  const std::vector<double>& accumulator(const std::string& name) const;
+};
+
+/// How a run starts and what it hands out after every stage.
+struct TmcmcContinuation {
+  /// Continue from this state instead of drawing from the prior (nullptr: a new run). It must
+  /// come from a run with the same likelihood, prior and options (std::invalid_argument
+  /// otherwise, where the state can tell).
+  const SamplerState* resume = nullptr;
+  /// Called with the state after every completed stage, stage 0 included, before on_stage
+  /// (e.g. to write a checkpoint). May be empty.
+  std::function<void(const SamplerState&)> checkpoint;
+};
+
 /// Runs TMCMC with the executor (omp_executor(prior, likelihood) when empty).
 TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
                       const TmcmcOptions& options, const Executor& executor = {},
                       const StageCallback& on_stage = {});
+/// The same, continuing a stored state and/or handing out the state after every stage.
+TmcmcResult run_tmcmc(const Likelihood& likelihood, const PriorBox& prior,
+                      const TmcmcOptions& options, const Executor& executor,
+                      const StageCallback& on_stage, const TmcmcContinuation& continuation);
 
 /// Bisection for the next exponent: the smallest db in (0, 1 - beta] with
 /// cov(exp(db (l - max l))) >= target, or 1 - beta if cov stays below target. Returns beta + db.

@@ -1,0 +1,428 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// `rbc infer --resume DIR`: a run killed with SIGKILL during a stage (1 or 2 OpenMP threads, or
+// one rank of `mpirun -np 2`) or stopped by SIGTERM resumes from its last complete stage to the
+// posterior of a straight run, number for number: samples, summary (timing and command line
+// aside), predictive band, marginals. A resume is refused with exit 2, one line and nothing
+// written when the checkpoint is missing, corrupt or of other inputs; seeds outside
+// [0, 2^64 - 1] are refused.
+//
+// The problem: continuum p = 2 on 200 elements, three forces, two parameters, 40 samples,
+// two Metropolis steps, target coefficient of variation 0.5: five stages of ~0.1-0.5 s each, so
+// a kill after stage 1 or 2 lands inside a later stage.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cli_run.hpp"
+#include "core/h5file.hpp"
+#include "core/io.hpp"
+#include "test_output.hpp"
+
+namespace rbc {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const std::string kRbc = std::string(RBC_BINARY_DIR) + "/rbc";
+const std::string kMpirun = RBC_MPIRUN;
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// The small data file of the header, written into dir.
+std::string data_file(const fs::path& dir) {
+  const fs::path p = dir / "small.csv";
+  std::ofstream(p) << "force_pN,axial_um,axial_err_um,transverse_um,transverse_err_um\n"
+                      "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n90,13.8,1.2,4.6,0.6\n";
+  return p.string();
+}
+
+std::vector<std::string> problem_args(const std::string& data, const std::string& seed = "3") {
+  return {"infer",
+          "--method",
+          "continuum:2:200",
+          "--samples",
+          "40",
+          "--chain-length",
+          "2",
+          "--target-cov",
+          "0.5",
+          "--seed",
+          seed,
+          "--params",
+          "persistence,sigma-scale",
+          "--data-file",
+          data};
+}
+
+std::string joined(const std::vector<std::string>& args) {
+  std::string s;
+  for (const auto& a : args) s += (s.empty() ? "" : " ") + a;
+  return s;
+}
+
+/// Runs `launcher... rbc args...` with OMP_NUM_THREADS=threads, stdout and stderr to `log`.
+pid_t spawn(const std::vector<std::string>& launcher, const std::vector<std::string>& args,
+            int threads, const fs::path& log) {
+  std::vector<std::string> all = launcher;
+  all.push_back(kRbc);
+  all.insert(all.end(), args.begin(), args.end());
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      dup2(fd, 1);
+      dup2(fd, 2);
+      close(fd);
+    }
+    setenv("OMP_NUM_THREADS", std::to_string(threads).c_str(), 1);
+    setenv("OMP_WAIT_POLICY", "passive", 1);
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execvp(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+/// Exit code, or -signal for a child a signal ended.
+int wait_child(pid_t pid) {
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+}
+
+/// The pid of `rank` among the children of mpirun (OMPI_COMM_WORLD_RANK in its environment).
+pid_t rank_pid(pid_t mpirun, int rank) {
+  const std::string want = "OMPI_COMM_WORLD_RANK=" + std::to_string(rank);
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    const std::string stat = read_text(e.path() / "stat");
+    const size_t close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    int ppid = 0;
+    char state = 0;
+    if (std::sscanf(stat.c_str() + close + 1, " %c %d", &state, &ppid) != 2 || ppid != mpirun)
+      continue;
+    const std::string env = read_text(e.path() / "environ");
+    for (size_t b = 0; b < env.size();) {
+      const size_t end = std::min(env.find('\0', b), env.size());
+      if (env.compare(b, end - b, want) == 0) return static_cast<pid_t>(std::stoi(name));
+      b = end + 1;
+    }
+  }
+  return -1;
+}
+
+struct Interrupted {
+  int exit_code = 0;     ///< of the killed process (or of mpirun)
+  bool mid_run = false;  ///< the signal arrived before the run finished
+  std::string log;       ///< its stdout and stderr
+};
+
+/// Starts the problem with --out dir, waits until stage `after` is reported (its checkpoint is
+/// written before the report), then sends `sig` to the process (or, under mpirun, to the rank
+/// `rank`'s process). If the run finishes first, the checkpoint of stage `after` (copied the
+/// moment it was reported) replaces the final one and the outputs are removed, so the resume
+/// still starts mid-way.
+Interrupted interrupt_run(const std::vector<std::string>& args, const fs::path& dir, int after,
+                          int sig, int threads, const std::vector<std::string>& launcher = {},
+                          int rank = -1) {
+  const fs::path log = dir.string() + ".log";
+  std::vector<std::string> a = args;
+  a.insert(a.end(), {"--out", dir.string()});
+  const pid_t pid = spawn(launcher, a, threads, log);
+  const std::string marker = "stage " + std::to_string(after) + ":";
+  const fs::path snapshot = dir.string() + ".stage.h5";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  bool seen = false;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (read_text(log).find(marker) != std::string::npos) {
+      seen = true;
+      break;
+    }
+    if (waitpid(pid, nullptr, WNOHANG) == pid) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  Interrupted r;
+  if (seen) {
+    fs::copy_file(dir / "checkpoint.h5", snapshot, fs::copy_options::overwrite_existing);
+    kill(rank >= 0 ? rank_pid(pid, rank) : pid, sig);
+  }
+  r.exit_code = seen ? wait_child(pid) : -1000;
+  r.log = read_text(log);
+  r.mid_run = seen && !fs::exists(dir / "summary.json");
+  if (seen && !r.mid_run) {  // finished first: resume from the stage's checkpoint instead
+    for (const char* f : {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
+                          "predictive.csv", "corner_marginals.csv"})
+      fs::remove(dir / f);
+    fs::copy_file(snapshot, dir / "checkpoint.h5", fs::copy_options::overwrite_existing);
+  }
+  return r;
+}
+
+long long checkpoint_stage(const fs::path& dir) {
+  return H5File::open_read((dir / "checkpoint.h5").string()).read_attribute_int("stage");
+}
+
+json summary_without_timing(const fs::path& dir) {
+  json j = json::parse(read_text(dir / "summary.json"));
+  j.erase("timing");
+  j.erase("command");  // names the output directory and --resume
+  return j;
+}
+
+/// Every posterior output of b equals a's, number for number (timing fields aside).
+void expect_same_posterior(const fs::path& a, const fs::path& b) {
+  SCOPED_TRACE(a.string() + " vs " + b.string());
+  for (const char* f : {"posterior_samples.csv", "predictive.csv", "corner_marginals.csv"}) {
+    const CsvTable x = read_csv((a / f).string()), y = read_csv((b / f).string());
+    EXPECT_EQ(x.header, y.header) << f;
+    ASSERT_FALSE(x.rows.empty()) << f;
+    EXPECT_EQ(x.rows, y.rows) << f;  // exact: == on every double
+  }
+  EXPECT_EQ(summary_without_timing(a), summary_without_timing(b));
+  std::vector<double> xs, ys;
+  const H5File ha = H5File::open_read((a / "posterior_samples.h5").string());
+  const H5File hb = H5File::open_read((b / "posterior_samples.h5").string());
+  EXPECT_EQ(ha.read("samples", xs), hb.read("samples", ys));
+  EXPECT_EQ(xs, ys);
+  EXPECT_EQ(ha.read_attribute_double("log_evidence"), hb.read_attribute_double("log_evidence"));
+}
+
+testing::CliRun resume(const std::vector<std::string>& args, const fs::path& dir, int threads) {
+  return testing::run_rbc(joined(args) + " --resume " + dir.string(), threads);
+}
+
+/// A shell command (mpirun ...) with OpenMP at one passive thread; stderr into stdout.
+testing::CliRun shell(const std::string& cmd) {
+  testing::CliRun r;
+  FILE* p = popen(("OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive " + cmd + " 2>&1").c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) r.out.append(buf, n);
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.err = r.out;
+  return r;
+}
+
+TEST(InferResume, KilledOrInterruptedRunsResumeToTheStraightPosteriorOnOneAndTwoThreads) {
+  const fs::path dir = testing::fresh_output_dir("infer_resume_threads");
+  const auto args = problem_args(data_file(dir));
+  const fs::path straight = dir / "straight";
+  const testing::CliRun s = testing::run_rbc(joined(args) + " -q --out " + straight.string(), 1);
+  ASSERT_EQ(s.exit_code, 0) << s.all();
+  const long long stages = json::parse(read_text(straight / "summary.json"))["stages"];
+  ASSERT_GE(stages, 4) << "the problem must have stages to kill in";
+  EXPECT_EQ(checkpoint_stage(straight), stages);  // the last checkpoint is of the last stage
+
+  struct Case {
+    std::string name;
+    int signal, after, threads, resume_threads;
+  };
+  for (const Case& c : {Case{"kill_t1", SIGKILL, 2, 1, 2}, Case{"kill_t2", SIGKILL, 1, 2, 1},
+                        Case{"term_t1", SIGTERM, 1, 1, 1}}) {
+    SCOPED_TRACE(c.name);
+    const fs::path out = dir / c.name;
+    const Interrupted k = interrupt_run(args, out, c.after, c.signal, c.threads);
+    ASSERT_NE(k.exit_code, -1000) << "stage " << c.after << " never reported: " << k.log;
+    if (k.mid_run) {
+      EXPECT_EQ(k.exit_code, c.signal == SIGKILL ? -SIGKILL : 143) << k.log;
+      if (c.signal == SIGTERM) {
+        EXPECT_NE(k.log.find("rbc: interrupted by SIGTERM"), std::string::npos) << k.log;
+        EXPECT_NE(k.log.find("continue with --resume " + out.string()), std::string::npos) << k.log;
+      }
+      EXPECT_FALSE(fs::exists(out / "summary.json"));
+    } else {
+      std::cerr << "note: " << c.name << " finished before the signal; resuming from stage "
+                << c.after << "'s checkpoint\n";
+    }
+    const long long from = checkpoint_stage(out);
+    EXPECT_GE(from, c.after);
+    EXPECT_LT(from, stages);
+    // What a kill during a checkpoint write leaves: the temporary, cut short (the resume
+    // removes it).
+    std::ofstream(out / ".checkpoint.h5.partial-999999") << "cut short";
+    const testing::CliRun r = resume(args, out, c.resume_threads);
+    ASSERT_EQ(r.exit_code, 0) << r.all();
+    EXPECT_NE(r.err.find("resuming after stage " + std::to_string(from)), std::string::npos)
+        << r.err;
+    expect_same_posterior(straight, out);
+    const json t = json::parse(read_text(out / "summary.json"))["timing"];
+    EXPECT_EQ(t["resumed_from_stage"], from);
+    EXPECT_EQ(t["threads"], c.resume_threads);
+    // No temporary left behind by the killed run's writes.
+    for (const auto& e : fs::directory_iterator(out))
+      EXPECT_EQ(e.path().filename().string().find(".partial"), std::string::npos) << e.path();
+  }
+}
+
+TEST(InferResume, MpiRunWithAKilledRankResumesOnOneRankToTheStraightPosterior) {
+  if (kMpirun.empty()) GTEST_SKIP() << "mpirun not found";
+  const fs::path dir = testing::fresh_output_dir("infer_resume_mpi");
+  const auto args = problem_args(data_file(dir));
+  const std::vector<std::string> np2 = {
+      kMpirun, "--allow-run-as-root", "--oversubscribe", "-np", "2", "-x", "OMP_NUM_THREADS",
+      "-x",    "OMP_WAIT_POLICY"};
+  const fs::path straight = dir / "straight";
+  const testing::CliRun s =
+      shell(joined(np2) + " " + kRbc + " " + joined(args) + " -q --out " + straight.string());
+  ASSERT_EQ(s.exit_code, 0) << s.all();
+  const long long stages = json::parse(read_text(straight / "summary.json"))["stages"];
+
+  const fs::path out = dir / "killed";
+  const Interrupted k = interrupt_run(args, out, 2, SIGKILL, 1, np2, /*rank=*/1);
+  ASSERT_NE(k.exit_code, -1000) << k.log;
+  if (k.mid_run) {
+    EXPECT_NE(k.exit_code, 0) << k.log;
+    EXPECT_NE(k.log.find("rank 1"), std::string::npos) << "the message names the rank: " << k.log;
+    EXPECT_FALSE(fs::exists(out / "summary.json"));
+  }
+  const long long from = checkpoint_stage(out);
+  EXPECT_GE(from, 2);
+  EXPECT_LT(from, stages);
+  const std::string np1 = kMpirun +
+                          " --allow-run-as-root --oversubscribe -np 1 -x OMP_NUM_THREADS -x "
+                          "OMP_WAIT_POLICY";
+  const testing::CliRun r =
+      shell(np1 + " " + kRbc + " " + joined(args) + " --resume " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.all();
+  expect_same_posterior(straight, out);
+  EXPECT_EQ(json::parse(read_text(out / "summary.json"))["timing"]["ranks"], 1);
+
+  // SIGTERM to mpirun: it passes SIGTERM to the ranks and kills them shortly after; rank 0
+  // says at once where the last complete stage is (mpirun's exit status is its own: 1).
+  const fs::path term = dir / "term";
+  const Interrupted t = interrupt_run(args, term, 0, SIGTERM, 1, np2);
+  if (t.mid_run) {
+    EXPECT_NE(t.exit_code, 0) << t.log;
+    EXPECT_NE(t.log.find("rbc: SIGTERM received: stopping; the last complete stage is in " +
+                         (term / "checkpoint.h5").string()),
+              std::string::npos)
+        << t.log;
+  } else {
+    std::cerr << "note: the mpirun run finished before SIGTERM reached its ranks\n";
+  }
+}
+
+/// Exit 2, one "rbc: error:" line naming `expect`, and nothing new in the directory.
+void expect_refused(const std::string& args, const std::string& expect, const fs::path& dir) {
+  SCOPED_TRACE(args);
+  std::vector<std::string> before;
+  if (fs::exists(dir))
+    for (const auto& e : fs::directory_iterator(dir)) before.push_back(e.path().filename());
+  const testing::CliRun r = testing::run_rbc(args, 1);
+  EXPECT_EQ(r.exit_code, 2) << r.all();
+  EXPECT_EQ(r.err.rfind("rbc: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+  EXPECT_NE(r.err.find(expect), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("beta ="), std::string::npos) << "work started: " << r.err;
+  std::vector<std::string> after;
+  if (fs::exists(dir))
+    for (const auto& e : fs::directory_iterator(dir)) after.push_back(e.path().filename());
+  std::sort(before.begin(), before.end());
+  std::sort(after.begin(), after.end());
+  EXPECT_EQ(before, after);
+}
+
+TEST(InferResume, MissingCorruptOrForeignCheckpointsAndBadSeedsExitTwoBeforeWork) {
+  const fs::path dir = testing::fresh_output_dir("infer_resume_refusals");
+  const std::string data = data_file(dir);
+  // A cheap run of three stages (20 samples, one Metropolis step).
+  const std::vector<std::string> args = {"infer",
+                                         "--method",
+                                         "continuum:2:200",
+                                         "--samples",
+                                         "20",
+                                         "--chain-length",
+                                         "1",
+                                         "--seed",
+                                         "3",
+                                         "--params",
+                                         "persistence,sigma-scale",
+                                         "--data-file",
+                                         data};
+  const fs::path run = dir / "run";
+  const testing::CliRun s = testing::run_rbc(joined(args) + " -q --out " + run.string(), 1);
+  ASSERT_EQ(s.exit_code, 0) << s.all();
+  const std::string base = joined(args);
+
+  expect_refused(base + " --resume " + (dir / "nowhere").string(), "no such directory", dir);
+  fs::create_directories(dir / "empty");
+  expect_refused(base + " --resume " + (dir / "empty").string(), "no checkpoint.h5", dir / "empty");
+  // Another seed, another data file: the inputs that differ are named with both values.
+  {
+    std::vector<std::string> other = args;
+    other[8] = "4";
+    expect_refused(joined(other) + " --resume " + run.string(), "--seed (checkpoint 3, this run 4)",
+                   run);
+    other[8] = "18446744073709551615";  // the largest seed parses (and differs)
+    expect_refused(joined(other) + " --resume " + run.string(), "this run 18446744073709551615",
+                   run);
+    const fs::path data2 = dir / "other.csv";
+    std::ofstream(data2) << read_text(data) << "120,14.5,1.2,4.3,0.6\n";
+    other = args;
+    other.back() = data2.string();
+    expect_refused(joined(other) + " --resume " + run.string(), "--data-file contents", run);
+  }
+  expect_refused(base + " --out " + (dir / "elsewhere").string() + " --resume " + run.string(),
+                 "own directory", run);
+  // A new run into a directory holding a checkpoint names --resume.
+  expect_refused(base + " --out " + run.string(), "--resume " + run.string(), run);
+  // Seeds outside [0, 2^64 - 1] (they once wrapped around).
+  for (const char* seed : {"-1", "18446744073709551616", "1e3", "3x"}) {
+    std::vector<std::string> bad = args;
+    bad[8] = seed;
+    expect_refused(joined(bad) + " --out " + (dir / "never").string(), seed, dir / "never");
+    EXPECT_FALSE(fs::exists(dir / "never"));
+  }
+  // A corrupt checkpoint: one byte of the stored samples changed.
+  {
+    const fs::path bad = dir / "corrupt";
+    fs::create_directories(bad);
+    fs::copy_file(run / "checkpoint.h5", bad / "checkpoint.h5");
+    haddr_t at = HADDR_UNDEF;
+    {
+      const hid_t f = H5Fopen((bad / "checkpoint.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+      const hid_t d = H5Dopen2(f, "/population/theta", H5P_DEFAULT);
+      at = H5Dget_offset(d);
+      H5Dclose(d);
+      H5Fclose(f);
+    }
+    ASSERT_NE(at, HADDR_UNDEF);
+    std::fstream g(bad / "checkpoint.h5", std::ios::in | std::ios::out | std::ios::binary);
+    g.seekg(static_cast<std::streamoff>(at) + 3);
+    const char c = static_cast<char>(g.get() ^ 0x10);
+    g.seekp(static_cast<std::streamoff>(at) + 3);
+    g.put(c);
+    g.close();
+    expect_refused(base + " --resume " + bad.string(), "is corrupt", bad);
+    std::ofstream(bad / "checkpoint.h5") << "not HDF5";
+    expect_refused(base + " --resume " + bad.string(), "checkpoint.h5", bad);
+  }
+}
+
+}  // namespace
+}  // namespace rbc
