@@ -118,4 +118,14 @@ void render_shapes(const RenderRequest& request) {
   tmp.commit();
 }
 
+std::string draw_cells(const RenderRequest& request) {
+  if (std::string why = renderer_unavailable_reason(); !why.empty()) return why;
+  try {
+    render_shapes(request);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
 }  // namespace rbc::app

@@ -29,4 +29,9 @@ std::string renderer_unavailable_reason();
 /// renderer's message if it fails (a file without triangles, an unknown field).
 void render_shapes(const RenderRequest& request);
 
+/// The picture a command writes beside its shapes (`OUT/cells.png`): draws `request` unless the
+/// renderer is unavailable or fails, in which case nothing is written and the reason is
+/// returned (a picture never fails the run that computed the shapes); "" when drawn.
+std::string draw_cells(const RenderRequest& request);
+
 }  // namespace rbc::app
