@@ -53,6 +53,14 @@ sigset_t interrupt_signals() {
   return set;
 }
 
+/// The signal mask main() started with, for the children: a process made by fork() (and then
+/// exec: MPI's helper daemons) has no signal thread, so it gets the mask back.
+sigset_t g_initial_mask;
+
+extern "C" void restore_mask_in_child() {
+  pthread_sigmask(SIG_SETMASK, &g_initial_mask, nullptr);
+}
+
 void take_signals() {
   const sigset_t set = interrupt_signals();
   for (;;) {
@@ -65,7 +73,8 @@ void take_signals() {
 
 void install_interrupt_handlers() {
   const sigset_t set = interrupt_signals();
-  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  pthread_sigmask(SIG_BLOCK, &set, &g_initial_mask);
+  pthread_atfork(nullptr, nullptr, restore_mask_in_child);
   try {
     std::thread(take_signals).detach();  // ends with the process
   } catch (const std::system_error&) {

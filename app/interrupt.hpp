@@ -14,6 +14,8 @@
 //    does not poll), stops at once: the signal thread unlinks the live temporaries
 //    (remove_live_temporaries()), writes "rbc: interrupted by SIGTERM" to stderr and calls
 //    _exit(128 + signal).
+// Child processes do not keep the block: fork() restores the mask main() started with in the
+// child (pthread_atfork), and the shell that popen() starts (gnuplot) clears it.
 // A SIGTERM that a thread raises at itself (METIS's error path, GKlib's gk_errexit) stays pending
 // on that thread; the sparse Cholesky analysis consumes it and reports the failed ordering
 // (core/sparse_cholesky.cpp).

@@ -145,6 +145,10 @@ SignalRun run_rbc_in(const std::string& name, const std::vector<std::string>& ar
   if (!shim_mode.empty()) {
     env.push_back(std::string("LD_PRELOAD=") + RBC_METIS_SHIM);
     env.push_back("RBC_METIS_SHIM=" + shim_mode);
+    // Under AddressSanitizer (.ci/sanitize.sh) a preloaded library comes before its runtime.
+    const char* asan = std::getenv("ASAN_OPTIONS");
+    env.push_back(std::string("ASAN_OPTIONS=") + (asan ? std::string(asan) + ":" : "") +
+                  "verify_asan_link_order=0");
   }
   const pid_t pid = spawn(args, r.dir, r.dir / "stdout.txt", r.dir / "stderr.txt", env);
   r.code = wait_for(pid);
