@@ -8,6 +8,8 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <sstream>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -543,6 +545,39 @@ class SpeedupReporter : public benchmark::ConsoleReporter {
   std::map<int, std::map<int, double>> rates_;  // vertices -> threads -> moves/s
 };
 
+/// Throws std::invalid_argument if the parsed --benchmark_filter is no valid regular expression
+/// or selects none of the benchmarks registered (Google Benchmark would print a line, run
+/// nothing and let the command exit 0). Runs the listing of --benchmark_list_tests, which must
+/// be set, into strings: nothing is printed or run.
+void check_benchmark_filter(const std::string& suite, std::vector<std::string> families) {
+  std::ostringstream listed, errors;
+  benchmark::ConsoleReporter lister;
+  lister.SetOutputStream(&listed);
+  lister.SetErrorStream(&errors);
+  if (benchmark::RunSpecifiedBenchmarks(&lister) > 0) return;
+  const std::string filter = benchmark::GetBenchmarkFilter();
+  const std::string why = errors.str();
+  if (const auto at = why.find("Could not compile"); at != std::string::npos) {
+    std::string reason =
+        why.substr(why.find(": ", at) == std::string::npos ? at : why.find(": ", at) + 2);
+    while (!reason.empty() && (reason.back() == '\n' || reason.back() == ' ')) reason.pop_back();
+    throw std::invalid_argument("--benchmark_filter " + filter +
+                                ": not a valid regular expression (" + reason + ")");
+  }
+  if (why.find("Failed to match") == std::string::npos) {
+    std::string reason = why.empty() ? "Google Benchmark refused its options" : why;
+    while (!reason.empty() && (reason.back() == '\n' || reason.back() == ' ')) reason.pop_back();
+    throw std::invalid_argument("bench " + suite + ": " + reason);
+  }
+  std::sort(families.begin(), families.end());
+  families.erase(std::unique(families.begin(), families.end()), families.end());
+  std::string names;
+  for (const auto& f : families) names += (names.empty() ? "" : ", ") + f;
+  throw std::invalid_argument("--benchmark_filter " + filter +
+                              ": matches no benchmark of `rbc bench " + suite +
+                              "` (available: " + names + ")");
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app, Action& action) {
@@ -562,21 +597,25 @@ void add_bench_command(CLI::App& app, Action& action) {
     *args = cmd->remaining();
     action = [args]() -> int {
       std::string suite = args->empty() ? "stretch" : args->front();
+      std::vector<std::string> families;  // the names registered, for the filter's message
+      const auto reg = [&families](const char* name, auto* fn) {
+        families.emplace_back(name);
+        return benchmark::RegisterBenchmark(name, fn);
+      };
       if (suite == "stretch") {
-        benchmark::RegisterBenchmark("discrete/energy_gradient", BM_DiscreteEnergyGradient)
+        reg("discrete/energy_gradient", BM_DiscreteEnergyGradient)
             ->Arg(500)
             ->Arg(2000)
             ->Arg(8000)
             ->Arg(27500)
             ->Unit(benchmark::kMicrosecond);
-        benchmark::RegisterBenchmark("discrete/preconditioner_apply",
-                                     BM_DiscretePreconditionerApply)
+        reg("discrete/preconditioner_apply", BM_DiscretePreconditionerApply)
             ->Args({2000, 0})
             ->Args({2000, 1})
             ->Args({27500, 0})
             ->Args({27500, 1})
             ->Unit(benchmark::kMillisecond);
-        benchmark::RegisterBenchmark("discrete/stretch_88pN", BM_DiscreteStretch88)
+        reg("discrete/stretch_88pN", BM_DiscreteStretch88)
             ->Arg(500)
             ->Arg(2000)
             ->Arg(8000)
@@ -591,37 +630,35 @@ void add_bench_command(CLI::App& app, Action& action) {
         // Continuum rows: last argument 0 = the full problem, 1 = the mirror-symmetric states
         // (--symmetry mirror), 2 = the same on the mirror-planes mesh (--mesh-orientation
         // mirror-planes: another triangulation, all eight mirrors).
-        once(benchmark::RegisterBenchmark("continuum/sweep13_from_rest", BM_ContinuumSweep)
+        once(reg("continuum/sweep13_from_rest", BM_ContinuumSweep)
                  ->Args({1000, 13, 0})
                  ->Args({1000, 13, 1})
                  ->Args({1000, 13, 2}));
-        once(benchmark::RegisterBenchmark("continuum/88pN_from_0pN", BM_Continuum88From0)
+        once(reg("continuum/88pN_from_0pN", BM_Continuum88From0)
                  ->Args({9680, 0})
                  ->Args({9680, 1})
                  ->Args({9680, 2}));
-        once(benchmark::RegisterBenchmark("continuum/sweep8_from_rest", BM_ContinuumSweep)
+        once(reg("continuum/sweep8_from_rest", BM_ContinuumSweep)
                  ->Args({5120, 0, 0})
                  ->Args({5120, 0, 1})
                  ->Args({5120, 0, 2}));
         // Warm rows: third argument 1 = the symmetric equilibria checked at the highest force
         // only (--symmetry-check highest-force, the calibration's policy), 0 = at every force.
-        once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc", BM_ContinuumWarm)
+        once(reg("continuum/warm13_persistence_1pc", BM_ContinuumWarm)
                  ->Args({1000, 0, 0})
                  ->Args({1000, 1, 0})
                  ->Args({1000, 1, 1}));
-        once(benchmark::RegisterBenchmark("continuum/warm13_persistence_1pc_kept",
-                                          BM_ContinuumWarmKept)
+        once(reg("continuum/warm13_persistence_1pc_kept", BM_ContinuumWarmKept)
                  ->Args({1000, 0, 0})
                  ->Args({1000, 1, 0})
                  ->Args({1000, 2, 0})
                  ->Args({1000, 1, 1})
                  ->Args({1000, 2, 1}));
         // 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
-        once(benchmark::RegisterBenchmark("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)
-                 ->Args({1000, 1000}));
+        once(reg("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)->Args({1000, 1000}));
         // range(1): preconditioner threshold (-1: the default; 0: always; huge: never); last
         // argument, as the continuum rows: 0 = the full problem, 1 = --symmetry mirror.
-        once(benchmark::RegisterBenchmark("discrete/sweep13_from_rest", BM_DiscreteSweep)
+        once(reg("discrete/sweep13_from_rest", BM_DiscreteSweep)
                  ->Args({250, -1, 0})
                  ->Args({250, -1, 1})
                  ->Args({250, 0, 0})
@@ -629,36 +666,32 @@ void add_bench_command(CLI::App& app, Action& action) {
                  // The full spectrin level, 13 forces (target <= 60 s).
                  ->Args({27500, -1, 0})
                  ->Args({27500, -1, 1}));
-        once(benchmark::RegisterBenchmark("discrete/warm13_persistence_1pc", BM_DiscreteWarm)
+        once(reg("discrete/warm13_persistence_1pc", BM_DiscreteWarm)
                  ->Args({250, 1})
                  ->Args({250, 0}));
-        once(benchmark::RegisterBenchmark("discrete/warm13_persistence_1pc_kept",
-                                          BM_DiscreteWarmKept)
-                 ->Args({250}));
-        once(benchmark::RegisterBenchmark("discrete/88pN_from_0pN", BM_Discrete88From0)
-                 ->Args({27500, 0})
-                 ->Args({27500, 1}));
-        benchmark::RegisterBenchmark("continuum/energy_gradient", BM_ContinuumEnergyGradient)
+        once(reg("discrete/warm13_persistence_1pc_kept", BM_DiscreteWarmKept)->Args({250}));
+        once(reg("discrete/88pN_from_0pN", BM_Discrete88From0)->Args({27500, 0})->Args({27500, 1}));
+        reg("continuum/energy_gradient", BM_ContinuumEnergyGradient)
             ->Arg(1000)
             ->Arg(9680)
             ->Unit(benchmark::kMicrosecond);
-        benchmark::RegisterBenchmark("continuum/stability_check", BM_ContinuumStabilityCheck)
+        reg("continuum/stability_check", BM_ContinuumStabilityCheck)
             ->Args({1000, 1})
             ->Args({1000, 2})
             ->Args({5120, 1})
             ->Args({5120, 2})
             ->Unit(benchmark::kMillisecond);
-        benchmark::RegisterBenchmark("continuum/lagrangian_hessian", BM_ContinuumLagrangianHessian)
+        reg("continuum/lagrangian_hessian", BM_ContinuumLagrangianHessian)
             ->Arg(1000)
             ->Arg(5120)
             ->Arg(9680)
             ->Unit(benchmark::kMillisecond);
-        benchmark::RegisterBenchmark("discrete/energy_gradient", BM_DiscreteEnergyGradient)
+        reg("discrete/energy_gradient", BM_DiscreteEnergyGradient)
             ->Arg(250)
             ->Arg(27500)
             ->Unit(benchmark::kMicrosecond);
       } else if (suite == "mc") {
-        benchmark::RegisterBenchmark("mc/sweep", BM_McSweep)
+        reg("mc/sweep", BM_McSweep)
             ->ArgNames({"N", "threads"})
             ->ArgsProduct({{500, 2000, 8000}, {1, 2}})
             ->Unit(benchmark::kMillisecond)
@@ -676,11 +709,23 @@ void add_bench_command(CLI::App& app, Action& action) {
           throw std::invalid_argument("bench " + suite + " " + s +
                                       ": not a Google Benchmark option (expected "
                                       "--benchmark_...=VALUE, see --benchmark_list_tests)");
-      std::vector<char*> argv{const_cast<char*>("rbc")};  // its messages then start "rbc: "
-      for (auto& s : rest) argv.push_back(s.data());
-      int argc = static_cast<int>(argv.size());
-      benchmark::Initialize(&argc, argv.data());
-      if (benchmark::ReportUnrecognizedArguments(argc, argv.data())) return 2;
+      // Its flags are parsed twice: first with --benchmark_list_tests, to check the filter without
+      // running anything, then as given (a flag given twice takes its last value).
+      for (const bool listing : {true, false}) {
+        std::vector<std::string> flags{"rbc"};  // its messages then start "rbc: "
+        if (!listing) flags.emplace_back("--benchmark_list_tests=false");
+        flags.insert(flags.end(), rest.begin(), rest.end());
+        if (listing) {  // names only: no output file (its failure would exit silently)
+          flags.emplace_back("--benchmark_list_tests=true");
+          flags.emplace_back("--benchmark_out=");
+        }
+        std::vector<char*> argv;
+        for (auto& f : flags) argv.push_back(f.data());
+        int argc = static_cast<int>(argv.size());
+        benchmark::Initialize(&argc, argv.data());
+        if (benchmark::ReportUnrecognizedArguments(argc, argv.data())) return 2;
+        if (listing) check_benchmark_filter(suite, families);
+      }
       // The BLAS kernel in the context block (and in --benchmark_out=FILE.json's "context"): it
       // moves the factorisation rows by 14-25 % on the project's machines.
       const BlasInfo blas = blas_info();

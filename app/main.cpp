@@ -66,11 +66,26 @@ void keep_freed_memory() {
   if (end > start) madvise(reinterpret_cast<void*>(start), end - start, MADV_HUGEPAGE);
 }
 
+/// The error for a first argument that names no sub-command ("unknown command 'X' (expected one
+/// of mesh, stretch, ...)"), empty if it names one or is an option (--help, --version).
+std::string unknown_command(CLI::App& app, int argc, char** argv) {
+  if (argc < 2 || argv[1][0] == '-') return "";
+  const std::string given = argv[1];
+  std::string names;
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+    if (sub->check_name(given)) return "";
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+  }
+  return "unknown command '" + given + "' (expected one of " + names + ")";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  keep_freed_memory();
+  // First of all, while this is the only thread: SIGINT and SIGTERM blocked here (and so in every
+  // thread created later: OpenMP, OpenBLAS, MPI) and taken by a thread of their own.
   rbc::app::install_interrupt_handlers();
+  keep_freed_memory();
   CLI::App app{"rbc - multiscale red blood cell membrane mechanics (Hartmann 2008 model)"};
   app.require_subcommand(1, 1);
   app.fallthrough(false);
@@ -90,6 +105,10 @@ int main(int argc, char** argv) {
   rbc::app::add_dynamics_command(app, action);
   rbc::app::add_infer_command(app, action);
   rbc::app::add_render_command(app, action);
+  if (const std::string unknown = unknown_command(app, argc, argv); !unknown.empty()) {
+    std::cerr << "rbc: error: " << unknown << " (see rbc --help)\n";
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

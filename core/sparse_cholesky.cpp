@@ -2,12 +2,15 @@
 #include "core/sparse_cholesky.hpp"
 
 #include <malloc.h>
+#include <pthread.h>
 #include <sys/mman.h>
 
 #include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -391,13 +394,62 @@ std::vector<int> block_metis_order(const Eigen::SparseMatrix<double>& a, int b,
     bp[static_cast<size_t>(bc) + 1] = static_cast<int>(bi.size());
   }
   cholmod_sparse g = lower_csc_view(blocks, bp.data(), bi.data(), nullptr);
-  std::vector<int> block_perm(static_cast<size_t>(blocks));
+  std::vector<int> block_perm(static_cast<size_t>(blocks), -1);
   if (!cholmod_metis(&g, nullptr, 0, 0, block_perm.data(), &common)) return {};
+  // CHOLMOD does not look at METIS's return code: a failed METIS (out of memory, an internal
+  // error) leaves an incomplete order, which must not reach the analysis.
+  std::vector<char> seen(static_cast<size_t>(blocks), 0);
+  for (const int k : block_perm) {
+    if (k < 0 || k >= blocks || seen[static_cast<size_t>(k)]) return {};
+    seen[static_cast<size_t>(k)] = 1;
+  }
   std::vector<int> perm(static_cast<size_t>(n));
   for (int k = 0; k < blocks; ++k)
     for (int d = 0; d < b; ++d)
       perm[static_cast<size_t>(b * k + d)] = b * block_perm[static_cast<size_t>(k)] + d;
   return perm;
+}
+
+/// Whether SIGTERM is pending on this thread alone (thread-directed: raise, tgkill), from the
+/// "SigPnd" line of /proc/thread-self/status (the process-directed ones are on "ShdPnd").
+bool sigterm_pending_on_this_thread() {
+  std::FILE* f = std::fopen("/proc/thread-self/status", "r");
+  if (!f) return false;
+  char line[256];
+  unsigned long long mask = 0;
+  bool found = false;
+  while (!found && std::fgets(line, sizeof line, f))
+    found = std::sscanf(line, "SigPnd: %llx", &mask) == 1;
+  std::fclose(f);
+  return found && (mask >> (SIGTERM - 1) & 1ull) != 0;
+}
+
+/// Whether METIS reported an error through SIGTERM that is still pending on this thread; the
+/// signal is consumed. METIS (GKlib's gk_errexit) raises SIGTERM at the calling thread for the
+/// handler it installs around an ordering, which longjmps out of it. Where the thread blocks
+/// SIGTERM (the rbc executable takes it on a signal thread: app/interrupt.hpp) no handler runs:
+/// the signal stays pending on this thread and METIS returns normally. A SIGTERM sent to the
+/// process (kill) is left for the signal thread. Process-wide signal state is read because
+/// METIS reports through it.
+bool take_raised_sigterm() {
+  sigset_t blocked, pending, term;
+  if (pthread_sigmask(SIG_BLOCK, nullptr, &blocked) != 0 || !sigismember(&blocked, SIGTERM))
+    return false;  // not blocked: METIS's own handler took it
+  if (sigpending(&pending) != 0 || !sigismember(&pending, SIGTERM) ||
+      !sigterm_pending_on_this_thread())
+    return false;
+  sigemptyset(&term);
+  sigaddset(&term, SIGTERM);
+  const timespec now{0, 0};
+  // The thread's own pending signals are dequeued before the process's.
+  return sigtimedwait(&term, nullptr, &now) == SIGTERM;
+}
+
+/// Throws if an ordering just made on this thread failed with METIS's error signal.
+void check_ordering_signal(int unknowns) {
+  if (take_raised_sigterm())
+    throw std::runtime_error("sparse Cholesky: the fill-reducing ordering (METIS) failed on " +
+                             std::to_string(unknowns) + " unknowns");
 }
 
 }  // namespace
@@ -623,10 +675,12 @@ void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& a) {
     {
       const auto lock = lock_fill_ordering();
       if (b > 1) given = detail::block_metis_order(a, b, ordering.cholmod());
+      detail::check_ordering_signal(n);
       if (!given.empty())
         ordering.analyze_given(a, given);
       else
         ordering.analyzePattern(a);
+      detail::check_ordering_signal(n);
     }
     m.block_size = given.empty() ? 1 : b;
     if (!ordering.has_factor() || (n > 0 && !ordering.permutation()))
