@@ -2,6 +2,7 @@
 #include "app/render.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -24,25 +25,30 @@ namespace {
 
 struct ChildResult {
   int exit_code = -1;  ///< the child's exit status, or -1 if it did not exit normally
+  std::string out;     ///< what it wrote on stdout (bytes)
   std::string err;     ///< what it wrote on stderr
 };
 
-/// Runs argv[0] (looked up on PATH) with stdout discarded and stderr captured. No shell, so
-/// no quoting of file names. Throws std::runtime_error if the process cannot be started.
+/// Runs argv[0] (looked up on PATH) and collects its stdout and stderr. No shell, so no quoting
+/// of file names. The child starts with no signal blocked and default dispositions (rbc blocks
+/// SIGINT and SIGTERM for its signal thread, app/interrupt.hpp, and posix_spawn would pass that
+/// on). Throws std::runtime_error if the process cannot be started.
 ChildResult run_captured(const std::vector<std::string>& args) {
-  int pipe_fds[2];
-  if (pipe(pipe_fds) != 0) throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
+  int out_fds[2], err_fds[2];
+  if (pipe2(out_fds, O_CLOEXEC) != 0)
+    throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
+  if (pipe2(err_fds, O_CLOEXEC) != 0) {
+    close(out_fds[0]);
+    close(out_fds[1]);
+    throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
+  }
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
-  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
-  posix_spawn_file_actions_addclose(&actions, pipe_fds[1]);
+  posix_spawn_file_actions_adddup2(&actions, out_fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, err_fds[1], STDERR_FILENO);
   std::vector<char*> argv;
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
-  // The child starts with no signal blocked and default dispositions: rbc blocks SIGINT and
-  // SIGTERM for its signal thread (app/interrupt.hpp), and posix_spawn would pass that on.
   posix_spawnattr_t attributes;
   posix_spawnattr_init(&attributes);
   sigset_t none, defaults;
@@ -57,27 +63,52 @@ ChildResult run_captured(const std::vector<std::string>& args) {
   const int spawned = posix_spawnp(&pid, argv[0], &actions, &attributes, argv.data(), environ);
   posix_spawnattr_destroy(&attributes);
   posix_spawn_file_actions_destroy(&actions);
-  close(pipe_fds[1]);
-  ChildResult result;
+  close(out_fds[1]);
+  close(err_fds[1]);
   if (spawned != 0) {
-    close(pipe_fds[0]);
+    close(out_fds[0]);
+    close(err_fds[0]);
     throw std::runtime_error(args[0] + ": " + std::strerror(spawned));
   }
-  char buffer[4096];
-  for (;;) {
-    const ssize_t n = read(pipe_fds[0], buffer, sizeof buffer);
-    if (n > 0) {
-      result.err.append(buffer, static_cast<size_t>(n));
-    } else if (n == 0 || errno != EINTR) {
+  // Both pipes drained together, so a child that fills one while rbc reads the other never
+  // blocks.
+  ChildResult result;
+  pollfd fds[2] = {{out_fds[0], POLLIN, 0}, {err_fds[0], POLLIN, 0}};
+  std::string* sinks[2] = {&result.out, &result.err};
+  int open_pipes = 2;
+  char buffer[65536];
+  while (open_pipes > 0) {
+    if (poll(fds, 2, -1) < 0) {
+      if (errno == EINTR) continue;
       break;
     }
+    for (int k = 0; k < 2; ++k) {
+      if (fds[k].fd < 0 || fds[k].revents == 0) continue;
+      const ssize_t n = read(fds[k].fd, buffer, sizeof buffer);
+      if (n > 0) {
+        sinks[k]->append(buffer, static_cast<size_t>(n));
+      } else if (n == 0 || errno != EINTR) {
+        close(fds[k].fd);
+        fds[k].fd = -1;
+        --open_pipes;
+      }
+    }
   }
-  close(pipe_fds[0]);
+  for (const auto& f : fds)
+    if (f.fd >= 0) close(f.fd);
   int status = 0;
   while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
   if (WIFEXITED(status)) result.exit_code = WEXITSTATUS(status);
   return result;
+}
+
+/// Whether bytes are a whole PNG: the signature first and the IEND chunk last.
+bool complete_png(const std::string& bytes) {
+  static constexpr char kSignature[] = "\x89PNG\r\n\x1a\n";
+  static constexpr char kEnd[] = "IEND\xae\x42\x60\x82";  // type and CRC of the empty IEND
+  return bytes.size() >= 8 + 12 && bytes.compare(0, 8, kSignature, 8) == 0 &&
+         bytes.compare(bytes.size() - 8, 8, kEnd, 8) == 0;
 }
 
 /// The last non-empty line of a text, without a leading "rbc: error: ".
@@ -113,8 +144,10 @@ std::string renderer_unavailable_reason() {
 }
 
 void render_shapes(const RenderRequest& request) {
-  TempFile tmp(request.out_png);  // removed unless the picture is complete
-  std::vector<std::string> args{render_python(), "-c", kRenderScript, "--out", tmp.path()};
+  // The script writes the PNG to its stdout and rbc writes the file through its own atomic
+  // writer, so the child never touches the output directory (an interrupted rbc leaves no
+  // half picture behind, whatever the child does).
+  std::vector<std::string> args{render_python(), "-c", kRenderScript, "--out", "-"};
   if (!request.field.empty()) args.insert(args.end(), {"--field", request.field});
   if (!request.title.empty()) args.insert(args.end(), {"--title", request.title});
   // "--" ends the options: a shape file whose name starts with '-' is still a file.
@@ -129,7 +162,10 @@ void render_shapes(const RenderRequest& request) {
     throw std::runtime_error(why.rfind("--", 0) == 0 ? why
                                                      : request.out_png + ": no picture: " + why);
   }
-  tmp.commit();
+  if (!complete_png(r.out))
+    throw std::runtime_error(request.out_png + ": no picture: the renderer returned " +
+                             std::to_string(r.out.size()) + " bytes that are not a whole PNG");
+  write_text_atomic(request.out_png, r.out);
 }
 
 std::string draw_cells(const RenderRequest& request) {

@@ -190,9 +190,10 @@ def _project(points_um, elev_deg: float, azim_deg: float):
     return _np.stack([points_um @ right, points_um @ up], axis=1), points_um @ towards
 
 
-def plot_shapes(shapes: Sequence[Shape], out_png: str, field: Optional[str] = None,
+def plot_shapes(shapes: Sequence[Shape], out_png, field: Optional[str] = None,
                 title: Optional[str] = None, dpi: int = 110) -> str:
-    """Draws the shapes (one row each, two views) to ``out_png``; returns the field used.
+    """Draws the shapes (one row each, two views) to ``out_png`` (a path or a binary file
+    object); returns the field used.
 
     ``field``: one name of :data:`FIELD_PREFERENCE` or any field the files carry; by default
     the first of :data:`FIELD_PREFERENCE` that every shape has."""
@@ -285,7 +286,8 @@ def plot_shape(files, out_png: str, field: Optional[str] = None,
     """
     paths = [files] if isinstance(files, (str, os.PathLike)) else list(files)
     shapes = [s for path in paths for s in read_shapes(os.fspath(path))]
-    return plot_shapes(shapes, os.fspath(out_png), field=field, title=title)
+    target = os.fspath(out_png) if isinstance(out_png, (str, os.PathLike)) else out_png
+    return plot_shapes(shapes, target, field=field, title=title)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -297,14 +299,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--field", default=None)
     parser.add_argument("--title", default=None)
     args = parser.parse_args(argv)
+    # "--out -": the PNG goes to stdout (rbc render writes the file itself).
+    target = sys.stdout.buffer if args.out == "-" else args.out
     try:
-        field = plot_shape(args.files, args.out, field=args.field, title=args.title)
+        field = plot_shape(args.files, target, field=args.field, title=args.title)
     except (ValueError, OSError, KeyError, StopIteration) as error:
         message = str(error) if not isinstance(error, StopIteration) else \
             "the files share no field to colour by"
         print(f"rbc: error: {message}", file=sys.stderr)
         return 2
-    print(f"{args.out}: coloured by {field}")
+    if args.out != "-":
+        print(f"{args.out}: coloured by {field}")
     return 0
 
 

@@ -137,3 +137,26 @@ def test_rbc_render_refuses_bad_input_with_one_line_and_exit_2(tmp_path, args, m
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("rbc: error: ") and message in lines[0]
     assert not (tmp_path / "p.png").exists()
+
+
+def test_an_interrupted_render_leaves_a_whole_picture_or_none(tmp_path):
+    """SIGTERM while the picture is drawn: exit 143 and no file (nor a temporary) appears later,
+    even from the drawing process rbc started; or, if the picture was already done, exit 0
+    and a whole PNG."""
+    import signal
+    import time
+
+    write_shape(tmp_path / "e.h5", *ellipsoid(6.0, 3.0, 1.5, n=80))
+    png = tmp_path / "e.png"
+    p = subprocess.Popen([rbc_executable(), "render", str(tmp_path / "e.h5"), "--out", str(png)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    time.sleep(0.4)  # inside the drawing (about 1 s); either outcome below is checked
+    p.send_signal(signal.SIGTERM)
+    p.communicate(timeout=60)
+    time.sleep(2.0)  # time for an orphaned drawing process to finish, had it been left running
+    if p.returncode == 0:
+        assert png.read_bytes().endswith(b"IEND\xaeB`\x82")
+    else:
+        assert p.returncode == 143
+        assert not png.exists()
+    assert [f for f in os.listdir(tmp_path) if "partial" in f] == []
