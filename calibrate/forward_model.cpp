@@ -46,6 +46,17 @@ void ForwardParameters::validate() const {
                                 std::to_string(contact_fraction));
 }
 
+void validate_method_force(MethodKind kind, double force_pN) {
+  if (kind == MethodKind::discrete)
+    validate_discrete_force(force_pN);
+  else
+    validate_continuum_force(force_pN);
+}
+
+double max_method_force_pN(MethodKind kind) {
+  return kind == MethodKind::discrete ? kMaxDiscreteForce_pN : kMaxContinuumForce_pN;
+}
+
 void ForwardOptions::validate() const {
   if (forces_pN.empty()) throw std::invalid_argument("forward model needs at least one force");
   for (size_t k = 0; k < forces_pN.size(); ++k) {
@@ -55,6 +66,7 @@ void ForwardOptions::validate() const {
     if (k > 0 && !(forces_pN[k] > forces_pN[k - 1]))
       throw std::invalid_argument("forces must increase, got " + std::to_string(forces_pN[k]) +
                                   " after " + std::to_string(forces_pN[k - 1]));
+    validate_method_force(method.kind, forces_pN[k]);
   }
   if (method.resolution <= 0)
     throw std::invalid_argument("method resolution must be > 0, got " +

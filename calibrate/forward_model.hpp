@@ -38,6 +38,13 @@ struct ForwardParameters {
   void validate() const;  ///< p > 0, Lmax > 75 nm, kappa > 0, fraction in (0, 0.5)
 };
 
+/// The largest force the model of `kind` is documented to handle (pN): kMaxDiscreteForce_pN or
+/// kMaxContinuumForce_pN.
+double max_method_force_pN(MethodKind kind);
+/// Throws rbc::InvalidParameter ("force (continuum model) must be finite and in [0, 400] pN,
+/// got 1000 pN") unless the force is finite and in [0, max_method_force_pN(kind)].
+void validate_method_force(MethodKind kind, double force_pN);
+
 struct ForwardOptions {
   /// Default continuum:2:2000 (calibrate/infer.hpp documents why).
   Method method{MethodKind::continuum, 2000, WlcExpansion::order2};
@@ -116,6 +123,9 @@ struct ForwardOptions {
   double diameter_tolerance_um = 1e-3;
   double accept_residual_pN = 1e-2;
   double max_contraction = 0.9;
+  /// Throws std::invalid_argument (rbc::InvalidParameter for a force) unless the forces are
+  /// increasing and each finite and in [0, max_method_force_pN(method.kind)], the resolution
+  /// > 0, newton.validate() and the pass settings are consistent.
   void validate() const;
 };
 

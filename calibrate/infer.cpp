@@ -110,8 +110,8 @@ std::vector<PriorRange> InferOptions::prior_ranges() const {
 
 InferenceProblem::InferenceProblem(const InferOptions& options) : options_(options) {
   options_.validate();
-  data_ =
-      make_diameter_data(load_experiment(options_.data_path()), options_.reading_uncertainty_um);
+  data_ = load_diameter_data(options_.data_path(), options_.reading_uncertainty_um,
+                             options_.method.kind);
   std::vector<std::string> names;
   for (const auto& r : options_.prior_ranges()) {
     prior_.lower.push_back(r.lower);

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "calibrate/forward_model.hpp"
+
 namespace rbc {
 
 double reading_uncertainty_from_readings(const std::vector<ExperimentPoint>& a,
@@ -50,6 +52,24 @@ DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points, doub
       d.smallest_error_bar_um = std::min(d.smallest_error_bar_um, p.transverse_err_um);
   }
   return d;
+}
+
+void check_data_forces(const std::vector<ExperimentPoint>& points, MethodKind kind,
+                       const std::string& source) {
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    try {
+      validate_method_force(kind, points[k].force_pN);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("experiment file '" + source + "' data row " +
+                                  std::to_string(k + 1) + ": " + e.what());
+    }
+  }
+}
+
+DiameterData load_diameter_data(const std::string& path, double reading_um, MethodKind kind) {
+  const std::vector<ExperimentPoint> points = load_experiment(path);
+  check_data_forces(points, kind, path);
+  return make_diameter_data(points, reading_um);
 }
 
 double gaussian_log_likelihood(const DiameterData& d, const ModelDiameters& m, double c) {

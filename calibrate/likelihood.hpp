@@ -11,9 +11,11 @@
 // The 0 pN point is the unstretched cell, one measured diameter for both columns: it enters
 // once, as an axial term against the model's D_A(0) (the rest shape is axisymmetric, so
 // D_T(0) = D_A(0) up to the mesh).
+#include <string>
 #include <vector>
 
 #include "compare/experiment.hpp"
+#include "compare/methods.hpp"
 
 namespace rbc {
 
@@ -46,6 +48,20 @@ struct DiameterData {
 /// naming it otherwise).
 DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points,
                                 double reading_uncertainty_um);
+
+/// Refuses data the model of `kind` is not documented to reproduce: throws std::invalid_argument
+/// naming the source, the data row (1-based, as parse_experiment counts them) and the force
+/// ("experiment file 'f.csv' data row 3: force (continuum model) must be finite and in
+/// [0, 400] pN, got 1000 pN") for the first row beyond max_method_force_pN(kind)
+/// (calibrate/forward_model.hpp).
+void check_data_forces(const std::vector<ExperimentPoint>& points, MethodKind kind,
+                       const std::string& source);
+
+/// The data file at `path` (load_experiment) as the likelihood of the model of `kind` uses it:
+/// read, its forces checked by check_data_forces, then make_diameter_data. Every error names
+/// the file; nothing is solved.
+DiameterData load_diameter_data(const std::string& path, double reading_uncertainty_um,
+                                MethodKind kind);
 
 /// Model diameters at the data's forces (um).
 struct ModelDiameters {

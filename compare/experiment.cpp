@@ -49,6 +49,7 @@ std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::strin
 }
 
 std::vector<ExperimentPoint> load_experiment(const std::string& path) {
+  check_csv_file(path);
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open CSV file '" + path + "'");
   return parse_experiment(in, path);

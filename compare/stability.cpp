@@ -57,6 +57,7 @@ void order_sweep(const StabilityOptions& o, StabilityResult& res, const Progress
         mesh, make_membrane_law(defaults.wlc, defaults.steric, order), ContinuumParameters{});
     ContinuumOptions co;
     co.max_bisections = o.continuum_bisections;
+    co.beyond_documented_force_range = true;  // the ladder runs past the documented maximum
     const auto pts = run_continuum_stretch(model, o.order_forces_pN, co);
     OrderCurve c;
     c.order = to_string(order);
@@ -104,6 +105,7 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
   const Network net = make_discrete_network(std::min(o.discrete_vertices, 500));
   StretchOptions so;
   so.minimiser.max_iterations = o.discrete_iteration_budget;
+  so.beyond_documented_force_range = true;  // the ladder runs past the documented maximum
   report(progress, "stability: discrete solver budget up to " +
                        std::to_string(o.budget_forces_pN.back()) + " pN");
   const auto pts = run_stretch(net, o.budget_forces_pN, so);
@@ -124,6 +126,7 @@ void budget_sweep(const StabilityOptions& o, StabilityResult& res, const Progres
         mesh, make_membrane_law(defaults.wlc, defaults.steric, order), ContinuumParameters{});
     ContinuumOptions co;
     co.max_bisections = o.continuum_bisections;
+    co.beyond_documented_force_range = true;
     const auto cp = run_continuum_stretch(model, o.budget_forces_pN, co);
     for (const auto& p : cp) {
       const std::string m = "continuum p=" + to_string(order);

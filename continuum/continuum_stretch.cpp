@@ -39,6 +39,17 @@ void ContinuumOptions::validate() const {
   lbfgs_schedule.validate();
 }
 
+void ContinuumOptions::validate(const std::vector<double>& forces_pN) const {
+  validate();
+  for (double f : forces_pN) {
+    if (beyond_documented_force_range)
+      require_finite_in_range("force (continuum model)", "pN", f, 0.0, kUnbounded,
+                              Ends::closed_open);
+    else
+      validate_continuum_force(f);
+  }
+}
+
 NewtonResult solve_equilibrium_lbfgs(const ContinuumModel& model, double force_pN, Positions& x,
                                      ConstraintMultipliers& lambda,
                                      const ContinuumOptions& options) {
@@ -201,11 +212,7 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
                                                  const ContinuumOptions& options,
                                                  const ProgressSink& progress,
                                                  const StretchState& warm, KeptMethods* kept) {
-  options.validate();
-  for (double f : forces_pN)
-    if (!std::isfinite(f) || f < 0)
-      throw std::invalid_argument("stretch force must be finite and >= 0 pN, got " +
-                                  std::to_string(f));
+  options.validate(forces_pN);
   if (!warm.empty()) warm.check_matches(static_cast<int>(model.rest.cols()), forces_pN);
   NewtonOptions newton_options = options.newton;
   if (!newton_options.cancel) newton_options.cancel = options.cancel;

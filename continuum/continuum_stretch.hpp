@@ -72,6 +72,10 @@ struct ContinuumOptions {
   /// L-BFGS only: penalty schedule of the augmented-Lagrangian driver
   /// (discrete/augmented_lagrangian.hpp), the same as the discrete stretch's.
   AugmentedLagrangianSchedule lbfgs_schedule;
+  /// Whether forces above kMaxContinuumForce_pN are accepted (still finite and >= 0): only for
+  /// studies of where the model and solver stop working (`rbc stability`). Off: validate(forces)
+  /// refuses them, so every front end keeps to the documented range.
+  bool beyond_documented_force_range = false;
   ContinuumOptions() {
     lbfgs.force_tolerance = 1e-3;
     lbfgs.max_iterations = 20000;
@@ -80,10 +84,16 @@ struct ContinuumOptions {
   /// Throws rbc::InvalidParameter naming the value: newton.validate(), bisections in [0, 30],
   /// lbfgs.validate(), L-BFGS updates in [1, 10000], penalty stiffnesses finite and > 0.
   void validate() const;
+  /// validate() and every force: finite and in [0, kMaxContinuumForce_pN] pN
+  /// (validate_continuum_force), or finite and >= 0 with beyond_documented_force_range. Called
+  /// by run_continuum_stretch and ContinuumSweepSolver::run before any work, so every front end
+  /// (CLI, calibration, Python) is held to the same limits.
+  void validate(const std::vector<double>& forces_pN) const;
 };
 
 /// Largest total bead force (pN) the continuum stretch is documented to handle, for every
-/// order of the law, checked up front by the front ends (validate_continuum_force). Measured
+/// order of the law, checked by ContinuumOptions::validate(forces) (validate_continuum_force)
+/// before any work. Measured
 /// (rbc stretch --model continuum --elements 500, Release, 1 thread): by continuation
 /// 0, 100, ..., 400 pN every order (2, 4, full) converges in <= 26 Newton iterations per force
 /// and from the rest shape straight to 400 pN in 28-34; from 500 pN each force needs 130-240

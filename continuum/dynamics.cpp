@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "continuum/continuum_stretch.hpp"
 #include "continuum/newton_solver.hpp"
 #include "core/geometry.hpp"
 #include "core/validation.hpp"
@@ -136,6 +137,7 @@ TrajectorySample ContinuumDynamics::measure(double force_pN, const DynamicsState
 }
 
 StepOutcome ContinuumDynamics::step(double force_pN, double dt, DynamicsState& state) {
+  validate_continuum_force(force_pN);
   StepOutcome out;
   MembraneViscosity visc;
   visc.shear_pN_s_per_um = options_.shear_viscosity_pN_s_per_um;

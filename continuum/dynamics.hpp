@@ -74,6 +74,7 @@ class ContinuumDynamics {
  public:
   ContinuumDynamics(const ContinuumModel& model, const ContinuumDynamicsOptions& options);
   /// One backward-Euler step at force F (pN) of length dt (s) from state (updated on success).
+  /// F must be finite and in [0, kMaxContinuumForce_pN] (validate_continuum_force).
   StepOutcome step(double force_pN, double dt_s, DynamicsState& state);
   /// E(x) at F without constraint terms, diameters and drifts.
   TrajectorySample measure(double force_pN, const DynamicsState& state) const;

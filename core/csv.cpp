@@ -1,6 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
+#include <system_error>
 
 #include "core/io.hpp"
 #include "core/validation.hpp"
@@ -8,10 +14,56 @@
 // The CSV reader on a stream, apart from io.cpp so the fuzz target (fuzz/) links it alone.
 namespace rbc {
 
+namespace {
+
+/// Text taken from a file, fit for a one-line message: printable ASCII as it is, every other
+/// byte (NUL, control characters, non-ASCII) as \xNN, so a message is never cut at a NUL or
+/// broken by a control character; at most 60 bytes of the text are shown.
+std::string printable(std::string_view text) {
+  constexpr std::size_t kShown = 60;
+  std::string out;
+  for (std::size_t i = 0; i < text.size() && i < kShown; ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c >= 0x20 && c < 0x7f && c != '\\') {
+      out += static_cast<char>(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  if (text.size() > kShown) out += "...";
+  return out;
+}
+
+std::runtime_error is_a_directory(const std::string& path) {
+  return std::runtime_error("CSV file '" + path + "' is a directory, expected a CSV file");
+}
+
+}  // namespace
+
+void check_csv_file(const std::string& path) {
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (!ec && std::filesystem::is_directory(st)) throw is_a_directory(path);
+  // A pipe or device is read as it comes (opening a FIFO here would wait for its writer).
+  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st)) return;
+  // The system says why a file cannot be opened (ENOENT, ENOTDIR, EACCES, ELOOP, ...).
+  errno = 0;
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  if (!f) {
+    const int err = errno;
+    throw std::runtime_error("cannot open CSV file '" + path +
+                             "': " + (err ? std::strerror(err) : "unknown error"));
+  }
+  std::fclose(f);
+}
+
 CsvTable parse_csv(std::istream& in, const std::string& path) {
   CsvTable t;
   std::string line;
   int lineno = 0;
+  errno = 0;
   while (std::getline(in, line)) {
     ++lineno;
     if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -38,10 +90,19 @@ CsvTable parse_csv(std::istream& in, const std::string& path) {
       const std::optional<double> v = parse_number(c);
       if (!v)
         throw std::runtime_error("CSV file '" + path + "' line " + std::to_string(lineno) + ": '" +
-                                 c + "' is not a number");
+                                 printable(c) + "' is not a number");
       row.push_back(*v);
     }
     t.rows.push_back(std::move(row));
+  }
+  if (in.bad()) {
+    // A read error (the stream of a directory fails with EISDIR on its first read).
+    const int err = errno;
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) throw is_a_directory(path);
+    throw std::runtime_error("CSV file '" + path + "' could not be read after line " +
+                             std::to_string(lineno) + ": " +
+                             (err ? std::strerror(err) : "read error"));
   }
   if (t.header.empty()) throw std::runtime_error("CSV file '" + path + "' has no header line");
   return t;

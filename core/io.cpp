@@ -160,6 +160,7 @@ void write_csv(const std::string& path, const CsvTable& t) {
 }
 
 CsvTable read_csv(const std::string& path) {
+  check_csv_file(path);
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open CSV file '" + path + "'");
   return parse_csv(in, path);

@@ -67,6 +67,10 @@ void write_csv(const std::string& path, const CsvTable& table);
 CsvTable read_csv(const std::string& path);
 /// The same reader on a stream; `path` names the source in the messages (core/csv.cpp).
 CsvTable parse_csv(std::istream& in, const std::string& path);
+/// Throws std::runtime_error naming the file and the cause unless `path` can be opened as a
+/// data file: "cannot open CSV file 'x': No such file or directory" (the system's text for the
+/// error), "CSV file 'x' is a directory, expected a CSV file" (core/csv.cpp).
+void check_csv_file(const std::string& path);
 
 /// Named per-vertex or per-face scalar fields for a mesh snapshot.
 using MeshField = std::pair<std::string, Eigen::VectorXd>;

@@ -13,6 +13,7 @@
 #include "core/geometry.hpp"
 #include "core/lbfgs.hpp"
 #include "core/validation.hpp"
+#include "discrete/stretch.hpp"
 
 namespace rbc {
 
@@ -157,6 +158,7 @@ void remove_unseen_rigid_motion(Positions& x, const Positions& reference, bool f
 
 StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double dt,
                                    DynamicsState& state, const DiscreteDynamicsOptions& o) {
+  validate_discrete_force(force_pN);
   const int n = net.topo.num_vertices;
   LinkDashpotParameters dp;
   dp.gamma_pN_s_per_um = link_damping_for_shear_viscosity(o.shear_viscosity_pN_s_per_um);

@@ -116,7 +116,8 @@ struct DiscreteDynamicsOptions {
 /// component only).
 void remove_unseen_rigid_motion(Positions& x, const Positions& reference, bool full_rotation);
 
-/// One backward-Euler step of the network at bead force F (pN) from state.x.
+/// One backward-Euler step of the network at bead force F (pN) from state.x. F must be finite
+/// and in [0, kMaxDiscreteForce_pN] (validate_discrete_force: rbc::InvalidParameter).
 StepOutcome discrete_dynamics_step(const Network& net, double force_pN, double dt_s,
                                    DynamicsState& state, const DiscreteDynamicsOptions& options);
 

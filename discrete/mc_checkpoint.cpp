@@ -165,6 +165,7 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   std::tie(a.series_rows, a.series_cols) = h.read("/series", a.series);
   a.series_count = h.read_attribute_int("series_rows");
   a.sweep = h.read_attribute_int("sweep");
+  a.sample_every = h.read_attribute_int("sample_every");
   h.read("/mobile", a.mobile);
   if (h.read_attribute_string("rng_type") != gsl_rng_mt19937->name)
     throw corrupt("RNG type is not " + std::string(gsl_rng_mt19937->name));

@@ -59,7 +59,9 @@ McCheckpointNetwork peek_mc_checkpoint_network(const std::string& path);
 
 /// Reads and checks a checkpoint against `net`. Throws std::runtime_error for a missing or
 /// corrupt file (naming it and what is wrong) and std::invalid_argument for a checkpoint of
-/// another network (fingerprint mismatch).
+/// another network (fingerprint mismatch). Corrupt includes contents that match their checksum
+/// but not each other (check_mc_checkpoint_arrays): e.g. a sweep count that disagrees with the
+/// stored time series and its sample interval.
 McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net);
 
 }  // namespace rbc

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 
@@ -18,6 +19,13 @@ struct Mt19937State {
 };
 
 constexpr int kSeriesColumns = kMcCheckpointSeriesColumns;
+
+/// A stored value for a message ("1e+15", "12", "nan").
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
 
 [[noreturn]] void corrupt(const std::string& what) {
   throw std::runtime_error(what);
@@ -61,19 +69,30 @@ void check_mc_checkpoint_arrays(const McCheckpointArrays& a) {
   }
 
   if (a.sweep < 0) corrupt("sweep count " + std::to_string(a.sweep) + " is negative");
+  if (a.sample_every < 1)
+    corrupt("sample interval " + std::to_string(a.sample_every) + " is not >= 1 sweep");
   check_shape("time series", a.series.size(), a.series_rows, a.series_cols);
   if (a.series_cols != std::size_t(kSeriesColumns) || a.series_count < 0 ||
       a.series_rows != std::size_t(std::max(a.series_count, 1LL)))
     corrupt("time series has the wrong shape");
-  double last_sweep = -1;
+  // One sample after every sweep that is a multiple of sample_every.
+  const long long expected_samples = a.sweep / a.sample_every;
+  if (a.series_count != expected_samples)
+    corrupt("sweep count " + std::to_string(a.sweep) +
+            " disagrees with the stored time series: " + std::to_string(a.series_count) +
+            " samples, one every " + std::to_string(a.sample_every) + " sweeps, where " +
+            std::to_string(a.sweep) + " sweeps record " + std::to_string(expected_samples));
   for (long long i = 0; i < a.series_count; ++i) {
     const double* row = a.series.data() + i * kSeriesColumns;
     for (int c = 0; c < kSeriesColumns; ++c)
       if (!std::isfinite(row[c])) corrupt("time series value is not finite");
-    if (row[0] != std::floor(row[0]) || row[0] < 0 || row[0] > double(a.sweep) ||
-        row[0] <= last_sweep)
-      corrupt("time series sweep numbers are not increasing whole numbers in [0, sweep]");
-    last_sweep = row[0];
+    // (i + 1) sample_every <= series_count sample_every <= sweep: no overflow.
+    const long long expected_sweep = (i + 1) * a.sample_every;
+    if (row[0] != double(expected_sweep))
+      corrupt("time series sweep numbers are not the multiples of the sample interval: row " +
+              std::to_string(i + 1) + " is of sweep " + number(row[0]) + ", expected " +
+              std::to_string(expected_sweep) + " (one sample every " +
+              std::to_string(a.sample_every) + " sweeps)");
   }
 
   if (a.mobile.empty()) corrupt("mobile vertex list is empty");

@@ -26,6 +26,7 @@ struct McCheckpointArrays {
   std::size_t series_rows = 0, series_cols = 0;
   long long series_count = 0;  ///< attribute `series_rows` (recorded samples)
   long long sweep = 0;         ///< attribute `sweep`: completed sweeps
+  long long sample_every = 1;  ///< attribute `sample_every`: sweeps between recorded samples
   std::vector<int> mobile;     ///< /mobile: vertex indices, or {-1} (all move)
 };
 
@@ -37,9 +38,12 @@ std::size_t mt19937_state_bytes();
 /// N >= 1; positions N x 3 and finite; rng_bytes == mt19937_state_bytes(), the RNG table
 /// `streams` x ceil(rng_bytes / 8) with streams >= 1 and each stream a valid mt19937 state (words
 /// < 2^32, not all zero, mti in [0, 624]; GSL reads mt[mti] unchecked); sweep >= 0; the series
-/// table has 8 columns and series_count rows (or the 1-row placeholder when 0), finite values and
-/// whole sweep numbers in [0, sweep] that increase; mobile is {-1} or distinct indices in [0, N).
-/// Every table's buffer holds exactly rows x cols values.
+/// table has 8 columns and series_count rows (or the 1-row placeholder when 0) and finite
+/// values; mobile is {-1} or distinct indices in [0, N). Every table's buffer holds exactly
+/// rows x cols values. The counts agree with each other: a chain records a sample after every
+/// sweep that is a multiple of sample_every (>= 1), so a chain at `sweep` holds
+/// sweep / sample_every samples whose sweep numbers are sample_every, 2 sample_every, ...
+/// (a sweep count edited on its own, e.g. to 1e15, is refused).
 void check_mc_checkpoint_arrays(const McCheckpointArrays& a);
 
 }  // namespace rbc

@@ -36,6 +36,17 @@ void StretchOptions::validate() const {
   augmented_lagrangian.validate();
 }
 
+void StretchOptions::validate(const std::vector<double>& forces_pN) const {
+  validate();
+  for (double f : forces_pN) {
+    if (beyond_documented_force_range)
+      require_finite_in_range("force (discrete model)", "pN", f, 0.0, kUnbounded,
+                              Ends::closed_open);
+    else
+      validate_discrete_force(f);
+  }
+}
+
 std::string to_string(StretchStatus s) {
   switch (s) {
     case StretchStatus::converged:
@@ -458,6 +469,7 @@ StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x
 StretchPoint solve_equilibrium(const Network& net, double force_pN, Positions& x,
                                ConstraintMultipliers& lambda, const StretchOptions& opt,
                                const ProgressSink& progress, NewtonPreconditioner* shared) {
+  opt.validate({force_pN});
   StretchWorkspace ws(net, opt, shared);
   return solve_force(ws, net, force_pN, x, lambda, opt, progress);
 }
@@ -495,6 +507,7 @@ std::vector<StretchPoint> stretch_sweep(const Network& net, const std::vector<do
                                         const StretchOptions& opt, const ProgressSink& progress,
                                         const StretchState& warm,
                                         std::vector<std::unique_ptr<NewtonPreconditioner>>* kept) {
+  opt.validate(forces);
   if (!warm.empty()) warm.check_matches(net.topo.num_vertices, forces);
   std::vector<StretchPoint> out;
   Positions x = net.rest;

@@ -111,6 +111,10 @@ struct StretchOptions {
   /// unknowns, 0.7 to 1.3 s per force (loaded 2-core machine). Off: trust the symmetry (a
   /// saddle is then reported as an equilibrium).
   bool symmetry_check = true;
+  /// Whether forces above kMaxDiscreteForce_pN are accepted (still finite and >= 0): only for
+  /// studies of where the solver stops working (`rbc stability`'s solver-budget ladder). Off:
+  /// validate(forces) refuses them, so every front end keeps to the documented range.
+  bool beyond_documented_force_range = false;
   StretchOptions() {
     minimiser.force_tolerance = 1e-3;
     minimiser.max_iterations = 50000;
@@ -122,6 +126,11 @@ struct StretchOptions {
   /// that force's shape as soon as it exists). Empty = nothing.
   std::function<void(const StretchPoint&)> on_point;
   void validate() const;
+  /// validate() and every force: finite and in [0, kMaxDiscreteForce_pN] pN
+  /// (validate_discrete_force), or finite and >= 0 with beyond_documented_force_range. Called
+  /// by run_stretch, StretchSweepSolver::run and solve_equilibrium before any work, so every
+  /// front end (CLI, calibration, Python) is held to the same limits.
+  void validate(const std::vector<double>& forces_pN) const;
 };
 
 /// Largest force tolerance accepted (pN): beyond 10 pN an "equilibrium" may be no closer to
@@ -129,12 +138,12 @@ struct StretchOptions {
 inline constexpr double kMaxForceTolerance_pN = 10.0;
 
 /// Largest total bead force (pN) the discrete stretch is documented to handle, checked up front
-/// by the front ends (validate_discrete_force). Measured (rbc stretch --force F, one force from
-/// the rest shape, Release, 1 thread, loaded machine): 500 pN converges at N = 300 in 433 L-BFGS
-/// iterations (1.5 s) and at N = 2,000 (preconditioned) in 47 (6.7 s); 1,000 pN converges at
-/// N = 300 (3.2 s) but did not finish at N = 2,000 in 400 s, and 1e6 pN not at N = 300 in 600 s.
-/// At 500 pN the cell is stretched to D_A ~ 21 um, 2.7x its diameter, as links approach Lmax
-/// (Lmax/Lbar = 3.17): 2.6x the Mills range (0-193 pN), past Fig. 7's 300 pN.
+/// by StretchOptions::validate(forces) (validate_discrete_force). Measured (rbc stretch --force F,
+/// one force from the rest shape, Release, 1 thread, loaded machine): 500 pN converges at N = 300
+/// in 433 L-BFGS iterations (1.5 s) and at N = 2,000 (preconditioned) in 47 (6.7 s); 1,000 pN
+/// converges at N = 300 (3.2 s) but did not finish at N = 2,000 in 400 s, and 1e6 pN not at N = 300
+/// in 600 s. At 500 pN the cell is stretched to D_A ~ 21 um, 2.7x its diameter, as links approach
+/// Lmax (Lmax/Lbar = 3.17): 2.6x the Mills range (0-193 pN), past Fig. 7's 300 pN.
 inline constexpr double kMaxDiscreteForce_pN = 500.0;
 
 /// Throws rbc::InvalidParameter ("force (discrete model) must be finite and in [0, 500] pN, got

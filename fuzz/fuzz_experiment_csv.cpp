@@ -2,7 +2,9 @@
 // Fuzz target: the CSV reader (core/csv.cpp, parse_csv) and the Mills data file on top of it
 // (compare/experiment.cpp, parse_experiment). The only allowed failure is std::runtime_error; an
 // accepted table must keep the documented contract: every row as wide as the header, and an
-// accepted experiment finite, forces >= 0 and increasing, diameters and error bars > 0.
+// accepted experiment finite, forces >= 0 and increasing, diameters and error bars > 0. A
+// refusal's message is one line of printable ASCII: text quoted from the file has its other
+// bytes escaped, so a NUL in the file cannot cut the message short.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -13,6 +15,14 @@
 #include "compare/experiment.hpp"
 #include "core/io.hpp"
 
+namespace {
+void check_message(const std::runtime_error& e) {
+  for (const char* c = e.what(); *c; ++c)
+    if (static_cast<unsigned char>(*c) < 0x20 || static_cast<unsigned char>(*c) > 0x7e)
+      __builtin_trap();
+}
+}  // namespace
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
@@ -21,7 +31,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (t.header.empty()) __builtin_trap();
     for (const auto& row : t.rows)
       if (row.size() != t.header.size()) __builtin_trap();
-  } catch (const std::runtime_error&) {
+  } catch (const std::runtime_error& e) {
+    check_message(e);
   }
   try {
     std::istringstream in(text);
@@ -38,7 +49,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         __builtin_trap();
       previous = p.force_pN;
     }
-  } catch (const std::runtime_error&) {
+  } catch (const std::runtime_error& e) {
+    check_message(e);
   }
   return 0;
 }

@@ -3,7 +3,8 @@
 // (discrete/mc_checkpoint_arrays.cpp, check_mc_checkpoint_arrays) before rbc mc --resume uses
 // them. The input bytes are decoded into the arrays and counts of a checkpoint; every byte 0
 // means "as a valid checkpoint has it", so the empty input is a valid 4-vertex, 2-stream
-// checkpoint and the fuzzer mutates from there (shapes, counts, values, RNG words).
+// checkpoint and the fuzzer mutates from there (shapes, counts, values, RNG words, the sample
+// interval against the sweep count and the series).
 // The only allowed failure is std::runtime_error; an accepted set must be safe to use the way
 // read_mc_checkpoint and GSL use it (asserted below with __builtin_trap).
 #include <algorithm>
@@ -138,6 +139,11 @@ rbc::McCheckpointArrays decode(Bytes& in) {
   } else {
     for (int k = b % 6; k > 0; --k) a.mobile.push_back(int(in.next() % 13) - 3);
   }
+  // Last, so the older corpus files keep their meaning: the sample interval (3 by default, which
+  // the default series' sweeps 3, 6, 9 of 10 agree with), else a wrong small or a huge one.
+  b = in.next();
+  static const long long every[] = {1, 2, 4, 5, 0, -1, 1LL << 40, 9223372036854775807LL};
+  a.sample_every = b == 0 ? 3 : every[b % 8];
   return a;
 }
 
@@ -160,10 +166,12 @@ void use(const rbc::McCheckpointArrays& a) {
       if (w[i] > 0xffffffffull) __builtin_trap();  // gsl_rng_uniform would reach >= 1
   }
   if (a.series_cols != std::size_t(rbc::kMcCheckpointSeriesColumns)) __builtin_trap();
+  // The counts agree: sweep / sample_every samples, of sweeps sample_every, 2 sample_every, ...
+  if (a.sample_every < 1 || a.series_count != a.sweep / a.sample_every) __builtin_trap();
   for (long long i = 0; i < a.series_count; ++i) {
     const double* row = a.series.data() + i * a.series_cols;  // in bounds, else ASan reports
     const long long sweep = std::llround(row[0]);
-    if (sweep < 0 || sweep > a.sweep) __builtin_trap();
+    if (sweep < 0 || sweep > a.sweep || sweep != (i + 1) * a.sample_every) __builtin_trap();
     for (std::size_t c = 0; c < a.series_cols; ++c)
       if (!std::isfinite(row[c])) __builtin_trap();
   }

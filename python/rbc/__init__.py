@@ -265,8 +265,15 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
     RuntimeError with .residual_pN, .force_pN and .result) only when check=True. The GIL is
     released while solving; Ctrl-C, or `cancel()` returning True, stops the solve with
     KeyboardInterrupt. `progress(message)` receives the library's progress lines.
+
+    Forces must be finite and within the model's documented range, as for ``rbc stretch``:
+    [0, 500] pN for the discrete model, [0, 400] pN for the continuum model; anything else
+    raises ValueError naming the force and the limit before any work.
     """
     model = Model.of(model)
+    # The library's limits (finite forces within the model's documented maximum), before any
+    # mesh or network is built.
+    _rbc._validate_forces(model.value, forces_pN)
     if mesh_orientation == "mirror-planes":  # the patch that keeps the mesh's mirrors
         c = contact if contact is not None else ContactParameters()
         contact = ContactParameters(fraction=c.fraction, rule=c.rule, level_patch=True)

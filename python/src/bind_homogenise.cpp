@@ -24,7 +24,7 @@ void bind_homogenise(py::module_& m) {
         ModuliStudyOptions so;
         so.network = moduli_network_from_string(network);  // ValueError naming the choices
         so.cells = cells;
-        so.disorder = disorder;
+        so.disorder = finite("disorder", disorder);
         so.seeds = seeds;
         validated("moduli(network='" + network + "', cells=" + std::to_string(cells) +
                       ", disorder=" + num(disorder) + ", seeds=" + std::to_string(seeds) + ")",
@@ -56,6 +56,7 @@ void bind_homogenise(py::module_& m) {
             py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(deformation);
         if (!a || a.ndim() < 2 || a.shape(a.ndim() - 1) != 2 || a.shape(a.ndim() - 2) != 2)
           throw py::value_error("deformation must have shape (2, 2) or (M, 2, 2)");
+        require_finite("deformation", a.data(), static_cast<std::size_t>(a.size()));
         const py::ssize_t count = a.size() / 4;
         const IsotropicMembraneLaw law = make_membrane_law(pw.lib, ps.lib, e);
         const WlcDensity w = make_wlc_density(pw.lib, e);

@@ -24,16 +24,19 @@ InferOptions infer_options(const std::vector<std::string>& parameters, const py:
   for (const auto& p : parameters) o.parameters.push_back(parameter_from_string(p));
   for (const auto& [k, v] : priors) {
     const auto box = v.cast<std::pair<double, double>>();
+    const std::string name = k.cast<std::string>();
+    finite("priors['" + name + "'] lower bound", box.first);
+    finite("priors['" + name + "'] upper bound", box.second);
     PriorRange r;
-    r.parameter = parameter_from_string(k.cast<std::string>());
+    r.parameter = parameter_from_string(name);
     r.lower = box.first;
     r.upper = box.second;
     o.priors.push_back(r);
   }
-  o.reading_uncertainty_um = reading_uncertainty_um;
+  o.reading_uncertainty_um = finite("reading_uncertainty_um", reading_uncertainty_um);
   for (const auto& [k, v] : fixed) {
     const std::string name = k.cast<std::string>();
-    const double x = v.cast<double>();
+    const double x = finite("fixed['" + name + "']", v.cast<double>());
     if (name == "persistence_nm")
       o.fixed.persistence_nm = x;
     else if (name == "lmax_nm")
@@ -46,11 +49,11 @@ InferOptions infer_options(const std::vector<std::string>& parameters, const py:
       throw py::value_error("fixed parameter '" + name +
                             "' is not one of persistence_nm, lmax_nm, kappa_J, contact_fraction");
   }
-  o.fixed_sigma_scale = fixed_sigma_scale;
+  o.fixed_sigma_scale = finite("fixed_sigma_scale", fixed_sigma_scale);
   o.sampler.samples = samples;
   o.sampler.chain_length = chain_length;
-  o.sampler.target_cov = target_cov;
-  o.sampler.proposal_scale = proposal_scale;
+  o.sampler.target_cov = finite("target_cov", target_cov);
+  o.sampler.proposal_scale = finite("proposal_scale", proposal_scale);
   o.sampler.seed = seed;
   o.threads = threads;
   o.validate();  // std::invalid_argument -> ValueError naming the value
@@ -62,6 +65,7 @@ std::vector<double> theta_arg(const InferenceProblem& p, const py::handle& theta
   if (static_cast<int>(t.size()) != p.prior().dimension())
     throw py::value_error("theta must have " + std::to_string(p.prior().dimension()) + " values (" +
                           std::to_string(t.size()) + " given)");
+  require_finite("theta", t.data(), t.size());
   return t;
 }
 
@@ -135,7 +139,10 @@ void bind_infer(py::module_& m) {
           [](const InferenceProblem& p, const py::handle& theta, const py::object& warm) {
             const std::vector<double> t = theta_arg(p, theta);
             WarmState w;
-            if (!warm.is_none()) w = warm.cast<std::vector<double>>();
+            if (!warm.is_none()) {
+              w = warm.cast<std::vector<double>>();
+              require_finite("warm", w.data(), w.size());
+            }
             if (!p.prior().contains(t)) return -std::numeric_limits<double>::infinity();
             const LikelihoodValue v =
                 run_released(nullptr, [&] { return p.likelihood().evaluate(t, w, nullptr); });

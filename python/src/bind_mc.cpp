@@ -26,10 +26,14 @@ class MonteCarlo {
              double penalty_scale, const std::string& start, double initial_step_um,
              double target_acceptance, double adapt_gain)
       : net_(std::move(net)), adapt_sweeps_(std::move(adapt_sweeps)) {
-    if (!(temperature_K >= 0) || !std::isfinite(temperature_K))
+    finite("force_pN", force_pN);
+    finite("sampling_temperature_K", temperature_K);
+    finite("penalty_scale", penalty_scale);
+    finite("initial_step_um", initial_step_um);
+    finite("target_acceptance", target_acceptance);
+    finite("adapt_gain", adapt_gain);
+    if (!(temperature_K >= 0))
       throw py::value_error("sampling_temperature_K must be >= 0 K, got " + num(temperature_K));
-    if (!(force_pN >= 0) || !std::isfinite(force_pN))
-      throw py::value_error("force_pN must be finite and >= 0 pN, got " + num(force_pN));
     McStartOptions so;
     so.start = mc_start_from_string(start);  // ValueError naming the choices
     if (!adapt_sweeps_.is_none() && adapt_sweeps_.cast<long long>() < 0)

@@ -12,13 +12,10 @@ namespace {
 
 LoadState load_of(double force_pN, double area_multiplier, double volume_multiplier,
                   double stiffness_scale) {
-  if (!std::isfinite(force_pN))
-    throw py::value_error("force_pN must be finite, got " + num(force_pN));
-  if (!std::isfinite(area_multiplier) || !std::isfinite(volume_multiplier))
-    throw py::value_error(
-        "multipliers must be finite, got area_multiplier_pN_per_um = " + num(area_multiplier) +
-        ", volume_multiplier_pN_per_um2 = " + num(volume_multiplier));
-  if (!(stiffness_scale > 0) || !std::isfinite(stiffness_scale))
+  finite("force_pN", force_pN);
+  finite("area_multiplier_pN_per_um", area_multiplier);
+  finite("volume_multiplier_pN_per_um2", volume_multiplier);
+  if (!(finite("stiffness_scale", stiffness_scale) > 0))
     throw py::value_error("stiffness_scale must be finite and > 0, got " + num(stiffness_scale));
   LoadState load;
   load.force_pN = force_pN;
@@ -195,7 +192,7 @@ void bind_network(py::module_& m) {
         NetworkHessianOptions o;
         o.project = !exact;
         o.hinge_curvature = exact;
-        o.shift_fraction = shift_fraction;
+        o.shift_fraction = finite("shift_fraction", shift_fraction);
         validated("network_hessian(shift_fraction=" + num(shift_fraction) + ")",
                   [&] { o.validate(); });
         struct Out {

@@ -13,6 +13,19 @@ std::string num(double v) {
   return py::repr(py::float_(v)).cast<std::string>();
 }
 
+double finite(const std::string& what, double value) {
+  if (!std::isfinite(value))
+    throw py::value_error(what + " = " + num(value) + " is not allowed: expected a finite number");
+  return value;
+}
+
+void require_finite(const std::string& what, const double* data, std::size_t n) {
+  for (std::size_t k = 0; k < n; ++k)
+    if (!std::isfinite(data[k]))
+      throw py::value_error(what + ": entry " + std::to_string(k) + " of " + std::to_string(n) +
+                            " is " + num(data[k]) + "; expected finite values");
+}
+
 Positions positions_from_array(const py::handle& array, int expected_n, const char* what) {
   const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(array);
   if (!a) throw py::type_error(std::string(what) + " must be a float array of shape (N, 3)");
@@ -31,6 +44,7 @@ Positions positions_from_array(const py::handle& array, int expected_n, const ch
     throw py::value_error(std::string(what) + " must have shape " + expected + ", got " +
                           shape_text());
   }
+  require_finite(what, a.data(), static_cast<std::size_t>(3 * n));
   Positions x(3, n);
   std::copy(a.data(), a.data() + 3 * n, x.data());
   return x;
@@ -103,8 +117,8 @@ std::vector<double> forces_arg(const py::handle& forces) {
   if (py::isinstance<py::str>(forces))
     throw py::type_error("forces_pN must be a sequence of numbers");
   for (const py::handle item : py::iter(forces)) {
-    const double f = item.cast<double>();
-    if (!std::isfinite(f) || f < 0)
+    const double f = finite("forces_pN[" + std::to_string(out.size()) + "]", item.cast<double>());
+    if (f < 0)
       throw py::value_error("forces_pN[" + std::to_string(out.size()) + "] = " + num(f) +
                             " is not allowed: expected finite forces >= 0 pN");
     out.push_back(f);
@@ -139,6 +153,10 @@ std::string PyConstraints::repr() const {
 
 PyWlc make_wlc(double persistence_nm, double lmax_nm, double lbar_nm, double temperature_K) {
   PyWlc p{persistence_nm, lmax_nm, lbar_nm, temperature_K, {}};
+  finite(p.repr() + ": persistence_nm", persistence_nm);
+  finite(p.repr() + ": lmax_nm", lmax_nm);
+  finite(p.repr() + ": lbar_nm", lbar_nm);
+  finite(p.repr() + ": wlc_temperature_K", temperature_K);
   p.lib.persistence_um = units::nm_to_um(persistence_nm);
   p.lib.lmax_um = units::nm_to_um(lmax_nm);
   p.lib.lbar_um = units::nm_to_um(lbar_nm);
@@ -150,6 +168,8 @@ PyWlc make_wlc(double persistence_nm, double lmax_nm, double lbar_nm, double tem
 PyBending make_bending(double kappa_J, double h0_per_um, BendingModel model,
                        DihedralMapping mapping) {
   PyBending p{kappa_J, h0_per_um, model, mapping, {}};
+  finite(p.repr() + ": kappa_J", kappa_J);
+  finite(p.repr() + ": h0_per_um", h0_per_um);
   p.lib.kappa_pNum = units::joule_to_pNum(kappa_J);
   p.lib.h0_per_um = h0_per_um;
   validated(p.repr(), [&] { p.lib.validate(); });
@@ -158,12 +178,15 @@ PyBending make_bending(double kappa_J, double h0_per_um, BendingModel model,
 
 PySteric make_steric(double q, double eta) {
   PySteric p{q, eta, {q, eta}};
+  finite(p.repr() + ": q", q);
+  finite(p.repr() + ": eta", eta);
   validated(p.repr(), [&] { p.lib.validate(); });
   return p;
 }
 
 PyContact make_contact(double fraction, PatchRule rule, bool level_patch) {
   PyContact p{fraction, rule, level_patch, {}};
+  finite(p.repr() + ": fraction", fraction);
   p.lib.contact_fraction = fraction;
   p.lib.rule = rule;
   p.lib.keep_equal_x_together = level_patch;
@@ -176,6 +199,9 @@ PyConstraints make_constraints(double area_stiffness, double volume_stiffness, d
   p.lib.area_stiffness_pN_per_um3 = area_stiffness;
   p.lib.volume_stiffness_pN_per_um5 = volume_stiffness;
   p.lib.tolerance = tolerance;
+  finite(p.repr() + ": area_stiffness_pN_per_um3", area_stiffness);
+  finite(p.repr() + ": volume_stiffness_pN_per_um5", volume_stiffness);
+  finite(p.repr() + ": tolerance", tolerance);
   validated(p.repr(), [&] { p.lib.validate(); });
   return p;
 }
@@ -361,7 +387,9 @@ void bind_parameters(py::module_& m) {
 
   m.def(
       "thermal_energy_pNum",
-      [](double temperature_K) { return units::thermal_energy_pNum(temperature_K); },
+      [](double temperature_K) {
+        return units::thermal_energy_pNum(finite("temperature_K", temperature_K));
+      },
       py::arg("temperature_K"), "kB T in pN um (kB = 1.38e-23 J/K as in the paper).");
 }
 

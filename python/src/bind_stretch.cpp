@@ -12,7 +12,7 @@ namespace rbc::py_bind {
 namespace {
 
 void check_tolerance(const py::object& tolerance) {
-  if (!tolerance.is_none() && !(tolerance.cast<double>() > 0))
+  if (!tolerance.is_none() && !(finite("tolerance_pN", tolerance.cast<double>()) > 0))
     throw py::value_error("tolerance_pN must be positive, got " + num(tolerance.cast<double>()));
 }
 /// "none" or "mirror" (the CLI's --symmetry); ValueError otherwise.
@@ -30,6 +30,15 @@ int iterations_arg(const py::object& max_iterations, int fallback) {
   return n;
 }
 
+/// The library's check of a stretch's forces (StretchOptions / ContinuumOptions::validate with
+/// the forces: finite and within the model's documented maximum), each force named by its index.
+template <class Options>
+void validate_forces(const Options& options, const std::vector<double>& forces) {
+  for (std::size_t k = 0; k < forces.size(); ++k)
+    validated("forces_pN[" + std::to_string(k) + "] = " + num(forces[k]),
+              [&] { options.validate({forces[k]}); });
+}
+
 }  // namespace
 
 void bind_stretch(py::module_& m) {
@@ -37,7 +46,8 @@ void bind_stretch(py::module_& m) {
                                     "Area tension lambda_A (pN/um) and volume pressure lambda_V "
                                     "(pN/um^2) of the augmented Lagrangian")
       .def(py::init([](double a, double v) {
-             return ConstraintMultipliers{a, v};
+             return ConstraintMultipliers{finite("area_pN_per_um", a),
+                                          finite("volume_pN_per_um2", v)};
            }),
            py::arg("area_pN_per_um") = 0.0, py::arg("volume_pN_per_um2") = 0.0)
       .def_readonly("area_pN_per_um", &ConstraintMultipliers::area_pN_per_um)
@@ -111,6 +121,7 @@ void bind_stretch(py::module_& m) {
         const std::vector<double> f = forces_arg(forces);
         check_tolerance(tolerance);
         StretchOptions so;
+        validate_forces(so, f);
         so.symmetry = symmetry_arg(symmetry);
         if (!tolerance.is_none()) so.minimiser.force_tolerance = tolerance.cast<double>();
         so.minimiser.max_iterations = iterations_arg(max_iterations, 50000);
@@ -135,6 +146,7 @@ void bind_stretch(py::module_& m) {
          const py::object& tolerance, const py::object& max_iterations, const std::string& symmetry,
          const std::string& mesh_orientation, py::object cancel, py::object progress) {
         const std::vector<double> f = forces_arg(forces);
+        validate_forces(ContinuumOptions{}, f);
         const PyWlc w = wlc_or_default(wlc);
         const PyBending b = bending_or_default(bending);
         const PySteric s = steric_or_default(steric);
@@ -156,7 +168,7 @@ void bind_stretch(py::module_& m) {
         const auto cb = make_callbacks(std::move(cancel), std::move(progress));
         co.newton.cancel = make_cancel_check(cb);
         co.lbfgs.cancel = co.newton.cancel;
-        co.validate();
+        co.validate(f);
         const ProgressSink sink = make_progress_sink(cb);
         auto mesh = std::make_shared<PyMesh>();
         std::string law_name;
@@ -181,6 +193,19 @@ void bind_stretch(py::module_& m) {
       py::arg("elements"), py::arg("order"), py::arg("wlc"), py::arg("bending"), py::arg("steric"),
       py::arg("contact"), py::arg("forces_pN"), py::arg("tolerance_pN"), py::arg("max_iterations"),
       py::arg("symmetry"), py::arg("mesh_orientation"), py::arg("cancel"), py::arg("progress"));
+
+  m.def(
+      "_validate_forces",
+      [](const std::string& model, const py::handle& forces) {
+        const std::vector<double> f = forces_arg(forces);
+        if (model == "discrete")
+          validate_forces(StretchOptions{}, f);
+        else
+          validate_forces(ContinuumOptions{}, f);
+      },
+      py::arg("model"), py::arg("forces_pN"),
+      "The forces' check of a stretch of the model ('discrete' or 'continuum'), before any mesh "
+      "is built: ValueError unless each is finite and within the model's documented maximum.");
 }
 
 }  // namespace rbc::py_bind

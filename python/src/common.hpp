@@ -63,11 +63,21 @@ py::array owning_vector(Vector&& v) {
 
 /// Positions (3 x N, um) from a numpy array of shape (N, 3) or (3N,) (any float dtype; one
 /// copy into the library's storage). Throws ValueError naming the shape when expected_n >= 0
-/// and the vertex count differs.
+/// and the vertex count differs, and (require_finite) for a NaN or inf coordinate.
 Positions positions_from_array(const py::handle& array, int expected_n, const char* what);
 
 /// Repr of a float as Python prints it (for error messages naming a value).
 std::string num(double v);
+
+/// The one finiteness check of every number a binding takes: returns `value` when it is finite,
+/// otherwise raises ValueError "<what> = nan is not allowed: expected a finite number". Ranges
+/// are the library's validate()'s to check; this only keeps NaN and inf from reaching it (or
+/// reaching code that has no validate(), e.g. an energy evaluation).
+double finite(const std::string& what, double value);
+
+/// The same for every value of an array (data[0, n)): ValueError naming the first non-finite
+/// entry by its flat index ("positions: entry 7 of 750 is nan; expected finite values").
+void require_finite(const std::string& what, const double* data, std::size_t n);
 
 /// Runs check(); a std::invalid_argument from the library's validation becomes a ValueError
 /// prefixed by `call` (the Python call with its values in natural units).
@@ -204,7 +214,8 @@ PySteric steric_or_default(const py::object& o);
 PyContact contact_or_default(const py::object& o);
 PyConstraints constraints_or_default(const py::object& o);
 
-/// Forces in pN from a Python sequence: finite and >= 0, not empty (the CLI's rule).
+/// Forces in pN from a Python sequence: finite and >= 0, not empty (the CLI's rule). The
+/// model's maximum is checked by the library (StretchOptions / ContinuumOptions::validate).
 std::vector<double> forces_arg(const py::handle& forces);
 
 void bind_parameters(py::module_& m);

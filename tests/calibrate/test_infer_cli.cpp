@@ -61,6 +61,15 @@ TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
            write_file("decreasing.csv", std::string(kHeader) + good + "20,11,0.9,5.1,0.6\n"),
        "force_pN 20"},
       {"--data-file /nonexistent/rbc_mills.csv", "rbc_mills.csv"},
+      // A row beyond the chosen model's documented maximum: refused naming file, row and force.
+      {"--method continuum:2:200 --data-file " +
+           write_file("beyond.csv", std::string(kHeader) + good + "1000,20,0.9,4,0.6\n"),
+       "beyond.csv' data row 3: force (continuum model) must be finite and in [0, 400] pN, got "
+       "1000 pN"},
+      {"--method discrete:300 --data-file " +
+           write_file("beyond_discrete.csv", std::string(kHeader) + good + "600,20,0.9,4,0.6\n"),
+       "data row 3: force (discrete model) must be finite and in [0, 500] pN, got 600 pN"},
+      {"--data-file " + kDir, "is a directory, expected a CSV file"},
       {"--prior persistence=20:3", "persistence=20:3"},
       {"--prior persistence=3:3", "persistence=3:3"},
       {"--prior lmax=abc:300", "abc"},

@@ -3,10 +3,17 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <sstream>
 
+#include "calibrate/forward_model.hpp"
+#include "calibrate/infer.hpp"
 #include "calibrate/likelihood.hpp"
 #include "compare/experiment.hpp"
+#include "continuum/continuum_stretch.hpp"
+#include "core/validation.hpp"
+#include "discrete/stretch.hpp"
+#include "test_output.hpp"
 
 namespace rbc {
 namespace {
@@ -88,6 +95,64 @@ TEST(ExperimentParser, AcceptsTheMillsFormatAndNamesEveryDefect) {
   expect_parse_error(std::string(kHeader) + "0,7.9,0.7\n", "3 values");
   expect_parse_error(std::string(kHeader), "no data rows");
   expect_parse_error("", "no header");
+}
+
+// The calibration holds the chosen model's documented force maximum (kMaxContinuumForce_pN =
+// 400 pN, kMaxDiscreteForce_pN = 500 pN): a data row beyond it is refused when the data are
+// read, naming the file, the row and the force, before any forward run; the forward model's own
+// options refuse such forces too.
+TEST(DataForces, ARowBeyondTheModelsMaximumIsRefusedNamingFileRowAndForce) {
+  const std::vector<ExperimentPoint> points = {
+      {0, 7.8, 0.3, 7.8, 0.3}, {38, 11.0, 0.5, 6.6, 0.4}, {450, 19.0, 0.8, 4.2, 0.4}};
+  EXPECT_NO_THROW(check_data_forces(points, MethodKind::discrete, "d.csv"));
+  try {
+    check_data_forces(points, MethodKind::continuum, "d.csv");
+    ADD_FAILURE() << "a 450 pN row accepted for the continuum model";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(),
+                 "experiment file 'd.csv' data row 3: force (continuum model) must be finite and "
+                 "in [0, 400] pN, got 450 pN");
+  }
+
+  const auto dir = testing::fresh_output_dir("calibrate_data_forces");
+  const std::string file = (dir / "beyond.csv").string();
+  std::ofstream(file) << kHeader << "0,7.8,0.3,7.8,0.3\n38,11.0,0.5,6.6,0.4\n1000,20,0.8,4,0.4\n";
+  for (MethodKind kind : {MethodKind::continuum, MethodKind::discrete}) {
+    try {
+      load_diameter_data(file, 0.4, kind);
+      ADD_FAILURE() << "a 1000 pN row accepted";
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("'" + file + "' data row 3"), std::string::npos) << what;
+      EXPECT_NE(what.find(kind == MethodKind::continuum ? "[0, 400] pN" : "[0, 500] pN"),
+                std::string::npos)
+          << what;
+      EXPECT_NE(what.find("got 1000 pN"), std::string::npos) << what;
+    }
+  }
+  // The whole problem: refused while reading the data, before the forward model exists.
+  InferOptions o;
+  o.data_file = file;
+  o.method = parse_method("continuum:2:200");
+  o.parameters = {Parameter::sigma_scale};
+  EXPECT_THROW(InferenceProblem{o}, std::invalid_argument);
+}
+
+TEST(DataForces, TheForwardModelsOptionsHoldTheSameMaximum) {
+  ForwardOptions fo;
+  fo.method = parse_method("continuum:2:200");
+  fo.forces_pN = {0.0, 38.0, 1000.0};
+  EXPECT_THROW(fo.validate(), InvalidParameter);
+  EXPECT_THROW(ForwardModel{fo}, InvalidParameter);
+  fo.forces_pN = {0.0, 38.0, 400.0};
+  EXPECT_NO_THROW(fo.validate());
+  fo.method = parse_method("discrete:300");
+  fo.forces_pN = {0.0, 500.0};
+  EXPECT_NO_THROW(fo.validate());
+  fo.forces_pN = {0.0, 800.0};
+  EXPECT_THROW(fo.validate(), InvalidParameter);
+  EXPECT_EQ(max_method_force_pN(MethodKind::discrete), kMaxDiscreteForce_pN);
+  EXPECT_EQ(max_method_force_pN(MethodKind::continuum), kMaxContinuumForce_pN);
 }
 
 }  // namespace

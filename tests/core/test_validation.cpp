@@ -5,9 +5,16 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <utility>
+
+#include "core/io.hpp"
+#include "test_output.hpp"
 
 namespace {
 using rbc::Ends;
@@ -120,6 +127,62 @@ TEST(Validation, NumberReadersTakeTheWholeTextOrNothing) {
   EXPECT_EQ(*rbc::parse_integer("-3"), -3);
   for (const char* bad : {"", "4.0", "1e3", "12a", "99999999999999999999", "--1", "0x1F"})
     EXPECT_FALSE(rbc::parse_integer(bad).has_value()) << bad;
+}
+
+// ---- data-file reader messages (core/csv.cpp) ----
+
+/// The runtime_error message of f, checked to be whole: what() as a C string is the full text
+/// (no NUL inside) and every byte is printable ASCII.
+template <class F>
+std::string read_error(F f) {
+  try {
+    f();
+  } catch (const std::runtime_error& e) {
+    const std::string text = e.what();
+    EXPECT_EQ(std::strlen(e.what()), text.size());
+    for (unsigned char c : text) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << int(c) << " in " << text;
+    return text;
+  }
+  ADD_FAILURE() << "no std::runtime_error thrown";
+  return "";
+}
+
+TEST(CsvMessages, ADirectoryIsNamedAsOne) {
+  const auto dir = rbc::testing::fresh_output_dir("csv_messages_directory");
+  const std::string expected =
+      "CSV file '" + dir.string() + "' is a directory, expected a CSV file";
+  EXPECT_EQ(read_error([&] { rbc::read_csv(dir.string()); }), expected);
+  EXPECT_EQ(read_error([&] { rbc::check_csv_file(dir.string()); }), expected);
+  // A stream opened on the directory (the first read fails with EISDIR): the same words.
+  std::ifstream in(dir);
+  EXPECT_EQ(read_error([&] { rbc::parse_csv(in, dir.string()); }), expected);
+}
+
+TEST(CsvMessages, AMissingFileNamesTheSystemsCause) {
+  const auto dir = rbc::testing::fresh_output_dir("csv_messages_missing");
+  const std::string missing = (dir / "no_such.csv").string();
+  EXPECT_EQ(read_error([&] { rbc::read_csv(missing); }),
+            "cannot open CSV file '" + missing + "': " + std::strerror(ENOENT));
+  const std::string below_a_file = (dir / "plain.csv" / "x.csv").string();
+  std::ofstream(dir / "plain.csv") << "a,b\n1,2\n";
+  EXPECT_EQ(read_error([&] { rbc::read_csv(below_a_file); }),
+            "cannot open CSV file '" + below_a_file + "': " + std::strerror(ENOTDIR));
+  EXPECT_EQ(rbc::read_csv((dir / "plain.csv").string()).rows.size(), 1u);
+}
+
+TEST(CsvMessages, BytesFromTheFileAreEscapedNotCutAtANul) {
+  std::string text = "a,b\n1,2";
+  text += '\0';
+  text += "3\n";
+  std::istringstream in(text);
+  EXPECT_EQ(read_error([&] { rbc::parse_csv(in, "nul.csv"); }),
+            "CSV file 'nul.csv' line 2: '2\\x003' is not a number");
+  std::istringstream control("a,b\n1,\x1b[31m\xff\\\n");
+  EXPECT_EQ(read_error([&] { rbc::parse_csv(control, "c.csv"); }),
+            "CSV file 'c.csv' line 2: '\\x1b[31m\\xff\\x5c' is not a number");
+  std::istringstream long_cell("a\n" + std::string(200, 'z') + "\n");
+  const std::string m = read_error([&] { rbc::parse_csv(long_cell, "l.csv"); });
+  EXPECT_NE(m.find("'" + std::string(60, 'z') + "...' is not a number"), std::string::npos) << m;
 }
 
 }  // namespace

@@ -154,6 +154,47 @@ TEST(McCheckpoint, CorruptOrMissingFilesAreRefusedWithTheirName) {
   EXPECT_NE(refused(other).find("format"), std::string::npos) << refused(other);
 }
 
+// A checkpoint whose sweep count was edited, written with a checksum that matches the edit (the
+// writer computes it), is refused: its sweep count disagrees with its stored time series. The
+// edited file differs from the real one in the sweep count (and checksum) only.
+TEST(McCheckpoint, EditedSweepCountWithAValidChecksumIsRefused) {
+  const Network net = small_network(150);
+  const Dir dir("mc_checkpoint_edited_sweep");
+  McRun run(net, setup_for_test(), net.rest);
+  run.advance(7);  // samples at sweeps 2, 4, 6
+  const std::string real = (dir.path / "real.h5").string();
+  write_mc_checkpoint(real, net, McCheckpoint{run.setup(), run.state(), run.series()});
+  McCheckpoint cp = read_mc_checkpoint(real, net);
+  ASSERT_EQ(cp.chain.sweep, 7);
+  ASSERT_EQ(cp.series.size(), 3u);
+  for (long long sweep : {1'000'000'000'000'000LL, 8LL, 5LL}) {
+    cp.chain.sweep = sweep;
+    const std::string edited = (dir.path / "edited.h5").string();
+    write_mc_checkpoint(edited, net, cp);
+    {
+      const H5File a = H5File::open_read(real), b = H5File::open_read(edited);
+      EXPECT_EQ(b.read_attribute_int("sweep"), sweep);
+      EXPECT_EQ(a.read_attribute_int("series_rows"), b.read_attribute_int("series_rows"));
+      EXPECT_EQ(a.read_attribute_string("seed"), b.read_attribute_string("seed"));
+    }
+    try {
+      read_mc_checkpoint(edited, net);
+      ADD_FAILURE() << "sweep " << sweep << " accepted with 3 samples every 2 sweeps";
+    } catch (const std::runtime_error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("is corrupt: sweep count " + std::to_string(sweep) +
+                          " disagrees with the stored time series: 3 samples, one every 2 "
+                          "sweeps"),
+                std::string::npos)
+          << what;
+    }
+  }
+  cp.chain.sweep = 6;  // consistent: 3 samples every 2 sweeps
+  const std::string six = (dir.path / "six.h5").string();
+  write_mc_checkpoint(six, net, cp);
+  EXPECT_EQ(read_mc_checkpoint(six, net).chain.sweep, 6);
+}
+
 TEST(McCheckpoint, FailedWriteLeavesNoFileBehind) {
   const Network net = small_network(150);
   const Dir dir("mc_checkpoint_atomic");

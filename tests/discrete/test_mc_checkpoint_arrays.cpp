@@ -63,6 +63,7 @@ McCheckpointArrays valid() {
   a.series_cols = 8;
   a.series_count = 3;
   a.sweep = 6;
+  a.sample_every = 2;
   a.mobile = {-1};
   return a;
 }
@@ -88,10 +89,11 @@ TEST(McCheckpointArrays, AValidCheckpointPasses) {
   McCheckpointArrays a = valid();
   a.mobile = {3, 0, 2};
   EXPECT_NO_THROW(check_mc_checkpoint_arrays(a));
-  a = valid();  // no samples yet: the 1-row placeholder
+  a = valid();  // no samples yet: the 1-row placeholder (one sweep, sampled every 2)
   a.series.assign(8, 0.0);
   a.series_rows = 1;
   a.series_count = 0;
+  a.sweep = 1;
   EXPECT_NO_THROW(check_mc_checkpoint_arrays(a));
 }
 
@@ -150,6 +152,40 @@ TEST(McCheckpointArrays, ValuesThatCannotBeUsedAreRefused) {
   a = valid();
   a.sweep = -1;
   expect_refused(a, "sweep count");
+}
+
+// The counts of a checkpoint agree with each other: a chain at sweep S sampled every k sweeps
+// holds floor(S / k) samples, of sweeps k, 2k, ... A sweep count edited on its own (the
+// checksum recomputed, so only this check can tell) is refused.
+TEST(McCheckpointArrays, SweepCountMustAgreeWithTheStoredSeries) {
+  McCheckpointArrays a = valid();
+  a.sweep = 7;  // 3 samples every 2 sweeps: sweeps 6 and 7 both hold 3
+  EXPECT_NO_THROW(check_mc_checkpoint_arrays(a));
+  a.sweep = 1'000'000'000'000'000LL;  // 1e15
+  expect_refused(a, "sweep count 1000000000000000 disagrees with the stored time series");
+  a = valid();
+  a.sweep = 8;  // would hold a 4th sample at sweep 8
+  expect_refused(a, "8 sweeps record 4");
+  a = valid();
+  a.sweep = 5;  // the sample of sweep 6 cannot exist yet
+  expect_refused(a, "disagrees");
+  a = valid();
+  a.sample_every = 3;  // samples at 3, 6 would be 2, and the rows say 2, 4, 6
+  expect_refused(a, "disagrees");
+  a = valid();
+  a.sample_every = 0;
+  expect_refused(a, "sample interval 0");
+  a = valid();
+  a.series[0] = 1;  // sweeps 1, 4, 6: the count agrees, the sweep numbers do not
+  expect_refused(a, "row 1 is of sweep 1, expected 2");
+  a = valid();
+  a.series_count = a.series_rows = 0;
+  a.series.assign(8, 0.0);
+  a.series_rows = 1;
+  a.sweep = 1;  // one sweep, sampled every 2: no sample yet
+  EXPECT_NO_THROW(check_mc_checkpoint_arrays(a));
+  a.sweep = 2;
+  expect_refused(a, "disagrees");
   a = valid();
   a.mobile = {0, 4};
   expect_refused(a, "mobile");

@@ -19,13 +19,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Network small_network(int n) {
+Network resources_network(int n) {
   RestShapeOptions o;
   o.target_vertices = n;
   return build_network(make_rest_shape(o), NetworkParameters{});
 }
 
-McRunSetup setup_for_test() {
+McRunSetup resources_setup() {
   McRunSetup s;
   s.force_pN = 20;
   s.sampler.temperature_K = 300;
@@ -43,11 +43,11 @@ fs::path fresh(const std::string& name) {
 }
 
 TEST(McReliability, CancelStopsAtASweepBoundaryAndTheChainResumesBitForBit) {
-  const Network net = small_network(150);
-  McRun whole(net, setup_for_test(), net.rest);
+  const Network net = resources_network(150);
+  McRun whole(net, resources_setup(), net.rest);
   whole.advance(12);
 
-  McRunSetup setup = setup_for_test();
+  McRunSetup setup = resources_setup();
   int polls = 0;
   setup.cancel = [&] { return ++polls > 7; };  // "a signal" after 7 completed sweeps
   McRun cancelled(net, setup, net.rest);
@@ -74,20 +74,20 @@ TEST(McReliability, ConstructorThatThrowsAfterAllocatingItsStreamsLeavesTheirOwn
   // restore() refuses the state after the constructor allocated the GSL streams, which are
   // owned by unique_ptrs: a raw gsl_rng* would leak ~10 kB per refusal. A leak itself is seen
   // by the ASan/LSan job; here: the refusal is an invalid_argument each time.
-  const Network net = small_network(150);
-  McRun run(net, setup_for_test(), net.rest);
+  const Network net = resources_network(150);
+  McRun run(net, resources_setup(), net.rest);
   run.advance(2);
   McChainState bad = run.state();
   bad.rng_state[0].resize(7);  // a corrupt RNG state
   for (int k = 0; k < 50; ++k)
-    EXPECT_THROW(McRun(net, setup_for_test(), bad, run.series()), std::invalid_argument);
+    EXPECT_THROW(McRun(net, resources_setup(), bad, run.series()), std::invalid_argument);
   McChainState infeasible = run.state();
   infeasible.x *= 4.0;  // links past Lmax (Lmax/Lbar = 3.17)
-  EXPECT_THROW(McRun(net, setup_for_test(), infeasible, run.series()), std::invalid_argument);
+  EXPECT_THROW(McRun(net, resources_setup(), infeasible, run.series()), std::invalid_argument);
 }
 
 TEST(McReliability, CheckpointOfAnOlderFormatIsRefusedNamingTheVersion) {
-  const Network net = small_network(150);
+  const Network net = resources_network(150);
   const fs::path dir = fresh("mc_reliability_format");
   const std::string old = (dir / "format2.h5").string();
   {
@@ -111,9 +111,9 @@ TEST(McReliability, CheckpointOfAnOlderFormatIsRefusedNamingTheVersion) {
 }
 
 TEST(McReliability, CheckpointKeepsTheAdaptationScheduleItCameFrom) {
-  const Network net = small_network(150);
+  const Network net = resources_network(150);
   const fs::path dir = fresh("mc_reliability_schedule");
-  McRun run(net, setup_for_test(), net.rest);
+  McRun run(net, resources_setup(), net.rest);
   run.advance(3);
   const std::string file = (dir / "c.h5").string();
   write_mc_checkpoint(file, net, McCheckpoint{run.setup(), run.state(), run.series(), {20, 0.2}});
