@@ -407,6 +407,9 @@ def mesh_from_meshio(m) -> Mesh:
 
 Mesh.to_meshio = _mesh_to_meshio
 
+# Pictures of cells (numpy, h5py, meshio and matplotlib; the same script `rbc render` runs).
+from .render import plot_shape, read_shapes  # noqa: E402  (re-exported API)
+
 __all__ = [name for name in dir() if not name.startswith("_") and name not in (
     "annotations", "dataclasses", "enum", "math", "np", "Any", "Callable", "Optional",
     "Sequence")]
