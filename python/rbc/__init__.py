@@ -83,7 +83,7 @@ class Model(enum.Enum):
             raise ValueError(f"model {value!r} is not one of discrete, continuum") from None
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(repr=False)
 class StretchPoint:
     """One equilibrium of a stretch (plain data: picklable, arrays own or view their memory)."""
 
@@ -114,6 +114,14 @@ class StretchPoint:
     #: when the stretch ran with symmetry='none'
     symmetry_order: Optional[int] = None
     symmetry_broken: Optional[bool] = None
+
+    def __repr__(self) -> str:
+        size = f"{self.vertices} vertices" + (f", {self.elements} elements" if self.elements
+                                             else "")
+        return (f"StretchPoint(force_pN={self.force_pN:g}, axial_um={self.axial_um:.4f}, "
+                f"transverse_um={self.transverse_um:.4f}, converged={self.converged}, "
+                f"residual_pN={self.residual_pN:.2e}, {size}; positions "
+                f"{tuple(self.positions.shape)})")
 
     def record(self) -> dict:
         """The fields of one point of `rbc stretch --json`."""
@@ -203,8 +211,9 @@ class StretchResult(Sequence):
         return [p.record() for p in self.points]
 
     def __repr__(self):
-        return (f"StretchResult(model={self.model.value!r}, forces_pN={self.forces_pN.tolist()}, "
-                f"converged={self.converged.tolist()})")
+        return (f"StretchResult(model={self.model.value!r}, {len(self.points)} forces "
+                f"{self.forces_pN.tolist()} pN, D_A {np.round(self.axial_um, 4).tolist()} um, "
+                f"converged {int(self.converged.sum())}/{len(self.points)})")
 
 
 def _points(model, raw, rest_positions, faces, symmetry):
@@ -230,7 +239,17 @@ def _points(model, raw, rest_positions, faces, symmetry):
     return out
 
 
-def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFAULT_FORCES_PN, *,
+def _force_list(forces_pN) -> list:
+    """One force or a sequence of forces (pN) as a list of floats; ValueError otherwise."""
+    forces = np.asarray(forces_pN, dtype=float)
+    if forces.ndim > 1:
+        raise ValueError(f"forces_pN: expected a force or a list of forces in pN, got an array "
+                         f"of shape {forces.shape}")
+    return np.atleast_1d(forces).tolist()
+
+
+def stretch(model: "Model | str" = "discrete",
+            forces_pN: "float | Sequence[float]" = DEFAULT_FORCES_PN, *,
             vertices: int = 2000, elements: int = 4000, order: "Order | str | int" = "2",
             wlc: Optional[WlcParameters] = None, bending: Optional[BendingParameters] = None,
             steric: Optional[StericParameters] = None, contact: Optional[ContactParameters] = None,
@@ -266,11 +285,13 @@ def stretch(model: "Model | str" = "discrete", forces_pN: Sequence[float] = DEFA
     released while solving; Ctrl-C, or `cancel()` returning True, stops the solve with
     KeyboardInterrupt. `progress(message)` receives the library's progress lines.
 
-    Forces must be finite and within the model's documented range, as for ``rbc stretch``:
+    forces_pN is one force or a sequence of forces. Forces must be finite and within the model's
+    documented range, as for ``rbc stretch``:
     [0, 500] pN for the discrete model, [0, 400] pN for the continuum model; anything else
     raises ValueError naming the force and the limit before any work.
     """
     model = Model.of(model)
+    forces_pN = _force_list(forces_pN)
     # The library's limits (finite forces within the model's documented maximum), before any
     # mesh or network is built.
     _rbc._validate_forces(model.value, forces_pN)
@@ -413,3 +434,8 @@ from .render import plot_shape, read_shapes  # noqa: E402  (re-exported API)
 __all__ = [name for name in dir() if not name.startswith("_") and name not in (
     "annotations", "dataclasses", "enum", "math", "np", "Any", "Callable", "Optional",
     "Sequence")]
+
+
+def __dir__():
+    """The public API only (PEP 562): the helper modules imported above stay out of dir(rbc)."""
+    return sorted(__all__)
