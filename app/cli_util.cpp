@@ -271,6 +271,16 @@ void unlock_output_directory(const std::string& dir) {
 }
 }  // namespace
 
+namespace {
+/// Whether this process is a rank other than 0 of an MPI job (mpirun sets the rank in the
+/// environment): every rank checks --out, rank 0 alone writes it and holds its lock.
+bool mpi_worker_rank() {
+  for (const char* name : {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"})
+    if (const char* rank = std::getenv(name)) return std::string(rank) != "0";
+  return false;
+}
+}  // namespace
+
 bool output_directory_is_empty(const std::string& dir) {
   std::error_code ec;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
@@ -299,7 +309,8 @@ void prepare_output_directory(const std::string& dir, bool overwrite, bool allow
         "is " + (kind.empty() ? std::string("a regular file") : kind) + ", expected a directory");
   }
   // A directory another process holds is refused as in use, whatever it contains.
-  bool locked = existed && lock_output_directory(dir, false, option);
+  const bool lock = !mpi_worker_rank();
+  bool locked = lock && existed && lock_output_directory(dir, false, option);
   if (existed && !output_directory_is_empty(dir) && !overwrite && !allow_nonempty) {
     if (locked) unlock_output_directory(dir);
     refuse_path(option, dir,
@@ -315,7 +326,7 @@ void prepare_output_directory(const std::string& dir, bool overwrite, bool allow
                       (ec ? std::string(std::strerror(ec.value())) : std::string("not created")) +
                       ")");
   }
-  if (!locked) lock_output_directory(dir, true, option);
+  if (lock && !locked) lock_output_directory(dir, true, option);
   if (access(dir.c_str(), W_OK) != 0) refuse_path(option, dir, "the directory is not writable");
 }
 

@@ -76,8 +76,9 @@ CLI::Validator nonempty_path();
 /// being resumed). The directory is then locked for this process's lifetime (an exclusive
 /// flock on DIR/.rbc.lock that the kernel releases when the process dies, however it dies;
 /// the file is removed at a normal exit), so a second rbc process on the same directory is
-/// refused: "--out DIR: in use by another rbc process (pid N)". Throws std::invalid_argument "--out DIR: ..." naming the problem
-/// (filesystem errors as their strerror text).
+/// refused: "--out DIR: in use by another rbc process (pid N)". Under mpirun, rank 0 takes the
+/// lock and the other ranks (which never write --out) only check. Throws std::invalid_argument
+/// "--out DIR: ..." naming the problem (filesystem errors as their strerror text).
 void prepare_output_directory(const std::string& dir, bool overwrite, bool allow_nonempty = false,
                               const std::string& option = "--out");
 
