@@ -65,21 +65,48 @@ CLI::Validator enum_choice(std::vector<std::pair<std::string, E>> names) {
       set);
 }
 
-/// Checks an output directory up front, before any work, and creates it: `option` ('--out')
-/// must name a directory (or a path whose nearest existing ancestor is a directory) that can be
-/// created and written (a probe file is created and removed), and that is empty unless
-/// `overwrite` or `allow_nonempty` (e.g. it holds the run being resumed). Throws
-/// std::invalid_argument "--out DIR: ..." naming the problem.
+/// CLI11 check for an output path option (--out, --checkpoint): a given value must not be
+/// empty; otherwise the parse fails with "<option> '': expected a path" (exit 2).
+CLI::Validator nonempty_path();
+
+/// Checks an output directory up front, before any work, creates it and takes it for this
+/// process: `option` ('--out') must name a directory, or a path whose nearest existing ancestor
+/// is a directory, that is not a symbolic link, can be created and written, and is empty
+/// (apart from its lock file) unless `overwrite` or `allow_nonempty` (e.g. it holds the run
+/// being resumed). The directory is then locked for this process's lifetime (an exclusive
+/// flock on DIR/.rbc.lock that the kernel releases when the process dies, however it dies;
+/// the file is removed at a normal exit), so a second rbc process on the same directory is
+/// refused: "--out DIR: in use by another rbc process (pid N)". Under mpirun, rank 0 takes the
+/// lock and the other ranks (which never write --out) only check. Throws std::invalid_argument
+/// "--out DIR: ..." naming the problem (filesystem errors as their strerror text).
 void prepare_output_directory(const std::string& dir, bool overwrite, bool allow_nonempty = false,
                               const std::string& option = "--out");
 
-/// Checks up front that FILE can be written (its directory exists or can be created and is
-/// writable, FILE itself is not a directory); throws "<option> FILE: ...".
+/// Name of the lock file prepare_output_directory keeps in the directory (hidden; it does not
+/// count as content).
+inline constexpr const char* kOutputLockName = ".rbc.lock";
+
+/// Whether DIR holds nothing but its lock file (or does not exist).
+bool output_directory_is_empty(const std::string& dir);
+/// Removes DIR if it holds nothing but its lock file (a refused run that created it leaves
+/// nothing behind); the lock this process holds on it is released.
+void discard_empty_output_directory(const std::string& dir);
+
+/// Checks up front that FILE can be written: it is a regular file or does not exist (a
+/// directory, device, FIFO, socket or symbolic link is refused: "<option> FILE: is a FIFO,
+/// expected a regular file or nothing"), its directory exists or can be created and is
+/// writable; throws std::invalid_argument "<option> FILE: ...".
 void check_output_file(const std::string& path, const std::string& option);
 
-/// A number for file names: fixed notation with at least min_decimals decimals and as many
-/// more as needed for the tag to read back as the same double, so distinct values never share
-/// a name (16.01 -> "16.01", 16 -> "16.0" with min_decimals 1).
+/// Runs write_failed (which rewrites a run manifest with status "failed" and the reason);
+/// if that throws too (a full disk), removes `manifest_path` instead, so no manifest saying
+/// "running" outlives the process. Never throws.
+void record_failed_manifest(const std::string& manifest_path,
+                            const std::function<void()>& write_failed) noexcept;
+
+/// A number for file names that reads back as the same double, so distinct values never
+/// share a name (rbc::number_file_tag, core/io.hpp: 16.01 -> "16.01", 16 -> "16.0" with
+/// min_decimals 1, 1e-300 -> "1e-300").
 std::string number_tag(double value, int min_decimals);
 
 /// Throws "<option> <list>: values must be distinct, <a> and <b> would write the same files"

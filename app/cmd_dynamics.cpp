@@ -272,14 +272,14 @@ SceneRun run_continuum_scene(const DynamicsCli& o, Scene sc, const ProgressSink&
 /// One HDF5 file with every frame and an XDMF temporal collection over it.
 void write_time_series(const std::string& dir, const SceneRun& r, int frame_every) {
   const std::string h5_path = dir + "/dynamics.h5";
-  const std::string tmp = temporary_path_for(h5_path);
+  TempFile tmp(h5_path);  // removed on every path that does not commit it
   std::vector<size_t> frames;
   for (size_t k = 0; k < r.traj.snapshots.size(); ++k)
     if (k % frame_every == 0 || k + 1 == r.traj.snapshots.size()) frames.push_back(k);
   const auto nf = static_cast<hsize_t>(r.faces.cols());
   const auto nv = static_cast<hsize_t>(r.traj.snapshots.front().cols());
   {
-    H5File f = H5File::create(tmp);
+    H5File f = H5File::create(tmp.path(), h5_path);
     f.write("/mesh/faces", r.faces.data(), nf, 3);
     std::vector<double> times;
     for (size_t k : frames) {
@@ -289,8 +289,9 @@ void write_time_series(const std::string& dir, const SceneRun& r, int frame_ever
       times.push_back(r.traj.samples[k].t_s);
     }
     f.write("/time_s", times.data(), times.size(), 1);
+    f.close();
   }
-  commit_file(tmp, h5_path);
+  tmp.commit();
   std::ostringstream x;
   x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
     << "  <Grid Name=\"membrane\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
@@ -570,7 +571,8 @@ void add_dynamics_command(CLI::App& app, Action& action) {
                   "(continuum); 0 = defaults 20000 and 50")
       ->capture_default_str();
   cmd->add_option("--out", o->out,
-                  "write dynamics.{csv,json,h5,xdmf,png} (must be empty unless --force-overwrite)");
+                  "write dynamics.{csv,json,h5,xdmf,png} (must be empty unless --force-overwrite)")
+      ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print the JSON summary on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <limits>
@@ -69,13 +70,25 @@ const OptionNames kMcOptionNames = {
     {"adaptive fraction", "--adapt-fraction"},
 };
 
-/// Whether DIR holds the outputs of an `rbc mc` run (so a resumed run may write into it).
+/// Whether DIR holds the outputs of an `rbc mc` run (so a resumed run may write into it): its
+/// series or summary, or its run.json (all a run killed before its first series leaves).
 bool holds_mc_run(const std::string& dir) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  return fs::exists(fs::path(dir) / "mc_summary.json", ec) ||
-         fs::exists(fs::path(dir) / "mc_series.csv", ec);
+  if (fs::exists(fs::path(dir) / "mc_summary.json", ec) ||
+      fs::exists(fs::path(dir) / "mc_series.csv", ec))
+    return true;
+  std::ifstream in(fs::path(dir) / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  return j.is_object() && j.value("command", "") == "mc";
 }
+
+/// How far a run got, for the manifest of a run that fails: whether run.json says "running"
+/// and the sweeps done so far.
+struct McProgress {
+  bool running = false;
+  long long sweeps_done = 0;
+};
 
 /// DIR/run.json of `mc --out`: whether the outputs are those of a finished run ("complete"),
 /// the status (running | interrupted | finished), the reason, the sweeps done and requested
@@ -121,7 +134,7 @@ McRunSetup to_setup(const McCli& o) {
   return setup;
 }
 
-int run_mc(const McCli& o, const GivenOptions& given) {
+int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made) {
   if (o.adapt_sweeps < -1 || o.adapt_sweeps > o.sweeps)
     throw std::invalid_argument(
         "--adapt-sweeps " + std::to_string(o.adapt_sweeps) +
@@ -203,6 +216,8 @@ int run_mc(const McCli& o, const GivenOptions& given) {
       write_mc_checkpoint(o.checkpoint, net,
                           McCheckpoint{r.setup(), r.state(), r.series(), schedule});
   };
+  progress_made.sweeps_done = first_sweep;
+  progress_made.running = !o.out.empty();
   write_mc_manifest(o.out, false, "running", "the run has not finished", first_sweep, o.sweeps, "");
   if (!o.out.empty()) write_mc_snapshot(o.out, net, *run);
   const auto t0 = std::chrono::steady_clock::now();
@@ -210,6 +225,7 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   try {
     run->advance(o.sweeps, [&](const McRun& r) {
       const long long s = r.sampler().sweeps_done();
+      progress_made.sweeps_done = s;
       if (s % o.checkpoint_every == 0) write_checkpoint(r);
       if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
         write_mc_snapshot(o.out, net, r);
@@ -305,6 +321,24 @@ int run_mc(const McCli& o, const GivenOptions& given) {
   return 0;
 }
 
+/// run_mc; when it fails after run.json said "running", the manifest is rewritten as "failed"
+/// with the error line's text (or removed when even that write fails), so it never says
+/// "running" after the process ended.
+int run_mc_recorded(const McCli& o, const GivenOptions& given) {
+  McProgress made;
+  try {
+    return run_mc(o, given, made);
+  } catch (const Cancelled&) {
+    throw;
+  } catch (const std::exception& e) {
+    if (made.running)
+      record_failed_manifest(o.out + "/run.json", [&] {
+        write_mc_manifest(o.out, false, "failed", e.what(), made.sweeps_done, o.sweeps, "");
+      });
+    throw;
+  }
+}
+
 }  // namespace
 
 void add_mc_command(CLI::App& app, Action& action) {
@@ -361,13 +395,15 @@ void add_mc_command(CLI::App& app, Action& action) {
                       "multiplies the area/volume penalty stiffnesses while sampling (thermal "
                       "drift of A and V falls as 1/sqrt)")
           ->capture_default_str();
-  cmd->add_option("--checkpoint", o->checkpoint, "write the chain state to FILE (HDF5, atomic)");
+  cmd->add_option("--checkpoint", o->checkpoint, "write the chain state to FILE (HDF5, atomic)")
+      ->check(nonempty_path());
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "sweeps between checkpoints")
       ->check(integer_in(1, kMaxSweeps))
       ->capture_default_str();
   cmd->add_option("--resume", o->resume, "continue the chain stored in FILE");
   cmd->add_option("--out", o->out,
-                  "write DIR/mc_series.csv/.h5, mc_summary.json, snapshots (.h5/.xdmf)");
+                  "write DIR/mc_series.csv/.h5, mc_summary.json, snapshots (.h5/.xdmf)")
+      ->check(nonempty_path());
   cmd->add_option("--snapshot-every", o->snapshot_every,
                   "sweeps between snapshots (0: start and end)")
       ->check(integer_in(0, kMaxSweeps))
@@ -384,7 +420,7 @@ void add_mc_command(CLI::App& app, Action& action) {
                              adapt_fraction->count() > 0};
     action = [o, given] {
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
-      return naming_options(kMcOptionNames, [&] { return run_mc(*o, given); });
+      return naming_options(kMcOptionNames, [&] { return run_mc_recorded(*o, given); });
     };
   });
 }

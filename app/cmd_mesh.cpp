@@ -55,7 +55,8 @@ void add_mesh_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--out", o->out,
                   "write DIR/rest_shape.h5/.xdmf and DIR/mesh_quality.json (must be empty "
-                  "unless --force-overwrite)");
+                  "unless --force-overwrite)")
+      ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print the report as JSON");
   cmd->callback([o, &action] {

@@ -158,7 +158,7 @@ void add_psi_command(CLI::App& app, Action& action) {
   cmd->add_option("--curve", o->curve, "uniaxial | equibiaxial | shear")
       ->check(CLI::IsMember({"uniaxial", "equibiaxial", "shear"}))
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "CSV file to write (atomically)");
+  cmd->add_option("--out", o->out, "CSV file to write (atomically)")->check(nonempty_path());
   cmd->add_option("--points", o->points, "rows along the path, 2 to 100,000")
       ->check(integer_in(2, 100000))
       ->capture_default_str();

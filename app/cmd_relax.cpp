@@ -190,7 +190,8 @@ void add_relax_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--out", o->out,
                   "write relaxed shapes (HDF5/XDMF), relax.csv and relax.json (must be empty "
-                  "unless --force-overwrite)");
+                  "unless --force-overwrite)")
+      ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print a JSON array on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");

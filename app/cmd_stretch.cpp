@@ -141,8 +141,7 @@ StretchState read_checked_warm_start(const StretchCli& o, bool created_out, cons
   try {
     return read_warm_start(o.warm_start, model, to_string(o.orientation), vertices, faces, forces);
   } catch (...) {
-    std::error_code ec;
-    if (created_out && std::filesystem::is_empty(o.out, ec)) std::filesystem::remove(o.out, ec);
+    if (created_out) discard_empty_output_directory(o.out);
     throw;
   }
 }
@@ -199,14 +198,23 @@ class StretchManifest {
         {{"force_pN", force_pN}, {"shape_h5", name + ".h5"}, {"shape_xdmf", name + ".xdmf"}});
     running();
   }
-  void interrupted(const std::string& signal) {
-    const std::size_t done = run_["forces_complete"].size(),
-                      all = run_["forces_requested_pN"].size();
-    write(false, "interrupted",
-          "interrupted by " + signal + " after " + std::to_string(done) + " of " +
-              std::to_string(all) + " forces; stretch.csv not written");
+  /// Records the interruption; if even that write fails, removes run.json (never throws).
+  void interrupted(const std::string& signal) noexcept {
+    if (dir_.empty()) return;
+    record_failed_manifest(dir_ + "/run.json", [&] {
+      const std::size_t done = run_["forces_complete"].size(),
+                        all = run_["forces_requested_pN"].size();
+      write(false, "interrupted",
+            "interrupted by " + signal + " after " + std::to_string(done) + " of " +
+                std::to_string(all) + " forces; stretch.csv not written");
+    });
   }
-  void failed(const std::string& what) { write(false, "failed", what); }
+  /// Records the failure with the error line's text; if even that write fails (a full disk),
+  /// removes run.json, so no manifest says "running" after the process ended (never throws).
+  void failed(const std::string& what) noexcept {
+    if (dir_.empty()) return;
+    record_failed_manifest(dir_ + "/run.json", [&] { write(false, "failed", what); });
+  }
   void finished(const nlohmann::json& points) {
     run_["points"] = points;
     run_.erase("reason");
@@ -227,12 +235,14 @@ class StretchManifest {
   nlohmann::json run_;
 };
 
-/// Runs `solve` (which calls manifest.force_done as shapes are written); on Cancelled the
-/// manifest records the interruption before the exception goes on to main() (exit 130/143).
+/// Runs `solve` (the solve, the shape files as forces are done and the final outputs) with the
+/// manifest saying "running"; on Cancelled the manifest records the interruption, on any other
+/// exception the failure and its reason, before the exception goes on to main() (exit
+/// 130/143, or 2).
 template <class Solve>
 auto with_manifest(StretchManifest& manifest, Solve&& solve) {
-  manifest.running();
   try {
+    manifest.running();
     return solve();
   } catch (const Cancelled&) {
     manifest.interrupted(interrupt_name());
@@ -373,18 +383,19 @@ int run_discrete(const StretchCli& o) {
     manifest.force_done(p.force_pN, base);
   };
   if (!warm.empty()) report(progress, "warm start from " + o.warm_start);
-  const std::vector<StretchPoint> pts =
-      with_manifest(manifest, [&] { return run_stretch(net, forces, so, progress, warm); });
-  std::vector<StretchRow> rows;
-  for (const auto& p : pts) rows.push_back(to_row(p, 0));
-  return emit_stretch(
-      o, rows,
-      {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
-       "units: force pN, diameters um, energy pN*um, wall time s",
-       "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
-           std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
-           std::to_string(rest_force) + " pN"},
-      manifest);
+  return with_manifest(manifest, [&] {
+    const std::vector<StretchPoint> pts = run_stretch(net, forces, so, progress, warm);
+    std::vector<StretchRow> rows;
+    for (const auto& p : pts) rows.push_back(to_row(p, 0));
+    return emit_stretch(
+        o, rows,
+        {"rbc stretch --model discrete: optical-tweezers stretch of the spectrin network",
+         "units: force pN, diameters um, energy pN*um, wall time s",
+         "vertices " + std::to_string(mesh_report.vertices) + ", Phi/A0 " +
+             std::to_string(mesh_report.phi_over_area) + ", largest rest in-plane force " +
+             std::to_string(rest_force) + " pN"},
+        manifest);
+  });
 }
 
 // Continuum branch: surface FEM with the homogenised law of the given order.
@@ -427,34 +438,36 @@ int run_continuum(const StretchCli& o) {
   // The continuation (with its secant predictor and bisection) runs in the library, so the
   // shapes are written after the last force; an interrupted run records none as complete.
   if (!warm.empty()) report(progress, "warm start from " + o.warm_start);
-  const std::vector<ContinuumStretchPoint> pts = with_manifest(
-      manifest, [&] { return run_continuum_stretch(model, forces, co, progress, warm); });
-  if (!o.out.empty())
-    for (const auto& p : pts) {
-      const Eigen::VectorXd u = (p.x - model.rest).colwise().norm().transpose();
-      MeshSnapshot s{p.x,
-                     model.topo.faces,
-                     {{"displacement_um", u}},
-                     {{"I1", p.fields.i1},
-                      {"I2", p.fields.i2},
-                      {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
-                      {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}},
-                     {{"force_pN", p.force_pN},
-                      {kLambdaAreaAttribute, p.multipliers.area_pN_per_um},
-                      {kLambdaVolumeAttribute, p.multipliers.volume_pN_per_um2}}};
-      const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
-      write_mesh_snapshot(base, s);
-      manifest.force_done(p.force_pN, base);
-    }
-  std::vector<StretchRow> rows;
-  for (const auto& p : pts) rows.push_back(to_row(p, p.elements));
-  return emit_stretch(
-      o, rows,
-      {"rbc stretch --model continuum: optical-tweezers stretch, surface FEM, Newton",
-       "units: force pN, diameters um, energy pN*um, wall time s",
-       "order " + to_string(order) + ", elements " + std::to_string(model.num_elements()) +
-           ", vertices " + std::to_string(mesh_report.vertices)},
-      manifest);
+  return with_manifest(manifest, [&] {
+    const std::vector<ContinuumStretchPoint> pts =
+        run_continuum_stretch(model, forces, co, progress, warm);
+    if (!o.out.empty())
+      for (const auto& p : pts) {
+        const Eigen::VectorXd u = (p.x - model.rest).colwise().norm().transpose();
+        MeshSnapshot s{p.x,
+                       model.topo.faces,
+                       {{"displacement_um", u}},
+                       {{"I1", p.fields.i1},
+                        {"I2", p.fields.i2},
+                        {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
+                        {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}},
+                       {{"force_pN", p.force_pN},
+                        {kLambdaAreaAttribute, p.multipliers.area_pN_per_um},
+                        {kLambdaVolumeAttribute, p.multipliers.volume_pN_per_um2}}};
+        const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
+        write_mesh_snapshot(base, s);
+        manifest.force_done(p.force_pN, base);
+      }
+    std::vector<StretchRow> rows;
+    for (const auto& p : pts) rows.push_back(to_row(p, p.elements));
+    return emit_stretch(
+        o, rows,
+        {"rbc stretch --model continuum: optical-tweezers stretch, surface FEM, Newton",
+         "units: force pN, diameters um, energy pN*um, wall time s",
+         "order " + to_string(order) + ", elements " + std::to_string(model.num_elements()) +
+             ", vertices " + std::to_string(mesh_report.vertices)},
+        manifest);
+  });
 }
 
 /// --accuracy P%: sets model, resolution, order and (unless --symmetry was given, which then
@@ -603,7 +616,8 @@ void add_stretch_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--out", o->out,
                   "write per-force HDF5/XDMF shapes, stretch.csv and run.json (must be empty "
-                  "unless --force-overwrite)");
+                  "unless --force-overwrite)")
+      ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_option("--warm-start", o->warm_start,
                   "re-solve each force from the equilibria of an earlier `stretch --out DIR` "

@@ -1,7 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Files of `rbc infer --out DIR`: summary, posterior samples, corner plot, predictive Fig. 7.
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
@@ -15,25 +13,6 @@ namespace rbc {
 
 namespace {
 namespace fs = std::filesystem;
-
-/// Renders DIR/NAME.gp (already written, output to a temporary PNG name) into DIR/NAME.png.
-void run_gnuplot_script(const std::string& dir, const std::string& name,
-                        const std::string& tmp_png) {
-  const std::string cmd = "cd '" + dir + "' && gnuplot '" + name + ".gp' 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) throw std::runtime_error("cannot run gnuplot (apt-get install gnuplot-nox)");
-  std::string output;
-  std::array<char, 256> buf{};
-  while (fgets(buf.data(), buf.size(), pipe)) output += buf.data();
-  const int status = pclose(pipe);
-  const std::string tmp = (fs::path(dir) / tmp_png).string();
-  if (status != 0 || !fs::exists(tmp)) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw std::runtime_error("gnuplot failed on " + dir + "/" + name + ".gp: " + output);
-  }
-  commit_file(tmp, (fs::path(dir) / (name + ".png")).string());
-}
 
 /// The method name without underscores (gnuplot's enhanced text reads them as subscripts).
 std::string plain(std::string s) {
@@ -71,11 +50,13 @@ void write_corner(const InferenceResult& r, const std::string& dir) {
     }
   }
   write_csv((fs::path(dir) / "corner_marginals.csv").string(), hist);
-  const std::string tmp_png = ".corner.png.tmp";
   std::ostringstream g;
   const int px = 320 * d;
-  g << "set terminal pngcairo size " << px << "," << px << " enhanced font 'DejaVu Sans,10'\n"
-    << "set output '" << tmp_png << "'\n"
+  g << "set terminal pngcairo size " << px << "," << px
+    << " enhanced font 'DejaVu Sans,10'\n"
+    // Run by hand the script writes corner.png; rbc passes the temporary's name.
+    << "if (!exists('rbc_output')) rbc_output = 'corner.png'\n"
+    << "set output rbc_output\n"
     << "set datafile separator ','\nset datafile commentschars '#'\n"
     << "set multiplot layout " << d << "," << d << " title 'posterior (" << plain(r.method) << ", "
     << n << " samples)'\nunset key\nset grid\n";
@@ -100,7 +81,7 @@ void write_corner(const InferenceResult& r, const std::string& dir) {
     }
   g << "unset multiplot\nset output\n";
   write_text_atomic((fs::path(dir) / "corner.gp").string(), g.str());
-  run_gnuplot_script(dir, "corner", tmp_png);
+  run_gnuplot_to_png(dir, "corner.gp", (fs::path(dir) / "corner.png").string());
 }
 
 void write_predictive(const InferenceResult& r, const std::string& dir) {
@@ -163,9 +144,9 @@ void write_inference(const InferenceResult& r, const std::string& dir) {
   write_csv((fs::path(dir) / "posterior_samples.csv").string(), s);
   {
     const std::string path = (fs::path(dir) / "posterior_samples.h5").string();
-    const std::string tmp = temporary_path_for(path);
+    TempFile tmp(path);  // removed on every path that does not commit it
     {
-      H5File f = H5File::create(tmp);
+      H5File f = H5File::create(tmp.path(), path);
       std::vector<double> buf;
       for (const auto& row : s.rows) buf.insert(buf.end(), row.begin(), row.end());
       f.write("samples", buf.data(), n, s.header.size());
@@ -176,8 +157,9 @@ void write_inference(const InferenceResult& r, const std::string& dir) {
       f.write_attribute("log_evidence", r.log_evidence);
       f.write_attribute("log_evidence_sd", r.log_evidence_sd);
       f.write_attribute("seed", static_cast<long long>(r.seed));
+      f.close();
     }
-    commit_file(tmp, path);
+    tmp.commit();
   }
   write_corner(r, dir);
   if (!r.axial_q50.empty()) write_predictive(r, dir);

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "compare/plot.hpp"
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
@@ -14,13 +12,11 @@ namespace rbc {
 void render_plot(const PlotSpec& spec, const std::string& dir, const std::string& name) {
   namespace fs = std::filesystem;
   const std::string png = (fs::path(dir) / (name + ".png")).string();
-  TempFile tmp(png);  // removed if gnuplot fails or the run is interrupted
-  const std::string& tmp_png = tmp.path();
   std::ostringstream g;
   g << "set terminal pngcairo size " << spec.width_px << "," << spec.height_px
     << " enhanced font 'DejaVu Sans,12'\n"
     // The script names the final PNG (run by hand it writes NAME.png); rbc passes the
-    // temporary's name in `rbc_output` and renames it when gnuplot succeeds.
+    // temporary's name in `rbc_output` and renames it once the PNG reads back complete.
     << "if (!exists('rbc_output')) rbc_output = '" << name << ".png'\n"
     << "set output rbc_output\n"
     << "set datafile separator ','\nset datafile commentschars '#'\n"
@@ -44,19 +40,8 @@ void render_plot(const PlotSpec& spec, const std::string& dir, const std::string
   g << "\nset output\n";
   const std::string script = (fs::path(dir) / (name + ".gp")).string();
   write_text_atomic(script, g.str());
-  const std::string cmd = "cd '" + dir + "' && gnuplot -e \"rbc_output='" +
-                          fs::path(tmp_png).filename().string() + "'\" '" + name + ".gp' 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe)
-    throw std::runtime_error("cannot run gnuplot (is it installed? apt-get install gnuplot-nox)");
-  std::string output;
-  std::array<char, 256> buf{};
-  while (fgets(buf.data(), buf.size(), pipe)) output += buf.data();
-  const int status = pclose(pipe);
-  if (status != 0 || !fs::exists(tmp_png))
-    throw std::runtime_error("gnuplot failed on " + script + ": " + output);
-  // gnuplot was run in `dir` and wrote the temporary's file name there: tmp's own path.
-  tmp.commit();
+  // gnuplot writes the temporary in `dir`; the PNG counts only when it reads back complete.
+  run_gnuplot_to_png(dir, name + ".gp", png);
 }
 
 }  // namespace rbc

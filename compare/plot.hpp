@@ -30,8 +30,9 @@ struct PlotSpec {
   std::vector<std::string> extra_commands;  ///< raw gnuplot lines (labels, arrows)
 };
 
-/// Writes DIR/NAME.gp and renders DIR/NAME.png (atomically). Throws std::runtime_error if
-/// gnuplot is missing or fails, with its message.
+/// Writes DIR/NAME.gp and renders DIR/NAME.png (atomically, through run_gnuplot_to_png in
+/// core/io.hpp). Throws std::runtime_error if gnuplot is missing or fails, or the PNG does not
+/// read back complete, with gnuplot's message.
 void render_plot(const PlotSpec& spec, const std::string& dir, const std::string& name);
 
 }  // namespace rbc

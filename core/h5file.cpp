@@ -1,10 +1,18 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "core/h5file.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <exception>
 #include <stdexcept>
 #include <utility>
 
 #include "core/fnv1a.hpp"
+#include "core/io.hpp"
 
 namespace rbc {
 namespace {
@@ -41,33 +49,168 @@ class Handle {
 
 }  // namespace
 
+namespace {
+/// Removes the file a failed write left at PATH, only if it is a regular file (never a device
+/// or anything else the path may name).
+void remove_written_file(const std::string& path) noexcept {
+  struct stat st {};
+  if (lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(path.c_str());
+}
+
+/// A file-access property list with the strong close degree (H5Fclose closes every object
+/// still open in the file), and for a created file the in-memory core driver without backing
+/// store (close() writes the image through the output layer).
+class AccessList {
+ public:
+  explicit AccessList(bool in_memory) : id_(H5Pcreate(H5P_FILE_ACCESS)) {
+    if (id_ < 0) return;
+    if (H5Pset_fclose_degree(id_, H5F_CLOSE_STRONG) < 0 ||
+        (in_memory && H5Pset_fapl_core(id_, std::size_t(1) << 20, 0) < 0)) {
+      H5Pclose(id_);
+      id_ = -1;
+    }
+  }
+  ~AccessList() {
+    if (id_ >= 0) H5Pclose(id_);
+  }
+  AccessList(const AccessList&) = delete;
+  AccessList& operator=(const AccessList&) = delete;
+  hid_t get() const { return id_; }
+
+ private:
+  hid_t id_;
+};
+}  // namespace
+
 H5File H5File::create(const std::string& path, const std::string& name_in_errors) {
   silence();
   const std::string shown = name_in_errors.empty() ? path : name_in_errors;
-  const hid_t id = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (id < 0) fail(shown, "cannot be created (is the directory writable?)");
-  return H5File(id, shown);
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0666);
+  if (fd < 0) throw_file_error(shown, "cannot create", errno);
+  const AccessList fapl(true);
+  const hid_t id =
+      fapl.get() < 0 ? -1 : H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get());
+  if (id < 0) {
+    ::close(fd);
+    remove_written_file(path);
+    fail(shown, "cannot be created in memory (HDF5 error)");
+  }
+  H5File f(id, shown);
+  f.fd_ = fd;
+  f.disk_path_ = path;
+  f.uncaught_at_create_ = std::uncaught_exceptions();
+  return f;
 }
 
 H5File H5File::open_read(const std::string& path) {
   silence();
   if (H5Fis_hdf5(path.c_str()) <= 0) fail(path, "is missing or not an HDF5 file");
-  const hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const AccessList fapl(false);
+  const hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get() < 0 ? H5P_DEFAULT : fapl.get());
   if (id < 0) fail(path, "cannot be opened (corrupt?)");
   return H5File(id, path);
 }
 
-H5File::H5File(H5File&& o) noexcept : id_(o.id_), path_(std::move(o.path_)) {
+H5File::H5File(H5File&& o) noexcept
+    : id_(o.id_),
+      path_(std::move(o.path_)),
+      fd_(o.fd_),
+      disk_path_(std::move(o.disk_path_)),
+      uncaught_at_create_(o.uncaught_at_create_) {
   o.id_ = -1;
+  o.fd_ = -1;
 }
+
+void H5File::release() noexcept {
+  if (id_ >= 0) {
+    // The strong close degree closes the file's objects with it; any object id still valid
+    // after a failed close is closed one by one, then the file again.
+    if (H5Fclose(id_) < 0 && H5Iis_valid(id_) > 0) {
+      const ssize_t n = H5Fget_obj_count(id_, H5F_OBJ_ALL | H5F_OBJ_LOCAL);
+      if (n > 0) {
+        std::vector<hid_t> ids(static_cast<std::size_t>(n));
+        const ssize_t got =
+            H5Fget_obj_ids(id_, H5F_OBJ_ALL | H5F_OBJ_LOCAL, ids.size(), ids.data());
+        for (ssize_t k = 0; k < got; ++k) {
+          const hid_t obj = ids[static_cast<std::size_t>(k)];
+          if (obj == id_) continue;
+          switch (H5Iget_type(obj)) {
+            case H5I_DATASET:
+              H5Dclose(obj);
+              break;
+            case H5I_GROUP:
+              H5Gclose(obj);
+              break;
+            case H5I_DATATYPE:
+              H5Tclose(obj);
+              break;
+            case H5I_ATTR:
+              H5Aclose(obj);
+              break;
+            default:
+              break;
+          }
+        }
+      }
+      H5Fclose(id_);
+    }
+    id_ = -1;
+  }
+  if (fd_ >= 0) {
+    ::close(fd_);
+    fd_ = -1;
+  }
+}
+
+void H5File::write_image_and_close() {
+  // Everything the metadata cache holds goes into the in-memory image first.
+  const ssize_t size =
+      H5Fflush(id_, H5F_SCOPE_GLOBAL) < 0 ? -1 : H5Fget_file_image(id_, nullptr, 0);
+  std::vector<char> image(size > 0 ? static_cast<std::size_t>(size) : 0);
+  if (size <= 0 || H5Fget_file_image(id_, image.data(), image.size()) != size) {
+    release();
+    remove_written_file(disk_path_);
+    fail(path_, "cannot be flushed (HDF5 error)");
+  }
+  try {
+    write_all(fd_, image.data(), image.size(), path_);
+    if (::fsync(fd_) != 0) throw_file_error(path_, "", errno);
+    const int fd = fd_;
+    fd_ = -1;
+    if (::close(fd) != 0) throw_file_error(path_, "", errno);
+  } catch (...) {
+    release();
+    remove_written_file(disk_path_);
+    throw;
+  }
+  release();
+}
+
 H5File::~H5File() {
-  if (id_ >= 0) H5Fclose(id_);
+  if (fd_ >= 0) {
+    if (std::uncaught_exceptions() > uncaught_at_create_) {
+      release();
+      remove_written_file(disk_path_);
+      return;
+    }
+    try {
+      write_image_and_close();  // removes the file on disk when it fails
+    } catch (...) {
+    }
+  }
+  release();
 }
+
 void H5File::close() {
-  if (id_ < 0) return;
+  if (id_ < 0 && fd_ < 0) return;
+  if (fd_ >= 0) {
+    write_image_and_close();
+    return;
+  }
   const herr_t status = H5Fclose(id_);
+  if (status < 0) release();
   id_ = -1;
-  if (status < 0) fail(path_, "cannot be flushed and closed");
+  if (status < 0) fail(path_, "cannot be closed");
 }
 
 void H5File::ensure_parent_groups(const std::string& name) {

@@ -5,6 +5,12 @@
 // closes it, on error paths too.
 // All errors (missing file, not HDF5, missing dataset) throw std::runtime_error with the
 // file and object named; HDF5's own error printing is silenced.
+// A file created for writing is built in memory (HDF5's core driver, no backing store) and
+// written to disk by close() through the output layer's checked writes (core/io.hpp: every
+// write checked, fsync, close checked), so a full disk is reported with its cause and never
+// leaves HDF5 holding a file it failed to flush (whose library shutdown at exit() would
+// crash). Files are opened with the "strong" close degree: closing the file closes every
+// object still open in it.
 #include <hdf5.h>
 
 #include <Eigen/Core>
@@ -18,16 +24,23 @@ namespace rbc {
 /// An open HDF5 file. Owns the handle; closes on destruction.
 class H5File {
  public:
-  /// Creates (truncating) a file for writing. Errors name `name_in_errors` if given (the
-  /// user's file name when `path` is the temporary an atomic writer fills).
+  /// Creates (truncating) a file for writing: `path` is created on disk at once (so a
+  /// directory that cannot take it is reported here), its contents are written by close().
+  /// Errors name `name_in_errors` if given (the user's file name when `path` is the temporary
+  /// an atomic writer fills) and the cause (strerror).
   static H5File create(const std::string& path, const std::string& name_in_errors = "");
   /// Opens an existing file read-only; throws if missing or not HDF5.
   static H5File open_read(const std::string& path);
   H5File(H5File&& other) noexcept;
   H5File& operator=(H5File&&) = delete;
   H5File(const H5File&) = delete;
-  ~H5File();  ///< closes quietly; call close() to see a failed flush
-  /// Flushes and closes; throws std::runtime_error naming the file if HDF5 reports a failure.
+  /// Closes quietly. A file created for writing and not closed with close() is written when
+  /// the object dies outside unwinding; if that write fails (or the object dies while an
+  /// exception unwinds) the file on disk is removed, so an atomic writer's commit of it fails
+  /// loudly instead of committing a half file. Call close() to see the cause.
+  ~H5File();
+  /// Writes the file (if created for writing) and closes it, releasing every HDF5 object and
+  /// the descriptor on every path; throws std::runtime_error "FILE: <cause>" on failure.
   void close();
 
   /// Row-major 2-D dataset of shape rows x cols from `data` (rows*cols values). Parent
@@ -60,12 +73,19 @@ class H5File {
 
  private:
   H5File(hid_t id, std::string path) : id_(id), path_(std::move(path)) {}
+  /// Writes the in-memory image to fd_ (checked), then releases everything; throws on failure.
+  void write_image_and_close();
+  /// Closes every HDF5 object of the file and the file itself, and the descriptor; noexcept.
+  void release() noexcept;
   void ensure_parent_groups(const std::string& name);
   void write_raw(const std::string& name, hid_t type, const void* data, hsize_t rows, hsize_t cols);
   std::pair<hsize_t, hsize_t> read_raw(const std::string& name, hid_t type,
                                        std::function<void*(size_t)> alloc) const;
   hid_t id_ = -1;
   std::string path_;
+  int fd_ = -1;                 ///< the file on disk a created file is written to, -1 when reading
+  std::string disk_path_;       ///< its path (removed when the write fails)
+  int uncaught_at_create_ = 0;  ///< std::uncaught_exceptions() when created
 };
 
 }  // namespace rbc

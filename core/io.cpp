@@ -1,11 +1,22 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "core/io.hpp"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/statvfs.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -20,7 +31,7 @@ namespace fs = std::filesystem;
 void ensure_output_directory(const std::string& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir))
+  if (!fs::is_directory(dir, ec))
     throw std::invalid_argument("output directory '" + dir + "' cannot be created" +
                                 (ec ? ": " + ec.message() : ""));
   if (access(dir.c_str(), W_OK) != 0)
@@ -37,13 +48,107 @@ std::string temporary_path_for(const std::string& path) {
   return (p.parent_path() / name).string();
 }
 
-void commit_file(const std::string& tmp, const std::string& path) {
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw std::runtime_error("cannot move finished file into place at '" + path + "'");
+void throw_file_error(const std::string& path, const std::string& what, int err) {
+  throw std::runtime_error(path + ": " + (what.empty() ? "" : what + ": ") + std::strerror(err));
+}
+
+std::string non_regular_kind(const std::string& path) {
+  struct stat st {};
+  if (lstat(path.c_str(), &st) != 0) {
+    if (errno == ENOENT) return {};
+    throw_file_error(path, "", errno);
   }
+  switch (st.st_mode & S_IFMT) {
+    case S_IFREG:
+      return {};
+    case S_IFCHR:
+      return "a character device";
+    case S_IFBLK:
+      return "a block device";
+    case S_IFIFO:
+      return "a FIFO";
+    case S_IFSOCK:
+      return "a socket";
+    case S_IFDIR:
+      return "a directory";
+    case S_IFLNK:
+      return "a symbolic link";
+    default:
+      return "not a regular file";
+  }
+}
+
+void require_replaceable(const std::string& path) {
+  const std::string kind = non_regular_kind(path);
+  if (!kind.empty())
+    throw std::runtime_error(path + ": is " + kind + ", expected a regular file or nothing");
+}
+
+namespace {
+/// Closes fd when the scope ends (the error paths' close; the success path closes explicitly
+/// and checks it).
+struct FdCloser {
+  int fd;
+  ~FdCloser() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+/// fsync(2) of the file at PATH; throws naming `shown`.
+void fsync_path(const std::string& path, const std::string& shown) {
+  FdCloser f{::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
+  if (f.fd < 0) throw_file_error(shown, "cannot reopen the temporary to sync it", errno);
+  if (::fsync(f.fd) != 0) throw_file_error(shown, "", errno);
+  const int fd = f.fd;
+  f.fd = -1;
+  if (::close(fd) != 0) throw_file_error(shown, "", errno);
+}
+
+/// Best-effort fsync of the directory holding PATH (makes the rename durable).
+void fsync_parent(const std::string& path) {
+  fs::path parent = fs::path(path).parent_path();
+  if (parent.empty()) parent = ".";
+  FdCloser d{::open(parent.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC)};
+  if (d.fd >= 0) (void)::fsync(d.fd);
+}
+}  // namespace
+
+void commit_file(const std::string& tmp, const std::string& path) {
+  try {
+    fsync_path(tmp, path);
+    require_replaceable(path);
+    if (std::rename(tmp.c_str(), path.c_str()) != 0)
+      throw_file_error(path, "cannot move the finished file into place", errno);
+  } catch (...) {
+    ::unlink(tmp.c_str());
+    throw;
+  }
+  fsync_parent(path);
+}
+
+void write_all(int fd, const void* bytes, std::size_t size, const std::string& shown) {
+  const char* p = static_cast<const char*>(bytes);
+  while (size > 0) {
+    const ssize_t n = ::write(fd, p, size);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw_file_error(shown, "", errno);
+    }
+    if (n == 0) throw_file_error(shown, "", EIO);
+    p += n;
+    size -= static_cast<std::size_t>(n);
+  }
+}
+
+void write_file_synced(const std::string& path, const void* bytes, std::size_t size,
+                       const std::string& shown) {
+  FdCloser f{::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0666)};
+  if (f.fd < 0) throw_file_error(shown, "cannot create", errno);
+  write_all(f.fd, bytes, size, shown);
+  if (::fsync(f.fd) != 0) throw_file_error(shown, "", errno);
+  const int fd = f.fd;
+  f.fd = -1;
+  if (::close(fd) != 0) throw_file_error(shown, "", errno);
 }
 
 namespace {
@@ -136,12 +241,133 @@ int live_temporary_count() noexcept {
 }
 
 void write_text_atomic(const std::string& path, const std::string& text) {
+  require_replaceable(path);  // before any work on the file
   TempFile tmp(path);
-  {
-    std::ofstream out(tmp.path(), std::ios::binary);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write '" + path + "'");
+  write_file_synced(tmp.path(), text.data(), text.size(), path);
+  tmp.commit();
+}
+
+std::string number_file_tag(double value, int min_decimals) {
+  // Read back with strtod (std::stod refuses subnormals as out of range).
+  auto reads_back = [value](const std::string& s) {
+    return std::strtod(s.c_str(), nullptr) == value;
+  };
+  if (std::isfinite(value)) {
+    for (int d = std::max(min_decimals, 0); d <= 20; ++d) {
+      std::ostringstream s;
+      s << std::fixed << std::setprecision(d) << value;
+      if (s.str().size() > 24) break;
+      if (reads_back(s.str())) return s.str();
+    }
+  }
+  std::array<char, 64> buf{};
+  const auto [end, ec] =
+      std::to_chars(buf.data(), buf.data() + buf.size(), value, std::chars_format::scientific);
+  return ec == std::errc() ? std::string(buf.data(), end) : std::string("nan");
+}
+
+bool png_is_complete(const std::string& path) {
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  // The IEND chunk: length 0, type "IEND", CRC-32 of the type (0xAE426082).
+  static constexpr unsigned char kEnd[12] = {0,   0,   0,    0,    'I',  'E',
+                                             'N', 'D', 0xae, 0x42, 0x60, 0x82};
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  unsigned char head[8] = {}, tail[12] = {};
+  if (!in.read(reinterpret_cast<char*>(head), 8)) return false;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size < 8 + 12) return false;
+  in.seekg(size - 12);
+  if (!in.read(reinterpret_cast<char*>(tail), 12)) return false;
+  return std::memcmp(head, kSignature, 8) == 0 && std::memcmp(tail, kEnd, 12) == 0;
+}
+
+namespace {
+/// Runs argv in `dir` with stdout and stderr into one pipe; returns (wait status, output), or
+/// status -1 when the program cannot be started. fork + exec: the child only calls
+/// async-signal-safe functions, and it starts with an empty signal mask (this process may block
+/// SIGINT/SIGTERM in its threads; gnuplot must not inherit that).
+std::pair<int, std::string> run_in_directory(const std::string& dir,
+                                             const std::vector<std::string>& args) {
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) return {-1, std::strerror(errno)};
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    const int err = errno;
+    ::close(fds[0]);
+    ::close(fds[1]);
+    return {-1, std::strerror(err)};
+  }
+  if (pid == 0) {
+    sigset_t none;
+    sigemptyset(&none);
+    sigprocmask(SIG_SETMASK, &none, nullptr);
+    ::dup2(fds[1], STDOUT_FILENO);
+    ::dup2(fds[1], STDERR_FILENO);
+    if (::chdir(dir.c_str()) != 0) _exit(126);
+    ::execvp(argv[0], argv.data());
+    _exit(127);
+  }
+  ::close(fds[1]);
+  std::string output;
+  std::array<char, 512> buf{};
+  for (;;) {
+    const ssize_t n = ::read(fds[0], buf.data(), buf.size());
+    if (n > 0) {
+      output.append(buf.data(), static_cast<std::size_t>(n));
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      break;
+    }
+  }
+  ::close(fds[0]);
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return {-1, std::strerror(errno)};
+  return {status, output};
+}
+
+/// gnuplot's output on one line (no trailing newline, inner newlines as "; ").
+std::string one_line(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  for (std::size_t k = 0; (k = s.find('\n', k)) != std::string::npos;) s.replace(k, 1, "; ");
+  return s;
+}
+}  // namespace
+
+void run_gnuplot_to_png(const std::string& dir, const std::string& script,
+                        const std::string& png_path) {
+  require_replaceable(png_path);
+  TempFile tmp(png_path);  // removed if gnuplot fails or the run is interrupted
+  const std::string tmp_name = fs::path(tmp.path()).filename().string();
+  const auto [status, output] =
+      run_in_directory(dir, {"gnuplot", "-e", "rbc_output='" + tmp_name + "'", script});
+  if (status < 0)
+    throw std::runtime_error(png_path + ": cannot run gnuplot (" + output +
+                             "; is it installed? apt-get install gnuplot-nox)");
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 127)
+    throw std::runtime_error(png_path +
+                             ": cannot run gnuplot (is it installed? apt-get install gnuplot-nox)");
+  std::string cause;
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    cause = WIFEXITED(status) ? "exit status " + std::to_string(WEXITSTATUS(status))
+                              : "killed by signal " + std::to_string(WTERMSIG(status));
+  else if (!png_is_complete(tmp.path()))
+    cause = "exit status 0";
+  // gnuplot does not report a failed write; a file system with no space left is the usual
+  // cause, named when it is the case.
+  if (struct statvfs fsinfo{};
+      !cause.empty() && statvfs(dir.c_str(), &fsinfo) == 0 && fsinfo.f_bavail == 0)
+    cause += ", " + std::string(std::strerror(ENOSPC));
+  if (!cause.empty()) {
+    const std::string said = one_line(output);
+    throw std::runtime_error(png_path + ": incomplete PNG (gnuplot: " + cause +
+                             (said.empty() ? "" : ", " + said) + ")");
   }
   tmp.commit();
 }

@@ -1,9 +1,14 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Files people open: CSV and JSON for numbers, HDF5 + XDMF for meshes and fields
-// (ParaView reads the .xdmf). Every writer is atomic: it writes a temporary file in the
-// target directory and renames it into place, so an interrupted run leaves no half file.
+// (ParaView reads the .xdmf), PNG through gnuplot. Every writer goes through one output layer:
+// it refuses a target that exists and is not a regular file (a device, FIFO, socket,
+// directory or symbolic link), writes a temporary file in the target directory, checks every
+// write and the close, fsyncs the temporary, renames it into place and fsyncs the directory
+// (best effort). On any failure the temporary is removed and a std::runtime_error names the
+// file and the cause (strerror), so an interrupted or failed run leaves no half file.
 #include <Eigen/Core>
+#include <cstddef>
 #include <iosfwd>
 #include <string>
 #include <utility>
@@ -20,9 +25,52 @@ void ensure_output_directory(const std::string& dir);
 /// Temporary sibling path used by the atomic writers (same directory, hidden name
 /// ".NAME.partial-PID").
 std::string temporary_path_for(const std::string& path);
-/// Renames tmp onto path (atomic on POSIX within one file system); throws on failure (and
-/// removes tmp).
+/// Fsyncs tmp, refuses a target that exists and is not a regular file, renames tmp onto path
+/// (atomic on POSIX within one file system) and fsyncs the directory (best effort). Throws
+/// std::runtime_error "PATH: <cause>" on failure, after removing tmp.
 void commit_file(const std::string& tmp, const std::string& path);
+
+/// What kind of file PATH is when it exists and is not a regular file ("a character device",
+/// "a FIFO", "a socket", "a directory", "a symbolic link", "a block device"), as lstat(2) sees
+/// it (a symbolic link is not followed); empty when PATH is a regular file or does not exist.
+/// Throws std::runtime_error "PATH: <strerror>" when lstat fails for another reason than a
+/// missing file (ENAMETOOLONG, ELOOP, EACCES ...).
+std::string non_regular_kind(const std::string& path);
+/// Throws std::runtime_error "PATH: is <kind>, expected a regular file or nothing" when PATH
+/// exists and is not a regular file (see non_regular_kind).
+void require_replaceable(const std::string& path);
+
+/// "PATH: <what>: <strerror(err)>" as a std::runtime_error (what may be empty).
+[[noreturn]] void throw_file_error(const std::string& path, const std::string& what, int err);
+
+/// Writes all of `bytes` to the open descriptor fd (retrying short writes and EINTR); throws
+/// std::runtime_error naming `shown` and strerror(errno) on failure.
+void write_all(int fd, const void* bytes, std::size_t size, const std::string& shown);
+/// Creates (truncating) `path`, writes `bytes`, fsyncs and closes it, every step checked; the
+/// error names `shown` (the user's file name when `path` is a temporary). Does not rename.
+void write_file_synced(const std::string& path, const void* bytes, std::size_t size,
+                       const std::string& shown);
+
+/// A number for file names that reads back (strtod) as the same double, so distinct values
+/// never share a name: fixed notation with at least min_decimals decimals and as many more as
+/// needed (16.01 -> "16.01", 16 -> "16.0" with min_decimals 1); when fixed notation would need
+/// more than 20 decimals or 24 characters (1e-300, 5e-324, 1e300), the shortest scientific
+/// form that round-trips ("1e-300"). Non-finite values give "inf", "-inf" or "nan".
+std::string number_file_tag(double value, int min_decimals);
+
+/// Whether FILE holds a complete PNG: the 8-byte PNG signature at the start and an IEND chunk
+/// (length 0, type "IEND", its CRC) as the last 12 bytes. False for a missing or short file.
+bool png_is_complete(const std::string& path);
+
+/// Runs `gnuplot -e "rbc_output='TMP'" SCRIPT` in directory `dir` (SCRIPT a file name in dir,
+/// already written; it must `set output rbc_output`), where TMP is the temporary sibling of
+/// `png_path` (a path in dir). The PNG counts as written only when gnuplot exits 0 AND the
+/// temporary reads back as a complete PNG (png_is_complete); then it is committed
+/// (commit_file). Otherwise throws std::runtime_error "PNG_PATH: incomplete PNG (gnuplot:
+/// <its output or exit status>)", or "cannot run gnuplot ..." when gnuplot is missing, and
+/// leaves no temporary.
+void run_gnuplot_to_png(const std::string& dir, const std::string& script,
+                        const std::string& png_path);
 
 /// Owns the temporary sibling of `target` an atomic writer fills: the temporary is removed when
 /// the guard dies uncommitted (an exception, a cancelled run), so no ".partial" file survives
@@ -37,7 +85,8 @@ class TempFile {
   TempFile& operator=(const TempFile&) = delete;
   const std::string& path() const { return tmp_; }       ///< the temporary to write
   const std::string& target() const { return target_; }  ///< where commit() puts it
-  /// Renames the temporary onto the target; throws std::runtime_error naming the target.
+  /// Fsyncs the temporary and renames it onto the target (commit_file); throws
+  /// std::runtime_error naming the target and the cause.
   void commit();
 
  private:
@@ -53,6 +102,8 @@ void remove_live_temporaries() noexcept;
 /// Number of temporaries currently registered (for tests).
 int live_temporary_count() noexcept;
 
+/// Writes `text` to PATH atomically (temporary, checked writes, fsync, rename); throws
+/// std::runtime_error "PATH: <strerror>" on failure and leaves no temporary.
 void write_text_atomic(const std::string& path, const std::string& text);
 
 /// A numeric table with named columns; comment lines are written first as "# ...".
