@@ -194,7 +194,7 @@ struct FullDiskCase {
 };
 std::vector<FullDiskCase> full_disk_cases(const fs::path& dir) {
   return {
-      {"mc checkpoint", "mc --vertices 300 --sweeps 200 -q --checkpoint " + quoted(dir / "c.h5") +
+      {"mc checkpoint", "mc --vertices 300 --sweeps 2000 -q --checkpoint " + quoted(dir / "c.h5") +
                             " --checkpoint-every 10"},
       {"mc --out",
        "mc --vertices 300 --sweeps 200 -q --snapshot-every 50 --out " + quoted(dir / "mc")},
