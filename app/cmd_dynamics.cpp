@@ -14,6 +14,7 @@
 
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/render.hpp"
 #include "compare/experiment.hpp"
 #include "compare/plot.hpp"
 #include "continuum/continuum_stretch.hpp"
@@ -56,6 +57,7 @@ struct DynamicsCli {
   int step_iterations = 0;
   std::string out;
   bool json = false, quiet = false, overwrite = false;
+  bool picture = true;  ///< --out: cells.png of the first and the last frame (--no-picture)
 };
 
 Scene scene_from(const std::string& s) {
@@ -474,8 +476,19 @@ int run(const DynamicsCli& o) {
   j["samples"] = series;
   if (!o.out.empty()) {
     write_csv(o.out + "/dynamics.csv", csv);
-    write_text_atomic(o.out + "/dynamics.json", j.dump(2) + "\n");
     write_time_series(o.out, r, std::max(1, static_cast<int>(r.traj.snapshots.size()) / o.frames));
+    if (o.picture) {
+      // cells.png: the first and the last frame (app/render.hpp); never fails the run.
+      RenderRequest cells{{o.out + "/dynamics.xdmf"},
+                          o.out + "/cells.png",
+                          "",
+                          "rbc dynamics: " + o.model + ", " + o.scene};
+      const std::string why_not = draw_cells(cells);
+      j[why_not.empty() ? "picture" : "picture_not_drawn"] =
+          why_not.empty() ? "cells.png" : why_not;
+      if (!why_not.empty()) report(progress, "no cells.png: " + why_not);
+    }
+    write_text_atomic(o.out + "/dynamics.json", j.dump(2) + "\n");
     PlotSpec p;
     p.title = "rbc dynamics: " + o.model + ", " + o.scene;
     p.xlabel = "time (s)";
@@ -574,6 +587,9 @@ void add_dynamics_command(CLI::App& app, Action& action) {
                   "write dynamics.{csv,json,h5,xdmf,png} (must be empty unless --force-overwrite)")
       ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
+  cmd->add_flag("!--no-picture", o->picture,
+                "with --out: no cells.png (the first and the last frame, drawn as rbc render "
+                "draws them)");
   cmd->add_flag("--json", o->json, "print the JSON summary on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, &action] { action = [o]() -> int { return run(*o); }; });

@@ -10,6 +10,7 @@
 // --temperature sets the sampling temperature only.
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -23,6 +24,7 @@
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/render.hpp"
 #include "core/geometry.hpp"
 #include "core/h5file.hpp"
 #include "core/io.hpp"
@@ -55,6 +57,7 @@ struct McCli {
   long long checkpoint_every = 100;
   long long snapshot_every = 0;
   bool json = false, quiet = false, overwrite = false;
+  bool picture = true;  ///< --out: cells.png of the first and the last snapshot (--no-picture)
 };
 
 /// Largest --sweeps accepted: 1e12 sweeps (about 30 years at 1,000 sweeps/s).
@@ -95,7 +98,7 @@ struct McProgress {
 /// and the checkpoint written on the way out. Rewritten atomically at each change.
 void write_mc_manifest(const std::string& dir, bool complete, const std::string& status,
                        const std::string& reason, long long sweeps_done, long long sweeps,
-                       const std::string& checkpoint) {
+                       const std::string& checkpoint, const nlohmann::json& extra = {}) {
   if (dir.empty()) return;
   nlohmann::json j = {{"command", "mc"},
                       {"complete", complete},
@@ -107,7 +110,30 @@ void write_mc_manifest(const std::string& dir, bool complete, const std::string&
   if (complete) {
     j["files"] = {"mc_series.csv", "mc_series.h5", "mc_summary.json"};
   }
+  if (extra.is_object()) j.update(extra);
   write_text_atomic(dir + "/run.json", j.dump(2) + "\n");
+}
+
+/// OUT/cells.png: the first and the last snapshot in OUT (app/render.hpp); returns why there is
+/// no picture ("" when drawn).
+std::string draw_mc_picture(const McCli& o, const Network& net, const McRunSetup& su) {
+  std::vector<std::string> snapshots;
+  for (const auto& entry : std::filesystem::directory_iterator(o.out)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("mc_snapshot_", 0) == 0 && entry.path().extension() == ".xdmf")
+      snapshots.push_back(entry.path().string());
+  }
+  if (snapshots.empty()) return "no snapshot was written";
+  std::sort(snapshots.begin(), snapshots.end());  // zero-padded sweep numbers: sweep order
+  RenderRequest r;
+  r.files = {snapshots.front()};
+  if (snapshots.size() > 1) r.files.push_back(snapshots.back());
+  std::ostringstream title;
+  title << "Monte Carlo, " << net.topo.num_vertices << " vertices, F = " << su.force_pN
+        << " pN, T = " << su.sampler.temperature_K << " K";
+  r.title = title.str();
+  r.out_png = o.out + "/cells.png";
+  return draw_cells(r);
 }
 
 /// Which chain-defining options were given on the command line (checked against a resumed
@@ -284,8 +310,15 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   if (have_stats) j.update(to_json(s, su));
   if (!resume_note.empty()) j["resume_note"] = resume_note;
   if (!o.out.empty()) write_text_atomic(o.out + "/mc_summary.json", j.dump(2) + "\n");
+  nlohmann::json picture = nlohmann::json::object();
+  if (!o.out.empty() && o.picture) {
+    const std::string why_not = draw_mc_picture(o, net, su);
+    picture[why_not.empty() ? "picture" : "picture_not_drawn"] =
+        why_not.empty() ? "cells.png" : why_not;
+    if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";
+  }
   write_mc_manifest(o.out, true, "finished", "", run->sampler().sweeps_done(), o.sweeps,
-                    o.checkpoint);
+                    o.checkpoint, picture);
   if (o.json) {
     std::cout << j.dump(2) << "\n";
     return 0;
@@ -411,6 +444,9 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_flag("--force-overwrite", o->overwrite,
                 "allow a non-empty --out (with --resume, a directory holding an mc run is "
                 "accepted without it)");
+  cmd->add_flag("!--no-picture", o->picture,
+                "with --out: no cells.png (the first and the last snapshot, drawn as rbc render "
+                "draws them)");
   cmd->add_flag("--json", o->json, "print the summary as JSON");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->callback([o, force, temp, seed, penalty, vertices, bending, adapt_fraction, &action] {

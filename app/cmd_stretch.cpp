@@ -13,6 +13,7 @@
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/render.hpp"
 #include "app/warm_start.hpp"
 #include "compare/accuracy_choice.hpp"
 #include "continuum/continuum_stretch.hpp"
@@ -64,6 +65,7 @@ struct StretchCli {
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
   bool json = false, quiet = false, overwrite = false;
+  bool picture = true;  ///< --out: cells.png of the first and the largest force (--no-picture)
   /// --accuracy P%: choose model and resolution from the trade-off table (compare/
   /// accuracy_choice.hpp); the choice is stated on stderr and in every JSON point.
   std::string accuracy;
@@ -215,6 +217,13 @@ class StretchManifest {
     if (dir_.empty()) return;
     record_failed_manifest(dir_ + "/run.json", [&] { write(false, "failed", what); });
   }
+  /// The picture beside the shapes: its file name, or why there is none.
+  void picture(const std::string& file, const std::string& why_not) {
+    if (why_not.empty())
+      run_["picture"] = file;
+    else
+      run_["picture_not_drawn"] = why_not;
+  }
   void finished(const nlohmann::json& points) {
     run_["points"] = points;
     run_.erase("reason");
@@ -251,6 +260,28 @@ auto with_manifest(StretchManifest& manifest, Solve&& solve) {
     manifest.failed(e.what());
     throw;
   }
+}
+
+/// OUT/cells.png: the shapes at the first and the largest force (app/render.hpp). A picture
+/// that cannot be drawn (no matplotlib) is noted on stderr and in run.json, never an error.
+void draw_stretch_picture(const StretchCli& o, const std::vector<StretchRow>& pts,
+                          StretchManifest& manifest) {
+  RenderRequest r;
+  double largest = pts.front().force_pN;
+  for (const auto& p : pts) largest = std::max(largest, p.force_pN);
+  for (double f : {pts.front().force_pN, largest}) {
+    const std::string file = o.out + "/shape_" + force_tag(f) + "pN.xdmf";
+    if (std::filesystem::exists(file) && (r.files.empty() || r.files.back() != file))
+      r.files.push_back(file);
+  }
+  if (r.files.empty()) return;
+  const bool continuum = o.model == StretchModel::continuum;
+  r.title = continuum ? "continuum model, " + std::to_string(pts.front().elements) + " elements"
+                      : "spectrin network, " + std::to_string(pts.front().vertices) + " vertices";
+  r.out_png = o.out + "/cells.png";
+  const std::string why_not = draw_cells(r);
+  manifest.picture("cells.png", why_not);
+  if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";
 }
 
 /// Prints the table (or JSON), writes stretch.csv and run.json under --out, and reports
@@ -303,6 +334,7 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
   }
   if (!o.out.empty()) {
     write_csv(o.out + "/stretch.csv", csv);
+    if (o.picture && !pts.empty()) draw_stretch_picture(o, pts, manifest);
     manifest.finished(rows);  // last: the manifest is the commit record of the set
   }
   if (o.json) {
@@ -619,6 +651,9 @@ void add_stretch_command(CLI::App& app, Action& action) {
                   "unless --force-overwrite)")
       ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
+  cmd->add_flag("!--no-picture", o->picture,
+                "with --out: no cells.png (the shapes at the first and the largest force, "
+                "drawn as rbc render draws them)");
   cmd->add_option("--warm-start", o->warm_start,
                   "re-solve each force from the equilibria of an earlier `stretch --out DIR` "
                   "(same model, mesh and forces; e.g. after a small parameter change)");

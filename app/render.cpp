@@ -103,14 +103,6 @@ ChildResult run_captured(const std::vector<std::string>& args) {
   return result;
 }
 
-/// Whether bytes are a whole PNG: the signature first and the IEND chunk last.
-bool complete_png(const std::string& bytes) {
-  static constexpr char kSignature[] = "\x89PNG\r\n\x1a\n";
-  static constexpr char kEnd[] = "IEND\xae\x42\x60\x82";  // type and CRC of the empty IEND
-  return bytes.size() >= 8 + 12 && bytes.compare(0, 8, kSignature, 8) == 0 &&
-         bytes.compare(bytes.size() - 8, 8, kEnd, 8) == 0;
-}
-
 /// The last non-empty line of a text, without a leading "rbc: error: ".
 std::string last_line(std::string text) {
   while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
@@ -162,7 +154,7 @@ void render_shapes(const RenderRequest& request) {
     throw std::runtime_error(why.rfind("--", 0) == 0 ? why
                                                      : request.out_png + ": no picture: " + why);
   }
-  if (!complete_png(r.out))
+  if (!png_bytes_are_complete(r.out))
     throw std::runtime_error(request.out_png + ": no picture: the renderer returned " +
                              std::to_string(r.out.size()) + " bytes that are not a whole PNG");
   write_text_atomic(request.out_png, r.out);

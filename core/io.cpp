@@ -266,11 +266,13 @@ std::string number_file_tag(double value, int min_decimals) {
   return ec == std::errc() ? std::string(buf.data(), end) : std::string("nan");
 }
 
+namespace {
+constexpr unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+// The IEND chunk: length 0, type "IEND", CRC-32 of the type (0xAE426082).
+constexpr unsigned char kPngEnd[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
+}  // namespace
+
 bool png_is_complete(const std::string& path) {
-  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  // The IEND chunk: length 0, type "IEND", CRC-32 of the type (0xAE426082).
-  static constexpr unsigned char kEnd[12] = {0,   0,   0,    0,    'I',  'E',
-                                             'N', 'D', 0xae, 0x42, 0x60, 0x82};
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
   unsigned char head[8] = {}, tail[12] = {};
@@ -280,7 +282,12 @@ bool png_is_complete(const std::string& path) {
   if (size < 8 + 12) return false;
   in.seekg(size - 12);
   if (!in.read(reinterpret_cast<char*>(tail), 12)) return false;
-  return std::memcmp(head, kSignature, 8) == 0 && std::memcmp(tail, kEnd, 12) == 0;
+  return std::memcmp(head, kPngSignature, 8) == 0 && std::memcmp(tail, kPngEnd, 12) == 0;
+}
+
+bool png_bytes_are_complete(const std::string& bytes) {
+  return bytes.size() >= 8 + 12 && std::memcmp(bytes.data(), kPngSignature, 8) == 0 &&
+         std::memcmp(bytes.data() + bytes.size() - 12, kPngEnd, 12) == 0;
 }
 
 namespace {

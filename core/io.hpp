@@ -61,6 +61,8 @@ std::string number_file_tag(double value, int min_decimals);
 /// Whether FILE holds a complete PNG: the 8-byte PNG signature at the start and an IEND chunk
 /// (length 0, type "IEND", its CRC) as the last 12 bytes. False for a missing or short file.
 bool png_is_complete(const std::string& path);
+/// The same test on a PNG held in memory (e.g. one a drawing process wrote to a pipe).
+bool png_bytes_are_complete(const std::string& bytes);
 
 /// Runs `gnuplot -e "rbc_output='TMP'" SCRIPT` in directory `dir` (SCRIPT a file name in dir,
 /// already written; it must `set output rbc_output`), where TMP is the temporary sibling of
