@@ -11,6 +11,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -281,10 +282,36 @@ bool mpi_worker_rank() {
 }
 }  // namespace
 
+/// Whether a directory entry is a temporary (".NAME.partial-PID", core/io.hpp) of a process that
+/// no longer runs: what a run killed by SIGKILL leaves mid-write.
+bool is_stale_temporary(const fs::directory_entry& entry) {
+  const std::string name = entry.path().filename().string();
+  const auto mark = name.rfind(".partial-");
+  if (name.empty() || name[0] != '.' || mark == std::string::npos) return false;
+  const std::string digits = name.substr(mark + 9);
+  if (digits.empty() || digits.size() > 9 ||
+      digits.find_first_not_of("0123456789") != std::string::npos)
+    return false;
+  const pid_t pid = static_cast<pid_t>(std::stol(digits));
+  std::error_code ec;
+  return entry.is_regular_file(ec) && pid != getpid() && ::kill(pid, 0) != 0 && errno == ESRCH;
+}
+
+/// Removes the stale temporaries in `dir` (is_stale_temporary). Called with the directory's lock
+/// held.
+void remove_stale_temporaries(const std::string& dir) {
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    if (is_stale_temporary(*it)) {
+      std::error_code ignored;
+      fs::remove(it->path(), ignored);
+    }
+}
+
 bool output_directory_is_empty(const std::string& dir) {
   std::error_code ec;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-    if (it->path().filename() != kOutputLockName) return false;
+    if (it->path().filename() != kOutputLockName && !is_stale_temporary(*it)) return false;
   return true;
 }
 
@@ -327,6 +354,7 @@ void prepare_output_directory(const std::string& dir, bool overwrite, bool allow
                       ")");
   }
   if (lock && !locked) lock_output_directory(dir, true, option);
+  if (lock) remove_stale_temporaries(dir);  // what a killed run left; no live rbc writes here
   if (access(dir.c_str(), W_OK) != 0) refuse_path(option, dir, "the directory is not writable");
 }
 

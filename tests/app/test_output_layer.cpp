@@ -418,6 +418,24 @@ TEST(OutputLayer, TheLockFileIsHiddenAndDoesNotMakeTheDirectoryNonEmpty) {
   EXPECT_TRUE(fs::exists(out / "rest_shape.h5"));
 }
 
+TEST(OutputLayer, TemporariesAKilledRunLeftAreRemovedByTheNextRunOnTheDirectory) {
+  const fs::path out = fresh_output_dir("output_layer_stale_temporaries") / "o";
+  fs::create_directories(out);
+  // What SIGKILL leaves behind mid-write: temporaries of a process that no longer runs.
+  std::ofstream(out / ".shape_16.0pN.h5.partial-99999") << "half";
+  std::ofstream(out / ".run.json.partial-12") << "{";
+  std::ofstream(out / "notes.partial-1") << "not a temporary: kept";  // no leading dot
+  const CliRun r = run_rbc("mesh --vertices 300 --force-overwrite --out " + quoted(out));
+  EXPECT_EQ(r.exit_code, 0) << r.all();
+  EXPECT_EQ(temporaries_under(out), std::vector<std::string>{(out / "notes.partial-1").string()})
+      << r.all();
+  // A directory holding only stale temporaries counts as empty.
+  const fs::path second = fresh_output_dir("output_layer_stale_only") / "o";
+  fs::create_directories(second);
+  std::ofstream(second / ".mesh_quality.json.partial-4242") << "{";
+  EXPECT_EQ(run_rbc("mesh --vertices 300 --out " + quoted(second)).exit_code, 0);
+}
+
 // ---- file names -------------------------------------------------------------------------
 
 TEST(OutputLayer, DistinctTinyForcesWriteDistinctShapeFiles) {
