@@ -3,6 +3,7 @@
 // Runs the built `rbc` executable for a CLI test: exit code, stdout and stderr kept apart (JSON
 // is read from stdout alone, so a library warning on stderr cannot break it), OpenMP pinned to
 // the threads the caller names so that two processes compared bit for bit run alike.
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -13,6 +14,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 namespace rbc::testing {
 
@@ -47,6 +49,33 @@ inline CliRun run_rbc(const std::string& args, int threads = 1) {
   r.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   std::filesystem::remove(err_path);
   return r;
+}
+
+/// Starts `[launcher...] build/rbc ARGS` in the background (launcher: e.g. mpirun and its
+/// options, looked up on PATH) with stdout and stderr to `log`, OMP_NUM_THREADS=threads
+/// (threads <= 0: the environment's) and idle OpenMP threads sleeping; returns its pid.
+inline pid_t spawn_rbc(const std::vector<std::string>& args, const std::filesystem::path& log,
+                       int threads = 1, const std::vector<std::string>& launcher = {}) {
+  std::vector<std::string> all = launcher;
+  all.push_back(std::string(RBC_BINARY_DIR) + "/rbc");
+  all.insert(all.end(), args.begin(), args.end());
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      dup2(fd, 1);
+      dup2(fd, 2);
+      close(fd);
+    }
+    if (threads > 0) setenv("OMP_NUM_THREADS", std::to_string(threads).c_str(), 1);
+    setenv("OMP_WAIT_POLICY", "passive", 1);
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execvp(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
 }
 
 }  // namespace rbc::testing

@@ -79,31 +79,6 @@ std::string joined(const std::vector<std::string>& args) {
   return s;
 }
 
-/// Runs `launcher... rbc args...` with OMP_NUM_THREADS=threads, stdout and stderr to `log`.
-pid_t spawn(const std::vector<std::string>& launcher, const std::vector<std::string>& args,
-            int threads, const fs::path& log) {
-  std::vector<std::string> all = launcher;
-  all.push_back(kRbc);
-  all.insert(all.end(), args.begin(), args.end());
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      dup2(fd, 1);
-      dup2(fd, 2);
-      close(fd);
-    }
-    setenv("OMP_NUM_THREADS", std::to_string(threads).c_str(), 1);
-    setenv("OMP_WAIT_POLICY", "passive", 1);
-    std::vector<char*> argv;
-    for (auto& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
 /// Exit code, or -signal for a child a signal ended.
 int wait_child(pid_t pid) {
   int status = 0;
@@ -152,7 +127,7 @@ Interrupted interrupt_run(const std::vector<std::string>& args, const fs::path& 
   const fs::path log = dir.string() + ".log";
   std::vector<std::string> a = args;
   a.insert(a.end(), {"--out", dir.string()});
-  const pid_t pid = spawn(launcher, a, threads, log);
+  const pid_t pid = testing::spawn_rbc(a, log, threads, launcher);
   const std::string marker = "stage " + std::to_string(after) + ":";
   const fs::path snapshot = dir.string() + ".stage.h5";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);

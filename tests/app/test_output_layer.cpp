@@ -39,7 +39,6 @@ using testing::CliRun;
 using testing::fresh_output_dir;
 using testing::run_rbc;
 
-const std::string kRbc = std::string(RBC_BINARY_DIR) + "/rbc";
 
 std::string quoted(const fs::path& p) {
   return "'" + p.string() + "'";
@@ -307,26 +306,9 @@ TEST(OutputLayer, AnIncompletePngIsAnError) {
 
 // ---- exclusive --out, kill and resume ---------------------------------------------------
 
-/// Starts `rbc args...` (one OpenMP thread) with stdout and stderr to `log`; returns its pid.
+/// `rbc args...` in the background on one OpenMP thread (cli_run.hpp).
 pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<std::string> all = {kRbc};
-  all.insert(all.end(), args.begin(), args.end());
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      dup2(fd, 1);
-      dup2(fd, 2);
-      close(fd);
-    }
-    setenv("OMP_NUM_THREADS", "1", 1);
-    std::vector<char*> argv;
-    for (auto& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execv(kRbc.c_str(), argv.data());
-    _exit(127);
-  }
-  return pid;
+  return testing::spawn_rbc(args, log, 1);
 }
 
 /// Waits until `path` exists while the child runs; false if the child ended first.

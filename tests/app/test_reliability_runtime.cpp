@@ -37,6 +37,7 @@
 #include "discrete/mc_run.hpp"
 #include "discrete/stretch.hpp"
 #include "fixtures.hpp"
+#include "test_output.hpp"
 
 namespace rbc {
 namespace {
@@ -44,33 +45,10 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const std::string kRbc = std::string(RBC_BINARY_DIR) + "/rbc";
 
-fs::path fresh(const std::string& name) {
-  const fs::path dir = fs::path(RBC_BINARY_DIR) / "test_output" / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-/// Starts `rbc args...` with stdout and stderr to `log`; returns its pid.
-pid_t spawn(const std::vector<std::string>& args, const std::string& log) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      dup2(fd, 1);
-      dup2(fd, 2);
-      close(fd);
-    }
-    std::vector<char*> argv;
-    argv.push_back(const_cast<char*>(kRbc.c_str()));
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execv(kRbc.c_str(), argv.data());
-    _exit(127);
-  }
-  return pid;
+/// `rbc args...` in the background with the environment's OpenMP threads (cli_run.hpp).
+pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
+  return testing::spawn_rbc(args, log, 0);
 }
 
 /// What wait_for() returns for a child that did not end in time, and that time.
@@ -237,7 +215,7 @@ long long check_mc_outputs(const fs::path& dir, const fs::path& checkpoint, cons
 TEST(ReliabilityRuntime, HundredRandomInterruptsLeaveOnlyCompleteOutputs) {
   // Cases 39 and 40: 50 stretch + 50 Monte Carlo runs, each sent SIGINT or SIGTERM after a
   // random delay (seeded), two at a time. The delays cover start-up, the solves and the writes.
-  const fs::path root = fresh("reliability_interrupts");
+  const fs::path root = testing::fresh_output_dir("reliability_interrupts");
   const Network net = [] {
     testing::OneOpenMpThread one;  // as `rbc mc` builds it (bit-identical rest shape)
     RestShapeOptions ro;
@@ -351,7 +329,7 @@ TEST(ReliabilityRuntime, ExtendingAFinishedMonteCarloRunMatchesTheStraightRun) {
   // Case 41: 200 sweeps, then --resume to 400, against a straight 400-sweep run. With the
   // adaptive phase given in absolute sweeps both chains are the same: every JSON field agrees
   // bit for bit except the timing ones and sweeps_this_run.
-  const fs::path dir = fresh("reliability_extend");
+  const fs::path dir = testing::fresh_output_dir("reliability_extend");
   const std::string base = "mc -n 150 --streams 2 --seed 5 --force 20 -q --json ";
   const std::string c = (dir / "c.h5").string();
   const CommandRun first = rbc(base + "--sweeps 200 --adapt-sweeps 80 --checkpoint " + c);
@@ -391,7 +369,7 @@ TEST(ReliabilityRuntime, ExtendingAFinishedMonteCarloRunMatchesTheStraightRun) {
 }
 
 TEST(ReliabilityRuntime, OlderCheckpointFormatIsRefusedWithExitTwo) {
-  const fs::path dir = fresh("reliability_format");
+  const fs::path dir = testing::fresh_output_dir("reliability_format");
   const std::string old = (dir / "v2.h5").string();
   {
     H5File h = H5File::create(old);
@@ -437,7 +415,7 @@ TEST(ReliabilityRuntime, CorruptCheckpointIsRefusedWithExitTwo) {
   // or, where the byte was slack (unused by HDF5), continues exactly as the intact checkpoint
   // does. A changed value that resumed into another chain would fail here. The refusal's former
   // leak is what the sanitizer job's LeakSanitizer checks.
-  const fs::path dir = fresh("reliability_corrupt");
+  const fs::path dir = testing::fresh_output_dir("reliability_corrupt");
   const std::string intact = (dir / "intact.h5").string(), c = (dir / "c.h5").string();
   ASSERT_EQ(rbc("mc -n 150 --sweeps 20 -q --checkpoint " + intact).exit_code, 0);
   fs::copy_file(intact, c);
