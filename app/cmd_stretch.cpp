@@ -244,6 +244,26 @@ class StretchManifest {
   nlohmann::json run_;
 };
 
+/// OUT/shape_<F>pN.h5/.xdmf: the equilibrium at one force (positions, displacement from rest,
+/// the element fields given, the force and the multipliers that --warm-start reads back), then
+/// the manifest records the force as complete.
+void write_force_shape(const StretchCli& o, StretchManifest& manifest, double force_pN,
+                       const Positions& x, const Positions& rest, const Faces& faces,
+                       const ConstraintMultipliers& multipliers,
+                       std::vector<MeshField> face_fields) {
+  const Eigen::VectorXd u = (x - rest).colwise().norm().transpose();
+  MeshSnapshot s{x,
+                 faces,
+                 {{"displacement_um", u}},
+                 std::move(face_fields),
+                 {{"force_pN", force_pN},
+                  {kLambdaAreaAttribute, multipliers.area_pN_per_um},
+                  {kLambdaVolumeAttribute, multipliers.volume_pN_per_um2}}};
+  const std::string base = o.out + "/shape_" + force_tag(force_pN) + "pN";
+  write_mesh_snapshot(base, s);
+  manifest.force_done(force_pN, base);
+}
+
 /// Runs `solve` (the solve, the shape files as forces are done and the final outputs) with the
 /// manifest saying "running"; on Cancelled the manifest records the interruption, on any other
 /// exception the failure and its reason, before the exception goes on to main() (exit
@@ -402,17 +422,7 @@ int run_discrete(const StretchCli& o) {
   // Each shape is written (and the manifest updated) as soon as its force is solved.
   so.on_point = [&](const StretchPoint& p) {
     if (o.out.empty()) return;
-    const Eigen::VectorXd u = (p.x - net.rest).colwise().norm().transpose();
-    MeshSnapshot s{p.x,
-                   net.topo.faces,
-                   {{"displacement_um", u}},
-                   {},
-                   {{"force_pN", p.force_pN},
-                    {kLambdaAreaAttribute, p.multipliers.area_pN_per_um},
-                    {kLambdaVolumeAttribute, p.multipliers.volume_pN_per_um2}}};
-    const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
-    write_mesh_snapshot(base, s);
-    manifest.force_done(p.force_pN, base);
+    write_force_shape(o, manifest, p.force_pN, p.x, net.rest, net.topo.faces, p.multipliers, {});
   };
   if (!warm.empty()) report(progress, "warm start from " + o.warm_start);
   return with_manifest(manifest, [&] {
@@ -475,20 +485,11 @@ int run_continuum(const StretchCli& o) {
         run_continuum_stretch(model, forces, co, progress, warm);
     if (!o.out.empty())
       for (const auto& p : pts) {
-        const Eigen::VectorXd u = (p.x - model.rest).colwise().norm().transpose();
-        MeshSnapshot s{p.x,
-                       model.topo.faces,
-                       {{"displacement_um", u}},
-                       {{"I1", p.fields.i1},
-                        {"I2", p.fields.i2},
-                        {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
-                        {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}},
-                       {{"force_pN", p.force_pN},
-                        {kLambdaAreaAttribute, p.multipliers.area_pN_per_um},
-                        {kLambdaVolumeAttribute, p.multipliers.volume_pN_per_um2}}};
-        const std::string base = o.out + "/shape_" + force_tag(p.force_pN) + "pN";
-        write_mesh_snapshot(base, s);
-        manifest.force_done(p.force_pN, base);
+        write_force_shape(o, manifest, p.force_pN, p.x, model.rest, model.topo.faces, p.multipliers,
+                          {{"I1", p.fields.i1},
+                           {"I2", p.fields.i2},
+                           {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
+                           {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}});
       }
     std::vector<StretchRow> rows;
     for (const auto& p : pts) rows.push_back(to_row(p, p.elements));

@@ -14,6 +14,7 @@
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/dynamics.hpp"
 #include "core/validation.hpp"
+#include "invalid_parameter.hpp"
 #include "p2_law.hpp"
 
 namespace rbc {
@@ -22,15 +23,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 const double kNaN = std::nan("");
 
-std::string limit_refusal(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InvalidParameter& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InvalidParameter thrown";
-  return "";
-}
+using testing::limit_refusal;
 
 TEST(ForceLimits, ContinuumOptionsValidateHoldsTheContinuumMaximum) {
   const ContinuumOptions o;

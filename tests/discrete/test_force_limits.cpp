@@ -16,6 +16,7 @@
 #include "core/validation.hpp"
 #include "discrete/dynamics.hpp"
 #include "discrete/stretch.hpp"
+#include "invalid_parameter.hpp"
 
 namespace rbc {
 namespace {
@@ -23,16 +24,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 const double kNaN = std::nan("");
 
-/// The message of the InvalidParameter f throws ("" and a test failure when none).
-std::string limit_refusal(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InvalidParameter& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InvalidParameter thrown";
-  return "";
-}
+using testing::limit_refusal;
 
 const Network& limits_network() {
   static const Network net = [] {
