@@ -492,23 +492,24 @@ int run(const DynamicsCli& o) {
     PlotSpec p;
     p.title = "rbc dynamics: " + o.model + ", " + o.scene;
     p.xlabel = "time (s)";
-    p.ylabel = "diameter (um)";
-    p.series.push_back({"D_A", "dynamics.csv", "1:2", "lines", "#1f77b4"});
-    p.series.push_back({"D_T", "dynamics.csv", "1:3", "lines", "#d62728"});
+    p.ylabel = "diameter (µm)";
+    p.series.push_back({"D_{A}", "dynamics.csv", "1:2", "lines", "#1f77b4"});
+    p.series.push_back({"D_{T}", "dynamics.csv", "1:3", "lines", "#d62728"});
     if (sc == Scene::release && j.contains("recovery_time_s")) {
       // Fitted exponential for lambda, drawn on the right axis.
       const RecoveryFit fit = fit_recovery(t, lam, r.lambda_inf);
       std::ostringstream fn;
       fn << "m(x) = " << fit.m0 << "*exp(-x/" << fit.recovery_time_s << ")";
       p.extra_commands.push_back(fn.str());
-      p.extra_commands.push_back("set y2label 'lambda = D_A/D_T'");
+      p.extra_commands.push_back("set y2label '{/Symbol l} = D_{A}/D_{T}'");
       p.extra_commands.push_back("set y2tics");
       std::ostringstream plot2;
       plot2 << "linf = " << r.lambda_inf;
       p.extra_commands.push_back(plot2.str());
-      p.series.push_back({"lambda (axis 2)", "dynamics.csv", "1:4 axes x1y2", "lines", "#2ca02c"});
+      p.series.push_back(
+          {"{/Symbol l} (right axis)", "dynamics.csv", "1:4 axes x1y2", "lines", "#2ca02c"});
       std::ostringstream title;
-      title << "fit t_c = " << std::setprecision(3) << fit.recovery_time_s << " s";
+      title << "fit t_{c} = " << std::setprecision(3) << fit.recovery_time_s << " s";
       p.series.push_back({title.str(), "dynamics.csv", "1:(linf*(1+m($1))/(1-m($1))) axes x1y2",
                           "lines", "#000000", 7, 2});
     }

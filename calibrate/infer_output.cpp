@@ -21,8 +21,13 @@ std::string plain(std::string s) {
   return s;
 }
 
+/// An axis label in the house style (compare/plot.hpp): the parameter's name and its unit, µm
+/// with the micro sign.
 std::string label(const InferenceResult& r, int k) {
-  return r.names[k] + (r.units[k] == "1" ? "" : " (" + r.units[k] + ")");
+  const std::string unit = r.units[k] == "um" ? "µm" : r.units[k];
+  const std::string text = plain(r.names[k]) + (unit == "1" ? "" : " (" + unit + ")");
+  check_plot_text(text, "corner plot axis");
+  return text;
 }
 
 /// Corner plot: histograms of each parameter's marginal on the diagonal, the samples of
@@ -59,7 +64,10 @@ void write_corner(const InferenceResult& r, const std::string& dir) {
     << "set output rbc_output\n"
     << "set datafile separator ','\nset datafile commentschars '#'\n"
     << "set multiplot layout " << d << "," << d << " title 'posterior (" << plain(r.method) << ", "
-    << n << " samples)'\nunset key\nset grid\n";
+    << n
+    << " samples)'\nunset key\nset grid\n"
+    // Readable ticks in small panels: three significant digits, the x ticks slanted.
+    << "set format x '%.3g'\nset format y '%.3g'\nset xtics rotate by 30 right\n";
   for (int row = 0; row < d; ++row)
     for (int col = 0; col < d; ++col) {
       if (col > row) {
@@ -111,16 +119,16 @@ void write_predictive(const InferenceResult& r, const std::string& dir) {
   PlotSpec p;
   p.title = "Posterior predictive (" + plain(r.method) + "): median and 90 % band of the model";
   p.xlabel = "force (pN)";
-  p.ylabel = "diameter (um)";
+  p.ylabel = "diameter (µm)";
   p.key = "inside right center";
   const std::string band = "filledcurves fs transparent solid 0.25 noborder";
   p.series = {
-      {"D_A 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
-      {"D_A median", "predictive.csv", "1:3", "lines", "#1f77b4"},
-      {"D_A Mills 2004 (total sigma)", "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
-      {"D_T 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
-      {"D_T median", "predictive.csv", "1:6", "lines", "#d62728"},
-      {"D_T Mills 2004 (total sigma)", "predictive.csv", "1:10:11", "yerrorbars", "#555555", 5}};
+      {"D_{A} 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
+      {"D_{A} median", "predictive.csv", "1:3", "lines", "#1f77b4"},
+      {"D_{A} Mills 2004 (total sigma)", "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
+      {"D_{T} 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
+      {"D_{T} median", "predictive.csv", "1:6", "lines", "#d62728"},
+      {"D_{T} Mills 2004 (total sigma)", "predictive.csv", "1:10:11", "yerrorbars", "#555555", 5}};
   render_plot(p, dir, "predictive");
 }
 }  // namespace

@@ -613,22 +613,21 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
     PlotSpec spec;
     spec.title = by_cost ? "Accuracy against cost, 13 Mills forces"
                          : "Error against resolution, 13 Mills forces";
-    spec.xlabel =
-        by_cost ? "cost (energy+gradient evaluations of the N = 1,002 network)" : "vertices";
-    spec.ylabel = "largest relative error of D_A, D_T";
+    spec.xlabel = by_cost ? "cost (energy+gradient evaluations of the N = 1,002 network)"
+                          : "mesh vertices (network: junction complexes; continuum: element "
+                            "corners)";
+    spec.ylabel = "largest relative error of D_{A}, D_{T} (%)";
     spec.log_x = spec.log_y = true;
-    spec.y_range = "[1e-4:0.1]";
-    spec.key = "outside right top";
-    spec.extra_commands = {"set title noenhanced", "set xlabel noenhanced",
-                           "set ylabel noenhanced"};
+    spec.y_range = "[1e-2:10]";  // percent
     {
       std::ostringstream line;  // the reference's own spread: errors below it are not resolved
-      line << "set arrow from graph 0, first " << st.reference_relative_sd << " to graph 1, first "
-           << st.reference_relative_sd << " nohead dt 2 lc rgb '#777777'";
+      line << "set arrow from graph 0, first " << 100 * st.reference_relative_sd
+           << " to graph 1, first " << 100 * st.reference_relative_sd
+           << " nohead dt 2 lc rgb '#777777'";
       spec.extra_commands.push_back(line.str());
       std::ostringstream label;
       label << "set label 'reference spread (sd over rotations)' at graph 0.02, first "
-            << 1.15 * st.reference_relative_sd << " noenhanced tc rgb '#777777'";
+            << 115 * st.reference_relative_sd << " tc rgb '#777777'";
       spec.extra_commands.push_back(label.str());
     }
     std::map<std::string, int> colour_of;  // a model's colour, shared by its mirror path
@@ -649,16 +648,16 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       const std::string file = (by_cost ? "cost_" : "resolution_") + name + ".csv";
       write_csv(dir + "/" + file, s);
       // The mirror path of a model: its colour, open symbols, dashed.
-      spec.series.push_back(
-          {title, file, "1:2", "linespoints", colors[k % 5], mirror ? 6 : 7, mirror ? 2 : 1});
+      spec.series.push_back({title, file, "1:($2*100)", "linespoints", colors[k % 5],
+                             mirror ? 6 : 7, mirror ? 2 : 1});
       CsvTable sp;  // rotation spread, only the sizes that were rotated
       sp.header = s.header;
       for (const auto& q : s.rows)
         if (q[2] > 1e-6) sp.rows.push_back(q);
       if (!by_cost && !sp.rows.empty()) {
         write_csv(dir + "/spread_" + name + ".csv", sp);
-        spec.series.push_back({title + " rotation spread (sd)", "spread_" + name + ".csv", "1:3",
-                               "linespoints", colors[k % 5], 6, 2});
+        spec.series.push_back({title + " rotation spread (sd)", "spread_" + name + ".csv",
+                               "1:($3*100)", "linespoints", colors[k % 5], 6, 2});
       }
     }
     render_plot(spec, dir, by_cost ? "accuracy_cost" : "accuracy_resolution");

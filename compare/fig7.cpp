@@ -74,18 +74,18 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
   PlotSpec spec;
   spec.title = "Optical-tweezers stretch of a red blood cell (Fig. 7, Hartmann 2008)";
   spec.xlabel = "total stretching force F (pN)";
-  spec.ylabel = "diameter (um)";
+  spec.ylabel = "diameter (µm)";
   spec.y_range = "[0:*]";
   spec.key = "inside right center box opaque";
   spec.width_px = 1100;
-  spec.extra_commands = {"set label 'axial D_A' at graph 0.03, graph 0.93",
-                         "set label 'transverse D_T' at graph 0.03, graph 0.12"};
+  spec.extra_commands = {"set label 'axial D_{A}' at graph 0.03, graph 0.93",
+                         "set label 'transverse D_{T}' at graph 0.03, graph 0.12"};
   spec.series.push_back(
-      {"Mills 2004 D_A", "experiment_mills2004.csv", "1:2:3", "yerrorbars", "#555555", 7, 1});
+      {"Mills 2004 D_{A}", "experiment_mills2004.csv", "1:2:3", "yerrorbars", "#555555", 7, 1});
   spec.series.push_back(
-      {"Mills 2004 D_T", "experiment_mills2004.csv", "1:4:5", "yerrorbars", "#555555", 5, 1});
-  spec.series.push_back({"alternative reading (D_A, D_T)", "experiment_mills2004_alternative.csv",
-                         "1:2", "points", "#aaaaaa", 6, 1});
+      {"Mills 2004 D_{T}", "experiment_mills2004.csv", "1:4:5", "yerrorbars", "#555555", 5, 1});
+  spec.series.push_back({"alternative reading (D_{A}, D_{T})",
+                         "experiment_mills2004_alternative.csv", "1:2", "points", "#aaaaaa", 6, 1});
   spec.series.push_back(
       {"", "experiment_mills2004_alternative.csv", "1:4", "points", "#aaaaaa", 6, 1});
   CsvTable fit;

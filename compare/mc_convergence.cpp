@@ -378,7 +378,7 @@ void write_mc_convergence(const McConvergenceResult& r, const std::string& dir) 
   PlotSpec spec;
   spec.title = head.str();
   spec.xlabel = "wall time (s)";
-  spec.ylabel = "|error| in D_A (um) vs minimiser reference";
+  spec.ylabel = "|error| in D_{A} against the minimiser reference (µm)";
   spec.log_x = spec.log_y = true;
   spec.key = "inside left bottom opaque box";  // the corner neither method reaches first
   std::ostringstream floor_text, y_range;
@@ -409,8 +409,8 @@ void write_mc_convergence(const McConvergenceResult& r, const std::string& dir) 
     std::ostringstream arrow, label;
     arrow << "set arrow from graph 0, first " << t.level_um << " to graph 1, first " << t.level_um
           << " nohead dt 2 lw 1 lc rgb '#777777'";
-    label << "set label '" << percent(t.relative) << " of D_A' at graph 0.01, first " << t.level_um
-          << " offset 0,0.6 tc rgb '#555555'";
+    label << "set label '" << percent(t.relative) << " of D_{A}' at graph 0.01, first "
+          << t.level_um << " offset 0,0.6 tc rgb '#555555'";
     spec.extra_commands.push_back(arrow.str());
     spec.extra_commands.push_back(label.str());
   }

@@ -367,7 +367,7 @@ void write_stability(const StabilityResult& r, const std::string& dir) {
   PlotSpec spec;
   spec.title = "Taylor orders against the full WLC law (continuum model)";
   spec.xlabel = "total stretching force F (pN)";
-  spec.ylabel = "diameter (um)";
+  spec.ylabel = "diameter (µm)";
   spec.key = "outside right top";
   static const char* colors[] = {"#000000", "#1f77b4", "#2ca02c", "#ff7f0e"};
   for (size_t k = 0; k < r.orders.size(); ++k) {
@@ -381,8 +381,8 @@ void write_stability(const StabilityResult& r, const std::string& dir) {
     const std::string file = "stability_order_" + c.order + ".csv";
     write_csv(dir + "/" + file, t);
     const std::string title = c.order == "full" ? "full WLC" : "p = " + c.order;
-    spec.series.push_back({title + " D_A", file, "1:2", "linespoints", colors[k % 4], 7, 1});
-    spec.series.push_back({title + " D_T", file, "1:3", "linespoints", colors[k % 4], 5, 2});
+    spec.series.push_back({title + " D_{A}", file, "1:2", "linespoints", colors[k % 4], 7, 1});
+    spec.series.push_back({title + " D_{T}", file, "1:3", "linespoints", colors[k % 4], 5, 2});
   }
   render_plot(spec, dir, "stability_orders");
 }

@@ -153,14 +153,11 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
     PlotSpec spec;
     spec.title = std::string("Accuracy against cost at ") +
                  std::to_string(static_cast<int>(r.force_pN)) + " pN (" +
-                 (axial ? "axial D_A" : "transverse D_T") + ")";
+                 (axial ? "axial D_{A}" : "transverse D_{T}") + ")";
     spec.xlabel = "wall time per solve incl. set-up (s)";
-    spec.ylabel = std::string("|error| in ") + (axial ? "D_A" : "D_T") + " (um) vs reference";
+    spec.ylabel =
+        std::string("|error| in ") + (axial ? "D_{A}" : "D_{T}") + " against the reference (µm)";
     spec.log_x = spec.log_y = true;
-    spec.key = "outside right top";
-    // Labels literally (no gnuplot enhanced-text subscript in D_A, as in the legend).
-    spec.extra_commands = {"set title noenhanced", "set xlabel noenhanced",
-                           "set ylabel noenhanced"};
     int k = 0;
     for (auto& [name, pts] : series) {
       CsvTable t;
@@ -176,9 +173,17 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
       write_csv(dir + "/" + file, t);
       if (name == "pareto") {
         if (axial)
-          spec.series.push_back({"Pareto front (D_A)", file, "1:2", "lines", "#777777", 7, 2});
+          spec.series.push_back({"Pareto front (D_{A})", file, "1:2", "lines", "#777777", 7, 2});
       } else {
-        spec.series.push_back({name, file, "1:2", "linespoints", colors[k++ % 5], 7, 1});
+        // Legend in words: "continuum_p2" -> "continuum p = 2", "continuum_pfull" -> "continuum
+        // full law" (the series name stays the file name).
+        std::string legend = name;
+        if (name.rfind("continuum_p", 0) == 0) {
+          const std::string order = name.substr(11);
+          legend = order == "full" ? "continuum full law" : "continuum p = " + order;
+        }
+        spec.series.push_back(
+            {plot_literal(legend), file, "1:2", "linespoints", colors[k++ % 5], 7, 1});
       }
     }
     render_plot(spec, dir, axial ? "tradeoff_axial" : "tradeoff_transverse");
