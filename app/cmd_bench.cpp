@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <functional>
 #include <iomanip>
 #include <iostream>
@@ -711,15 +712,20 @@ void add_bench_command(CLI::App& app, Action& action) {
                                       "--benchmark_...=VALUE, see --benchmark_list_tests)");
       // Its flags are parsed twice: first with --benchmark_list_tests, to check the filter without
       // running anything, then as given (a flag given twice takes its last value).
+      // Google Benchmark keeps a pointer to argv[0] (the context block prints it): the flags of
+      // both passes live until the benchmarks have run.
+      std::array<std::vector<std::string>, 2> kept_flags;
+      std::array<std::vector<char*>, 2> kept_argv;
       for (const bool listing : {true, false}) {
-        std::vector<std::string> flags{"rbc"};  // its messages then start "rbc: "
+        std::vector<std::string>& flags = kept_flags[listing ? 0 : 1];
+        flags = {"rbc"};  // its messages then start "rbc: "
         if (!listing) flags.emplace_back("--benchmark_list_tests=false");
         flags.insert(flags.end(), rest.begin(), rest.end());
         if (listing) {  // names only: no output file (its failure would exit silently)
           flags.emplace_back("--benchmark_list_tests=true");
           flags.emplace_back("--benchmark_out=");
         }
-        std::vector<char*> argv;
+        std::vector<char*>& argv = kept_argv[listing ? 0 : 1];
         for (auto& f : flags) argv.push_back(f.data());
         int argc = static_cast<int>(argv.size());
         benchmark::Initialize(&argc, argv.data());

@@ -22,6 +22,7 @@
 #include "calibrate/mpi_executor.hpp"
 #include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
+#include "core/validation.hpp"
 
 namespace rbc::app {
 
@@ -218,10 +219,10 @@ void print_summary(const InferenceResult& r) {
   for (const auto& s : r.parameters) line(s);
   line(r.mu);
   line(r.K);
-  std::cout << "  log evidence " << std::setprecision(6) << r.log_evidence << " +- "
-            << std::setprecision(2) << r.log_evidence_sd << "\n  forward runs " << r.counts.runs
-            << " (retried " << r.counts.retried << ", failed " << r.counts.failed << "), "
-            << std::setprecision(1) << std::fixed << r.wall_s << " s\n";
+  std::cout << "  log evidence " << format_with_error(r.log_evidence, r.log_evidence_sd)
+            << "\n  forward runs " << r.counts.runs << " (retried " << r.counts.retried
+            << ", failed " << r.counts.failed << "), " << std::setprecision(1) << std::fixed
+            << r.wall_s << " s\n";
 }
 }  // namespace
 

@@ -335,10 +335,13 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     return 0;
   }
   auto line = [](const char* name, const BlockingResult& b, const char* unit) {
-    std::cout << "  " << std::left << std::setw(8) << name << std::right << b.mean << " +- "
-              << b.error << " " << unit << "  (std " << std::sqrt(b.variance) << ", g "
-              << b.inefficiency << (b.converged ? "" : ", error not converged: run longer")
-              << ")\n";
+    // To the error's significance (two digits); std and inefficiency g to two and three.
+    std::ostringstream rest;
+    rest << std::setprecision(2) << std::sqrt(b.variance) << ", g " << std::setprecision(3)
+         << b.inefficiency;
+    std::cout << "  " << std::left << std::setw(8) << name << std::right
+              << format_with_error(b.mean, b.error) << " " << unit << "  (std " << rest.str()
+              << (b.converged ? "" : ", error not converged: run longer") << ")\n";
   };
   std::cout << "production samples " << s.samples << ", transient discarded " << s.discarded
             << ", acceptance " << s.acceptance << ", step " << run->sampler().step_um() << " um\n";
@@ -347,10 +350,12 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   line("energy", s.energy, "pN um");
   line("area", s.area, "um^2");
   line("volume", s.volume, "um^3");
-  std::cout << "thermal shift vs T = 0: D_A " << s.axial.mean - su.reference_axial_um << " um, D_T "
-            << s.transverse.mean - su.reference_transverse_um << " um\n"
-            << "largest drift |A - A0|/A0 = " << s.max_area_drift
-            << ", |V - V0|/V0 = " << s.max_volume_drift << "\n";
+  std::cout << "thermal shift vs T = 0: D_A "
+            << format_with_error(s.axial.mean - su.reference_axial_um, s.axial.error) << " um, D_T "
+            << format_with_error(s.transverse.mean - su.reference_transverse_um, s.transverse.error)
+            << " um\n"
+            << "largest drift |A - A0|/A0 = " << format_scientific(s.max_area_drift)
+            << ", |V - V0|/V0 = " << format_scientific(s.max_volume_drift) << "\n";
   return 0;
 }
 

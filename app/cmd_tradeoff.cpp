@@ -11,6 +11,7 @@
 #include "compare/mc_convergence.hpp"
 #include "compare/tradeoff.hpp"
 #include "continuum/continuum_model.hpp"
+#include "core/validation.hpp"
 
 namespace rbc::app {
 
@@ -221,9 +222,11 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       check_output_directory(o->out, o->overwrite);
       const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet));
       write_tradeoff(r, o->out);
-      std::cout << "reference at " << r.force_pN << " pN: D_A " << r.reference.axial_um << " +- "
-                << r.reference.axial_error_um << " um, D_T " << r.reference.transverse_um << " +- "
-                << r.reference.transverse_error_um << " um (" << r.reference.how << ")\n";
+      std::cout << "reference at " << r.force_pN << " pN: D_A "
+                << format_with_error(r.reference.axial_um, r.reference.axial_error_um)
+                << " um, D_T "
+                << format_with_error(r.reference.transverse_um, r.reference.transverse_error_um)
+                << " um (" << r.reference.how << ")\n";
       for (const auto& row : r.rows)
         std::cout << "  " << std::left << std::setw(44) << row.run.method.label() << std::right
                   << std::fixed << std::setprecision(3) << " D_A " << row.axial_um << " (err "

@@ -50,6 +50,22 @@ std::string format_scientific(double value) {
   return printf_number("%.3e", value);
 }
 
+std::string format_with_error(double mean, double error) {
+  if (!(error > 0) || !std::isfinite(error) || !std::isfinite(mean))
+    return format_number(mean) + " +- " + format_number(error);
+  // Two significant digits of the error: its leading digit's decade, after rounding.
+  int decade = static_cast<int>(std::floor(std::log10(error)));
+  if (std::round(error / std::pow(10.0, decade - 1)) >= 100.0) ++decade;  // 0.0999 -> 0.10
+  const int decimals = std::max(0, 1 - decade);
+  if (decimals == 0) {
+    const double unit = std::pow(10.0, decade - 1);  // round both to the error's second digit
+    return printf_number("%.0f", std::round(mean / unit) * unit) + " +- " +
+           printf_number("%.0f", std::round(error / unit) * unit);
+  }
+  const std::string format = "%." + std::to_string(decimals) + "f";
+  return printf_number(format.c_str(), mean) + " +- " + printf_number(format.c_str(), error);
+}
+
 std::string range_expectation(double lo, double hi, Ends ends, const std::string& unit) {
   const bool lo_open = ends == Ends::open_closed || ends == Ends::open_open;
   const bool hi_open = ends == Ends::open_open || ends == Ends::closed_open;

@@ -42,6 +42,12 @@ std::string format_number(double value);
 /// A number in scientific notation with 3 decimals ("6.012e-05"), for residuals and drifts.
 std::string format_scientific(double value);
 
+/// A mean and its statistical error to the error's significance: the error with two significant
+/// digits, the mean to the same decimal place (11.62671, 0.00331516 -> "11.6267 +- 0.0033";
+/// 181.4, 12.6 -> "181 +- 13"). A zero or non-finite error leaves the mean at 6 significant
+/// digits ("11.6267 +- 0").
+std::string format_with_error(double mean, double error);
+
 /// The expectation text of a range: "finite and in (0, 1000] nm"; an infinite hi gives
 /// "finite and > 0 nm" (or ">= 0"), an infinite lo "finite and <= hi". unit may be empty.
 std::string range_expectation(double lo, double hi, Ends ends, const std::string& unit);

@@ -47,7 +47,12 @@ def help_text(rbc: str, command: str | None) -> str:
 
 
 def _value(spec: str) -> tuple[str, str, bool]:
-    """Splits CLI11's type column ("INT:INT in [1, 9]=2 ...") into value, default, repeatable."""
+    """Splits CLI11's type column ("INT:INT in [1, 9]=2 ...") into value, default, repeatable.
+    An option without a default that must be given ("TEXT REQUIRED") has the default
+    "(required)"."""
+    required = spec.endswith(" REQUIRED")
+    if required:
+        spec = spec[: -len(" REQUIRED")]
     repeatable = spec.endswith(" ...")
     if repeatable:
         spec = spec[: -len(" ...")]
@@ -62,7 +67,7 @@ def _value(spec: str) -> tuple[str, str, bool]:
         value = f"{m.group('type')} {value}".strip() if value else m.group("type")
     else:
         value = m.group("type")
-    return value, m.group("default") or "", repeatable
+    return value, m.group("default") or ("(required)" if required else ""), repeatable
 
 
 def parse_options(text: str) -> list[Option]:

@@ -186,3 +186,22 @@ TEST(CsvMessages, BytesFromTheFileAreEscapedNotCutAtANul) {
 }
 
 }  // namespace
+
+namespace rbc {
+namespace {
+
+// A mean printed to its error's significance: the error's two significant digits fix the
+// decimals of both (the rounding rule of the Particle Data Group's tables, two digits always).
+TEST(FormatWithError, TheErrorKeepsTwoSignificantDigitsAndTheMeanItsDecimals) {
+  EXPECT_EQ(format_with_error(11.62671, 0.00331516), "11.6267 +- 0.0033");
+  EXPECT_EQ(format_with_error(181.4, 12.6), "181 +- 13");
+  EXPECT_EQ(format_with_error(1234.5, 250.0), "1230 +- 250");
+  EXPECT_EQ(format_with_error(2.0, 1.0), "2.0 +- 1.0");
+  EXPECT_EQ(format_with_error(0.5, 0.0999), "0.50 +- 0.10");  // rounds up into the next decade
+  EXPECT_EQ(format_with_error(-3.14159, 0.012), "-3.142 +- 0.012");
+  EXPECT_EQ(format_with_error(11.6267, 0.0), "11.6267 +- 0");
+  EXPECT_EQ(format_with_error(11.6267, std::numeric_limits<double>::quiet_NaN()), "11.6267 +- nan");
+}
+
+}  // namespace
+}  // namespace rbc
