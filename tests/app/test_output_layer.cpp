@@ -39,7 +39,6 @@ using testing::CliRun;
 using testing::fresh_output_dir;
 using testing::run_rbc;
 
-
 std::string quoted(const fs::path& p) {
   return "'" + p.string() + "'";
 }

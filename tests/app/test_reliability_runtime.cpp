@@ -45,7 +45,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-
 /// `rbc args...` in the background with the environment's OpenMP threads (cli_run.hpp).
 pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
   return testing::spawn_rbc(args, log, 0);
