@@ -132,8 +132,7 @@ void apply_config(CLI::App& cmd, const std::string& path) {
   for (const auto& [key, value] : options->items()) {
     CLI::Option* o = cmd.get_option_no_throw("--" + key);
     if (o == nullptr || key == "help" || key == "config")
-      config_error(path, "'" + key + "' is not an option of rbc " + cmd.get_name() +
-                             " (see rbc " + cmd.get_name() + " --help)");
+      config_error(path, "'" + key + "' is not an option of rbc " + cmd.get_name());
     if (o->count() > 0 || value.is_null()) continue;  // the command line wins
     if (is_flag(o)) {
       if (!value.is_boolean())
