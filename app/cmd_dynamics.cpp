@@ -12,10 +12,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/render.hpp"
+#include "app/run_config.hpp"
 #include "compare/experiment.hpp"
 #include "compare/plot.hpp"
 #include "continuum/continuum_stretch.hpp"

@@ -37,7 +37,7 @@ void add_fig7_command(CLI::App& app, Action& action) {
     std::string forces;
     std::vector<std::string> methods;
     std::string data_dir;
-    bool overwrite = false, quiet = false;
+    bool overwrite = false, quiet = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("fig7", "Fig. 7: diameters vs force, models against Mills 2004");
@@ -54,6 +54,7 @@ void add_fig7_command(CLI::App& app, Action& action) {
   cmd->add_option("--data", o->data_dir, "directory with the Mills CSV files (default: data/)");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   add_model_options(cmd, *physics);
   cmd->callback([o, physics, cmd, &action] {
     action = [o, physics, cmd]() -> int {
@@ -67,7 +68,7 @@ void add_fig7_command(CLI::App& app, Action& action) {
       fo.data_dir = o->data_dir;
       check_method_forces(fo.methods.empty() ? default_fig7_methods() : fo.methods, fo.forces_pN);
       check_output_directory(o->out, o->overwrite);
-      const Fig7Result r = run_fig7(fo, stderr_progress(o->quiet));
+      const Fig7Result r = run_fig7(fo, stderr_progress(o->quiet, o->verbose));
       write_fig7(r, o->out);
       write_run_record(o->out, record);
       std::cout << "goodness of fit against Mills 2004 (0-193 pN, " << r.experiment.size()

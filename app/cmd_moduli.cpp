@@ -11,9 +11,9 @@
 #include <random>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "core/validation.hpp"
 #include "homogenise/disordered_network.hpp"
 #include "homogenise/lattice_density.hpp"

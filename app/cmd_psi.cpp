@@ -9,9 +9,9 @@
 #include <memory>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "core/io.hpp"
 #include "core/validation.hpp"
 #include "homogenise/invariant_laws.hpp"

@@ -32,7 +32,7 @@ struct RelaxCli {
   double tolerance_pN = 1e-6;
   int max_iterations = 200;
   std::string out;
-  bool json = false, quiet = false, overwrite = false;
+  bool json = false, quiet = false, verbose = false, overwrite = false;
   nlohmann::json record;  ///< what produced the run (app/run_config.hpp)
 };
 
@@ -62,7 +62,7 @@ int run_relax(const RelaxCli& o) {
     require_distinct(h0s, "--h0", o.h0_list);
     prepare_output_directory(o.out, o.overwrite);
   }
-  const ProgressSink progress = stderr_progress(o.quiet);
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   MeshQualityReport mr;
   const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mr);
   report(progress, "Evans-Fung mesh: " + std::to_string(mr.vertices) + " vertices, " +
@@ -202,6 +202,7 @@ void add_relax_command(CLI::App& app, Action& action) {
   cmd->add_flag("--json", o->json,
                 "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   add_model_options(cmd, o->physics, {"--h0"});
   cmd->callback([o, cmd, &action] {
     action = [o, cmd]() -> int {

@@ -5,10 +5,10 @@
 #include <memory>
 #include <stdexcept>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/render.hpp"
+#include "app/run_config.hpp"
 
 namespace rbc::app {
 

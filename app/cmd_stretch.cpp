@@ -59,7 +59,7 @@ struct StretchCli {
   SymmetryCheckAt symmetry_check_at = SymmetryCheckAt::every_force;
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
-  bool json = false, quiet = false, overwrite = false;
+  bool json = false, quiet = false, verbose = false, overwrite = false;
   bool picture = true;  ///< --out: cells.png of the first and the largest force (--no-picture)
   /// --accuracy P%: choose model and resolution from the trade-off table (compare/
   /// accuracy_choice.hpp); the choice is stated on stderr and in every JSON point.
@@ -372,7 +372,7 @@ int run_discrete(const StretchCli& o) {
   const NetworkParameters params = to_network_parameters(o);
   StretchOptions so = to_stretch_options(o);
   const bool created_out = prepare_stretch_output(o, forces);
-  const ProgressSink progress = stderr_progress(o.quiet);
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
   ro.quality = o.mesh_quality;
@@ -434,7 +434,7 @@ int run_continuum(const StretchCli& o) {
   co.symmetry_check_at = o.symmetry_check_at;
   co.validate();
   const bool created_out = prepare_stretch_output(o, forces);
-  const ProgressSink progress = stderr_progress(o.quiet);
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   MeshQualityReport mesh_report;
   const TriMesh mesh = make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
   ContinuumParameters cp;
@@ -608,6 +608,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_flag("--json", o->json,
                 "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   cmd->add_option("--accuracy", o->accuracy,
                   "choose the cheapest model and resolution whose accuracy over the forces "
                   "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv; "

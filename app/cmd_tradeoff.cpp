@@ -59,7 +59,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     double force = 88.0;
     std::vector<int> vertices, elements;
     std::vector<std::string> orders;
-    bool no_continuum = false, overwrite = false, quiet = false;
+    bool no_continuum = false, overwrite = false, quiet = false, verbose = false;
     int mc_vertices = 500;
     double mc_budget = 20.0, mc_acceptance = McConvergenceOptions{}.mc_target_acceptance;
     std::string out = "results/tradeoff";
@@ -106,6 +106,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   cmd->add_flag("--accuracy-table", o->accuracy_table,
                 "instead: the accuracy-cost table over the 13 Mills forces against the "
                 "full-level reference (what `rbc stretch --accuracy` reads; regenerate "
@@ -183,11 +184,11 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         });
         if (!o->runs_only) check_output_directory(o->out, o->overwrite);
         if (o->runs_only) {
-          run_accuracy_sweeps(ao, stderr_progress(o->quiet));
+          run_accuracy_sweeps(ao, stderr_progress(o->quiet, o->verbose));
           std::cout << "sweeps cached in " << ao.cache_dir << "\n";
           return 0;
         }
-        const AccuracyStudy st = run_accuracy_study(ao, stderr_progress(o->quiet));
+        const AccuracyStudy st = run_accuracy_study(ao, stderr_progress(o->quiet, o->verbose));
         write_accuracy_study(st, o->out);
         write_run_record(o->out, record);
         std::cout << std::defaultfloat << std::setprecision(4);
@@ -239,7 +240,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                          return 0;
                        });
       check_output_directory(o->out, o->overwrite);
-      const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet));
+      const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet, o->verbose));
       write_tradeoff(r, o->out);
       write_run_record(o->out, record);
       std::cout << "reference at " << r.force_pN << " pN: D_A "
@@ -257,7 +258,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       std::cout << "outputs: " << o->out
                 << "/tradeoff.csv, tradeoff_axial.png, tradeoff_transverse.png\n";
       if (o->mc_budget == 0) return 0;
-      const McConvergenceResult mc = run_mc_convergence(mo, stderr_progress(o->quiet));
+      const McConvergenceResult mc = run_mc_convergence(mo, stderr_progress(o->quiet, o->verbose));
       write_mc_convergence(mc, o->out);
       print_time_to_accuracy(mc);
       std::cout << "outputs: " << o->out << "/mc_convergence.csv, mc_convergence.json, "

@@ -94,8 +94,9 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
   CsvTable fit;
   fit.comments = {"goodness of fit against Mills 2004 (main reading), 0-193 pN",
                   "rms in um; inside = points within their error bars"};
-  fit.header = {"method_index",      "axial_rms_um", "transverse_rms_um", "axial_inside",
-                "transverse_inside", "points",       "total_wall_s",      "all_converged"};
+  fit.label_header = "method";
+  fit.header = {"axial_rms_um", "transverse_rms_um", "axial_inside", "transverse_inside",
+                "points",       "total_wall_s",      "all_converged"};
   nlohmann::json summary = nlohmann::json::array();
   for (size_t k = 0; k < r.runs.size(); ++k) {
     const MethodRun& run = r.runs[k];
@@ -113,8 +114,8 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
     spec.series.push_back({run.method.label(), file, "1:2", "lines", color, 7, dash});
     spec.series.push_back({"", file, "1:3", "lines", color, 7, dash});
     const FitQuality& q = r.fits[k];
-    fit.rows.push_back({static_cast<double>(k), q.axial_rms_um, q.transverse_rms_um,
-                        static_cast<double>(q.axial_inside),
+    fit.labels.push_back(run.method.name());
+    fit.rows.push_back({q.axial_rms_um, q.transverse_rms_um, static_cast<double>(q.axial_inside),
                         static_cast<double>(q.transverse_inside), static_cast<double>(q.points),
                         run.total_s, run.all_converged() ? 1.0 : 0.0});
     summary.push_back({{"method", run.method.name()},
@@ -130,8 +131,6 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
                        {"all_converged", run.all_converged()},
                        {"data", file}});
   }
-  for (size_t k = 0; k < r.runs.size(); ++k)
-    fit.comments.push_back("method_index " + std::to_string(k) + " = " + r.runs[k].method.name());
   fit.comments.insert(fit.comments.end(), r.provenance.begin(), r.provenance.end());
   write_csv(dir + "/fig7_fit.csv", fit);
   write_text_atomic(dir + "/fig7.json", summary.dump(2) + "\n");

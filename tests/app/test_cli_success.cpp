@@ -223,6 +223,16 @@ TEST(CliSuccess, Fig7CurvesEqualStretchAndItsFitEqualsTheRecomputedRms) {
                         "fig7_continuum_p2_E200.csv", "experiment_mills2004.csv",
                         "experiment_mills2004_alternative.csv"})
     EXPECT_TRUE(fs::is_regular_file(out + "/" + f)) << f;
+  {  // fig7_fit.csv names each method in its first column.
+    std::ifstream in(out + "/fig7_fit.csv");
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind('#', 0) != 0) lines.push_back(line);
+    ASSERT_EQ(lines.size(), 3u);
+    EXPECT_EQ(lines[0].rfind("method,axial_rms_um,", 0), 0u) << lines[0];
+    EXPECT_EQ(lines[1].rfind("discrete_N150,", 0), 0u) << lines[1];
+    EXPECT_EQ(lines[2].rfind("continuum_p2_E200,", 0), 0u) << lines[2];
+  }
   const json summary = read_json(out + "/fig7.json");
   ASSERT_EQ(summary.size(), 2u);
   const Csv mills =

@@ -211,3 +211,20 @@ TEST(RunConfig, AccuracyTableRefusesPhysicsItWasNotMeasuredWith) {
 }
 
 }  // namespace
+
+namespace {
+
+// Progress per force at the default verbosity; the solver's internals only with --verbose.
+TEST(RunConfig, SolverInternalsOnlyWithVerbose) {
+  const auto plain = run_rbc("stretch --force 0,50 --vertices 300");
+  const auto verbose = run_rbc("stretch --force 0,50 --vertices 300 --verbose");
+  ASSERT_EQ(plain.exit_code, 0) << plain.all();
+  ASSERT_EQ(verbose.exit_code, 0) << verbose.all();
+  EXPECT_NE(plain.err.find("F = 50 pN"), std::string::npos) << plain.err;
+  EXPECT_EQ(plain.err.find("preconditioner:"), std::string::npos) << plain.err;
+  EXPECT_EQ(plain.err.find("s]   "), std::string::npos) << "an indented (internal) line\n"
+                                                        << plain.err;
+  EXPECT_NE(verbose.err.find("preconditioner:"), std::string::npos) << verbose.err;
+}
+
+}  // namespace
