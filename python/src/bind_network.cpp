@@ -57,13 +57,30 @@ void bind_network(py::module_& m) {
       "The spectrin network on a rest mesh (MODEL.md section 2): per-link rest lengths and "
       "per-face rest areas taken from the mesh (every element stress-free at its own reference), "
       "material constants, bead patches. Immutable; share it between threads freely.")
-      .def(py::init(&make_network), py::arg("mesh"), py::kw_only(), py::arg("wlc") = py::none(),
-           py::arg("bending") = py::none(), py::arg("steric") = py::none(),
-           py::arg("contact") = py::none(), py::arg("constraints") = py::none(),
-           py::arg("expansion") = "full",
-           "Network(mesh, wlc=WlcParameters(), bending=BendingParameters(), "
-           "steric=StericParameters(), contact=ContactParameters(), "
-           "constraints=ConstraintParameters(), expansion='full'); None = defaults.")
+      .def(py::init([](std::shared_ptr<PyMesh> mesh, const py::object& parameters,
+                       const py::object& wlc, const py::object& bending, const py::object& steric,
+                       const py::object& contact, const py::object& constraints,
+                       const py::object& expansion) {
+             if (parameters.is_none())
+               return make_network(std::move(mesh), wlc, bending, steric, contact, constraints,
+                                   expansion);
+             if (!wlc.is_none() || !bending.is_none() || !steric.is_none() || !contact.is_none())
+               throw py::value_error(
+                   "give either parameters (rbc.ModelParameters) or wlc, bending, steric, "
+                   "contact, not both");
+             return make_network(std::move(mesh), parameters.attr("wlc_parameters"),
+                                 parameters.attr("bending_parameters"),
+                                 parameters.attr("steric_parameters"),
+                                 parameters.attr("contact_parameters"), constraints, expansion);
+           }),
+           py::arg("mesh"), py::kw_only(), py::arg("parameters") = py::none(),
+           py::arg("wlc") = py::none(), py::arg("bending") = py::none(),
+           py::arg("steric") = py::none(), py::arg("contact") = py::none(),
+           py::arg("constraints") = py::none(), py::arg("expansion") = "full",
+           "Network(mesh, parameters=ModelParameters(), constraints=ConstraintParameters(), "
+           "expansion='full'), or with the physics as wlc=WlcParameters(), "
+           "bending=BendingParameters(), steric=StericParameters(), contact=ContactParameters() "
+           "instead of parameters; None = defaults. mesh: an rbc.Mesh in um.")
       .def_readonly("mesh", &PyNetwork::mesh)
       .def_readonly("wlc", &PyNetwork::wlc)
       .def_readonly("bending", &PyNetwork::bending)
@@ -171,17 +188,20 @@ void bind_network(py::module_& m) {
         const double e =
             run_released(nullptr, [&] { return network_energy(*n.net, x, load, nullptr, &p); });
         py::dict d;
-        d["links"] = p.links;
-        d["steric"] = p.steric;
-        d["bending"] = p.bending;
-        d["constraints"] = p.constraints;
-        d["tweezers"] = p.tweezers;
-        d["total"] = e;
+        d["links_pNum"] = p.links;
+        d["steric_pNum"] = p.steric;
+        d["bending_pNum"] = p.bending;
+        d["constraints_pNum"] = p.constraints;
+        d["tweezers_pNum"] = p.tweezers;
+        d["total_pNum"] = e;
         return d;
       },
       py::arg("network"), py::arg("positions"), py::kw_only(), py::arg("force_pN") = 0.0,
       py::arg("area_multiplier_pN_per_um") = 0.0, py::arg("volume_multiplier_pN_per_um2") = 0.0,
-      py::arg("stiffness_scale") = 1.0, "Energy of each term (pN um) as a dict.");
+      py::arg("stiffness_scale") = 1.0,
+      "Energy of each term in pN um as a dict: links_pNum, steric_pNum, bending_pNum, "
+      "constraints_pNum (multipliers and penalties), tweezers_pNum (minus the bead work) and "
+      "total_pNum (their sum, network_energy's value).");
 
   m.def(
       "_network_hessian",
