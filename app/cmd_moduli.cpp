@@ -11,9 +11,9 @@
 #include <random>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "core/validation.hpp"
 #include "homogenise/disordered_network.hpp"
 #include "homogenise/lattice_density.hpp"
@@ -64,6 +64,9 @@ struct ModuliCli {
   int cells = 0;  // 0: 4 for hex, 12 for disordered
   int seeds = 4;
   bool json = false, quiet = false;
+  /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
+  /// --json includes it beside the study's keys.
+  nlohmann::json record;
 };
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -127,9 +130,11 @@ int run_moduli(const ModuliCli& o) {
   }
   if (!study.converged) std::cerr << "rbc: error: " + study.failure + "\n";
   j["wall_s"] = seconds_since(t0);
-  if (o.json)
-    std::cout << j.dump(2) << "\n";
-  else
+  if (o.json) {
+    nlohmann::json out = o.record;
+    out.update(j);
+    std::cout << out.dump(2) << "\n";
+  } else
     std::cout << text.str();
   return study.converged ? 0 : 1;
 }
@@ -159,12 +164,14 @@ void add_moduli_command(CLI::App& app, Action& action) {
       ->check(integer_in(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--json", o->json,
-                "print JSON: every key names its unit (mu_closed_pN_per_um, K_closed_pN_per_um, "
+                "print JSON: the run record (command, config, provenance) and the study, whose "
+                "every key names its unit (mu_closed_pN_per_um, K_closed_pN_per_um, "
                 "mu_numeric_pN_per_um, K_numeric_pN_per_um, young_pN_per_um; pN/um = uN/m) or "
                 "is dimensionless (poisson, *_relative_difference, *_over_lbar, counts); "
                 "young/poisson from the numerical moduli");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress lines on stderr");
-  cmd->callback([o, &action] {
+  cmd->callback([o, cmd, &action] {
+    o->record = run_record(*cmd);
     action = [o] {
       return naming_options(membrane_option_names(), [&] { return run_moduli(*o); });
     };

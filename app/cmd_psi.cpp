@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "core/io.hpp"
 #include "core/validation.hpp"
 #include "homogenise/invariant_laws.hpp"
@@ -34,6 +34,9 @@ struct PsiCli {
   std::string deformation;
   int points = 200;
   bool json = false;
+  /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
+  /// --json includes it, the CSV's comment lines carry it.
+  nlohmann::json record;
 };
 
 /// F along a path at parameter s: uniaxial diag(s, 1), equibiaxial s I, simple shear
@@ -113,14 +116,15 @@ int run_psi(const PsiCli& o) {
     }
     if (o.json) {
       // The keys of rbc.psi() in Python: each names its unit, or is dimensionless (I1, I2).
-      const nlohmann::json j = {{"law", law.name},
-                                {"I1", I.i1},
-                                {"I2", I.i2},
-                                {"psi_pN_per_um", d.psi},
-                                {"dpsi_dI1_pN_per_um", d.d1},
-                                {"dpsi_dI2_pN_per_um", d.d2},
-                                {"first_piola_pN_per_um", {{P(0, 0), P(0, 1)}, {P(1, 0), P(1, 1)}}},
-                                {"psi_lattice_pN_per_um", psi_lattice}};
+      nlohmann::json j = o.record;
+      j.update({{"law", law.name},
+                {"I1", I.i1},
+                {"I2", I.i2},
+                {"psi_pN_per_um", d.psi},
+                {"dpsi_dI1_pN_per_um", d.d1},
+                {"dpsi_dI2_pN_per_um", d.d2},
+                {"first_piola_pN_per_um", {{P(0, 0), P(0, 1)}, {P(1, 0), P(1, 1)}}},
+                {"psi_lattice_pN_per_um", psi_lattice}});
       std::cout << j.dump(2) << "\n";
     } else {
       std::cout << std::setprecision(10) << "law: " << law.name << "\nI1 = " << I.i1
@@ -149,6 +153,7 @@ int run_psi(const PsiCli& o) {
           std::to_string(s1),
       "units in the column names (pN/um = uN/m); s, I1, I2 dimensionless; P = dPsi/dF "
       "(first Piola); dpsi_ds = P : dF/ds; psi_lattice: un-averaged lattice density at phi = 0"};
+  for (const std::string& line : record_comment_lines(o.record)) t.comments.push_back(line);
   t.header = {"s",
               "I1",
               "I2",
@@ -196,10 +201,12 @@ void add_psi_command(CLI::App& app, Action& action) {
                   "evaluate at one F given as F11,F12,F21,F22 (det F > 0, inside the law's "
                   "domain) and print");
   cmd->add_flag("--json", o->json,
-                "with --deformation: print JSON (law, I1, I2, psi_pN_per_um, dpsi_dI1_pN_per_um, "
-                "dpsi_dI2_pN_per_um, first_piola_pN_per_um, psi_lattice_pN_per_um), the keys of "
-                "rbc.psi() in Python");
-  cmd->callback([o, &action] {
+                "with --deformation: print JSON: the run record (command, config, provenance) and "
+                "the keys of rbc.psi() in Python (law, I1, I2, psi_pN_per_um, "
+                "dpsi_dI1_pN_per_um, dpsi_dI2_pN_per_um, first_piola_pN_per_um, "
+                "psi_lattice_pN_per_um)");
+  cmd->callback([o, cmd, &action] {
+    o->record = run_record(*cmd);
     action = [o] { return naming_options(membrane_option_names(), [&] { return run_psi(*o); }); };
   });
 }

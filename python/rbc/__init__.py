@@ -575,7 +575,8 @@ def moduli(*, parameters: Optional[ModelParameters] = None,
            network: str = "hex", cells: int = 0, disorder: float = 0.5, seeds: int = 4,
            cancel: Optional[Callable[[], bool]] = None,
            progress: Optional[Callable[[str], None]] = None) -> dict:
-    """Linear moduli of the spectrin network, as ``rbc moduli --json`` (without its wall_s).
+    """Linear moduli of the spectrin network: the keys of ``rbc moduli --json`` without its
+    run record (command, config, provenance) and wall_s.
 
     The physics: `parameters` (rbc.ModelParameters; its WLC and steric fields count), or wlc
     and steric (not both); None = the CLI's defaults. network 'hex': the periodic hexagonal
@@ -602,8 +603,8 @@ def psi(order: "Order | str | int", deformation: "np.ndarray | Sequence", *,
         parameters: Optional[ModelParameters] = None, wlc: Optional[WlcParameters] = None,
         steric: Optional[StericParameters] = None) -> dict:
     """Homogenised density Psi of the given order (2, 3, 4 or 'full') at a 2x2 surface
-    deformation gradient F (dimensionless; or a stack (M, 2, 2)), as
-    ``rbc psi --deformation F11,F12,F21,F22 --json``.
+    deformation gradient F (dimensionless; or a stack (M, 2, 2)): the keys of
+    ``rbc psi --deformation F11,F12,F21,F22 --json`` without its run record.
 
     The physics: `parameters` (rbc.ModelParameters; its WLC and steric fields count), or wlc
     and steric (not both); None = the CLI's defaults.

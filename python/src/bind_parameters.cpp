@@ -6,6 +6,7 @@
 
 #include "common.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 
 namespace rbc::py_bind {
 
@@ -443,6 +444,11 @@ void bind_parameters(py::module_& m) {
         validated("ModelParameters(dihedral_mapping='" + mapping + "')",
                   [&] { map = dihedral_mapping_from_string(mapping); });
         const PyBending b = make_bending(kappa_J, h0_per_um, model, map, bcall);
+        // As the CLI's Model options (app/model_options.cpp): a cell needs kappa > 0 (the
+        // library's BendingParameters allows 0 for flat test patches).
+        validated(bcall, [&] {
+          require_finite_in_range("bending rigidity kappa", "J", kappa_J, 0.0, kMaxKappa_J);
+        });
         const PySteric s = make_steric(q, eta, model_call({{"q", q}, {"eta", eta}}));
         PatchRule rule{};
         validated("ModelParameters(contact='" + contact + "')",
