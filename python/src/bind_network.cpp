@@ -81,15 +81,17 @@ void bind_network(py::module_& m) {
            "expansion='full'), or with the physics as wlc=WlcParameters(), "
            "bending=BendingParameters(), steric=StericParameters(), contact=ContactParameters() "
            "instead of parameters; None = defaults. mesh: an rbc.Mesh in um.")
-      .def_readonly("mesh", &PyNetwork::mesh)
-      .def_readonly("wlc", &PyNetwork::wlc)
-      .def_readonly("bending", &PyNetwork::bending)
-      .def_readonly("steric", &PyNetwork::steric)
-      .def_readonly("contact", &PyNetwork::contact)
-      .def_readonly("constraints", &PyNetwork::constraints)
-      .def_readonly("expansion", &PyNetwork::expansion)
-      .def_property_readonly("num_vertices",
-                             [](const PyNetwork& n) { return n.net->topo.num_vertices; })
+      .def_readonly("mesh", &PyNetwork::mesh, "the rest mesh (rbc.Mesh, um)")
+      .def_readonly("wlc", &PyNetwork::wlc, "rbc.WlcParameters (nm, K)")
+      .def_readonly("bending", &PyNetwork::bending, "rbc.BendingParameters (J, 1/um)")
+      .def_readonly("steric", &PyNetwork::steric, "rbc.StericParameters (dimensionless)")
+      .def_readonly("contact", &PyNetwork::contact, "rbc.ContactParameters (dimensionless)")
+      .def_readonly("constraints", &PyNetwork::constraints,
+                    "rbc.ConstraintParameters (pN/um^3, pN/um^5)")
+      .def_readonly("expansion", &PyNetwork::expansion, "rbc.Order of the WLC density V")
+      .def_property_readonly(
+          "num_vertices", [](const PyNetwork& n) { return n.net->topo.num_vertices; },
+          "vertex count N")
       .def_property_readonly(
           "rest_positions",
           [](py::object self) { return rows_view(self.cast<PyNetwork&>().net->rest, self); },
@@ -110,12 +112,18 @@ void bind_network(py::module_& m) {
           "abar_um2",
           [](py::object self) { return vector_view(self.cast<PyNetwork&>().net->abar_um2, self); },
           "(F,) rest face areas Abar_f in um^2 (read-only view)")
-      .def_property_readonly("area0_um2", [](const PyNetwork& n) { return n.net->area0_um2; })
-      .def_property_readonly("volume0_um3", [](const PyNetwork& n) { return n.net->volume0_um3; })
-      .def_property_readonly("steric_C_pN_per_um",
-                             [](const PyNetwork& n) { return n.net->steric_C_pN_per_um; })
-      .def_property_readonly("dihedral_kb_pNum",
-                             [](const PyNetwork& n) { return n.net->dihedral_kb_pNum; })
+      .def_property_readonly(
+          "area0_um2", [](const PyNetwork& n) { return n.net->area0_um2; },
+          "rest area A0 the area constraint holds (um^2)")
+      .def_property_readonly(
+          "volume0_um3", [](const PyNetwork& n) { return n.net->volume0_um3; },
+          "rest volume V0 the volume constraint holds (um^3)")
+      .def_property_readonly(
+          "steric_C_pN_per_um", [](const PyNetwork& n) { return n.net->steric_C_pN_per_um; },
+          "steric constant C that makes the rest shape stress-free (pN/um)")
+      .def_property_readonly(
+          "dihedral_kb_pNum", [](const PyNetwork& n) { return n.net->dihedral_kb_pNum; },
+          "dihedral bending stiffness k_b (pN um)")
       .def_property_readonly(
           "wlc_x0", [](const PyNetwork& n) { return n.net->wlc.x0; },
           "Lbar/Lmax of the density V (0.31546 for the defaults)")
@@ -133,11 +141,12 @@ void bind_network(py::module_& m) {
                                        n.net->patch.share.data());
           },
           "signed force shares of the bound vertices along +x (each bead sums to +-1; copy)")
-      .def_property_readonly("contact_area_um2",
-                             [](const PyNetwork& n) {
-                               return py::make_tuple(n.net->patch.area_plus_um2,
-                                                     n.net->patch.area_minus_um2);
-                             })
+      .def_property_readonly(
+          "contact_area_um2",
+          [](const PyNetwork& n) {
+            return py::make_tuple(n.net->patch.area_plus_um2, n.net->patch.area_minus_um2);
+          },
+          "(+x bead, -x bead) contact patch areas (um^2)")
       .def(
           "largest_rest_inplane_force_pN",
           [](const PyNetwork& n) { return largest_rest_inplane_force_pN(*n.net); },
