@@ -35,9 +35,14 @@ import dataclasses
 import enum
 import math
 import numbers
-from typing import Any, Callable, Optional, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Optional, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:  # the annotations' types; imported where they are used
+    import meshio
+    import scipy.sparse
+    import scipy.sparse.linalg
 
 from . import _rbc
 from ._rbc import (  # noqa: F401  (re-exported API)
@@ -641,8 +646,8 @@ Mesh.to_meshio = _mesh_to_meshio
 from .render import plot_shape, read_shapes  # noqa: E402  (re-exported API)
 
 __all__ = [name for name in dir() if not name.startswith("_") and name not in (
-    "annotations", "dataclasses", "enum", "math", "numbers", "np", "Any", "Callable", "Optional",
-    "Sequence")]
+    "annotations", "dataclasses", "enum", "math", "numbers", "np", "TYPE_CHECKING", "Any",
+    "Callable", "Optional", "Sequence")]
 
 
 def __dir__():

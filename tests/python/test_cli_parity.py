@@ -99,6 +99,6 @@ def test_psi_equals_rbc_psi_table(tmp_path):
     # the CSV holds 10 significant digits
     np.testing.assert_allclose(d["psi_pN_per_um"], rows[:, header.index("psi_pN_per_um")],
                                rtol=1e-9)
-    np.testing.assert_allclose(d["first_piola_pN_per_um"][:, 0, 0], rows[:, header.index("P11_pN_per_um")],
-                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(d["first_piola_pN_per_um"][:, 0, 0],
+                               rows[:, header.index("P11_pN_per_um")], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(d["I2"], rows[:, header.index("I2")], rtol=1e-9, atol=1e-12)

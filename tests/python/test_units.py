@@ -234,8 +234,10 @@ def test_stretch_with_model_parameters_equals_stretch_with_the_keywords():
     p = rbc.ModelParameters(lmax_nm=250, kappa_J=3e-19, q=1.5, contact_fraction=0.08)
     a = rbc.stretch("continuum", forces, elements=200, parameters=p)
     b = rbc.stretch("continuum", forces, elements=200,
-                    wlc=rbc.WlcParameters(lmax_nm=250), bending=rbc.BendingParameters(kappa_J=3e-19),
-                    steric=rbc.StericParameters(q=1.5), contact=rbc.ContactParameters(fraction=0.08))
+                    wlc=rbc.WlcParameters(lmax_nm=250),
+                    bending=rbc.BendingParameters(kappa_J=3e-19),
+                    steric=rbc.StericParameters(q=1.5),
+                    contact=rbc.ContactParameters(fraction=0.08))
     assert a.to_records()[-1]["axial_um"] == b.to_records()[-1]["axial_um"]
 
 
