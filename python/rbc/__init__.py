@@ -518,9 +518,10 @@ def network_hessian(network: Network, positions: np.ndarray, *,
     # The library's matrix is symmetric: its column-major (CSC) arrays are its CSR arrays.
     h = scipy.sparse.csr_matrix((d["data"], d["indices"], d["indptr"]), shape=(n, n))
     if penalty:
-        a = d["area_gradient"].reshape(-1)
-        v = d["volume_gradient"].reshape(-1)
-        dense = d["area_weight"] * np.outer(a, a) + d["volume_weight"] * np.outer(v, v)
+        a = d["area_gradient_um"].reshape(-1)
+        v = d["volume_gradient_um2"].reshape(-1)
+        dense = (d["area_weight_pN_per_um3"] * np.outer(a, a)
+                 + d["volume_weight_pN_per_um5"] * np.outer(v, v))
         h = scipy.sparse.csr_matrix(h + dense)
     return h
 
@@ -541,9 +542,9 @@ def network_hessian_operator(network: Network, positions: np.ndarray, *,
 
     n = d["size"]
     h = scipy.sparse.csr_matrix((d["data"], d["indices"], d["indptr"]), shape=(n, n))
-    a = d["area_gradient"].reshape(-1)
-    v = d["volume_gradient"].reshape(-1)
-    wa, wv = d["area_weight"], d["volume_weight"]
+    a = d["area_gradient_um"].reshape(-1)
+    v = d["volume_gradient_um2"].reshape(-1)
+    wa, wv = d["area_weight_pN_per_um3"], d["volume_weight_pN_per_um5"]
 
     def matvec(x):
         x = np.asarray(x).reshape(-1)

@@ -259,10 +259,10 @@ void bind_network(py::module_& m) {
         d["indices"] = py::array_t<int>(H.nonZeros(), H.innerIndexPtr());
         d["indptr"] = py::array_t<int>(H.outerSize() + 1, H.outerIndexPtr());
         d["size"] = H.rows();
-        d["area_gradient"] = owning_rows(std::move(out.grad_area));
-        d["volume_gradient"] = owning_rows(std::move(out.grad_volume));
-        d["area_weight"] = out.weight_area;
-        d["volume_weight"] = out.weight_volume;
+        d["area_gradient_um"] = owning_rows(std::move(out.grad_area));
+        d["volume_gradient_um2"] = owning_rows(std::move(out.grad_volume));
+        d["area_weight_pN_per_um3"] = out.weight_area;
+        d["volume_weight_pN_per_um5"] = out.weight_volume;
         return d;
       },
       py::arg("network"), py::arg("positions"), py::arg("area_multiplier_pN_per_um"),
