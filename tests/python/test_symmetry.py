@@ -78,8 +78,7 @@ def test_mirror_planes_mesh_keeps_eight_mirrors_and_matches_the_cli(model, size)
     assert [p.symmetry_order for p in r] == [8, 8]
     size_opt = ["--elements", str(size)] if model == "continuum" else ["--vertices", str(size)]
     cli = run_cli_json("stretch", "--model", model, *size_opt, "--force", "0,88", "--symmetry",
-                       "mirror", "--mesh-orientation", "mirror-planes", "--json",
-                       "-q")["points"]
+                       "mirror", "--mesh-orientation", "mirror-planes", "--json", "-q")["points"]
     assert_same_records(r.to_records(), cli)
 
 
