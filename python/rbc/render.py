@@ -24,7 +24,7 @@ import argparse
 import dataclasses
 import os
 import sys
-from typing import Optional, Sequence
+from typing import BinaryIO, Optional, Sequence
 
 import numpy as _np
 
@@ -140,7 +140,7 @@ def read_shapes(path: str) -> list:
     return shapes
 
 
-def diameters_um(points_um) -> tuple:
+def diameters_um(points_um: _np.ndarray) -> tuple:
     """(D_A, D_T) as rbc measures them (core/geometry.hpp): D_A = max x - min x, and D_T the
     largest extent perpendicular to x, the diameter of the points projected on the y-z plane
     (the largest distance between two corners of their convex hull)."""
@@ -190,8 +190,9 @@ def _project(points_um, elev_deg: float, azim_deg: float):
     return _np.stack([points_um @ right, points_um @ up], axis=1), points_um @ towards
 
 
-def plot_shapes(shapes: Sequence[Shape], out_png, field: Optional[str] = None,
-                title: Optional[str] = None, dpi: int = 110) -> str:
+def plot_shapes(shapes: Sequence[Shape], out_png: str | os.PathLike | BinaryIO,
+                field: Optional[str] = None, title: Optional[str] = None,
+                dpi: int = 110) -> str:
     """Draws the shapes (one row each, two views) to ``out_png`` (a path or a binary file
     object); returns the field used.
 
@@ -274,7 +275,8 @@ def plot_shapes(shapes: Sequence[Shape], out_png, field: Optional[str] = None,
     return field
 
 
-def plot_shape(files, out_png: str, field: Optional[str] = None,
+def plot_shape(files: str | os.PathLike | Sequence[str | os.PathLike],
+               out_png: str | os.PathLike | BinaryIO, field: Optional[str] = None,
                title: Optional[str] = None) -> str:
     """Draws shape files rbc wrote (one path or a list of .xdmf/.h5) to ``out_png``, as
     ``rbc render`` does; returns the field the triangles are coloured by.

@@ -400,8 +400,8 @@ TEST(CliSuccess, StabilityRowsEqualModuliStretchAndTheOrderCurves) {
     ASSERT_EQ(m.exit_code, 0) << m.err;
     const json mj = json::parse(m.out);
     if (const json* k = stability_row(rows, "steric", s.method, "K_closed_pN_per_um", eta))
-      expect_rel(k->at("value").get<double>(), mj.at("K_paper_formula").get<double>(), kSameDouble,
-                 "K");
+      expect_rel(k->at("value").get<double>(), mj.at("K_paper_formula_pN_per_um").get<double>(),
+                 kSameDouble, "K");
     const json pts =
         stretch_points(std::string("-n 100 --force 0,88 --q ") + s.q + " --eta " + s.eta, dir,
                        std::string("stretch_q") + s.q + "_eta" + s.eta);

@@ -135,6 +135,9 @@ def _cases(net, mesh):
         ("StericParameters", "q", lambda v: rbc.StericParameters(q=v)),
         ("StericParameters", "eta", lambda v: rbc.StericParameters(eta=v)),
         ("ContactParameters", "fraction", lambda v: rbc.ContactParameters(fraction=v)),
+        *[("_model_objects", name, lambda v, name=name: rbc.ModelParameters(**{name: v}))
+          for name in ("lbar_nm", "lmax_nm", "persistence_nm", "temperature_K", "kappa_J",
+                       "h0_per_um", "q", "eta", "contact_fraction")],
         ("ConstraintParameters", "area_stiffness_pN_per_um3",
          lambda v: rbc.ConstraintParameters(area_stiffness_pN_per_um3=v)),
         ("ConstraintParameters", "volume_stiffness_pN_per_um5",
