@@ -275,6 +275,7 @@ void draw_stretch_picture(const StretchCli& o, const std::vector<StretchRow>& pt
   r.title = continuum ? "continuum model, " + std::to_string(pts.front().elements) + " elements"
                       : "spectrin network, " + std::to_string(pts.front().vertices) + " vertices";
   r.out_png = o.out + "/cells.png";
+  r.metadata = record_png_text(o.record);
   const std::string why_not = draw_cells(r);
   manifest.picture("cells.png", why_not);
   if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";

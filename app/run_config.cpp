@@ -265,6 +265,14 @@ std::vector<std::string> record_comment_lines(const nlohmann::json& record) {
           machine.str(), "config " + record.at("config").dump()};
 }
 
+std::vector<std::pair<std::string, std::string>> record_png_text(const nlohmann::json& record) {
+  const nlohmann::json& p = record.at("provenance");
+  return {{"Software", "rbc " + p.at("rbc_version").get<std::string>()},
+          {"Source", p.at("command_line").get<std::string>()},
+          {"Creation Time", p.at("date_utc").get<std::string>()},
+          {"rbc_config", record.at("config").dump()}};
+}
+
 std::vector<std::pair<std::string, std::string>> record_attributes(const nlohmann::json& record) {
   const nlohmann::json& p = record.at("provenance");
   return {{"rbc_version", p.at("rbc_version").get<std::string>()},

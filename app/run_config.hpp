@@ -49,6 +49,10 @@ void write_run_record(const std::string& dir, const nlohmann::json& record);
 /// "date_utc ..., host ..., openmp_threads N, blas ...", "config {compact JSON}".
 std::vector<std::string> record_comment_lines(const nlohmann::json& record);
 
+/// The record as PNG text chunks: Software (rbc VERSION), Source (the command line), Creation
+/// Time (date_utc) and rbc_config (compact JSON of the resolved configuration).
+std::vector<std::pair<std::string, std::string>> record_png_text(const nlohmann::json& record);
+
 /// The record as HDF5 string attributes: rbc_version, rbc_command_line, rbc_config (compact
 /// JSON of the resolved configuration) and rbc_provenance (compact JSON of the provenance).
 std::vector<std::pair<std::string, std::string>> record_attributes(const nlohmann::json& record);

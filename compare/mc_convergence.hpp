@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "discrete/network.hpp"
 #include "core/progress.hpp"
 #include "discrete/constraint_energy.hpp"
 
