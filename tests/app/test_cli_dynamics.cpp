@@ -67,7 +67,7 @@ TEST(CliDynamics, BadTimesAndViscositiesExitTwoAndWriteNothing) {
       {"--membrane-viscosity 0", "--membrane-viscosity"},
       {"--membrane-viscosity -0.5", "-0.5"},
       {"--membrane-viscosity inf", "inf"},
-      {"--dt 0.2 --duration 0.1", "must not exceed --duration 0.1"},
+      {"--dt 0.2 --duration 0.1", "at most the duration 0.1 s"},
       {"--model discrete --scene relax", "--scene relax"},
       {"--model discrete --force 600", "600"},
       {"--model continuum --force 450", "450"},
