@@ -12,11 +12,12 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/model_options.hpp"
 #include "app/render.hpp"
+#include "app/run_config.hpp"
 #include "compare/dynamics_scene.hpp"
 #include "compare/plot.hpp"
 #include "core/h5file.hpp"
@@ -32,14 +33,18 @@ struct DynamicsCli {
   std::string scheme = "be";  ///< be (backward Euler) | bdf2 (discrete only)
   std::string order = "2";
   DynamicsSceneOptions scene_options;  ///< the numbers; model, scene, scheme, order from above
+  ModelCli physics;                    ///< the model option group (app/model_options.hpp)
   int frames = 100;
   std::string out;
   bool json = false, quiet = false, overwrite = false;
   bool picture = true;  ///< --out: cells.png of the first and the last frame (--no-picture)
+  /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
+  /// --json, dynamics.json and run.json include it, dynamics.csv and dynamics.h5 carry it.
+  nlohmann::json record;
 };
 
 /// The library's quantities -> this command's options (rbc: error: --dt 0: time step dt ...).
-const OptionNames kDynamicsOptionNames = {
+const OptionNames kSceneOptionNames = {
     {"model", "--model"},
     {"scene", "--scene"},
     {"time scheme", "--scheme"},
@@ -58,6 +63,13 @@ const OptionNames kDynamicsOptionNames = {
     {"step iterations", "--step-iterations"},
 };
 
+/// The scene's and the model option group's quantities -> this command's options.
+OptionNames dynamics_option_names() {
+  OptionNames names = model_option_names();
+  names.insert(kSceneOptionNames.begin(), kSceneOptionNames.end());
+  return names;
+}
+
 /// The library's options from the command line (names parsed, everything validated).
 DynamicsSceneOptions scene_options(const DynamicsCli& o) {
   DynamicsSceneOptions so = o.scene_options;
@@ -69,6 +81,7 @@ DynamicsSceneOptions scene_options(const DynamicsCli& o) {
   } catch (const std::invalid_argument&) {
     throw std::invalid_argument("--order " + o.order + ": expected one of 2, 3, 4, full");
   }
+  so.network = to_network_parameters(o.physics);  // WLC, steric, bending, bead contact
   so.validate();
   if (o.frames < 1)
     throw std::invalid_argument("--frames " + std::to_string(o.frames) +
@@ -77,7 +90,9 @@ DynamicsSceneOptions scene_options(const DynamicsCli& o) {
 }
 
 /// One HDF5 file with every frame and an XDMF temporal collection over it.
-void write_time_series(const std::string& dir, const DynamicsSceneResult& r, int frame_every) {
+/// The run record's attributes (record_attributes) are on the file.
+void write_time_series(const std::string& dir, const DynamicsSceneResult& r, int frame_every,
+                       const nlohmann::json& record) {
   const TrajectoryResult& traj = r.trajectory;
   const std::string h5_path = dir + "/dynamics.h5";
   TempFile tmp(h5_path);  // removed on every path that does not commit it
@@ -97,6 +112,7 @@ void write_time_series(const std::string& dir, const DynamicsSceneResult& r, int
       times.push_back(traj.samples[k].t_s);
     }
     f.write("/time_s", times.data(), times.size(), 1);
+    for (const auto& [name, value] : record_attributes(record)) f.write_attribute(name, value);
     f.close();
   }
   tmp.commit();
@@ -120,14 +136,16 @@ void write_time_series(const std::string& dir, const DynamicsSceneResult& r, int
   write_text_atomic(dir + "/dynamics.xdmf", x.str());
 }
 
-/// dynamics.csv, .h5/.xdmf, cells.png (unless --no-picture; recorded in j), dynamics.json and
-/// the diameter plot.
+/// dynamics.csv, .h5/.xdmf, cells.png (unless --no-picture; recorded in j), dynamics.json, the
+/// diameter plot and, last, run.json: the JSON summary with the run record, "complete" and
+/// "status", which `rbc dynamics --config DIR/run.json` reads back to repeat the run.
 void write_outputs(const DynamicsCli& o, const DynamicsSceneOptions& so,
                    const DynamicsSceneResult& r, nlohmann::json& j, const ProgressSink& progress) {
   const TrajectoryResult& traj = r.trajectory;
   CsvTable csv;
   csv.comments = {"rbc dynamics --model " + o.model + " --scene " + o.scene,
                   "units: time s, diameters um, energy pN*um; lambda = D_A/D_T"};
+  for (const std::string& line : record_comment_lines(o.record)) csv.comments.push_back(line);
   csv.header = {"t_s",         "axial_um",   "transverse_um", "lambda",
                 "energy_pNum", "area_drift", "volume_drift",  "iterations"};
   for (const auto& s : traj.samples)
@@ -135,7 +153,8 @@ void write_outputs(const DynamicsCli& o, const DynamicsSceneOptions& so,
                         s.energy_pNum, s.area_drift, s.volume_drift,
                         static_cast<double>(s.iterations)});
   write_csv(o.out + "/dynamics.csv", csv);
-  write_time_series(o.out, r, std::max(1, static_cast<int>(traj.snapshots.size()) / o.frames));
+  write_time_series(o.out, r, std::max(1, static_cast<int>(traj.snapshots.size()) / o.frames),
+                    o.record);
   if (o.picture) {
     // cells.png: the first and the last frame (app/render.hpp); never fails the run.
     RenderRequest cells{{o.out + "/dynamics.xdmf"},
@@ -176,6 +195,12 @@ void write_outputs(const DynamicsCli& o, const DynamicsSceneOptions& so,
   } catch (const std::runtime_error& e) {
     report(progress, std::string("plot not rendered: ") + e.what());
   }
+  // Last: run.json is the commit record of the set (and reads back with --config).
+  nlohmann::json run = j;
+  run["complete"] = true;
+  run["status"] = "finished";
+  run["files"] = {"dynamics.csv", "dynamics.json", "dynamics.h5", "dynamics.xdmf"};
+  write_text_atomic(o.out + "/run.json", run.dump(2) + "\n");
 }
 
 int run(const DynamicsCli& o) {
@@ -194,7 +219,8 @@ int run(const DynamicsCli& o) {
     std::cerr << "rbc: error: " << r.trajectory.status << "\n";
     return 1;
   }
-  nlohmann::json j = dynamics_summary_json(so, r);
+  nlohmann::json j = o.record;  // command, resolved configuration, provenance
+  j.update(dynamics_summary_json(so, r));
   if (!o.out.empty()) write_outputs(o, so, r, j, progress);
   if (o.json) {
     std::cout << j.dump(2) << "\n";
@@ -259,6 +285,7 @@ void add_dynamics_command(CLI::App& app, Action& action) {
   cmd->add_option("--elements", o->scene_options.elements, "continuum: triangles")
       ->capture_default_str();
   cmd->add_option("--order", o->order, "continuum law: 2 | 3 | 4 | full")->capture_default_str();
+  add_model_options(cmd, o->physics);
   cmd->add_option("--frames", o->frames, "largest number of HDF5/XDMF frames")
       ->capture_default_str();
   cmd->add_option("--max-halvings", o->scene_options.max_halvings,
@@ -269,7 +296,8 @@ void add_dynamics_command(CLI::App& app, Action& action) {
                   "(continuum); 0 = defaults 20000 and 50")
       ->capture_default_str();
   cmd->add_option("--out", o->out,
-                  "write dynamics.{csv,json,h5,xdmf,png} (must be empty unless --force-overwrite)")
+                  "write dynamics.{csv,json,h5,xdmf,png} and run.json (must be empty unless "
+                  "--force-overwrite)")
       ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("!--no-picture", o->picture,
@@ -277,9 +305,12 @@ void add_dynamics_command(CLI::App& app, Action& action) {
                 "draws them)");
   cmd->add_flag("--json", o->json, "print the JSON summary on stdout");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, &action] {
+  cmd->callback([o, cmd, &action] {
     make_cancellable();  // polls interrupt_check() between steps: see app/interrupt.hpp
-    action = [o]() -> int { return naming_options(kDynamicsOptionNames, [&] { return run(*o); }); };
+    action = [o, cmd]() -> int {
+      o->record = run_record(*cmd);
+      return naming_options(dynamics_option_names(), [&] { return run(*o); });
+    };
   });
 }
 
