@@ -70,17 +70,28 @@ TEST(DynamicsScene, ValidateNamesTheQuantityTheLimitAndTheValue) {
   EXPECT_EQ(time_scheme_name(time_scheme_from_string("bdf2")), "bdf2");
 }
 
-TEST(DynamicsScene, CancelStopsTheRunBeforeTheNextStep) {
+// The cancel hook is polled before every time step (and by the static solves, which are the
+// same for two durations): 20 steps poll it 10 times more than 10 steps. Returning true stops
+// the run by throwing Cancelled at that poll.
+TEST(DynamicsScene, CancelIsPolledBeforeEveryStepAndStopsTheRun) {
+  const auto polls = [](double duration_s) {
+    DynamicsSceneOptions o = small_discrete();
+    o.duration_s = duration_s;
+    int n = 0;
+    o.cancel = [&n] {
+      ++n;
+      return false;
+    };
+    EXPECT_TRUE(run_dynamics_scene(o).converged());
+    return n;
+  };
+  const int ten_steps = polls(0.05), twenty_steps = polls(0.1);
+  EXPECT_EQ(twenty_steps - ten_steps, 10);
   DynamicsSceneOptions o = small_discrete();
-  int steps = 0;
-  // The static solves poll too; the trajectory's first step is announced by no progress line,
-  // so the polls are counted from the first one: the run must stop at the fourth.
-  o.cancel = [&] { return ++steps > 3; };
-  const DynamicsSceneResult full = run_dynamics_scene(small_discrete());
-  ASSERT_TRUE(full.converged());
-  ASSERT_EQ(full.trajectory.samples.size(), 11u);
+  int n = 0;
+  o.cancel = [&n, ten_steps] { return ++n >= ten_steps; };  // the last step's poll
   EXPECT_THROW(run_dynamics_scene(o), Cancelled);
-  EXPECT_EQ(steps, 4);
+  EXPECT_EQ(n, ten_steps);
 }
 
 // A stretch's trajectory creeps to the static equilibrium at the same force: over ten
