@@ -131,9 +131,10 @@ struct DynamicsSceneResult {
 DynamicsSceneResult run_dynamics_scene(const DynamicsSceneOptions& options,
                                        const ProgressSink& progress = {});
 
-/// The JSON summary `rbc dynamics --json` prints: the options, the measures, the fluids'
-/// estimated share of the dissipation and up to ~200 samples (t_s, axial_um, transverse_um,
-/// energy_pNum). For a converged result.
+/// The JSON summary `rbc dynamics --json` prints (without the CLI's run record): the options,
+/// the measures, the fluids' estimated share of the dissipation and the samples (t_s, axial_um,
+/// transverse_um, energy_pNum): all of them up to 399, else every k-th with k = samples/200.
+/// For a converged result.
 nlohmann::json dynamics_summary_json(const DynamicsSceneOptions& options,
                                      const DynamicsSceneResult& result);
 
