@@ -47,7 +47,7 @@ struct StretchCli {
   /// --mesh-orientation: where the icosahedron lies (mirror-planes: the scene's full mirror
   /// group, with the bead patches cut between x levels).
   TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex;
-  ModelCli physics;  ///< the model option group (app/model_options.hpp)
+  ModelCli physics;              ///< the model option group (app/model_options.hpp)
   double tolerance_pN = 1e-3;    ///< discrete default; the continuum's is Newton's 1e-6 pN
   bool tolerance_given = false;  ///< --tolerance on the command line (the continuum honours it)
   int max_iterations = 50000;
@@ -605,7 +605,8 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--warm-start", o->warm_start,
                   "re-solve each force from the equilibria of an earlier `stretch --out DIR` "
                   "(same model, mesh and forces; e.g. after a small parameter change)");
-  cmd->add_flag("--json", o->json, "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
+  cmd->add_flag("--json", o->json,
+                "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->add_option("--accuracy", o->accuracy,
                   "choose the cheapest model and resolution whose accuracy over the forces "

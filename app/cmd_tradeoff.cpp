@@ -5,9 +5,10 @@
 #include <iostream>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/model_options.hpp"
+#include "app/run_config.hpp"
 #include "compare/accuracy_study.hpp"
 #include "compare/mc_convergence.hpp"
 #include "compare/tradeoff.hpp"
@@ -145,8 +146,20 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "(default OUT/runs)");
   cmd->add_flag("--runs-only", o->runs_only,
                 "--accuracy-table: only run (and cache) the sweeps, write no table");
-  cmd->callback([o, &action] {
-    action = [o]() -> int {
+  auto physics = std::make_shared<ModelCli>();
+  add_model_options(cmd, *physics);
+  cmd->callback([o, physics, cmd, &action] {
+    std::string changed_physics;  // model options given: the accuracy table is measured without
+    for (const std::string& name : model_option_flags())
+      if (changed_physics.empty() && cmd->get_option(name)->count() > 0) changed_physics = name;
+    action = [o, physics, cmd, changed_physics]() -> int {
+      const NetworkParameters parameters = checked_network_parameters(*physics);
+      const nlohmann::json record = run_record(*cmd);
+      if (o->accuracy_table && !changed_physics.empty())
+        throw std::invalid_argument(
+            "--accuracy-table is measured at the default physics (its reference and cached "
+            "sweeps are), got " +
+            changed_physics + " " + cmd->get_option(changed_physics)->results().front());
       if (o->accuracy_table) {
         AccuracyStudyOptions ao;
         if (!o->vertices.empty()) ao.discrete_vertices = o->vertices;
@@ -176,6 +189,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         }
         const AccuracyStudy st = run_accuracy_study(ao, stderr_progress(o->quiet));
         write_accuracy_study(st, o->out);
+        write_run_record(o->out, record);
         std::cout << std::defaultfloat << std::setprecision(4);
         for (const auto& r : st.rows)
           std::cout << "  " << std::left << std::setw(52)
@@ -192,6 +206,8 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         return 0;
       }
       TradeoffOptions to;
+      to.parameters = parameters;
+      to.provenance = record_comment_lines(record);
       to.force_pN = o->force;
       if (!o->vertices.empty()) to.discrete_vertices = o->vertices;
       if (!o->elements.empty()) to.continuum_elements = o->elements;
@@ -202,6 +218,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       to.include_continuum = !o->no_continuum;
       McConvergenceOptions mo;
       mo.force_pN = o->force;
+      mo.parameters = parameters;
       mo.vertices = o->mc_vertices;
       mo.mc_budget_s = o->mc_budget;
       mo.mc_target_acceptance = o->mc_acceptance;
@@ -224,6 +241,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       check_output_directory(o->out, o->overwrite);
       const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet));
       write_tradeoff(r, o->out);
+      write_run_record(o->out, record);
       std::cout << "reference at " << r.force_pN << " pN: D_A "
                 << format_with_error(r.reference.axial_um, r.reference.axial_error_um)
                 << " um, D_T "

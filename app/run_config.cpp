@@ -15,6 +15,7 @@
 
 #include "app/cli_util.hpp"
 #include "core/blas_threads.hpp"
+#include "core/io.hpp"
 #include "core/validation.hpp"
 #include "core/version.hpp"
 
@@ -124,16 +125,15 @@ void apply_config(CLI::App& cmd, const std::string& path) {
   const nlohmann::json* options = &file;
   if (file.contains("config")) {
     if (file.contains("command") && file["command"] != cmd.get_name())
-      config_error(path, "written by rbc " + file["command"].dump() + ", not rbc " +
-                             cmd.get_name());
+      config_error(path,
+                   "written by rbc " + file["command"].dump() + ", not rbc " + cmd.get_name());
     options = &file["config"];
     if (!options->is_object()) config_error(path, "\"config\" is not a JSON object");
   }
   for (const auto& [key, value] : options->items()) {
     CLI::Option* o = cmd.get_option_no_throw("--" + key);
     if (o == nullptr || key == "help" || key == "config")
-      config_error(path, "'" + key + "' is not an option of rbc " + cmd.get_name() +
-                             " (see rbc " + cmd.get_name() + " --help)");
+      config_error(path, "'" + key + "' is not an option of rbc " + cmd.get_name());
     if (o->count() > 0 || value.is_null()) continue;  // the command line wins
     if (is_flag(o)) {
       if (!value.is_boolean())
@@ -245,6 +245,12 @@ nlohmann::json run_record(const CLI::App& cmd) {
   return {{"command", cmd.get_name()},
           {"config", resolved_config(cmd)},
           {"provenance", provenance_json()}};
+}
+
+void write_run_record(const std::string& dir, const nlohmann::json& record) {
+  nlohmann::json run = record;
+  run["status"] = "finished";
+  write_text_atomic(dir + "/run.json", run.dump(2) + "\n");
 }
 
 std::vector<std::string> record_comment_lines(const nlohmann::json& record) {

@@ -42,6 +42,9 @@ nlohmann::json provenance_json();
 /// "provenance": provenance_json()}. run.json starts from it; `--json` objects include it.
 nlohmann::json run_record(const CLI::App& cmd);
 
+/// Writes DIR/run.json: the record with "status": "finished" (atomically).
+void write_run_record(const std::string& dir, const nlohmann::json& record);
+
 /// The record as CSV comment lines (without the "# "): "rbc VERSION: COMMAND LINE",
 /// "date_utc ..., host ..., openmp_threads N, blas ...", "config {compact JSON}".
 std::vector<std::string> record_comment_lines(const nlohmann::json& record);
