@@ -17,6 +17,7 @@
 
 #include "core/progress.hpp"
 #include "discrete/constraint_energy.hpp"
+#include "discrete/network.hpp"
 
 namespace rbc {
 
