@@ -18,6 +18,7 @@
 #include "discrete/network.hpp"
 #include "core/progress.hpp"
 #include "discrete/constraint_energy.hpp"
+#include "discrete/network.hpp"
 
 namespace rbc {
 

@@ -643,6 +643,10 @@ def mesh_from_meshio(m: "meshio.Mesh") -> Mesh:
 
 Mesh.to_meshio = _mesh_to_meshio
 
+# ---- dynamics (rbc.dynamics: the scenes of `rbc dynamics`; python/rbc/_dynamics.py) ----
+from ._dynamics import DynamicsResult, dynamics  # noqa: E402  (re-exported API)
+# ---- end of dynamics ----
+
 # Pictures of cells (numpy, h5py, meshio and matplotlib; the same script `rbc render` runs).
 from .render import plot_shape, read_shapes  # noqa: E402  (re-exported API)
 

@@ -229,5 +229,6 @@ void bind_stretch(py::module_& m);
 void bind_homogenise(py::module_& m);
 void bind_mc(py::module_& m);
 void bind_infer(py::module_& m);
+void bind_dynamics(py::module_& m);
 
 }  // namespace rbc::py_bind

@@ -33,6 +33,7 @@ PYBIND11_MODULE(_rbc, m) {
   bind_homogenise(m);
   bind_mc(m);
   bind_infer(m);
+  bind_dynamics(m);
   m.def(
       "blas_info",
       [] {

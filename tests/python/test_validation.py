@@ -172,6 +172,10 @@ def _cases(net, mesh):
         ("InferenceProblem", "priors",
          lambda v: rbc.InferenceProblem(parameters=["persistence"],
                                         priors={"persistence": (3.0, v)})),
+        *[("_dynamics", name, lambda v, name=name: rbc.dynamics(**{name: v}))
+          for name in ("force_pN", "membrane_viscosity_pN_s_per_um", "dilatational_ratio",
+                       "duration_s", "dt_s", "tolerance_pN_per_s", "normal_drag_pN_s_per_um3",
+                       "regulariser")],
     ]
 
 
