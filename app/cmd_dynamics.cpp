@@ -282,9 +282,13 @@ void add_dynamics_command(CLI::App& app, Action& action) {
   cmd->add_option("--normal-drag", o->scene_options.normal_drag_pN_s_per_um3,
                   "relax: normal drag of the fluids per area (pN s/um^3, qualitative)")
       ->capture_default_str();
-  cmd->add_option("--vertices,-n", o->scene_options.vertices, "discrete: network vertices")
+  cmd->add_option("--vertices,-n", o->scene_options.vertices,
+                  "discrete: network vertices (coarser than stretch's 2,000 by default: a "
+                  "trajectory is one solve per time step)")
       ->capture_default_str();
-  cmd->add_option("--elements", o->scene_options.elements, "continuum: triangles")
+  cmd->add_option("--elements", o->scene_options.elements,
+                  "continuum: triangles (coarser than stretch's 4,000 by default: one solve "
+                  "per time step)")
       ->capture_default_str();
   cmd->add_option("--order", o->order, "continuum law: 2 | 3 | 4 | full")->capture_default_str();
   add_model_options(cmd, o->physics);

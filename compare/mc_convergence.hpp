@@ -15,7 +15,6 @@
 #include <string>
 #include <vector>
 
-#include "discrete/network.hpp"
 #include "core/progress.hpp"
 #include "discrete/constraint_energy.hpp"
 #include "discrete/network.hpp"

@@ -228,3 +228,22 @@ TEST(RunConfig, SolverInternalsOnlyWithVerbose) {
 }
 
 }  // namespace
+
+namespace {
+
+// The picture of the cells carries the record as PNG text chunks (tEXt: key, NUL, text).
+TEST(RunConfig, CellsPictureRecordsWhatProducedIt) {
+  const fs::path d = rbc::testing::fresh_output_dir("run_config_png");
+  const auto r = run_rbc(kSmallStretch + " --lmax 205 --out " + (d / "D").string());
+  ASSERT_EQ(r.exit_code, 0) << r.all();
+  if (!fs::exists(d / "D" / "cells.png")) GTEST_SKIP() << "no renderer here: " << r.err;
+  const std::string png = read_text(d / "D" / "cells.png");
+  const nlohmann::json run = read_json(d / "D" / "run.json");
+  const std::string version = run.at("provenance").at("rbc_version").get<std::string>();
+  EXPECT_NE(png.find(std::string("tEXtSoftware") + '\0' + "rbc " + version), std::string::npos);
+  EXPECT_NE(png.find(std::string("tEXtrbc_config") + '\0' + run.at("config").dump()),
+            std::string::npos);
+  EXPECT_NE(png.find("--lmax 205"), std::string::npos);
+}
+
+}  // namespace
