@@ -89,6 +89,7 @@ def dynamics(model: str = "continuum", scene: str = "release", *, scheme: str = 
              steric: Optional[StericParameters] = None,
              contact: Optional[ContactParameters] = None,
              constraints: Optional[ConstraintParameters] = None,
+             parameters: "Optional[ModelParameters]" = None,
              cancel: Optional[Callable[[], bool]] = None,
              progress: Optional[Callable[[str], None]] = None) -> DynamicsResult:
     """Overdamped dynamics of either model, as ``rbc dynamics`` (same options, same numbers).
@@ -111,8 +112,10 @@ def dynamics(model: str = "continuum", scene: str = "release", *, scheme: str = 
     multiplier update, discrete; 50 Newton iterations, continuum). `force_pN` (total bead force,
     pN): in (0, 500] discrete, (0, 400] continuum.
 
-    wlc, bending, steric, contact, constraints: the physics (None = the paper's parameters, as
-    the CLI's defaults), the objects rbc.Network takes.
+    The physics: `parameters` (an rbc.ModelParameters: the CLI's shared Model options, natural
+    units), or the per-term objects wlc, bending, steric, contact (None = the paper's
+    parameters, as the CLI's defaults), the objects rbc.Network takes; constraints: the area and
+    volume penalty of the discrete model.
 
     Every number must be finite and within the limits above: anything else raises ValueError
     naming the argument, its value and the limit, before any work. A static equilibrium or a
@@ -121,8 +124,9 @@ def dynamics(model: str = "continuum", scene: str = "release", *, scheme: str = 
     KeyboardInterrupt (polled before every step). `progress(message)` receives the library's
     progress lines.
     """
-    from . import Model  # the package's enum ('discrete', 'continuum')
+    from . import Model, _physics  # the package's enum and its parameter conversion
 
+    wlc, bending, steric, contact = _physics(parameters, wlc, bending, steric, contact)
     model = Model.of(model).value
     raw = _rbc._dynamics(model, scene, scheme, force_pN, membrane_viscosity_pN_s_per_um,
                          dilatational_ratio, duration_s, dt_s, tolerance_pN_per_s,

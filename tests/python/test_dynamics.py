@@ -114,3 +114,17 @@ def test_cancel_stops_the_run_with_keyboard_interrupt():
         rbc.dynamics("discrete", vertices=250, force_pN=50, duration_s=0.05, dt_s=0.005,
                      cancel=cancel)
     assert len(polls) == 4
+
+
+def test_model_parameters_equal_the_per_term_objects():
+    short = dict(vertices=250, force_pN=50, duration_s=0.02, dt_s=0.005)
+    a = rbc.dynamics("discrete", "release",
+                     parameters=rbc.ModelParameters(persistence_nm=10), **short)
+    b = rbc.dynamics("discrete", "release", wlc=rbc.WlcParameters(persistence_nm=10), **short)
+    default = rbc.dynamics("discrete", "release", **short)
+    assert np.array_equal(a.axial_um, b.axial_um)
+    # k_B T / p: the larger persistence length is the softer network, stretched further at 50 pN.
+    assert a.axial_um[0] > default.axial_um[0] + 0.05
+    with pytest.raises(ValueError, match="either parameters"):
+        rbc.dynamics("discrete", "release", parameters=rbc.ModelParameters(),
+                     wlc=rbc.WlcParameters(), **short)
