@@ -84,7 +84,7 @@ TrajectoryResult run_trajectory(const StepFunction& step, const Measure& measure
     if (halved) {
       ++out.halved_steps;
       std::ostringstream m;
-      m << "  step to t = " << t << " s: dt halved down to " << smallest_dt
+      m << "step to t = " << t << " s: dt halved down to " << smallest_dt
         << " s (the step did not converge at dt = " << t - t_prev << " s)"
         << (r.converged ? "" : "; it failed at the smallest dt");
       report(progress, m.str());
