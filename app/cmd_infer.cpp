@@ -32,7 +32,7 @@ namespace {
 struct InferCli {
   std::string data_file, method = "continuum:2:2000", params = "persistence,lmax,sigma-scale";
   std::vector<std::string> priors;
-  double reading_uncertainty_um = kMillsReadingUncertaintyUm;
+  double extra_uncertainty_um = 0;
   int samples = InferOptions::default_sampler().samples;
   int chain_length = InferOptions::default_sampler().chain_length;
   double target_cov = 1.0, proposal_scale = 0.2;
@@ -152,7 +152,7 @@ InferOptions to_options(const InferCli& c) {
   o.method = parse_method(c.method);
   o.parameters = parse_parameter_list(c.params);
   for (const auto& p : c.priors) o.priors.push_back(parse_prior(p));
-  o.reading_uncertainty_um = c.reading_uncertainty_um;
+  o.extra_uncertainty_um = c.extra_uncertainty_um;
   o.sampler.samples = c.samples;
   o.sampler.chain_length = c.chain_length;
   o.sampler.target_cov = c.target_cov;
@@ -207,8 +207,12 @@ void remove_stale_checkpoint_temporaries(const std::string& dir) {
 }
 
 void print_summary(const InferenceResult& r) {
+  const int tempering = static_cast<int>(r.stages.size()) - 1;
   std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
-            << r.stages.size() - 1 << " stages, seed " << r.seed << "):\n";
+            << "stage 0 (prior) and " << tempering << " tempering stage"
+            << (tempering == 1 ? "" : "s") << ", seed " << r.seed << "):\n"
+            << "  data: " << r.data.name << " (" << r.data_file << ")\n"
+            << "  sigma: " << sigma_text(r.data) << "\n";
   auto line = [](const Summary& s) {
     std::cout << "  " << std::left << std::setw(18)
               << s.name + (s.unit == "1" ? "" : " (" + s.unit + ")") << std::right
@@ -231,7 +235,9 @@ void add_infer_command(CLI::App& app, Action& action) {
   auto* cmd = app.add_subcommand(
       "infer", "Bayesian calibration (TMCMC) of the spectrin parameters from force-diameter data");
   cmd->add_option("--data-file", c->data_file,
-                  "Mills-format CSV (default: data/mills2004_optical_tweezers.csv)");
+                  "stretch-data CSV: force_pN,axial_um,axial_err_um,transverse_um,"
+                  "transverse_err_um, optional '# name:' and '# extra_uncertainty_um:' "
+                  "comment lines (default: data/suresh2005_healthy_optical_tweezers.csv)");
   cmd->add_option("--method", c->method, "forward model: discrete:N or continuum:ORDER:ELEMENTS")
       ->capture_default_str();
   cmd->add_option("--params", c->params,
@@ -242,11 +248,15 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "uniform prior NAME=LOWER:UPPER, repeatable (defaults: persistence=2:40, "
                   "lmax=150:300, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
                   "sigma-scale=0.2:3)");
-  cmd->add_option("--reading-uncertainty", c->reading_uncertainty_um,
-                  "figure-reading uncertainty (um) added in quadrature to every error bar "
-                  "(default: rms difference of the two Mills readings / sqrt2)")
+  cmd->add_option("--extra-uncertainty", c->extra_uncertainty_um,
+                  "uncertainty (um) added in quadrature to every error bar, on top of what the "
+                  "data file declares ('# extra_uncertainty_um:'); 0: the file's error bars")
+      ->type_name("UM")
       ->capture_default_str();
-  cmd->add_option("--samples", c->samples, "TMCMC samples per stage")->capture_default_str();
+  cmd->add_option(
+         "--samples", c->samples,
+         "TMCMC samples per stage, at least " + std::to_string(InferOptions::minimum_samples()))
+      ->capture_default_str();
   cmd->add_option("--chain-length", c->chain_length, "Metropolis steps per sample and stage")
       ->capture_default_str();
   cmd->add_option("--target-cov", c->target_cov,
