@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Optical-tweezers stretch data files (data/README.md; docs/guide/data.md: the format and the
-// declarations in a file's header) and the goodness of fit of a model curve against them.
+// Optical-tweezers stretch data files (data/README.md; docs/guide/infer.md, "Data files": the
+// format and the declarations in a file's header) and the goodness of fit of a model curve against
+// them.
 #include <iosfwd>
 #include <string>
 #include <vector>

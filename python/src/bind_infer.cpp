@@ -131,6 +131,10 @@ void bind_infer(py::module_& m) {
                                out["axial_sigma_um"] = to_array(d.axial_sigma_um);
                                out["transverse_um"] = to_array(d.transverse_um);
                                out["transverse_sigma_um"] = to_array(d.transverse_sigma_um);
+                               out["name"] = d.name;
+                               out["declared_extra_uncertainty_um"] =
+                                   d.declared_extra_uncertainty_um;
+                               out["added_extra_uncertainty_um"] = d.added_extra_uncertainty_um;
                                return out;
                              })
       .def(
