@@ -4,6 +4,7 @@
 #include <iomanip>
 #include <iostream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "compare/fig7.hpp"
@@ -41,6 +42,7 @@ void add_fig7_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
       "fig7", "Fig. 7: diameters vs force, models against the optical-tweezers data");
+  add_config_option(cmd);
   cmd->add_option("--out", o->out, "output directory (must be empty unless --force-overwrite)")
       ->capture_default_str();
   cmd->add_option(
