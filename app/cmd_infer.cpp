@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -15,14 +16,16 @@
 #include <optional>
 #include <thread>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/model_options.hpp"
+#include "app/run_config.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
 #include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
+#include "core/io.hpp"
 #include "core/validation.hpp"
 
 namespace rbc::app {
@@ -45,7 +48,69 @@ struct InferCli {
   bool json = false, overwrite = false, quiet = false, forward_check = false, trace = false;
   int repeat = 1;  ///< --forward-check: warm sweeps timed (median reported)
   std::vector<std::string> at;
+  ModelCli physics;  ///< the model option group: the values of the parameters not inferred
 };
+
+/// The model option group's values as the forward model's fixed parameters. The forward model
+/// varies persistence, Lmax, kappa and the contact fraction; the group's other options keep the
+/// values it is built with (the paper's), so another value is refused rather than ignored, and
+/// so is a value for a parameter that is inferred (its prior box gives its range).
+ForwardParameters fixed_parameters(const ModelCli& m, const std::vector<Parameter>& inferred) {
+  const ModelCli paper;
+  auto refuse_other = [](const std::string& option, double value, const std::string& why) {
+    throw std::invalid_argument(option + " " + format_number(value) + ": " + why);
+  };
+  const std::string unsupported =
+      "rbc infer's forward model keeps the paper's value; expected the default";
+  if (m.lbar_nm != paper.lbar_nm) refuse_other("--lbar", m.lbar_nm, unsupported);
+  if (m.temperature_K != paper.temperature_K)
+    refuse_other("--temperature", m.temperature_K, unsupported);
+  if (m.h0_per_um != paper.h0_per_um) refuse_other("--h0", m.h0_per_um, unsupported);
+  if (m.q != paper.q) refuse_other("--q", m.q, unsupported);
+  if (m.eta != paper.eta) refuse_other("--eta", m.eta, unsupported);
+  if (m.contact != paper.contact)
+    throw std::invalid_argument("--contact vertices: " + unsupported + " (area)");
+  if (m.bending != paper.bending)
+    throw std::invalid_argument("--bending dihedral: " + unsupported + " (juelicher)");
+  if (m.dihedral_mapping != paper.dihedral_mapping)
+    throw std::invalid_argument("--dihedral-mapping li: " + unsupported + " (sphere)");
+  ForwardParameters f;
+  f.persistence_nm = m.persistence_nm;
+  f.lmax_nm = m.lmax_nm;
+  f.kappa_J = m.kappa_J;
+  f.contact_fraction = m.contact_fraction;
+  const ForwardParameters defaults;
+  const std::pair<Parameter, std::pair<const char*, double>> given[] = {
+      {Parameter::persistence, {"--persistence", f.persistence_nm - defaults.persistence_nm}},
+      {Parameter::lmax, {"--lmax", f.lmax_nm - defaults.lmax_nm}},
+      {Parameter::kappa, {"--kappa", f.kappa_J - defaults.kappa_J}},
+      {Parameter::contact_fraction,
+       {"--contact-fraction", f.contact_fraction - defaults.contact_fraction}}};
+  for (const auto& [p, option] : given)
+    if (option.second != 0 && std::find(inferred.begin(), inferred.end(), p) != inferred.end())
+      throw std::invalid_argument(std::string(option.first) + ": " + to_string(p) +
+                                  " is inferred (--params); set its range with --prior " +
+                                  to_string(p) + "=LO:HI");
+  // Each value in the forward model's range (ForwardParameters::validate), named as its option.
+  struct Range {
+    const char* option;
+    double value;
+    bool ok;
+    const char* expected;
+  };
+  const Range ranges[] = {
+      {"--persistence", f.persistence_nm, f.persistence_nm > 0 && std::isfinite(f.persistence_nm),
+       "expected a persistence length > 0 nm"},
+      {"--lmax", f.lmax_nm, f.lmax_nm > 75.0 && std::isfinite(f.lmax_nm),
+       "expected Lmax > Lbar = 75 nm"},
+      {"--kappa", f.kappa_J, f.kappa_J > 0 && std::isfinite(f.kappa_J),
+       "expected a bending rigidity > 0 J"},
+      {"--contact-fraction", f.contact_fraction, f.contact_fraction > 0 && f.contact_fraction < 0.5,
+       "expected a contact fraction in (0, 0.5)"}};
+  for (const Range& r : ranges)
+    if (!r.ok) refuse_other(r.option, r.value, r.expected);
+  return f;
+}
 
 /// This process's command line ("rbc infer ..."), from /proc/self/cmdline (Linux); empty
 /// elsewhere. Recorded in summary.json so a cached result says how it was made.
@@ -160,6 +225,7 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.proposal_scale = c.proposal_scale;
   o.sampler.seed = c.seed;
   o.sampler.cancel = interrupt_check();  // polled between stages and between chains
+  o.fixed = fixed_parameters(c.physics, o.parameters);
   o.threads = c.threads;
   o.force_tolerance_pN = c.force_tolerance_pN;
   o.symmetry = c.symmetry;
@@ -303,8 +369,10 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_option("--at", c->at, "forward-check parameter NAME=VALUE (natural units), repeatable");
   cmd->add_flag("--force-overwrite", c->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
-  cmd->callback([c, &action] {
-    action = [c]() -> int {
+  // The physics every command shares: here the values of the parameters not inferred.
+  add_model_options(cmd, c->physics);
+  cmd->callback([c, &action, cmd] {
+    action = [c, cmd]() -> int {
       const bool mpi = launched_by_mpirun();
       const char* rank_env = std::getenv("OMPI_COMM_WORLD_RANK");
       const bool master = !rank_env || std::string(rank_env) == "0";
@@ -415,7 +483,17 @@ void add_infer_command(CLI::App& app, Action& action) {
         return 1;
       }
       r.command = own_command_line();
-      if (!out.empty()) write_inference(r, out);
+      // What made the run (resolved options and provenance, app/run_config.hpp): in summary.json,
+      // --json and DIR/run.json, which `rbc infer --config DIR/run.json` repeats.
+      r.record = run_record(*cmd);
+      if (!out.empty()) {
+        write_inference(r, out);
+        nlohmann::json run = r.record;
+        run["status"] = to_string(r.status);
+        run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
+                          "corner.png",   "predictive.png",        kStageCheckpointName};
+        write_text_atomic(out + "/run.json", run.dump(2) + "\n");
+      }
       // A signal during the writing (which does not poll): the outputs are complete, the exit
       // status still says the run was interrupted (130/143).
       throw_if_cancelled(interrupt_check());
@@ -425,7 +503,8 @@ void add_infer_command(CLI::App& app, Action& action) {
         print_summary(r);
       if (!out.empty() && !c->json)
         std::cout << "outputs: " << out
-                  << "/summary.json, posterior_samples.{csv,h5}, corner.png, predictive.png, "
+                  << "/summary.json, run.json, posterior_samples.{csv,h5}, corner.png, "
+                     "predictive.png, "
                   << kStageCheckpointName << "\n";
       return 0;
     };

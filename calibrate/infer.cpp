@@ -386,6 +386,9 @@ std::string inference_json(const InferenceResult& r) {
                     {"extra_uncertainty_um", r.data.extra_uncertainty_um()},
                     {"sigma", sigma_text(r.data)}}});
   j["command"] = r.command;
+  if (r.record.is_object())
+    for (const auto& [key, value] : r.record.items())
+      if (key != "command") j[key] = value;  // "command" stays the command line
   j["timing"] = {{"wall_s", r.wall_s}, {"threads", r.threads}, {"ranks", r.ranks}};
   if (r.resumed_from_stage >= 0) j["timing"]["resumed_from_stage"] = r.resumed_from_stage;
   return j.dump(2);

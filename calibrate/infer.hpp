@@ -23,6 +23,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <span>
 #include <string>
 #include <vector>
@@ -130,6 +131,9 @@ struct InferenceResult {
       transverse_q95;
   std::string method, data_file;  ///< data: `data` holds its name and extra uncertainties
   std::string command;  ///< the command line that made it (set by the caller; summary.json)
+  /// What made it, set by the caller (the CLI's run record: "config", the resolved options,
+  /// and "provenance"); its keys are copied into summary.json. Null: none.
+  nlohmann::json record;
   std::vector<double> prior_lower, prior_upper;  ///< prior box per inferred parameter
   int vertices = 0, elements = 0, samples_per_stage = 0, threads = 0, ranks = 1;
   std::uint64_t seed = 0;

@@ -81,6 +81,12 @@ TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
       // The sampler's floor, named as the option (4 islands of at least 5 samples).
       {"--samples 10", "rbc: error: --samples 10: expected at least 20 samples per stage"},
       {"--extra-uncertainty -1", "--extra-uncertainty must be finite and >= 0 um, got -1"},
+      // The model option group: a parameter not inferred takes its value; an inferred one and
+      // physics the forward model keeps fixed are refused, not ignored.
+      {"--persistence 10", "--persistence: persistence is inferred (--params)"},
+      {"--params lmax,sigma-scale --persistence -3", "--persistence -3: expected"},
+      {"--lbar 80", "--lbar 80: rbc infer's forward model keeps the paper's value"},
+      {"--bending dihedral", "--bending dihedral: rbc infer's forward model keeps"},
       {"--data-file " +
            write_file("misspelt.csv", "# extra_uncertainty: 0.2\n" + std::string(kHeader) + good),
        "'extra_uncertainty', which is not a declaration"},
@@ -251,6 +257,44 @@ TEST(InferCli, DeclaredNameAndUncertaintyReachTheLikelihoodThePlotAndTheSummary)
   const std::string gp = read(out + "/predictive.gp");
   EXPECT_NE(gp.find("D_{A} Lab B healthy donors (error bar ⊕ 0.5 µm)"), std::string::npos) << gp;
   EXPECT_NE(gp.find("D_{T} Lab B healthy donors (error bar ⊕ 0.5 µm)"), std::string::npos) << gp;
+}
+
+// --config DIR/run.json repeats a run: the same posterior, bit for bit. The run record (resolved
+// options, provenance) is in run.json and summary.json; a fixed parameter of the model option
+// group (--persistence, not inferred here) travels with it.
+TEST(InferCli, ConfigOfARunRepeatsItsPosterior) {
+  const std::string data =
+      write_file("config.csv", std::string(kHeader) + "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n");
+  const std::string first = kDir + "/config_first", again = kDir + "/config_again";
+  const CommandRun r =
+      tiny_inference(data, first, "--persistence 12 --extra-uncertainty 0.2 --seed 7");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto run_json = nlohmann::json::parse(read(first + "/run.json"));
+  EXPECT_EQ(run_json["command"], "infer");
+  EXPECT_EQ(run_json["config"]["persistence"].get<double>(), 12.0);
+  EXPECT_EQ(run_json["config"]["extra-uncertainty"].get<double>(), 0.2);
+  EXPECT_EQ(run_json["config"]["samples"].get<int>(), 20);
+  EXPECT_TRUE(run_json["provenance"].contains("rbc_version"));
+  EXPECT_EQ(run_json["status"], "converged");
+  const auto summary = nlohmann::json::parse(read(first + "/summary.json"));
+  EXPECT_EQ(summary["config"], run_json["config"]);
+  EXPECT_TRUE(summary["provenance"].contains("command_line"));
+
+  fs::remove_all(again);
+  const CommandRun b =
+      run("OMP_NUM_THREADS=2 " + kRbc + " infer -q --config " + first + "/run.json --out " + again);
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  const std::string samples = read(first + "/posterior_samples.csv");
+  ASSERT_FALSE(samples.empty());
+  EXPECT_EQ(samples, read(again + "/posterior_samples.csv"));
+  auto posterior = [](const std::string& dir) {
+    nlohmann::json j = without_timing(dir + "/summary.json");
+    j.erase("provenance");
+    j["config"].erase("out");
+    j["config"].erase("quiet");
+    return j;
+  };
+  EXPECT_EQ(posterior(first), posterior(again));
 }
 
 // The printed summary counts the stages the progress log shows: stage 0 (the prior) and the
