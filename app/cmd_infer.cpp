@@ -80,17 +80,23 @@ ForwardParameters fixed_parameters(const ModelCli& m, const std::vector<Paramete
   f.kappa_J = m.kappa_J;
   f.contact_fraction = m.contact_fraction;
   const ForwardParameters defaults;
-  const std::pair<Parameter, std::pair<const char*, double>> given[] = {
-      {Parameter::persistence, {"--persistence", f.persistence_nm - defaults.persistence_nm}},
-      {Parameter::lmax, {"--lmax", f.lmax_nm - defaults.lmax_nm}},
-      {Parameter::kappa, {"--kappa", f.kappa_J - defaults.kappa_J}},
-      {Parameter::contact_fraction,
-       {"--contact-fraction", f.contact_fraction - defaults.contact_fraction}}};
-  for (const auto& [p, option] : given)
-    if (option.second != 0 && std::find(inferred.begin(), inferred.end(), p) != inferred.end())
-      throw std::invalid_argument(std::string(option.first) + ": " + to_string(p) +
-                                  " is inferred (--params); set its range with --prior " +
-                                  to_string(p) + "=LO:HI");
+  struct Given {
+    Parameter parameter;
+    const char* option;
+    double value, paper;
+  };
+  const Given given[] = {
+      {Parameter::persistence, "--persistence", f.persistence_nm, defaults.persistence_nm},
+      {Parameter::lmax, "--lmax", f.lmax_nm, defaults.lmax_nm},
+      {Parameter::kappa, "--kappa", f.kappa_J, defaults.kappa_J},
+      {Parameter::contact_fraction, "--contact-fraction", f.contact_fraction,
+       defaults.contact_fraction}};
+  for (const Given& g : given)
+    if (g.value != g.paper &&
+        std::find(inferred.begin(), inferred.end(), g.parameter) != inferred.end())
+      refuse_other(g.option, g.value,
+                   to_string(g.parameter) + " is inferred (--params); set its range with --prior " +
+                       to_string(g.parameter) + "=LO:HI");
   // Each value in the forward model's range (ForwardParameters::validate), named as its option.
   struct Range {
     const char* option;

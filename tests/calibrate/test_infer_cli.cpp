@@ -83,7 +83,7 @@ TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
       {"--extra-uncertainty -1", "--extra-uncertainty must be finite and >= 0 um, got -1"},
       // The model option group: a parameter not inferred takes its value; an inferred one and
       // physics the forward model keeps fixed are refused, not ignored.
-      {"--persistence 10", "--persistence: persistence is inferred (--params)"},
+      {"--persistence 10", "rbc: error: --persistence 10: persistence is inferred (--params)"},
       {"--params lmax,sigma-scale --persistence -3", "--persistence -3: expected"},
       {"--lbar 80", "--lbar 80: rbc infer's forward model keeps the paper's value"},
       {"--bending dihedral", "--bending dihedral: rbc infer's forward model keeps"},
