@@ -69,7 +69,7 @@ json stretch_points(const std::string& args, const std::string& dir, const std::
   const CommandRun r = rbc("stretch " + args + " --json -q", dir, tag);
   EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
   if (r.exit_code != 0) return json::array();
-  return json::parse(r.out);
+  return json::parse(r.out).at("points");  // --json: {command, config, provenance, points}
 }
 
 json read_json(const std::string& path) {

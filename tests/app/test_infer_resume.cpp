@@ -167,7 +167,7 @@ json summary_without_timing(const fs::path& dir) {
   j.erase("command");     // names the output directory and --resume
   j.erase("provenance");  // date, threads, command line
   if (j.contains("config"))
-    for (const char* where : {"out", "resume", "threads"}) j["config"].erase(where);
+    for (const char* where : {"out", "resume", "threads", "quiet"}) j["config"].erase(where);
   return j;
 }
 
