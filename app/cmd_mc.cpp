@@ -21,11 +21,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
 #include "app/render.hpp"
+#include "app/run_config.hpp"
 #include "core/geometry.hpp"
 #include "core/h5file.hpp"
 #include "core/io.hpp"

@@ -18,6 +18,10 @@ struct Fig7Options {
                                    108.8, 130.0, 151,  172.8, 193, 220,  250,  300};
   std::vector<Method> methods;  ///< default: see default_fig7_methods()
   std::string data_dir;         ///< empty: default_data_directory()
+  /// The physics of every method (default: paper Tables 1-2).
+  NetworkParameters parameters;
+  /// Comment lines every written CSV carries (what produced it: app/run_config.hpp).
+  std::vector<std::string> provenance;
 };
 
 /// The two stretch-data files of Fig. 7 in a data directory: the goodness-of-fit reference
@@ -36,7 +40,8 @@ struct Fig7Result {
   std::string experiment_label, alternative_label;
   double experiment_extra_um = 0, alternative_extra_um = 0;
   std::vector<MethodRun> runs;
-  std::vector<FitQuality> fits;  ///< per run, against `experiment`, up to 193 pN
+  std::vector<FitQuality> fits;         ///< per run, against `experiment`, up to 193 pN
+  std::vector<std::string> provenance;  ///< Fig7Options::provenance, for the written files
 };
 
 /// Throws std::invalid_argument if the forces are not strictly increasing or negative.
