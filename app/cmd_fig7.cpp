@@ -74,14 +74,9 @@ void add_fig7_command(CLI::App& app, Action& action) {
       check_output_directory(o->out, o->overwrite);
       const Fig7Result r = run_fig7(fo, stderr_progress(o->quiet, o->verbose));
       write_fig7(r, o->out);
-<<<<<<< HEAD
+      write_run_record(o->out, record);
       std::cout << "goodness of fit against " << r.experiment_label << " (0-193 pN, "
                 << r.experiment.size() << " points):\n";
-=======
-      write_run_record(o->out, record);
-      std::cout << "goodness of fit against Mills 2004 (0-193 pN, " << r.experiment.size()
-                << " points):\n";
->>>>>>> main
       for (size_t k = 0; k < r.runs.size(); ++k) {
         const auto& q = r.fits[k];
         std::cout << "  " << std::left << std::setw(44) << r.runs[k].method.label() << std::right
