@@ -19,10 +19,7 @@
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
-<<<<<<< HEAD
 #include "app/model_options.hpp"
-=======
->>>>>>> main
 #include "app/run_config.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
