@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// `rbc fig7`: the paper's Fig. 7 against Mills 2004, with goodness of fit per method.
+// `rbc fig7`: the paper's Fig. 7 against the optical-tweezers data, with goodness of fit per
+// method.
 #include <iomanip>
 #include <iostream>
 
@@ -40,18 +41,21 @@ void add_fig7_command(CLI::App& app, Action& action) {
     bool overwrite = false, quiet = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("fig7", "Fig. 7: diameters vs force, models against Mills 2004");
+  auto* cmd = app.add_subcommand(
+      "fig7", "Fig. 7: diameters vs force, models against the optical-tweezers data");
   add_config_option(cmd);
   auto physics = std::make_shared<ModelCli>();
   cmd->add_option("--out", o->out, "output directory (must be empty unless --force-overwrite)")
       ->capture_default_str();
   cmd->add_option(
       "--force", o->forces,
-      "increasing comma-separated forces in pN (default: Mills forces, then 220, 250, 300)");
+      "increasing comma-separated forces in pN (default: the data's forces, then 220, 250, 300)");
   cmd->add_option("--method", o->methods,
                   "methods to run, repeatable: discrete:N or continuum:ORDER:ELEMENTS "
                   "(default: discrete:2000 and continuum 2, 3, 4, full at 4000 elements)");
-  cmd->add_option("--data", o->data_dir, "directory with the Mills CSV files (default: data/)");
+  cmd->add_option("--data", o->data_dir,
+                  std::string("directory with the stretch-data files ") + kFig7ReferenceDataFile +
+                      " and " + kFig7SecondDataFile + " (default: data/)");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
@@ -71,8 +75,8 @@ void add_fig7_command(CLI::App& app, Action& action) {
       const Fig7Result r = run_fig7(fo, stderr_progress(o->quiet, o->verbose));
       write_fig7(r, o->out);
       write_run_record(o->out, record);
-      std::cout << "goodness of fit against Mills 2004 (0-193 pN, " << r.experiment.size()
-                << " points):\n";
+      std::cout << "goodness of fit against " << r.experiment_label << " (0-193 pN, "
+                << r.experiment.size() << " points):\n";
       for (size_t k = 0; k < r.runs.size(); ++k) {
         const auto& q = r.fits[k];
         std::cout << "  " << std::left << std::setw(44) << r.runs[k].method.label() << std::right

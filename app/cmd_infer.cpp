@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -18,11 +19,13 @@
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/model_options.hpp"
 #include "app/run_config.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
 #include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
+#include "core/io.hpp"
 #include "core/validation.hpp"
 
 namespace rbc::app {
@@ -33,7 +36,7 @@ namespace {
 struct InferCli {
   std::string data_file, method = "continuum:2:2000", params = "persistence,lmax,sigma-scale";
   std::vector<std::string> priors;
-  double reading_uncertainty_um = kMillsReadingUncertaintyUm;
+  double extra_uncertainty_um = 0;
   int samples = InferOptions::default_sampler().samples;
   int chain_length = InferOptions::default_sampler().chain_length;
   double target_cov = 1.0, proposal_scale = 0.2;
@@ -45,7 +48,75 @@ struct InferCli {
   bool json = false, overwrite = false, quiet = false, forward_check = false, trace = false;
   int repeat = 1;  ///< --forward-check: warm sweeps timed (median reported)
   std::vector<std::string> at;
+  ModelCli physics;  ///< the model option group: the values of the parameters not inferred
 };
+
+/// The model option group's values as the forward model's fixed parameters. The forward model
+/// varies persistence, Lmax, kappa and the contact fraction; the group's other options keep the
+/// values it is built with (the paper's), so another value is refused rather than ignored, and
+/// so is a value for a parameter that is inferred (its prior box gives its range).
+ForwardParameters fixed_parameters(const ModelCli& m, const std::vector<Parameter>& inferred) {
+  const ModelCli paper;
+  auto refuse_other = [](const std::string& option, double value, const std::string& why) {
+    throw std::invalid_argument(option + " " + format_number(value) + ": " + why);
+  };
+  const std::string unsupported =
+      "rbc infer's forward model keeps the paper's value; expected the default";
+  if (m.lbar_nm != paper.lbar_nm) refuse_other("--lbar", m.lbar_nm, unsupported);
+  if (m.temperature_K != paper.temperature_K)
+    refuse_other("--temperature", m.temperature_K, unsupported);
+  if (m.h0_per_um != paper.h0_per_um) refuse_other("--h0", m.h0_per_um, unsupported);
+  if (m.q != paper.q) refuse_other("--q", m.q, unsupported);
+  if (m.eta != paper.eta) refuse_other("--eta", m.eta, unsupported);
+  if (m.contact != paper.contact)
+    throw std::invalid_argument("--contact vertices: " + unsupported + " (area)");
+  if (m.bending != paper.bending)
+    throw std::invalid_argument("--bending dihedral: " + unsupported + " (juelicher)");
+  if (m.dihedral_mapping != paper.dihedral_mapping)
+    throw std::invalid_argument("--dihedral-mapping li: " + unsupported + " (sphere)");
+  ForwardParameters f;
+  f.persistence_nm = m.persistence_nm;
+  f.lmax_nm = m.lmax_nm;
+  f.kappa_J = m.kappa_J;
+  f.contact_fraction = m.contact_fraction;
+  const ForwardParameters defaults;
+  struct Given {
+    Parameter parameter;
+    const char* option;
+    double value, paper;
+  };
+  const Given given[] = {
+      {Parameter::persistence, "--persistence", f.persistence_nm, defaults.persistence_nm},
+      {Parameter::lmax, "--lmax", f.lmax_nm, defaults.lmax_nm},
+      {Parameter::kappa, "--kappa", f.kappa_J, defaults.kappa_J},
+      {Parameter::contact_fraction, "--contact-fraction", f.contact_fraction,
+       defaults.contact_fraction}};
+  for (const Given& g : given)
+    if (g.value != g.paper &&
+        std::find(inferred.begin(), inferred.end(), g.parameter) != inferred.end())
+      refuse_other(g.option, g.value,
+                   to_string(g.parameter) + " is inferred (--params); set its range with --prior " +
+                       to_string(g.parameter) + "=LO:HI");
+  // Each value in the forward model's range (ForwardParameters::validate), named as its option.
+  struct Range {
+    const char* option;
+    double value;
+    bool ok;
+    const char* expected;
+  };
+  const Range ranges[] = {
+      {"--persistence", f.persistence_nm, f.persistence_nm > 0 && std::isfinite(f.persistence_nm),
+       "expected a persistence length > 0 nm"},
+      {"--lmax", f.lmax_nm, f.lmax_nm > 75.0 && std::isfinite(f.lmax_nm),
+       "expected Lmax > Lbar = 75 nm"},
+      {"--kappa", f.kappa_J, f.kappa_J > 0 && std::isfinite(f.kappa_J),
+       "expected a bending rigidity > 0 J"},
+      {"--contact-fraction", f.contact_fraction, f.contact_fraction > 0 && f.contact_fraction < 0.5,
+       "expected a contact fraction in (0, 0.5)"}};
+  for (const Range& r : ranges)
+    if (!r.ok) refuse_other(r.option, r.value, r.expected);
+  return f;
+}
 
 /// This process's command line ("rbc infer ..."), from /proc/self/cmdline (Linux); empty
 /// elsewhere. Recorded in summary.json so a cached result says how it was made.
@@ -153,13 +224,14 @@ InferOptions to_options(const InferCli& c) {
   o.method = parse_method(c.method);
   o.parameters = parse_parameter_list(c.params);
   for (const auto& p : c.priors) o.priors.push_back(parse_prior(p));
-  o.reading_uncertainty_um = c.reading_uncertainty_um;
+  o.extra_uncertainty_um = c.extra_uncertainty_um;
   o.sampler.samples = c.samples;
   o.sampler.chain_length = c.chain_length;
   o.sampler.target_cov = c.target_cov;
   o.sampler.proposal_scale = c.proposal_scale;
   o.sampler.seed = c.seed;
   o.sampler.cancel = interrupt_check();  // polled between stages and between chains
+  o.fixed = fixed_parameters(c.physics, o.parameters);
   o.threads = c.threads;
   o.force_tolerance_pN = c.force_tolerance_pN;
   o.symmetry = c.symmetry;
@@ -208,8 +280,12 @@ void remove_stale_checkpoint_temporaries(const std::string& dir) {
 }
 
 void print_summary(const InferenceResult& r) {
+  const int tempering = static_cast<int>(r.stages.size()) - 1;
   std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
-            << r.stages.size() - 1 << " stages, seed " << r.seed << "):\n";
+            << "stage 0 (prior) and " << tempering << " tempering stage"
+            << (tempering == 1 ? "" : "s") << ", seed " << r.seed << "):\n"
+            << "  data: " << r.data.name << " (" << r.data_file << ")\n"
+            << "  sigma: " << sigma_text(r.data) << "\n";
   auto line = [](const Summary& s) {
     std::cout << "  " << std::left << std::setw(18)
               << s.name + (s.unit == "1" ? "" : " (" + s.unit + ")") << std::right
@@ -233,7 +309,9 @@ void add_infer_command(CLI::App& app, Action& action) {
       "infer", "Bayesian calibration (TMCMC) of the spectrin parameters from force-diameter data");
   add_config_option(cmd);
   cmd->add_option("--data-file", c->data_file,
-                  "Mills-format CSV (default: data/mills2004_optical_tweezers.csv)");
+                  "stretch-data CSV: force_pN,axial_um,axial_err_um,transverse_um,"
+                  "transverse_err_um, optional '# name:' and '# extra_uncertainty_um:' "
+                  "comment lines (default: data/suresh2005_healthy_optical_tweezers.csv)");
   cmd->add_option("--method", c->method, "forward model: discrete:N or continuum:ORDER:ELEMENTS")
       ->capture_default_str();
   cmd->add_option("--params", c->params,
@@ -244,11 +322,15 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "uniform prior NAME=LOWER:UPPER, repeatable (defaults: persistence=2:40, "
                   "lmax=150:300, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
                   "sigma-scale=0.2:3)");
-  cmd->add_option("--reading-uncertainty", c->reading_uncertainty_um,
-                  "figure-reading uncertainty (um) added in quadrature to every error bar "
-                  "(default: rms difference of the two Mills readings / sqrt2)")
+  cmd->add_option("--extra-uncertainty", c->extra_uncertainty_um,
+                  "uncertainty (um) added in quadrature to every error bar, on top of what the "
+                  "data file declares ('# extra_uncertainty_um:'); 0: the file's error bars")
+      ->type_name("UM")
       ->capture_default_str();
-  cmd->add_option("--samples", c->samples, "TMCMC samples per stage")->capture_default_str();
+  cmd->add_option(
+         "--samples", c->samples,
+         "TMCMC samples per stage, at least " + std::to_string(InferOptions::minimum_samples()))
+      ->capture_default_str();
   cmd->add_option("--chain-length", c->chain_length, "Metropolis steps per sample and stage")
       ->capture_default_str();
   cmd->add_option("--target-cov", c->target_cov,
@@ -293,8 +375,10 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_option("--at", c->at, "forward-check parameter NAME=VALUE (natural units), repeatable");
   cmd->add_flag("--force-overwrite", c->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
-  cmd->callback([c, &action] {
-    action = [c]() -> int {
+  // The physics every command shares: here the values of the parameters not inferred.
+  add_model_options(cmd, c->physics);
+  cmd->callback([c, &action, cmd] {
+    action = [c, cmd]() -> int {
       const bool mpi = launched_by_mpirun();
       const char* rank_env = std::getenv("OMPI_COMM_WORLD_RANK");
       const bool master = !rank_env || std::string(rank_env) == "0";
@@ -405,7 +489,17 @@ void add_infer_command(CLI::App& app, Action& action) {
         return 1;
       }
       r.command = own_command_line();
-      if (!out.empty()) write_inference(r, out);
+      // What made the run (resolved options and provenance, app/run_config.hpp): in summary.json,
+      // --json and DIR/run.json, which `rbc infer --config DIR/run.json` repeats.
+      r.record = run_record(*cmd);
+      if (!out.empty()) {
+        write_inference(r, out);
+        nlohmann::json run = r.record;
+        run["status"] = to_string(r.status);
+        run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
+                          "corner.png",   "predictive.png",        kStageCheckpointName};
+        write_text_atomic(out + "/run.json", run.dump(2) + "\n");
+      }
       // A signal during the writing (which does not poll): the outputs are complete, the exit
       // status still says the run was interrupted (130/143).
       throw_if_cancelled(interrupt_check());
@@ -415,7 +509,8 @@ void add_infer_command(CLI::App& app, Action& action) {
         print_summary(r);
       if (!out.empty() && !c->json)
         std::cout << "outputs: " << out
-                  << "/summary.json, posterior_samples.{csv,h5}, corner.png, predictive.png, "
+                  << "/summary.json, run.json, posterior_samples.{csv,h5}, corner.png, "
+                     "predictive.png, "
                   << kStageCheckpointName << "\n";
       return 0;
     };

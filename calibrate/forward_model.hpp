@@ -112,8 +112,8 @@ struct ForwardOptions {
   /// accepted when either the force tolerance is met or the diameters have converged: the
   /// geometric tail d q/(1 - q) of the change d of D_A and D_T over the last pass (q = ratio
   /// of the last two passes' changes, q <= max_contraction) is below diameter_tolerance_um and
-  /// the residual below accept_residual_pN. Defaults: 1e-3 um is 0.16 % of the smallest Mills
-  /// error bar with the reading uncertainty (0.62 um), 2 % of the recovery test's noise
+  /// the residual below accept_residual_pN. Defaults: 1e-3 um is 0.21 % of the smallest error
+  /// bar of the bundled stretch data (0.482 um, data/README.md), 2 % of the recovery test's noise
   /// (0.05 um) and 1/30 of the model error of 2,000 elements; measured at p = 25 nm, Lmax =
   /// 364 nm, 100 pN (200 elements) the diameters at a 1e-3 pN residual are 1.4e-3 um from
   /// the 1e-9 pN ones. A solve that stops falling, fails its line search or exhausts the

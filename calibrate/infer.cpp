@@ -74,9 +74,9 @@ void InferOptions::validate() const {
         throw std::invalid_argument("--prior " + to_string(priors[i].parameter) +
                                     " is given twice");
   }
-  if (!(reading_uncertainty_um >= 0) || !std::isfinite(reading_uncertainty_um))
-    throw std::invalid_argument("--reading-uncertainty must be finite and >= 0 um, got " +
-                                std::to_string(reading_uncertainty_um));
+  if (!(extra_uncertainty_um >= 0) || !std::isfinite(extra_uncertainty_um))
+    throw std::invalid_argument("--extra-uncertainty must be finite and >= 0 um, got " +
+                                std::to_string(extra_uncertainty_um));
   if (!(fixed_sigma_scale > 0) || !std::isfinite(fixed_sigma_scale))
     throw std::invalid_argument("sigma scale must be finite and > 0, got " +
                                 std::to_string(fixed_sigma_scale));
@@ -86,15 +86,24 @@ void InferOptions::validate() const {
   if (threads < 0)
     throw std::invalid_argument("--threads must be >= 0, got " + std::to_string(threads));
   fixed.validate();
+  // The sampler's own floor (TmcmcOptions::validate: 5 samples per island), named as the
+  // option the user sets.
+  if (sampler.samples < 5 * sampler.islands)
+    throw std::invalid_argument("--samples " + std::to_string(sampler.samples) +
+                                ": expected at least " + std::to_string(5 * sampler.islands) +
+                                " samples per stage");
   sampler.validate();
   if (method.resolution <= 0)
     throw std::invalid_argument("--method resolution must be > 0, got " +
                                 std::to_string(method.resolution));
 }
 
+std::string InferOptions::default_data_file() {
+  return default_data_directory() + "/suresh2005_healthy_optical_tweezers.csv";
+}
+
 std::string InferOptions::data_path() const {
-  return data_file.empty() ? default_data_directory() + "/mills2004_optical_tweezers.csv"
-                           : data_file;
+  return data_file.empty() ? default_data_file() : data_file;
 }
 
 std::vector<PriorRange> InferOptions::prior_ranges() const {
@@ -110,8 +119,8 @@ std::vector<PriorRange> InferOptions::prior_ranges() const {
 
 InferenceProblem::InferenceProblem(const InferOptions& options) : options_(options) {
   options_.validate();
-  data_ = load_diameter_data(options_.data_path(), options_.reading_uncertainty_um,
-                             options_.method.kind);
+  data_ =
+      load_diameter_data(options_.data_path(), options_.extra_uncertainty_um, options_.method.kind);
   std::vector<std::string> names;
   for (const auto& r : options_.prior_ranges()) {
     prior_.lower.push_back(r.lower);
@@ -226,10 +235,11 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   }
   const auto on_stage = [&](const StageInfo& s) {
     std::ostringstream m;
-    m << "stage " << s.stage << ": beta = " << std::setprecision(4) << s.beta << ", acceptance "
-      << std::fixed << std::setprecision(2) << s.acceptance << ", distinct parents "
-      << s.unique_fraction << ", forward runs " << s.forward_runs << ", elapsed "
-      << std::setprecision(1) << s.elapsed_s << " s";
+    m << "stage " << s.stage << (s.stage == 0 ? " (prior)" : "")
+      << ": beta = " << std::setprecision(4) << s.beta << ", acceptance " << std::fixed
+      << std::setprecision(2) << s.acceptance << ", distinct parents " << s.unique_fraction
+      << ", forward runs " << s.forward_runs << ", elapsed " << std::setprecision(1) << s.elapsed_s
+      << " s";
     report(progress, m.str());
   };
   const TmcmcResult t =
@@ -279,7 +289,6 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   }
   r.prior_lower = problem.prior().lower;
   r.prior_upper = problem.prior().upper;
-  r.reading_uncertainty_um = o.reading_uncertainty_um;
   r.method = o.method.name();
   r.data_file = o.data_path();
   r.vertices = problem.forward().vertices();
@@ -295,6 +304,19 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
 InferenceResult run_inference(const InferOptions& options, const ProgressSink& progress) {
   const InferenceProblem problem(options);
   return run_inference(problem, progress);
+}
+
+std::string sigma_text(const DiameterData& d) {
+  std::ostringstream s;
+  s << std::setprecision(4) << "the file's error bars";
+  if (d.declared_extra_uncertainty_um > 0)
+    s << " (+) " << d.declared_extra_uncertainty_um << " um declared";
+  if (d.added_extra_uncertainty_um > 0) s << " (+) " << d.added_extra_uncertainty_um << " um added";
+  if (d.declared_extra_uncertainty_um > 0 && d.added_extra_uncertainty_um > 0)
+    s << " (extra " << d.extra_uncertainty_um() << " um)";
+  if (d.declared_extra_uncertainty_um > 0 || d.added_extra_uncertainty_um > 0)
+    s << ", in quadrature";
+  return s.str();
 }
 
 std::string inference_json(const InferenceResult& r) {
@@ -344,8 +366,9 @@ std::string inference_json(const InferenceResult& r) {
          {"axial_um", {r.axial_q05[k], r.axial_q50[k], r.axial_q95[k]}},
          {"transverse_um", {r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k]}}});
   j["predictive_q05_q50_q95"] = pred;
-  // The data as the likelihood saw them (total sigma = error bar and reading uncertainty in
-  // quadrature, before sigma-scale), so a reader of the summary can check the fit alone.
+  // The data as the likelihood saw them (total sigma = error bar, declared and added extra
+  // uncertainty in quadrature, before sigma-scale), so a reader of the summary can check the
+  // fit alone.
   json data = json::array();
   for (int k = 0; k < r.data.size(); ++k)
     data.push_back({{"force_pN", r.data.force_pN[k]},
@@ -355,8 +378,17 @@ std::string inference_json(const InferenceResult& r) {
                     {"transverse_sigma_um", r.data.transverse_sigma_um[k]},
                     {"transverse_used", r.data.transverse_used[k] != 0}});
   j["data"] = data;
-  j["reading_uncertainty_um"] = r.reading_uncertainty_um;
+  j["data_sets"] =
+      json::array({{{"file", r.data_file},
+                    {"name", r.data.name},
+                    {"declared_extra_uncertainty_um", r.data.declared_extra_uncertainty_um},
+                    {"added_extra_uncertainty_um", r.data.added_extra_uncertainty_um},
+                    {"extra_uncertainty_um", r.data.extra_uncertainty_um()},
+                    {"sigma", sigma_text(r.data)}}});
   j["command"] = r.command;
+  if (r.record.is_object())
+    for (const auto& [key, value] : r.record.items())
+      if (key != "command") j[key] = value;  // "command" stays the command line
   j["timing"] = {{"wall_s", r.wall_s}, {"threads", r.threads}, {"ranks", r.ranks}};
   if (r.resumed_from_stage >= 0) j["timing"]["resumed_from_stage"] = r.resumed_from_stage;
   return j.dump(2);

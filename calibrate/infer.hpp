@@ -4,9 +4,10 @@
 // section 7): the library behind `rbc infer` (and the Python binding rbc.infer).
 //
 // Defaults and why:
-// - data: data/mills2004_optical_tweezers.csv (Mills et al. 2004, main reading), error bars
-//   = half the bar extent as the file gives them, plus the reading uncertainty 0.399 um in
-//   quadrature (calibrate/likelihood.hpp derives it from the two readings in data/);
+// - data: data/suresh2005_healthy_optical_tweezers.csv (Suresh et al. 2005, Fig. 7a/b, healthy
+//   cells); sigma = the file's error bars (half the bar extent) with the extra uncertainty the
+//   file declares and the one the user adds (--extra-uncertainty, default 0) in quadrature
+//   (calibrate/likelihood.hpp);
 // - method continuum:2:2000 (p = 2 law, ~2,000 elements): the largest difference of D_A, D_T
 //   over the Mills forces against continuum:2:4000 is 0.028 um, below 0.1 x the smallest
 //   error bar of the data (0.048 um); 1,000 elements give 0.078 um, 700 give 0.076 um (measured
@@ -22,6 +23,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <span>
 #include <string>
 #include <vector>
@@ -36,13 +38,14 @@
 namespace rbc {
 
 struct InferOptions {
-  std::string data_file;  ///< Mills-format CSV; empty =
-                          ///< default_data_directory()/mills2004_optical_tweezers.csv
+  std::string data_file;  ///< stretch-data CSV; empty = default_data_file()
   Method method{MethodKind::continuum, 2000, WlcExpansion::order2};
   std::vector<Parameter> parameters = {Parameter::persistence, Parameter::lmax,
                                        Parameter::sigma_scale};
   std::vector<PriorRange> priors;  ///< overrides of default_prior(), one per parameter at most
-  double reading_uncertainty_um = kMillsReadingUncertaintyUm;  ///< added in quadrature (um)
+  /// Extra uncertainty (um) the user adds in quadrature to every error bar, on top of what the
+  /// data file declares (calibrate/likelihood.hpp); 0: the file's sigmas as they are.
+  double extra_uncertainty_um = 0;
   ForwardParameters fixed;       ///< values of the physical parameters not inferred
   double fixed_sigma_scale = 1;  ///< when sigma-scale is not inferred
   TmcmcOptions sampler = default_sampler();
@@ -53,7 +56,7 @@ struct InferOptions {
   /// Continuum forward runs on the mirror-symmetric states (NewtonOptions::symmetry).
   Symmetry symmetry = ForwardOptions::default_newton().symmetry;
   /// Throws std::invalid_argument naming the value: repeated parameters, a prior for a
-  /// parameter not inferred or given twice, an invalid prior box, reading uncertainty < 0,
+  /// parameter not inferred or given twice, an invalid prior box, extra uncertainty < 0,
   /// invalid sampler options or fixed parameters. Does not read the data file.
   void validate() const;
   static TmcmcOptions default_sampler() {
@@ -62,6 +65,10 @@ struct InferOptions {
     t.chain_length = 3;
     return t;
   }
+  /// The smallest --samples the sampler accepts (5 per island, TmcmcOptions::islands).
+  static int minimum_samples() { return 5 * default_sampler().islands; }
+  /// default_data_directory()/suresh2005_healthy_optical_tweezers.csv.
+  static std::string default_data_file();
   /// The data file actually used.
   std::string data_path() const;
   /// The prior box of each inferred parameter (overrides applied), in parameter order.
@@ -122,10 +129,12 @@ struct InferenceResult {
   DiameterData data;
   std::vector<double> axial_q05, axial_q50, axial_q95, transverse_q05, transverse_q50,
       transverse_q95;
-  std::string method, data_file;
+  std::string method, data_file;  ///< data: `data` holds its name and extra uncertainties
   std::string command;  ///< the command line that made it (set by the caller; summary.json)
+  /// What made it, set by the caller (the CLI's run record: "config", the resolved options,
+  /// and "provenance"); its keys are copied into summary.json. Null: none.
+  nlohmann::json record;
   std::vector<double> prior_lower, prior_upper;  ///< prior box per inferred parameter
-  double reading_uncertainty_um = 0;
   int vertices = 0, elements = 0, samples_per_stage = 0, threads = 0, ranks = 1;
   std::uint64_t seed = 0;
   int resumed_from_stage = -1;  ///< the checkpoint's stage a resumed run started from; -1: none
@@ -156,6 +165,11 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
                               const InferCheckpointing& checkpointing);
 /// Convenience: builds the problem and runs it.
 InferenceResult run_inference(const InferOptions& options, const ProgressSink& progress = {});
+
+/// Which sigma the likelihood used for a data set, one line: "the file's error bars" or
+/// "the file's error bars (+) 0.1 um declared (+) 0.2 um added (extra 0.2236 um), in
+/// quadrature".
+std::string sigma_text(const DiameterData& data);
 
 /// JSON summary (the fields of `rbc infer --json`).
 std::string inference_json(const InferenceResult& r);

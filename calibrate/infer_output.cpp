@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Files of `rbc infer --out DIR`: summary, posterior samples, corner plot, predictive Fig. 7.
 #include <filesystem>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -96,9 +97,9 @@ void write_predictive(const InferenceResult& r, const std::string& dir) {
   CsvTable t;
   t.comments = {
       "posterior predictive of the model curve (no measurement noise) at the data's "
-      "forces, and the data with their total error bars (quadrature with the reading "
-      "uncertainty; x sigma-scale median if inferred)",
-      "method " + r.method + ", data " + r.data_file};
+      "forces, and the data with the sigmas the likelihood used (before sigma-scale)",
+      "method " + r.method + ", data " + r.data_file + " (" + r.data.name + ")",
+      "sigma: " + sigma_text(r.data)};
   t.header = {"force_pN",
               "axial_q05_um",
               "axial_q50_um",
@@ -122,13 +123,18 @@ void write_predictive(const InferenceResult& r, const std::string& dir) {
   p.ylabel = "diameter (µm)";
   p.key = "inside right center";
   const std::string band = "filledcurves fs transparent solid 0.25 noborder";
-  p.series = {
-      {"D_{A} 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
-      {"D_{A} median", "predictive.csv", "1:3", "lines", "#1f77b4"},
-      {"D_{A} Mills 2004 (total sigma)", "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
-      {"D_{T} 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
-      {"D_{T} median", "predictive.csv", "1:6", "lines", "#d62728"},
-      {"D_{T} Mills 2004 (total sigma)", "predictive.csv", "1:10:11", "yerrorbars", "#555555", 5}};
+  // The data by their declared name (else file name), with the sigma the likelihood used.
+  std::ostringstream extra;
+  extra << std::setprecision(3) << r.data.extra_uncertainty_um();
+  const std::string sigma =
+      r.data.extra_uncertainty_um() > 0 ? " (error bar ⊕ " + extra.str() + " µm)" : " (error bar)";
+  const std::string data = experiment_plot_label(r.data.name) + sigma;
+  p.series = {{"D_{A} 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
+              {"D_{A} median", "predictive.csv", "1:3", "lines", "#1f77b4"},
+              {"D_{A} " + data, "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
+              {"D_{T} 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
+              {"D_{T} median", "predictive.csv", "1:6", "lines", "#d62728"},
+              {"D_{T} " + data, "predictive.csv", "1:10:11", "yerrorbars", "#555555", 5}};
   render_plot(p, dir, "predictive");
 }
 }  // namespace

@@ -9,48 +9,47 @@
 
 namespace rbc {
 
-double reading_uncertainty_from_readings(const std::vector<ExperimentPoint>& a,
-                                         const std::vector<ExperimentPoint>& b) {
-  if (a.size() != b.size() || a.empty())
-    throw std::invalid_argument("the two readings need the same, non-zero number of rows, got " +
-                                std::to_string(a.size()) + " and " + std::to_string(b.size()));
-  double s = 0;
-  int n = 0;
-  for (size_t k = 0; k < a.size(); ++k) {
-    s += std::pow(a[k].axial_um - b[k].axial_um, 2);
-    ++n;
-    if (a[k].force_pN > 0) {
-      s += std::pow(a[k].transverse_um - b[k].transverse_um, 2);
-      ++n;
-    }
-  }
-  return std::sqrt(s / n) / std::sqrt(2.0);
-}
-
 int DiameterData::terms() const {
   int t = size();
   for (char u : transverse_used) t += u;
   return t;
 }
 
-DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points, double reading_um) {
-  if (!(reading_um >= 0) || !std::isfinite(reading_um))
-    throw std::invalid_argument("reading uncertainty must be finite and >= 0 um, got " +
-                                std::to_string(reading_um));
+double DiameterData::extra_uncertainty_um() const {
+  return std::hypot(declared_extra_uncertainty_um, added_extra_uncertainty_um);
+}
+
+DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points, double extra_um) {
+  if (!(extra_um >= 0) || !std::isfinite(extra_um))
+    throw std::invalid_argument("extra uncertainty must be finite and >= 0 um, got " +
+                                std::to_string(extra_um));
   if (points.empty()) throw std::invalid_argument("no data points");
   DiameterData d;
   d.smallest_error_bar_um = INFINITY;
   for (const auto& p : points) {
     d.force_pN.push_back(p.force_pN);
     d.axial_um.push_back(p.axial_um);
-    d.axial_sigma_um.push_back(std::hypot(p.axial_err_um, reading_um));
+    d.axial_sigma_um.push_back(std::hypot(p.axial_err_um, extra_um));
     d.transverse_um.push_back(p.transverse_um);
-    d.transverse_sigma_um.push_back(std::hypot(p.transverse_err_um, reading_um));
+    d.transverse_sigma_um.push_back(std::hypot(p.transverse_err_um, extra_um));
     d.transverse_used.push_back(p.force_pN > 0);
     d.smallest_error_bar_um = std::min(d.smallest_error_bar_um, p.axial_err_um);
     if (p.force_pN > 0)
       d.smallest_error_bar_um = std::min(d.smallest_error_bar_um, p.transverse_err_um);
   }
+  // hypot(err, 0) = err exactly: without an extra uncertainty the sigmas are the error bars.
+  d.added_extra_uncertainty_um = extra_um;
+  return d;
+}
+
+DiameterData make_diameter_data(const ExperimentFile& file, double added_um) {
+  if (!(added_um >= 0) || !std::isfinite(added_um))
+    throw std::invalid_argument("--extra-uncertainty must be finite and >= 0 um, got " +
+                                std::to_string(added_um));
+  DiameterData d = make_diameter_data(file.points, std::hypot(file.extra_uncertainty_um, added_um));
+  d.name = file.label();
+  d.declared_extra_uncertainty_um = file.extra_uncertainty_um;
+  d.added_extra_uncertainty_um = added_um;
   return d;
 }
 
@@ -66,10 +65,10 @@ void check_data_forces(const std::vector<ExperimentPoint>& points, MethodKind ki
   }
 }
 
-DiameterData load_diameter_data(const std::string& path, double reading_um, MethodKind kind) {
-  const std::vector<ExperimentPoint> points = load_experiment(path);
-  check_data_forces(points, kind, path);
-  return make_diameter_data(points, reading_um);
+DiameterData load_diameter_data(const std::string& path, double added_um, MethodKind kind) {
+  const ExperimentFile file = load_experiment_file(path);
+  check_data_forces(file.points, kind, path);
+  return make_diameter_data(file, added_um);
 }
 
 double gaussian_log_likelihood(const DiameterData& d, const ModelDiameters& m, double c) {

@@ -5,9 +5,11 @@
 //   log L = -1/2 sum_k [((D_A(F_k) - D_A,k)/(c s_A,k))^2 + ((D_T(F_k) - D_T,k)/(c s_T,k))^2]
 //           - sum_k [log(sqrt(2 pi) c s_A,k) + log(sqrt(2 pi) c s_T,k)],
 // c the optional inferred sigma scale (1 when not inferred). The error s of a point is its
-// error bar as the data file gives it (half the bar extent; data/README.md) combined in
-// quadrature with the uncertainty of reading the published figure:
-//   s = sqrt(err^2 + reading^2).
+// error bar as the data file gives it (half the bar extent; data/README.md), combined in
+// quadrature with the extra uncertainty the file declares (`# extra_uncertainty_um:`,
+// compare/experiment.hpp) and the one the user adds (`rbc infer --extra-uncertainty`):
+//   s = sqrt(err^2 + declared^2 + added^2);
+// with neither, s is the file's error bar exactly.
 // The 0 pN point is the unstretched cell, one measured diameter for both columns: it enters
 // once, as an axial term against the model's D_A(0) (the rest shape is axisymmetric, so
 // D_T(0) = D_A(0) up to the mesh).
@@ -19,17 +21,6 @@
 
 namespace rbc {
 
-/// Default uncertainty of reading the Mills figure (um): the two readings in data/ differ by
-/// d_k (13 axial and 12 transverse pairs, the 0 pN diameter once); each reading's own error
-/// sd_r then follows from var(d) = 2 sd_r^2: sd_r = rms(d)/sqrt2 = 0.565/sqrt2 = 0.399 um.
-/// reading_uncertainty_from_readings() recomputes it (a test checks the constant).
-inline constexpr double kMillsReadingUncertaintyUm = 0.399;
-
-/// rms over paired rows (same order; 0 pN counted once) of the diameter differences / sqrt2.
-/// Throws std::invalid_argument if the readings have different row counts.
-double reading_uncertainty_from_readings(const std::vector<ExperimentPoint>& a,
-                                         const std::vector<ExperimentPoint>& b);
-
 /// The data as the likelihood uses them: forces and, per force, the terms that enter.
 struct DiameterData {
   std::vector<double> force_pN;
@@ -39,15 +30,26 @@ struct DiameterData {
   int size() const { return static_cast<int>(force_pN.size()); }
   /// Number of Gaussian terms (2 per force, 1 at 0 pN).
   int terms() const;
-  /// Smallest data error bar (um) as given in the file (before the reading uncertainty).
+  /// Smallest data error bar (um) as given in the file (before any extra uncertainty).
   double smallest_error_bar_um = 0;
+  /// The data set's label (ExperimentFile::label: declared name, else file name); empty when
+  /// built from bare points.
+  std::string name;
+  /// Extra uncertainties (um) in the sigmas: declared by the file and added by the user.
+  double declared_extra_uncertainty_um = 0, added_extra_uncertainty_um = 0;
+  /// Their quadrature sum, the extra part of every sigma (um).
+  double extra_uncertainty_um() const;
 };
 
 /// Builds the likelihood's data from measured points (forces increasing, validated by
-/// parse_experiment) and the reading uncertainty (um, >= 0; throws std::invalid_argument
-/// naming it otherwise).
+/// parse_experiment) and one extra uncertainty (um, >= 0, added in quadrature to every error
+/// bar; throws std::invalid_argument naming it otherwise). The sigmas are the error bars
+/// exactly when it is 0.
 DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points,
-                                double reading_uncertainty_um);
+                                double extra_uncertainty_um);
+/// The same for a data file: its declared extra uncertainty and `added_extra_uncertainty_um`
+/// (the user's, >= 0) both enter in quadrature; name and both parts are recorded.
+DiameterData make_diameter_data(const ExperimentFile& file, double added_extra_uncertainty_um);
 
 /// Refuses data the model of `kind` is not documented to reproduce: throws std::invalid_argument
 /// naming the source, the data row (1-based, as parse_experiment counts them) and the force
@@ -57,10 +59,11 @@ DiameterData make_diameter_data(const std::vector<ExperimentPoint>& points,
 void check_data_forces(const std::vector<ExperimentPoint>& points, MethodKind kind,
                        const std::string& source);
 
-/// The data file at `path` (load_experiment) as the likelihood of the model of `kind` uses it:
-/// read, its forces checked by check_data_forces, then make_diameter_data. Every error names
-/// the file; nothing is solved.
-DiameterData load_diameter_data(const std::string& path, double reading_uncertainty_um,
+/// The data file at `path` (load_experiment_file) as the likelihood of the model of `kind`
+/// uses it: read with its declarations, its forces checked by check_data_forces, then
+/// make_diameter_data with the user's `added_extra_uncertainty_um` (um, >= 0). Every error
+/// names the file; nothing is solved.
+DiameterData load_diameter_data(const std::string& path, double added_extra_uncertainty_um,
                                 MethodKind kind);
 
 /// Model diameters at the data's forces (um).

@@ -82,7 +82,7 @@ std::vector<PosteriorInput> posterior_inputs(const InferenceProblem& problem) {
   const TmcmcOptions& s = o.sampler;
   return {
       {"--data-file contents", data_file_digest(o.data_path())},
-      {"--reading-uncertainty", exact(o.reading_uncertainty_um)},
+      {"--extra-uncertainty", exact(o.extra_uncertainty_um)},
       {"--method", o.method.name()},
       {"--force-tolerance", exact(o.force_tolerance_pN)},
       {"--symmetry", to_string(o.symmetry)},

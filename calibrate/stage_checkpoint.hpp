@@ -41,9 +41,9 @@ struct PosteriorInput {
 };
 
 /// The inputs of an inference that determine its posterior: the data file's contents (FNV-1a
-/// of its bytes), the reading uncertainty, the method and forward-solver options, the
-/// parameters, their prior boxes and the fixed parameters, the sampler options and the seed.
-/// Never the threads or ranks, the data file's path or the output directory.
+/// of its bytes, its declarations included), the added extra uncertainty, the method and
+/// forward-solver options, the parameters, their prior boxes and the fixed parameters, the sampler
+/// options and the seed. Never the threads or ranks, the data file's path or the output directory.
 std::vector<PosteriorInput> posterior_inputs(const InferenceProblem& problem);
 
 /// FNV-1a of the inputs' names and values.

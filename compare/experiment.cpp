@@ -5,10 +5,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <regex>
 #include <stdexcept>
 
 #include "core/io.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
@@ -20,8 +23,8 @@ std::string number(double v) {
 }
 }  // namespace
 
-std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::string& path) {
-  const CsvTable t = parse_csv(in, path);
+namespace {
+std::vector<ExperimentPoint> experiment_points(const CsvTable& t, const std::string& path) {
   const std::vector<std::string> expected = {"force_pN", "axial_um", "axial_err_um",
                                              "transverse_um", "transverse_err_um"};
   auto bad = [&](const std::string& what) {
@@ -48,11 +51,85 @@ std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::strin
   return out;
 }
 
+/// The declarations among the comment lines (parse_csv strips the leading "# ").
+void read_declarations(const std::vector<std::string>& comments, ExperimentFile& f) {
+  static const std::regex declaration(R"(^([a-z][a-z0-9_]*):[ \t]*(.*?)[ \t]*$)");
+  auto bad = [&](const std::string& what) {
+    return std::runtime_error("experiment file '" + f.path + "' " + what);
+  };
+  bool have_name = false, have_extra = false;
+  for (const std::string& c : comments) {
+    std::smatch m;
+    if (!std::regex_match(c, m, declaration)) continue;
+    const std::string key = m[1], value = m[2];
+    if (key == "name") {
+      if (have_name) throw bad("declares 'name' twice");
+      if (value.empty()) throw bad("declares an empty 'name'");
+      f.name = value;
+      have_name = true;
+    } else if (key == "extra_uncertainty_um") {
+      if (have_extra) throw bad("declares 'extra_uncertainty_um' twice");
+      const std::optional<double> v = parse_number(value);
+      if (!v || !std::isfinite(*v) || *v < 0)
+        throw bad("declares extra_uncertainty_um '" + value +
+                  "': expected a finite number >= 0 (um)");
+      f.extra_uncertainty_um = *v;
+      have_extra = true;
+    } else if (key.find("uncertainty") != std::string::npos) {
+      throw bad("declares '" + key +
+                "', which is not a declaration: the extra uncertainty is declared as "
+                "'# extra_uncertainty_um: VALUE' (um)");
+    }
+  }
+}
+}  // namespace
+
+std::vector<ExperimentPoint> parse_experiment(std::istream& in, const std::string& path) {
+  return parse_experiment_file(in, path).points;
+}
+
 std::vector<ExperimentPoint> load_experiment(const std::string& path) {
+  return load_experiment_file(path).points;
+}
+
+ExperimentFile parse_experiment_file(std::istream& in, const std::string& path) {
+  const CsvTable t = parse_csv(in, path);
+  ExperimentFile f;
+  f.path = path;
+  read_declarations(t.comments, f);
+  f.points = experiment_points(t, path);
+  return f;
+}
+
+ExperimentFile load_experiment_file(const std::string& path) {
   check_csv_file(path);
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open CSV file '" + path + "'");
-  return parse_experiment(in, path);
+  return parse_experiment_file(in, path);
+}
+
+std::string ExperimentFile::label() const {
+  return name.empty() ? std::filesystem::path(path).filename().string() : name;
+}
+
+std::string experiment_plot_label(const std::string& label) {
+  // plot_literal (compare/plot.hpp) and the quote; written out here so that the data reader
+  // links alone (fuzz/CMakeLists.txt).
+  std::string text;
+  for (const char c : label) {
+    if (c == '\'') {
+      text += "’";
+      continue;
+    }
+    if (c == '_' || c == '^' || c == '{' || c == '}' || c == '@' || c == '&' || c == '~')
+      text += '\\';
+    text += c;
+  }
+  // A unit written "um" in a name is shown as µm (the house style).
+  static const std::regex micro_unit("(^|[^A-Za-z])um([^A-Za-z]|$)");
+  while (std::regex_search(text, micro_unit))
+    text = std::regex_replace(text, micro_unit, "$1µm$2", std::regex_constants::format_first_only);
+  return text;
 }
 
 std::string default_data_directory() {

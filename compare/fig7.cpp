@@ -2,7 +2,9 @@
 #include "compare/fig7.hpp"
 
 #include <cmath>
+#include <iomanip>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <stdexcept>
 
 #include "compare/plot.hpp"
@@ -34,8 +36,14 @@ Fig7Result run_fig7(const Fig7Options& o, const ProgressSink& progress) {
   const std::string data = o.data_dir.empty() ? default_data_directory() : o.data_dir;
   Fig7Result r;
   r.provenance = o.provenance;
-  r.experiment = load_experiment(data + "/mills2004_optical_tweezers.csv");
-  r.alternative = load_experiment(data + "/mills2004_alternative_reading.csv");
+  const ExperimentFile reference = load_experiment_file(data + "/" + kFig7ReferenceDataFile);
+  const ExperimentFile second = load_experiment_file(data + "/" + kFig7SecondDataFile);
+  r.experiment = reference.points;
+  r.experiment_label = reference.label();
+  r.experiment_extra_um = reference.extra_uncertainty_um;
+  r.alternative = second.points;
+  r.alternative_label = second.label();
+  r.alternative_extra_um = second.extra_uncertainty_um;
   const std::vector<Method> methods = o.methods.empty() ? default_fig7_methods() : o.methods;
   for (const Method& m : methods) {
     report(progress, "fig7: running " + m.label());
@@ -52,11 +60,14 @@ Fig7Result run_fig7(const Fig7Options& o, const ProgressSink& progress) {
 
 namespace {
 
+/// A copy of a data file with its declarations (compare/experiment.hpp), readable as one.
 void write_experiment_csv(const std::vector<ExperimentPoint>& e, const std::string& path,
-                          const std::string& what) {
+                          const std::string& label, double extra_um, const std::string& what) {
   CsvTable t;
-  t.comments = {what, "Mills et al. 2004, Mech. Chem. Biosyst. 1:169 (values read off the figure)",
-                "units: pN, um; err = half the error bar"};
+  std::ostringstream extra;
+  extra << std::setprecision(17) << extra_um;
+  t.comments = {"name: " + label, "extra_uncertainty_um: " + extra.str(), what,
+                "Units: pN, um; err = half the error bar (data/README.md names the source)"};
   t.header = {"force_pN", "axial_um", "axial_err_um", "transverse_um", "transverse_err_um"};
   for (const auto& p : e)
     t.rows.push_back(
@@ -68,10 +79,14 @@ void write_experiment_csv(const std::vector<ExperimentPoint>& e, const std::stri
 
 void write_fig7(const Fig7Result& r, const std::string& dir) {
   ensure_output_directory(dir);
-  write_experiment_csv(r.experiment, dir + "/experiment_mills2004.csv",
-                       "experiment (main reading)");
-  write_experiment_csv(r.alternative, dir + "/experiment_mills2004_alternative.csv",
-                       "experiment (alternative reading)");
+  const std::string reference_csv = std::string("experiment_") + kFig7ReferenceDataFile;
+  const std::string second_csv = std::string("experiment_") + kFig7SecondDataFile;
+  write_experiment_csv(r.experiment, dir + "/" + reference_csv, r.experiment_label,
+                       r.experiment_extra_um, "the goodness-of-fit reference of Fig. 7");
+  write_experiment_csv(r.alternative, dir + "/" + second_csv, r.alternative_label,
+                       r.alternative_extra_um, "the second data set of Fig. 7");
+  const std::string reference_label = experiment_plot_label(r.experiment_label);
+  const std::string second_label = experiment_plot_label(r.alternative_label);
   static const char* palette[] = {"#000000", "#1f77b4", "#2ca02c", "#ff7f0e",
                                   "#d62728", "#9467bd", "#8c564b", "#e377c2"};
   PlotSpec spec;
@@ -84,15 +99,14 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
   spec.extra_commands = {"set label 'axial D_{A}' at graph 0.03, graph 0.93",
                          "set label 'transverse D_{T}' at graph 0.03, graph 0.12"};
   spec.series.push_back(
-      {"Mills 2004 D_{A}", "experiment_mills2004.csv", "1:2:3", "yerrorbars", "#555555", 7, 1});
+      {reference_label + " D_{A}", reference_csv, "1:2:3", "yerrorbars", "#555555", 7, 1});
   spec.series.push_back(
-      {"Mills 2004 D_{T}", "experiment_mills2004.csv", "1:4:5", "yerrorbars", "#555555", 5, 1});
-  spec.series.push_back({"alternative reading (D_{A}, D_{T})",
-                         "experiment_mills2004_alternative.csv", "1:2", "points", "#aaaaaa", 6, 1});
+      {reference_label + " D_{T}", reference_csv, "1:4:5", "yerrorbars", "#555555", 5, 1});
   spec.series.push_back(
-      {"", "experiment_mills2004_alternative.csv", "1:4", "points", "#aaaaaa", 6, 1});
+      {second_label + " (D_{A}, D_{T})", second_csv, "1:2", "points", "#aaaaaa", 6, 1});
+  spec.series.push_back({"", second_csv, "1:4", "points", "#aaaaaa", 6, 1});
   CsvTable fit;
-  fit.comments = {"goodness of fit against Mills 2004 (main reading), 0-193 pN",
+  fit.comments = {"goodness of fit against " + r.experiment_label + ", 0-193 pN",
                   "rms in um; inside = points within their error bars"};
   fit.label_header = "method";
   fit.header = {"axial_rms_um", "transverse_rms_um", "axial_inside", "transverse_inside",

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// The paper's Fig. 7: axial and transverse diameters against force for the Mills 2004
-// measurements, the microscopic (discrete) model and the continuum model orders.
+// The paper's Fig. 7: axial and transverse diameters against force for the optical-tweezers
+// data (data/README.md: Suresh et al. 2005 healthy cells, the goodness-of-fit reference, and
+// Mills et al. 2004 Fig. 8), the microscopic (discrete) model and the continuum model orders.
 #include <string>
 #include <vector>
 
@@ -11,7 +12,8 @@
 namespace rbc {
 
 struct Fig7Options {
-  /// Forces (pN), increasing: the Mills forces, then on to 300 pN where the laws part.
+  /// Forces (pN), increasing: the forces of the reference data, then on to 300 pN where the
+  /// laws part.
   std::vector<double> forces_pN = {0,     16,    19.5, 30.6,  38,  46.6, 67.6, 87.6,
                                    108.8, 130.0, 151,  172.8, 193, 220,  250,  300};
   std::vector<Method> methods;  ///< default: see default_fig7_methods()
@@ -22,12 +24,21 @@ struct Fig7Options {
   std::vector<std::string> provenance;
 };
 
+/// The two stretch-data files of Fig. 7 in a data directory: the goodness-of-fit reference
+/// (Suresh et al. 2005, healthy cells) and the second data set (Mills et al. 2004, Fig. 8).
+inline constexpr const char* kFig7ReferenceDataFile = "suresh2005_healthy_optical_tweezers.csv";
+inline constexpr const char* kFig7SecondDataFile = "mills2004_fig8_optical_tweezers.csv";
+
 /// Default methods: the discrete model at N = 2,000 and, when the continuum model is
 /// built, continuum orders 2, 3, 4 and full at 4,000 elements.
 std::vector<Method> default_fig7_methods();
 
 struct Fig7Result {
-  std::vector<ExperimentPoint> experiment, alternative;
+  std::vector<ExperimentPoint> experiment, alternative;  ///< the reference and the second set
+  /// Their labels (ExperimentFile::label: the declared name, else the file name) and
+  /// declared extra uncertainties (um).
+  std::string experiment_label, alternative_label;
+  double experiment_extra_um = 0, alternative_extra_um = 0;
   std::vector<MethodRun> runs;
   std::vector<FitQuality> fits;         ///< per run, against `experiment`, up to 193 pN
   std::vector<std::string> provenance;  ///< Fig7Options::provenance, for the written files
@@ -38,7 +49,8 @@ void check_increasing_forces(const std::vector<double>& forces_pN);
 
 Fig7Result run_fig7(const Fig7Options& options, const ProgressSink& progress);
 
-/// Writes DIR/fig7.png, fig7_fit.csv, fig7_<method>.csv, experiment CSVs and fig7.json.
+/// Writes DIR/fig7.png, fig7_fit.csv, fig7_<method>.csv, fig7.json and copies of the two data
+/// files as experiment_<data file name> (with their declarations).
 void write_fig7(const Fig7Result& result, const std::string& dir);
 
 }  // namespace rbc

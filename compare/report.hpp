@@ -47,8 +47,8 @@ CachedCalibration read_cached_calibration(const std::string& dir);
 /// The calibration cache: CACHE/index.json lists the readings (each a `rbc infer --out`
 /// directory under CACHE) and the model comparison (a reference run and the runs compared
 /// with it, all on the same data):
-///   {"readings": [{"dir": "mills2004_main", "label": "..."}, ...],
-///    "comparison": {"reference": "mills2004_main", "others": ["mills2004_main_full", ...]}}
+///   {"readings": [{"dir": "suresh2005_default", "label": "..."}, ...],
+///    "comparison": {"reference": "suresh2005_p2_E500", "others": ["suresh2005_full_E500", ...]}}
 struct CalibrationCache {
   std::string dir;
   std::vector<CachedCalibration> readings;

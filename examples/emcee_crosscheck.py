@@ -21,11 +21,11 @@ import numpy as np
 import rbc
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data",
-                    "mills2004_optical_tweezers.csv")
+                    "suresh2005_healthy_optical_tweezers.csv")
 
 
 def subset_data(path_out, forces_pN, source=DATA):
-    """Writes the Mills file restricted to the given forces (same format) and returns its path."""
+    """Writes the data file restricted to the given forces (same format) and returns its path."""
     with open(source) as f:
         lines = f.readlines()
     header = [l for l in lines if l.startswith("#")]

@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The paper's Fig. 7 from Python: axial and transverse diameters against the optical-tweezers
-force, discrete network and continuum model against Mills et al. 2004, plotted with matplotlib.
+force, discrete network and continuum model against the two optical-tweezers data sets in data/
+(Suresh et al. 2005 healthy cells, Mills et al. 2004 Fig. 8), plotted with matplotlib.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/fig7.py --out fig7.png
-    (defaults: 2,000 vertices, 4,000 elements, the 13 Mills forces; a few minutes on 2 cores)
+    (defaults: 2,000 vertices, 4,000 elements, the 13 forces of the data; a few minutes on 2 cores)
 """
 import argparse
 import os
@@ -13,31 +14,43 @@ import numpy as np
 
 import rbc
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data",
-                    "mills2004_optical_tweezers.csv")
+DATA_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data")
+SURESH = os.path.join(DATA_DIR, "suresh2005_healthy_optical_tweezers.csv")
+MILLS = os.path.join(DATA_DIR, "mills2004_fig8_optical_tweezers.csv")
 
 
-def mills(path=DATA):
-    """Mills 2004 (read off the published figure): force_pN, D_A, err, D_T, err (um)."""
+def load(path):
+    """A stretch-data file (read off a published figure): its label (the '# name:' it declares,
+    else the file name) and its table force_pN, axial_um, axial_err_um, transverse_um,
+    transverse_err_um (pN, um)."""
     with open(path) as f:
-        lines = [line for line in f if not line.startswith("#")]
-    return np.genfromtxt(lines, delimiter=",", names=True)
+        lines = f.readlines()
+    label = os.path.basename(path)
+    for line in lines:
+        if line.startswith("# name:"):
+            label = line[len("# name:"):].strip()
+    rows = [line for line in lines if not line.startswith("#")]
+    return label, np.genfromtxt(rows, delimiter=",", names=True)
 
 
 def run(vertices=2000, elements=4000, forces_pN=rbc.DEFAULT_FORCES_PN, out="fig7.png"):
     discrete = rbc.stretch("discrete", forces_pN, vertices=vertices)
     continuum = rbc.stretch("continuum", forces_pN, elements=elements, order=2)
-    d = mills()
 
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    name, d = load(SURESH)
     ax.errorbar(d["force_pN"], d["axial_um"], yerr=d["axial_err_um"], fmt="ko", ms=4, capsize=2,
-                label="Mills 2004, D_A")
+                label=name + ", D_A")
     ax.errorbar(d["force_pN"], d["transverse_um"], yerr=d["transverse_err_um"], fmt="ks", ms=4,
-                mfc="white", capsize=2, label="Mills 2004, D_T")
+                mfc="white", capsize=2, label=name + ", D_T")
+    name, d = load(MILLS)
+    ax.plot(d["force_pN"], d["axial_um"], "o", color="0.6", mfc="none", ms=4,
+            label=name + ", D_A and D_T")
+    ax.plot(d["force_pN"], d["transverse_um"], "o", color="0.6", mfc="none", ms=4)
     for res, style, name in ((discrete, "-", f"discrete N = {discrete.network.num_vertices}"),
                              (continuum, "--", f"continuum p = 2, {elements} elements")):
         ax.plot(res.forces_pN, res.axial_um, "C0" + style, label=name + ", D_A")

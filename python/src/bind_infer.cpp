@@ -13,7 +13,7 @@ namespace {
 /// InferOptions from the Python arguments (natural units, the CLI's names and defaults).
 InferOptions infer_options(const std::vector<std::string>& parameters, const py::dict& priors,
                            const std::string& method, const std::string& data_file,
-                           double reading_uncertainty_um, const py::dict& fixed,
+                           double extra_uncertainty_um, const py::dict& fixed,
                            double fixed_sigma_scale, int samples, int chain_length,
                            double target_cov, double proposal_scale, unsigned long long seed,
                            int threads) {
@@ -33,7 +33,7 @@ InferOptions infer_options(const std::vector<std::string>& parameters, const py:
     r.upper = box.second;
     o.priors.push_back(r);
   }
-  o.reading_uncertainty_um = finite("reading_uncertainty_um", reading_uncertainty_um);
+  o.extra_uncertainty_um = finite("extra_uncertainty_um", extra_uncertainty_um);
   for (const auto& [k, v] : fixed) {
     const std::string name = k.cast<std::string>();
     const double x = finite("fixed['" + name + "']", v.cast<double>());
@@ -85,11 +85,11 @@ void bind_infer(py::module_& m) {
       "likelihood. Defaults are the CLI's.")
       .def(py::init([](const std::vector<std::string>& parameters, const py::dict& priors,
                        const std::string& method, const std::string& data_file,
-                       double reading_uncertainty_um, const py::dict& fixed,
-                       double fixed_sigma_scale, int samples, int chain_length, double target_cov,
-                       double proposal_scale, unsigned long long seed, int threads) {
+                       double extra_uncertainty_um, const py::dict& fixed, double fixed_sigma_scale,
+                       int samples, int chain_length, double target_cov, double proposal_scale,
+                       unsigned long long seed, int threads) {
              const InferOptions o =
-                 infer_options(parameters, priors, method, data_file, reading_uncertainty_um, fixed,
+                 infer_options(parameters, priors, method, data_file, extra_uncertainty_um, fixed,
                                fixed_sigma_scale, samples, chain_length, target_cov, proposal_scale,
                                seed, threads);
              return run_released(nullptr, [&] { return std::make_shared<InferenceProblem>(o); });
@@ -97,8 +97,7 @@ void bind_infer(py::module_& m) {
            py::kw_only(),
            py::arg("parameters") = std::vector<std::string>{"persistence", "lmax", "sigma-scale"},
            py::arg("priors") = py::dict(), py::arg("method") = "continuum:2:1000",
-           py::arg("data_file") = "",
-           py::arg("reading_uncertainty_um") = kMillsReadingUncertaintyUm,
+           py::arg("data_file") = "", py::arg("extra_uncertainty_um") = 0.0,
            py::arg("fixed") = py::dict(), py::arg("fixed_sigma_scale") = 1.0,
            py::arg("samples") = InferOptions::default_sampler().samples,
            py::arg("chain_length") = InferOptions::default_sampler().chain_length,
@@ -132,6 +131,10 @@ void bind_infer(py::module_& m) {
                                out["axial_sigma_um"] = to_array(d.axial_sigma_um);
                                out["transverse_um"] = to_array(d.transverse_um);
                                out["transverse_sigma_um"] = to_array(d.transverse_sigma_um);
+                               out["name"] = d.name;
+                               out["declared_extra_uncertainty_um"] =
+                                   d.declared_extra_uncertainty_um;
+                               out["added_extra_uncertainty_um"] = d.added_extra_uncertainty_um;
                                return out;
                              })
       .def(

@@ -69,7 +69,7 @@ json stretch_points(const std::string& args, const std::string& dir, const std::
   const CommandRun r = rbc("stretch " + args + " --json -q", dir, tag);
   EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
   if (r.exit_code != 0) return json::array();
-  return json::parse(r.out).at("points");
+  return json::parse(r.out).at("points");  // --json: {command, config, provenance, points}
 }
 
 json read_json(const std::string& path) {
@@ -214,15 +214,25 @@ void expect_rel(double got, double want, double rel, const std::string& what) {
 TEST(CliSuccess, Fig7CurvesEqualStretchAndItsFitEqualsTheRecomputedRms) {
   const std::string dir = fresh_dir("fig7");
   const std::string out = dir + "/out";
-  const std::string forces = "0,100,193";  // covers the Mills data (0-193 pN)
+  const std::string forces = "0,100,193";  // covers the reference data (0-193 pN)
   const CommandRun r = rbc("fig7 --method discrete:150 --method continuum:2:200 --force " + forces +
                                " --out " + out + " -q",
                            dir, "fig7");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  for (const char* f : {"fig7.png", "fig7.json", "fig7_fit.csv", "fig7_discrete_N150.csv",
-                        "fig7_continuum_p2_E200.csv", "experiment_mills2004.csv",
-                        "experiment_mills2004_alternative.csv"})
+  for (const char* f :
+       {"fig7.png", "fig7.json", "fig7_fit.csv", "fig7_discrete_N150.csv",
+        "fig7_continuum_p2_E200.csv", "experiment_suresh2005_healthy_optical_tweezers.csv",
+        "experiment_mills2004_fig8_optical_tweezers.csv"})
     EXPECT_TRUE(fs::is_regular_file(out + "/" + f)) << f;
+  // Both data sets in the plot, each under the name its file declares; the fit names its data.
+  const std::string gp = read_text(out + "/fig7.gp");
+  EXPECT_NE(gp.find("'Suresh et al. 2005, Fig. 7a/b, healthy cells D_{A}'"), std::string::npos)
+      << gp;
+  EXPECT_NE(gp.find("'Mills et al. 2004, Fig. 8 (D_{A}, D_{T})'"), std::string::npos) << gp;
+  EXPECT_EQ(gp.find("reading"), std::string::npos) << gp;
+  EXPECT_NE(r.out.find("goodness of fit against Suresh et al. 2005, Fig. 7a/b, healthy cells"),
+            std::string::npos)
+      << r.out;
   {  // fig7_fit.csv names each method in its first column.
     std::ifstream in(out + "/fig7_fit.csv");
     std::vector<std::string> lines;
@@ -235,8 +245,8 @@ TEST(CliSuccess, Fig7CurvesEqualStretchAndItsFitEqualsTheRecomputedRms) {
   }
   const json summary = read_json(out + "/fig7.json");
   ASSERT_EQ(summary.size(), 2u);
-  const Csv mills =
-      read_numeric_csv(std::string(RBC_SOURCE_DIR) + "/data/mills2004_optical_tweezers.csv");
+  const Csv mills = read_numeric_csv(std::string(RBC_SOURCE_DIR) +
+                                     "/data/suresh2005_healthy_optical_tweezers.csv");
   ASSERT_EQ(mills.rows.size(), 13u);
   const std::map<std::string, std::string> stretch_args = {
       {"discrete_N150", "--model discrete -n 150"},

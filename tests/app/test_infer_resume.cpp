@@ -164,7 +164,10 @@ long long checkpoint_stage(const fs::path& dir) {
 json summary_without_timing(const fs::path& dir) {
   json j = json::parse(read_text(dir / "summary.json"));
   j.erase("timing");
-  j.erase("command");  // names the output directory and --resume
+  j.erase("command");     // names the output directory and --resume
+  j.erase("provenance");  // date, threads, command line
+  if (j.contains("config"))
+    for (const char* where : {"out", "resume", "threads", "quiet"}) j["config"].erase(where);
   return j;
 }
 

@@ -262,7 +262,8 @@ struct CommandCase {
 };
 
 TEST(Signals, EveryCommandEnds130Or143MidRun) {
-  const std::string data = std::string(RBC_SOURCE_DIR) + "/data/mills2004_optical_tweezers.csv";
+  const std::string data =
+      std::string(RBC_SOURCE_DIR) + "/data/suresh2005_healthy_optical_tweezers.csv";
   const std::vector<CommandCase> cases{
       {"mesh", {"mesh", "--vertices", "40000", "--out", "o"}, false},
       {"stretch", {"stretch", "--vertices", "300", "--force", "0,16,38", "--out", "o"}, true},

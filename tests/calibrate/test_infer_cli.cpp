@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -77,7 +78,18 @@ TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
       {"--params persistence --prior kappa=1e-19:3e-19", "kappa"},
       {"--method continuum:7:200", "7"},
       {"--samples 2", "samples"},
-      {"--reading-uncertainty -1", "-1"},
+      // The sampler's floor, named as the option (4 islands of at least 5 samples).
+      {"--samples 10", "rbc: error: --samples 10: expected at least 20 samples per stage"},
+      {"--extra-uncertainty -1", "--extra-uncertainty must be finite and >= 0 um, got -1"},
+      // The model option group: a parameter not inferred takes its value; an inferred one and
+      // physics the forward model keeps fixed are refused, not ignored.
+      {"--persistence 10", "rbc: error: --persistence 10: persistence is inferred (--params)"},
+      {"--params lmax,sigma-scale --persistence -3", "--persistence -3: expected"},
+      {"--lbar 80", "--lbar 80: rbc infer's forward model keeps the paper's value"},
+      {"--bending dihedral", "--bending dihedral: rbc infer's forward model keeps"},
+      {"--data-file " +
+           write_file("misspelt.csv", "# extra_uncertainty: 0.2\n" + std::string(kHeader) + good),
+       "'extra_uncertainty', which is not a declaration"},
   };
   for (const auto& c : cases) {
     const std::string out = kDir + "/never";
@@ -101,7 +113,9 @@ std::string read(const std::string& path) {
 nlohmann::json without_timing(const std::string& path) {
   nlohmann::json j = nlohmann::json::parse(read(path));
   j.erase("timing");
-  j.erase("command");  // names the --out directory
+  j.erase("command");     // names the --out directory
+  j.erase("provenance");  // date, threads, command line
+  if (j.contains("config")) j["config"].erase("out");
   return j;
 }
 
@@ -170,6 +184,136 @@ TEST(InferCli, WritesTheDocumentedOutputs) {
   EXPECT_NE(r.output.find("stage 1"), std::string::npos) << "progress on stderr";
   // Progress is on stderr, the JSON on stdout: the JSON parses from the last '{' block.
   EXPECT_NE(r.output.find("\"log_evidence\""), std::string::npos);
+}
+
+TEST(InferCli, HelpNamesTheSmallestSampleCount) {
+  const CommandRun r = run(kRbc + " infer --help");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("TMCMC samples per stage, at least 20"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--extra-uncertainty"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("--reading-uncertainty"), std::string::npos) << r.output;
+}
+
+/// A tiny inference on `data` (sigma-scale only: every forward run is the same cheap sweep).
+CommandRun tiny_inference(const std::string& data, const std::string& out,
+                          const std::string& extra_args = "") {
+  fs::remove_all(out);
+  return run("OMP_NUM_THREADS=1 " + kRbc +
+             " infer --method continuum:2:200 --samples 20 --chain-length 1 --params sigma-scale "
+             "--data-file " +
+             data + " --out " + out + " " + extra_args);
+}
+
+// A user's file without declarations: the likelihood used its error bars exactly (summary.json's
+// data), nothing was added, and the plots and the printed summary name the data by the file's
+// name.
+TEST(InferCli, AUsersFileGetsExactlyItsOwnErrorBarsAndIsLabelledByItsFileName) {
+  const std::string data =
+      write_file("own_cells.csv", std::string(kHeader) +
+                                      "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n"
+                                      "90,13.8,1.2,4.6,0.55\n");
+  const std::string out = kDir + "/own_sigma";
+  const CommandRun r = tiny_inference(data, out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto j = nlohmann::json::parse(read(out + "/summary.json"));
+  const double axial_err[] = {0.7, 0.9, 1.2}, transverse_err[] = {0.7, 0.6, 0.55};
+  ASSERT_EQ(j["data"].size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(j["data"][k]["axial_sigma_um"].get<double>(), axial_err[k]) << k;
+    EXPECT_EQ(j["data"][k]["transverse_sigma_um"].get<double>(), transverse_err[k]) << k;
+  }
+  ASSERT_EQ(j["data_sets"].size(), 1u);
+  const auto& set = j["data_sets"][0];
+  EXPECT_EQ(set["name"], "own_cells.csv");
+  EXPECT_EQ(set["declared_extra_uncertainty_um"].get<double>(), 0.0);
+  EXPECT_EQ(set["added_extra_uncertainty_um"].get<double>(), 0.0);
+  EXPECT_EQ(set["sigma"], "the file's error bars");
+  EXPECT_NE(r.output.find("sigma: the file's error bars\n"), std::string::npos) << r.output;
+  const std::string gp = read(out + "/predictive.gp");
+  EXPECT_NE(gp.find("D_{A} own\\_cells.csv (error bar)"), std::string::npos) << gp;
+  EXPECT_EQ(gp.find("Mills"), std::string::npos) << gp;
+}
+
+// A declared name labels the data in the plot, the summary and summary.json; a declared extra
+// uncertainty and --extra-uncertainty add in quadrature with each error bar.
+TEST(InferCli, DeclaredNameAndUncertaintyReachTheLikelihoodThePlotAndTheSummary) {
+  const std::string data = write_file(
+      "declared.csv", "# name: Lab B healthy donors\n# extra_uncertainty_um: 0.3\n" +
+                          std::string(kHeader) + "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n");
+  const std::string out = kDir + "/declared_sigma";
+  const CommandRun r = tiny_inference(data, out, "--extra-uncertainty 0.4");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto j = nlohmann::json::parse(read(out + "/summary.json"));
+  EXPECT_NEAR(j["data"][1]["axial_sigma_um"].get<double>(), std::sqrt(0.81 + 0.09 + 0.16), 1e-15);
+  EXPECT_NEAR(j["data"][1]["transverse_sigma_um"].get<double>(), std::sqrt(0.36 + 0.25), 1e-15);
+  const auto& set = j["data_sets"][0];
+  EXPECT_EQ(set["name"], "Lab B healthy donors");
+  EXPECT_EQ(set["declared_extra_uncertainty_um"].get<double>(), 0.3);
+  EXPECT_EQ(set["added_extra_uncertainty_um"].get<double>(), 0.4);
+  EXPECT_NEAR(set["extra_uncertainty_um"].get<double>(), 0.5, 1e-15);
+  EXPECT_NE(r.output.find("data: Lab B healthy donors (" + data + ")"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("sigma: the file's error bars (+) 0.3 um declared (+) 0.4 um added"),
+            std::string::npos)
+      << r.output;
+  const std::string gp = read(out + "/predictive.gp");
+  EXPECT_NE(gp.find("D_{A} Lab B healthy donors (error bar ⊕ 0.5 µm)"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("D_{T} Lab B healthy donors (error bar ⊕ 0.5 µm)"), std::string::npos) << gp;
+}
+
+// --config DIR/run.json repeats a run: the same posterior, bit for bit. The run record (resolved
+// options, provenance) is in run.json and summary.json; a fixed parameter of the model option
+// group (--persistence, not inferred here) travels with it.
+TEST(InferCli, ConfigOfARunRepeatsItsPosterior) {
+  const std::string data =
+      write_file("config.csv", std::string(kHeader) + "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n");
+  const std::string first = kDir + "/config_first", again = kDir + "/config_again";
+  const CommandRun r =
+      tiny_inference(data, first, "--persistence 12 --extra-uncertainty 0.2 --seed 7");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto run_json = nlohmann::json::parse(read(first + "/run.json"));
+  EXPECT_EQ(run_json["command"], "infer");
+  EXPECT_EQ(run_json["config"]["persistence"].get<double>(), 12.0);
+  EXPECT_EQ(run_json["config"]["extra-uncertainty"].get<double>(), 0.2);
+  EXPECT_EQ(run_json["config"]["samples"].get<int>(), 20);
+  EXPECT_TRUE(run_json["provenance"].contains("rbc_version"));
+  EXPECT_EQ(run_json["status"], "converged");
+  const auto summary = nlohmann::json::parse(read(first + "/summary.json"));
+  EXPECT_EQ(summary["config"], run_json["config"]);
+  EXPECT_TRUE(summary["provenance"].contains("command_line"));
+
+  fs::remove_all(again);
+  const CommandRun b =
+      run("OMP_NUM_THREADS=2 " + kRbc + " infer -q --config " + first + "/run.json --out " + again);
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  const std::string samples = read(first + "/posterior_samples.csv");
+  ASSERT_FALSE(samples.empty());
+  EXPECT_EQ(samples, read(again + "/posterior_samples.csv"));
+  auto posterior = [](const std::string& dir) {
+    nlohmann::json j = without_timing(dir + "/summary.json");
+    j["config"].erase("quiet");
+    return j;
+  };
+  EXPECT_EQ(posterior(first), posterior(again));
+}
+
+// The printed summary counts the stages the progress log shows: stage 0 (the prior) and the
+// tempering stages 1..N, N = summary.json's "stages".
+TEST(InferCli, ThePrintedStageCountAgreesWithTheProgressLog) {
+  const std::string data =
+      write_file("stages.csv", std::string(kHeader) + "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n");
+  const std::string out = kDir + "/stages";
+  const CommandRun r = tiny_inference(data, out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const int n = nlohmann::json::parse(read(out + "/summary.json"))["stages"].get<int>();
+  ASSERT_GE(n, 1);
+  EXPECT_NE(r.output.find("] stage 0 (prior): beta = 0,"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("] stage " + std::to_string(n) + ": beta = 1,"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("] stage " + std::to_string(n + 1) + ":"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("stage 0 (prior) and " + std::to_string(n) + " tempering stage"),
+            std::string::npos)
+      << r.output;
 }
 
 }  // namespace

@@ -60,12 +60,48 @@ TEST(Likelihood, SigmaScaleMaximisesAtTheRmsStandardisedResidual) {
   EXPECT_NEAR(slope, 0.0, 1e-6 * d.terms() / c);
 }
 
-TEST(Likelihood, DefaultReadingUncertaintyComesFromTheTwoMillsReadings) {
-  const std::string dir = std::string(RBC_SOURCE_DIR) + "/data/";
-  const double r =
-      reading_uncertainty_from_readings(load_experiment(dir + "mills2004_optical_tweezers.csv"),
-                                        load_experiment(dir + "mills2004_alternative_reading.csv"));
-  EXPECT_NEAR(r, kMillsReadingUncertaintyUm, 5e-4);
+// A user's file without a declared uncertainty: the likelihood's sigmas are its error bars,
+// bit for bit (no extra uncertainty is added behind the user's back).
+TEST(Likelihood, AFileWithoutDeclarationsGetsExactlyItsOwnErrorBars) {
+  const auto dir = testing::fresh_output_dir("calibrate_own_sigma");
+  const std::string file = (dir / "mine.csv").string();
+  std::ofstream(file) << "# my cells\n"
+                      << kHeader << "0,8.0,0.5,8.0,0.5\n20,9.5,0.4,6.5,0.3\n50,11.0,0.6,5.5,0.2\n";
+  const DiameterData d = load_diameter_data(file, 0.0, MethodKind::continuum);
+  const auto points = three_points();
+  ASSERT_EQ(d.size(), 3);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(d.axial_sigma_um[k], points[k].axial_err_um) << k;
+    EXPECT_EQ(d.transverse_sigma_um[k], points[k].transverse_err_um) << k;
+  }
+  EXPECT_EQ(d.name, "mine.csv");
+  EXPECT_EQ(d.declared_extra_uncertainty_um, 0.0);
+  EXPECT_EQ(d.added_extra_uncertainty_um, 0.0);
+  EXPECT_EQ(InferOptions{}.extra_uncertainty_um, 0.0);  // and none by default
+}
+
+// A declared extra uncertainty and one the user adds enter in quadrature with each error bar:
+// sigma^2 = err^2 + declared^2 + added^2 (calibrate/likelihood.hpp).
+TEST(Likelihood, DeclaredAndAddedUncertaintiesAddInQuadrature) {
+  const auto dir = testing::fresh_output_dir("calibrate_declared_sigma");
+  const std::string file = (dir / "declared.csv").string();
+  std::ofstream(file) << "# name: Lab B\n# extra_uncertainty_um: 0.3\n"
+                      << kHeader << "0,8.0,0.5,8.0,0.5\n20,9.5,0.4,6.5,0.3\n50,11.0,0.6,5.5,0.2\n";
+  const auto points = three_points();
+  const DiameterData declared = load_diameter_data(file, 0.0, MethodKind::continuum);
+  EXPECT_EQ(declared.name, "Lab B");
+  EXPECT_EQ(declared.declared_extra_uncertainty_um, 0.3);
+  const DiameterData both = load_diameter_data(file, 0.4, MethodKind::continuum);
+  EXPECT_EQ(both.added_extra_uncertainty_um, 0.4);
+  EXPECT_NEAR(both.extra_uncertainty_um(), 0.5, 1e-15);  // 3-4-5
+  for (int k = 0; k < 3; ++k) {
+    const double ea = points[k].axial_err_um, et = points[k].transverse_err_um;
+    EXPECT_NEAR(declared.axial_sigma_um[k], std::sqrt(ea * ea + 0.09), 1e-15) << k;
+    EXPECT_NEAR(declared.transverse_sigma_um[k], std::sqrt(et * et + 0.09), 1e-15) << k;
+    EXPECT_NEAR(both.axial_sigma_um[k], std::sqrt(ea * ea + 0.09 + 0.16), 1e-15) << k;
+    EXPECT_NEAR(both.transverse_sigma_um[k], std::sqrt(et * et + 0.09 + 0.16), 1e-15) << k;
+  }
+  EXPECT_THROW(load_diameter_data(file, -0.1, MethodKind::continuum), std::invalid_argument);
 }
 
 void expect_parse_error(const std::string& body, const std::string& fragment) {

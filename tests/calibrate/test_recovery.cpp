@@ -82,7 +82,7 @@ TEST(Recovery, PosteriorMeansLieWithinFourAndAHalfSdOfTheTruthForTwoParameterSet
     o.method = fo.method;
     o.parameters = {Parameter::persistence, Parameter::lmax};
     o.priors = {{Parameter::persistence, 3, 16}, {Parameter::lmax, 150, 300}};
-    o.reading_uncertainty_um = 0;
+    o.extra_uncertainty_um = 0;
     o.sampler.samples = 200;
     o.sampler.chain_length = 2;
     o.sampler.seed = 5;

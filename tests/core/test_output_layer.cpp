@@ -104,7 +104,7 @@ TEST(NumberFileTag, EveryFiniteDoubleRoundTrips) {
 }
 
 std::string real_png() {
-  return read_all(fs::path(RBC_SOURCE_DIR) / "data/calibration/mills2004_alternative/corner.png");
+  return read_all(fs::path(RBC_SOURCE_DIR) / "data/calibration/mills2004_fig8_p2_E500/corner.png");
 }
 
 TEST(PngCheck, ACompletePngPassesAndATruncatedOneFails) {

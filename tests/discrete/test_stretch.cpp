@@ -61,7 +61,7 @@ TEST(DiscreteStretch, AgreesWithMillsAtTheEndsOfTheRange) {
   // experimental error bars at 0 and 193 pN (and is stiffer in between).
   const Network net = cell_network(500);
   const CsvTable mills =
-      read_csv(std::string(RBC_SOURCE_DIR) + "/data/mills2004_optical_tweezers.csv");
+      read_csv(std::string(RBC_SOURCE_DIR) + "/data/suresh2005_healthy_optical_tweezers.csv");
   const auto& first = mills.rows.front();
   const auto& last = mills.rows.back();
   const auto pts = run_stretch(net, {first[0], last[0]}, StretchOptions{});

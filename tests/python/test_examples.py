@@ -31,8 +31,10 @@ def test_fig7_curves_stretch_the_cell(tmp_path):
         assert np.all(np.diff(res.axial_um) > 0) and np.all(np.diff(res.transverse_um) < 0)
     # the two scales agree (MODEL.md: within a few % up to 193 pN at full resolution)
     np.testing.assert_allclose(discrete.axial_um, continuum.axial_um, rtol=0.05)
-    d = fig7.mills()
-    assert d["force_pN"][0] == 0 and len(d) >= 10
+    for path, name in ((fig7.SURESH, "Suresh et al. 2005"), (fig7.MILLS, "Mills et al. 2004")):
+        label, d = fig7.load(path)
+        assert label.startswith(name)
+        assert d["force_pN"][0] == 0 and len(d) >= 10
 
 
 def test_scipy_example_prints_both_equilibria():

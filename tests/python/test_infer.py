@@ -21,8 +21,9 @@ METHOD = "continuum:2:200"
 
 @pytest.fixture(scope="module")
 def small_data(tmp_path_factory):
-    """The Mills data at two forces (same file format): a cheap forward model."""
-    return emcee_crosscheck.subset_data(str(tmp_path_factory.mktemp("data") / "mills2.csv"),
+    """The default data (Suresh 2005) at two forces, its declarations kept: a cheap forward
+    model."""
+    return emcee_crosscheck.subset_data(str(tmp_path_factory.mktemp("data") / "suresh2.csv"),
                                         [0.0, 38.0])
 
 
@@ -69,6 +70,22 @@ def test_bad_inference_input_raises_value_error(small_data):
                              data_file=small_data)
     with pytest.raises(ValueError, match="samples"):
         rbc.InferenceProblem(parameters=["sigma-scale"], samples=0, data_file=small_data)
+
+
+def test_the_data_carry_their_declared_name_and_uncertainty(small_data):
+    """sigma^2 = err^2 + declared^2 + added^2: the file declares 0.1 um, the caller adds 0.2."""
+    own = rbc.InferenceProblem(parameters=["sigma-scale"], method=METHOD, data_file=small_data)
+    added = rbc.InferenceProblem(parameters=["sigma-scale"], method=METHOD, data_file=small_data,
+                                 extra_uncertainty_um=0.2)
+    assert own.data["name"] == "Suresh et al. 2005, Fig. 7a/b, healthy cells"
+    assert own.data["declared_extra_uncertainty_um"] == 0.1
+    assert own.data["added_extra_uncertainty_um"] == 0.0
+    assert added.data["added_extra_uncertainty_um"] == 0.2
+    err_axial = np.array([0.698, 1.108])  # the 0 and 38 pN rows of the file
+    np.testing.assert_allclose(own.data["axial_sigma_um"], np.sqrt(err_axial**2 + 0.01),
+                               rtol=1e-14)
+    np.testing.assert_allclose(added.data["axial_sigma_um"],
+                               np.sqrt(err_axial**2 + 0.01 + 0.04), rtol=1e-14)
 
 
 def test_log_likelihood_is_the_gaussian_of_the_forward_diameters(small_data):
