@@ -247,3 +247,39 @@ TEST(RunConfig, CellsPictureRecordsWhatProducedIt) {
 }
 
 }  // namespace
+
+namespace {
+
+/// D_A at the last force of `fig7 ... --out DIR`'s curve of one method (from its CSV).
+double fig7_last_axial_um(const fs::path& csv) {
+  std::ifstream in(csv);
+  double axial = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#' || line.rfind("force_pN", 0) == 0) continue;
+    std::stringstream row(line);
+    std::string force, a;
+    std::getline(row, force, ',');
+    std::getline(row, a, ',');
+    axial = std::stod(a);
+  }
+  return axial;
+}
+
+// fig7 runs both models with the Model options: a larger persistence length is a softer
+// network (the WLC stiffness is k_B T / p), so both models stretch further at 193 pN.
+TEST(RunConfig, Fig7TakesTheModelOptionsForBothModels) {
+  const fs::path d = rbc::testing::fresh_output_dir("run_config_fig7");
+  const std::string base =
+      "fig7 --method discrete:150 --method continuum:2:200 --force 0,100,193 -q";
+  const auto soft = run_rbc(base + " --persistence 10 --out " + (d / "soft").string());
+  const auto plain = run_rbc(base + " --out " + (d / "plain").string());
+  ASSERT_EQ(soft.exit_code, 0) << soft.all();
+  ASSERT_EQ(plain.exit_code, 0) << plain.all();
+  for (const char* csv : {"fig7_discrete_N150.csv", "fig7_continuum_p2_E200.csv"})
+    EXPECT_GT(fig7_last_axial_um(d / "soft" / csv), fig7_last_axial_um(d / "plain" / csv) + 0.1)
+        << csv;
+  EXPECT_EQ(read_json(d / "soft" / "run.json").at("config").at("persistence"), 10);
+  EXPECT_NE(read_text(d / "soft" / "fig7_fit.csv").find("\"persistence\":10"), std::string::npos);
+}
+
+}  // namespace
