@@ -244,7 +244,10 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   };
   progress_made.sweeps_done = first_sweep;
   progress_made.running = !o.out.empty();
-  write_mc_manifest(o.out, false, "running", "the run has not finished", first_sweep, o.sweeps, "");
+  // The thread decision (discrete/mc_sampler.hpp mc_thread_decision), in every manifest.
+  const nlohmann::json threads = {{"threads", to_json(run->sampler().thread_decision())}};
+  write_mc_manifest(o.out, false, "running", "the run has not finished", first_sweep, o.sweeps, "",
+                    threads);
   if (!o.out.empty()) write_mc_snapshot(o.out, net, *run);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_report = t0;
@@ -277,7 +280,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
                       "interrupted by " + interrupt_name() + " after sweep " + std::to_string(s) +
                           " of " + std::to_string(o.sweeps) +
                           (o.checkpoint.empty() ? "" : "; resume with --resume " + o.checkpoint),
-                      s, o.sweeps, o.checkpoint);
+                      s, o.sweeps, o.checkpoint, threads);
     throw;
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -294,8 +297,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   const double sweeps_per_s = wall > 0 ? double(done) / wall : 0.0;
   const McRunSetup& su = run->setup();
   nlohmann::json j = mc_run_json(net, *run);
-  j.update({{"threads", omp_get_max_threads()},
-            {"sweeps_this_run", done},
+  j.update({{"sweeps_this_run", done},
             {"wall_s", wall},
             {"sweeps_per_s", sweeps_per_s},
             {"moves_per_s", sweeps_per_s * double(mobile)}});
@@ -317,6 +319,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
         why_not.empty() ? "cells.png" : why_not;
     if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";
   }
+  picture.update(threads);
   write_mc_manifest(o.out, true, "finished", "", run->sampler().sweeps_done(), o.sweeps,
                     o.checkpoint, picture);
   if (o.json) {
@@ -329,7 +332,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
             << " adaptive), " << su.sampler.streams << " streams, "
             << run->sampler().colours().size() << " colours\n"
             << "speed: " << sweeps_per_s << " sweeps/s, " << sweeps_per_s * double(mobile)
-            << " moves/s on " << omp_get_max_threads() << " threads\n";
+            << " moves/s; threads " << run->sampler().thread_decision().reason << "\n";
   if (!have_stats) {
     std::cout << "statistics: " << j["statistics"].get<std::string>() << "\n";
     return 0;
@@ -383,11 +386,14 @@ void add_mc_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<McCli>();
   auto* cmd =
       app.add_subcommand("mc", "Metropolis Monte Carlo of the spectrin network at temperature T");
-  auto* vertices = cmd->add_option("--vertices,-n", o->vertices,
-                                   "vertex count N (100 to 40,000; --resume: the checkpoint's)")
-                       ->check(integer_in(100, 40000))
-                       ->capture_default_str();
-  auto* force = cmd->add_option("--force,-f", o->force_pN,
+  auto* vertices =
+      cmd->add_option("--vertices,-n", o->vertices,
+                      "vertex count N (100 to 40,000; --resume: the checkpoint's). The default is "
+                      "smaller than stretch's 2,000 because a run takes thousands of sweeps of N "
+                      "moves each (about 1 s per 1,000 sweeps at N = 500)")
+          ->check(integer_in(100, 40000))
+          ->capture_default_str();
+  auto* force = cmd->add_option("--force", o->force_pN,
                                 "total bead force F (pN), in [0, " +
                                     format_number(kMaxDiscreteForce_pN) + "]")
                     ->capture_default_str();
