@@ -60,7 +60,9 @@ cmake --build "$work/downstream" -j "$jobs" >"$work/downstream-build.log" 2>&1 |
 "$python" - "$work/downstream.txt" "$work/cli.json" "$version" <<'PY' || fail "downstream output"
 import json, sys
 lines = open(sys.argv[1]).read().splitlines()
-cli = json.load(open(sys.argv[2]))
+cli_run = json.load(open(sys.argv[2]))
+assert cli_run["provenance"]["rbc_version"] == sys.argv[3], cli_run["provenance"]
+cli = cli_run["points"]
 fields = dict(l.split(" ", 1) for l in lines if not l.startswith("force_pN"))
 assert fields["version"] == sys.argv[3], (fields["version"], sys.argv[3])
 area, truth = float(fields["area_um2"]), 134.09

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <map>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -44,6 +45,9 @@ CLI::Validator integer_in(long long lo, long long hi);
 /// As integer_in for an unsigned 64-bit option (a seed): [0, 18446744073709551615].
 CLI::Validator unsigned_integer();
 
+/// Name prefix of the validators enum_choice makes.
+inline constexpr std::string_view kEnumChoicePrefix = "enum:";
+
 /// CLI11 transform for a choice option parsed once into an enum (bound to an enum-typed
 /// variable): the text must be one of the names, spelled as listed; otherwise the parse fails
 /// with "<option> <text> not in {a,b}" (exit 2). Help shows "{a,b}"; set the option's default
@@ -53,16 +57,23 @@ CLI::Validator enum_choice(std::vector<std::pair<std::string, E>> names) {
   std::string set = "{";
   for (const auto& [name, value] : names) set += (set.size() > 1 ? "," : "") + name;
   set += "}";
+  // The validator's name keeps the value -> name map ("enum:0=discrete;1=continuum"), so the
+  // resolved configuration (app/run_config.hpp) writes the name back, not the number.
+  std::string map = std::string(kEnumChoicePrefix);
+  for (const auto& [name, value] : names)
+    map += (map.size() > kEnumChoicePrefix.size() ? ";" : "") +
+           std::to_string(static_cast<long long>(value)) + "=" + name;
   return CLI::Validator(
-      [names, set](std::string& s) -> std::string {
-        for (const auto& [name, value] : names)
-          if (s == name) {
-            s = std::to_string(static_cast<long long>(value));
-            return {};
-          }
-        return s + " not in " + set;
-      },
-      set);
+             [names, set](std::string& s) -> std::string {
+               for (const auto& [name, value] : names)
+                 if (s == name) {
+                   s = std::to_string(static_cast<long long>(value));
+                   return {};
+                 }
+               return s + " not in " + set;
+             },
+             set)
+      .name(map);
 }
 
 /// CLI11 check for an output path option (--out, --checkpoint): a given value must not be

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/render.hpp"
@@ -544,6 +545,7 @@ void add_dynamics_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<DynamicsCli>();
   auto* cmd = app.add_subcommand(
       "dynamics", "Overdamped dynamics: recovery after release, time course of a stretch");
+  add_config_option(cmd);
   cmd->add_option("--model", o->model, "discrete | continuum")->capture_default_str();
   cmd->add_option("--scene", o->scene,
                   "release (equilibrium at F, then F = 0) | stretch (F from t = 0) | relax "

@@ -3,6 +3,7 @@
 #include <iomanip>
 #include <iostream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "compare/fig7.hpp"
@@ -39,6 +40,7 @@ void add_fig7_command(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("fig7", "Fig. 7: diameters vs force, models against Mills 2004");
+  add_config_option(cmd);
   cmd->add_option("--out", o->out, "output directory (must be empty unless --force-overwrite)")
       ->capture_default_str();
   cmd->add_option(

@@ -15,6 +15,7 @@
 #include <optional>
 #include <thread>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
@@ -230,6 +231,7 @@ void add_infer_command(CLI::App& app, Action& action) {
   auto c = std::make_shared<InferCli>();
   auto* cmd = app.add_subcommand(
       "infer", "Bayesian calibration (TMCMC) of the spectrin parameters from force-diameter data");
+  add_config_option(cmd);
   cmd->add_option("--data-file", c->data_file,
                   "Mills-format CSV (default: data/mills2004_optical_tweezers.csv)");
   cmd->add_option("--method", c->method, "forward model: discrete:N or continuum:ORDER:ELEMENTS")

@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
@@ -386,6 +387,7 @@ void add_mc_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<McCli>();
   auto* cmd =
       app.add_subcommand("mc", "Metropolis Monte Carlo of the spectrin network at temperature T");
+  add_config_option(cmd);
   auto* vertices =
       cmd->add_option("--vertices,-n", o->vertices,
                       "vertex count N (100 to 40,000; --resume: the checkpoint's). The default is "

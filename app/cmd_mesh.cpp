@@ -4,6 +4,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "core/geometry.hpp"
@@ -41,6 +42,7 @@ void add_mesh_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<Opts>();
   auto* cmd =
       app.add_subcommand("mesh", "Triangulate the Evans-Fung rest shape and report its quality");
+  add_config_option(cmd);
   cmd->add_option("--vertices,-n", o->vertices, "vertex count N (100 to 40,000; hit within 10 %)")
       ->check(integer_in(100, 40000))
       ->capture_default_str();

@@ -11,6 +11,7 @@
 #include <random>
 #include <sstream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "core/validation.hpp"
@@ -136,6 +137,7 @@ void add_moduli_command(CLI::App& app, Action& action) {
   auto* cmd = app.add_subcommand(
       "moduli",
       "Closed-form and numerically homogenised shear/area moduli of the spectrin network");
+  add_config_option(cmd);
   add_membrane_options(cmd, o->membrane);
   cmd->add_option("--network", o->network, "hex (perfect lattice) | disordered")
       ->transform(enum_choice<ModuliNetwork>(

@@ -9,6 +9,7 @@
 #include <memory>
 #include <sstream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "core/io.hpp"
@@ -151,6 +152,7 @@ int run_psi(const PsiCli& o) {
 void add_psi_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<PsiCli>();
   auto* cmd = app.add_subcommand("psi", "Tabulate the homogenised density Psi and its stress");
+  add_config_option(cmd);
   add_membrane_options(cmd, o->membrane);
   cmd->add_option("--order", o->order, "2 | 3 | 4 | full (Taylor order of V, or the full WLC)")
       ->check(CLI::IsMember({"2", "3", "4", "full"}))

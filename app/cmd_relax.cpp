@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "continuum/continuum_model.hpp"
@@ -171,6 +172,7 @@ void add_relax_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<RelaxCli>();
   auto* cmd = app.add_subcommand(
       "relax", "Helfrich relaxation of the Evans-Fung shape at fixed area and volume (Fig. 5)");
+  add_config_option(cmd);
   cmd->add_option("--elements", o->elements, "continuum triangles (200 to 79,996)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();

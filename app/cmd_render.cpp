@@ -5,6 +5,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/render.hpp"
@@ -18,6 +19,7 @@ void add_render_command(CLI::App& app, Action& action) {
       "Draw shapes rbc wrote (.xdmf or .h5: stretch, mc, dynamics, mesh, relax) to a PNG: one "
       "row per shape (a dynamics series gives its first and last frames), an oblique view and "
       "the view from above, coloured by one field on one scale");
+  add_config_option(cmd);
   cmd->add_option("files", o->files, "shape files (.xdmf or .h5)")->required();
   cmd->add_option("--out", o->out_png, "the PNG to write")->required();
   cmd->add_option("--field", o->field,

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <iostream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "compare/experiment.hpp"
@@ -21,6 +22,7 @@ void add_stability_command(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("stability", "Where each method stops working (sweeps)");
+  add_config_option(cmd);
   cmd->add_option("--vertices", o->s.discrete_vertices,
                   "discrete network for the sweeps (100 to 40,000)")
       ->check(integer_in(100, 40000))
@@ -59,6 +61,7 @@ void add_report_command(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("report", "Fig. 7 + trade-off + stability in DIR/report.md");
+  add_config_option(cmd);
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--quick", o->quick,
                 "small resolutions (minutes, not the full study; for a first look)");

@@ -13,7 +13,9 @@
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/model_options.hpp"
 #include "app/render.hpp"
+#include "app/run_config.hpp"
 #include "app/warm_start.hpp"
 #include "compare/accuracy_choice.hpp"
 #include "continuum/continuum_stretch.hpp"
@@ -41,18 +43,11 @@ struct StretchCli {
   StretchModel model = StretchModel::discrete;
   std::string forces = "0,16,19.5,30.6,38,46.6,67.6,87.6,108.8,130,151,172.8,193";
   int vertices = 2000;
-  BendingModel bending = BendingModel::juelicher;
-  DihedralMapping dihedral_mapping = DihedralMapping::sphere_matched;
   RestMeshQuality mesh_quality = RestMeshQuality::phi_minimised;
   /// --mesh-orientation: where the icosahedron lies (mirror-planes: the scene's full mirror
   /// group, with the bead patches cut between x levels).
   TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex;
-  PatchRule contact = PatchRule::by_area;
-  double contact_fraction = 0.05;
-  double lbar_nm = defaults::kLbar_nm, lmax_nm = defaults::kLmax_nm,
-         persistence_nm = defaults::kPersistence_nm, temperature_K = defaults::kWlcTemperature_K;
-  double kappa_J = defaults::kKappa_J, h0_per_um = 0.0;
-  double q = 1.0, eta = 0.005;
+  ModelCli physics;  ///< the model option group (app/model_options.hpp)
   double tolerance_pN = 1e-3;    ///< discrete default; the continuum's is Newton's 1e-6 pN
   bool tolerance_given = false;  ///< --tolerance on the command line (the continuum honours it)
   int max_iterations = 50000;
@@ -70,44 +65,24 @@ struct StretchCli {
   /// accuracy_choice.hpp); the choice is stated on stderr and in every JSON point.
   std::string accuracy;
   nlohmann::json accuracy_choice;  ///< null unless --accuracy chose
+  /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
+  /// run.json starts from it, stretch.csv and the shape files carry it, --json includes it.
+  nlohmann::json record;
 };
 
 /// Library quantities -> this command's options (errors name the option the user typed).
-const OptionNames kStretchOptionNames = {
-    {"force (discrete model)", "--force"},
-    {"force (continuum model)", "--force"},
-    {"Lbar (rest length)", "--lbar"},
-    {"Lmax (contour length, > Lbar)", "--lmax"},
-    {"persistence length", "--persistence"},
-    {"temperature", "--temperature"},
-    {"bending rigidity kappa", "--kappa"},
-    {"spontaneous curvature H0", "--h0"},
-    {"steric exponent q", "--q"},
-    {"steric regularisation eta", "--eta"},
-    {"bead contact fraction", "--contact-fraction"},
-    {"force tolerance", "--tolerance"},
-    {"max iterations", "--max-iterations"},
-};
+OptionNames stretch_option_names() {
+  OptionNames names = model_option_names();
+  names.insert({{"force (discrete model)", "--force"},
+                {"force (continuum model)", "--force"},
+                {"force tolerance", "--tolerance"},
+                {"max iterations", "--max-iterations"}});
+  return names;
+}
 
 NetworkParameters to_network_parameters(const StretchCli& o) {
-  NetworkParameters p;
-  p.wlc.lbar_um = units::nm_to_um(o.lbar_nm);
-  p.wlc.lmax_um = units::nm_to_um(o.lmax_nm);
-  p.wlc.persistence_um = units::nm_to_um(o.persistence_nm);
-  p.wlc.temperature_K = o.temperature_K;
-  p.bending.kappa_pNum = units::joule_to_pNum(o.kappa_J);
-  p.bending.h0_per_um = o.h0_per_um;
-  p.bending_model = o.bending;
-  p.dihedral_mapping = o.dihedral_mapping;
-  p.steric.q = o.q;
-  p.steric.eta = o.eta;
-  p.tweezers.rule = o.contact;
-  p.tweezers.contact_fraction = o.contact_fraction;
+  NetworkParameters p = to_network_parameters(o.physics);
   p.tweezers.keep_equal_x_together = o.orientation == TriangulationOrientation::mirror_planes;
-  p.validate();
-  // Without bending the closed network has no definite shape to stretch (the library allows
-  // kappa = 0 for flat test patches; a cell needs kappa > 0).
-  require_finite_in_range("bending rigidity kappa", "J", o.kappa_J, 0.0, kMaxKappa_J);
   return p;
 }
 
@@ -180,18 +155,17 @@ StretchRow to_row(const Point& p, int elements) {
 /// so at any moment it says which results are complete. Fields: "complete" (true only when every
 /// requested force was solved and stretch.csv written), "status" (running | interrupted |
 /// failed | finished), "reason" (why it is incomplete), "forces_requested_pN", "forces_complete"
-/// (force and shape files of each solved force), "openmp_threads", "blas" (library, OpenBLAS
-/// kernel and build; core/blas_threads.hpp), and at the end "points" as in --json.
+/// (force and shape files of each solved force), the run record ("command", "config": the
+/// resolved options, which `--config run.json` reads back; "provenance": version, command line,
+/// date, host, threads, BLAS kernel; app/run_config.hpp), and at the end "points" as in --json.
 class StretchManifest {
  public:
-  StretchManifest(std::string dir, nlohmann::json run, const std::vector<double>& forces)
-      : dir_(std::move(dir)), run_(std::move(run)) {
+  StretchManifest(std::string dir, const nlohmann::json& record, const nlohmann::json& run,
+                  const std::vector<double>& forces)
+      : dir_(std::move(dir)), run_(record) {
+    run_.update(run);
     run_["forces_requested_pN"] = forces;
     run_["forces_complete"] = nlohmann::json::array();
-    // What ran it: the threads and the BLAS kernel set the speed and the last bits.
-    const BlasInfo blas = blas_info();
-    run_["openmp_threads"] = omp_get_max_threads();
-    run_["blas"] = {{"library", blas.library}, {"core", blas.core}, {"config", blas.config}};
   }
   void running() { write(false, "running", "the run has not finished"); }
   void force_done(double force_pN, const std::string& shape_base) {
@@ -245,7 +219,8 @@ class StretchManifest {
 };
 
 /// OUT/shape_<F>pN.h5/.xdmf: the equilibrium at one force (positions, displacement from rest,
-/// the element fields given, the force and the multipliers that --warm-start reads back), then
+/// the element fields given, the force and the multipliers that --warm-start reads back, the
+/// run record as text attributes), then
 /// the manifest records the force as complete.
 void write_force_shape(const StretchCli& o, StretchManifest& manifest, double force_pN,
                        const Positions& x, const Positions& rest, const Faces& faces,
@@ -258,7 +233,8 @@ void write_force_shape(const StretchCli& o, StretchManifest& manifest, double fo
                  std::move(face_fields),
                  {{"force_pN", force_pN},
                   {kLambdaAreaAttribute, multipliers.area_pN_per_um},
-                  {kLambdaVolumeAttribute, multipliers.volume_pN_per_um2}}};
+                  {kLambdaVolumeAttribute, multipliers.volume_pN_per_um2}},
+                 record_attributes(o.record)};
   const std::string base = o.out + "/shape_" + force_tag(force_pN) + "pN";
   write_mesh_snapshot(base, s);
   manifest.force_done(force_pN, base);
@@ -312,6 +288,7 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
   nlohmann::json rows = nlohmann::json::array();
   CsvTable csv;
   csv.comments = comments;
+  for (const std::string& line : record_comment_lines(o.record)) csv.comments.push_back(line);
   if (!o.accuracy_choice.is_null())
     csv.comments.push_back(o.accuracy_choice["reason"].get<std::string>());
   csv.header = {"force_pN",   "axial_um",  "transverse_um", "energy_pNum",
@@ -358,7 +335,9 @@ int emit_stretch(const StretchCli& o, const std::vector<StretchRow>& pts,
     manifest.finished(rows);  // last: the manifest is the commit record of the set
   }
   if (o.json) {
-    std::cout << rows.dump(2) << "\n";
+    nlohmann::json out = o.record;
+    out["points"] = rows;
+    std::cout << out.dump(2) << "\n";
   } else {
     std::cout << "# " << comments.back() << "\n";
     std::cout << std::setw(9) << "force_pN" << std::setw(11) << "axial_um" << std::setw(14)
@@ -413,7 +392,7 @@ int run_discrete(const StretchCli& o) {
   so.minimiser.cancel = interrupt_check();
   const StretchState warm =
       read_checked_warm_start(o, created_out, "discrete", net.rest.cols(), net.topo.faces, forces);
-  StretchManifest manifest(o.out,
+  StretchManifest manifest(o.out, o.record,
                            {{"model", "discrete"},
                             {"mesh", mesh_report_json(mesh_report)},
                             {"mesh_orientation", to_string(o.orientation)},
@@ -469,7 +448,7 @@ int run_continuum(const StretchCli& o) {
   co.lbfgs.cancel = co.newton.cancel;
   const StretchState warm = read_checked_warm_start(o, created_out, "continuum", model.rest.cols(),
                                                     model.topo.faces, forces);
-  StretchManifest manifest(o.out,
+  StretchManifest manifest(o.out, o.record,
                            {{"model", "continuum"},
                             {"order", to_string(order)},
                             {"mesh", mesh_report_json(mesh_report)},
@@ -549,6 +528,7 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bo
 void add_stretch_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<StretchCli>();
   auto* cmd = app.add_subcommand("stretch", "Optical-tweezers stretch: diameters against force");
+  add_config_option(cmd);
   cmd->add_option("--model", o->model, "discrete (spectrin network) | continuum (surface FEM)")
       ->transform(enum_choice<StretchModel>(
           {{"discrete", StretchModel::discrete}, {"continuum", StretchModel::continuum}}))
@@ -562,17 +542,6 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--vertices,-n", o->vertices, "discrete: network vertices N (100 to 40,000)")
       ->check(integer_in(100, 40000))
       ->capture_default_str();
-  cmd->add_option("--bending", o->bending, "discrete: juelicher | dihedral")
-      ->transform(enum_choice<BendingModel>(
-          {{"juelicher", BendingModel::juelicher}, {"dihedral", BendingModel::dihedral}}))
-      ->type_name("TEXT")
-      ->default_str("juelicher");
-  cmd->add_option("--dihedral-mapping", o->dihedral_mapping,
-                  "dihedral k_b(kappa): sphere (2 sqrt3 kappa) | li (2 kappa/sqrt3)")
-      ->transform(enum_choice<DihedralMapping>(
-          {{"sphere", DihedralMapping::sphere_matched}, {"li", DihedralMapping::li_et_al}}))
-      ->type_name("TEXT")
-      ->default_str("sphere");
   cmd->add_option("--mesh-quality", o->mesh_quality, "phi-minimised | projected | equal-area")
       ->transform(enum_choice<RestMeshQuality>({{"phi-minimised", RestMeshQuality::phi_minimised},
                                                 {"projected", RestMeshQuality::projected},
@@ -589,32 +558,10 @@ void add_stretch_command(CLI::App& app, Action& action) {
            {"mirror-planes", TriangulationOrientation::mirror_planes}}))
       ->type_name("TEXT")
       ->default_str("dimple-vertex");
-  cmd->add_option("--contact", o->contact, "bead contact rule: area | vertices")
-      ->transform(enum_choice<PatchRule>(
-          {{"area", PatchRule::by_area}, {"vertices", PatchRule::by_vertex_count}}))
-      ->type_name("TEXT")
-      ->default_str("area");
-  cmd->add_option("--contact-fraction", o->contact_fraction,
-                  "contact patch fraction per bead, in (0, 0.5)")
-      ->capture_default_str();
-  cmd->add_option("--lbar", o->lbar_nm, "spectrin rest link length (nm), in (0, 10000]")
-      ->capture_default_str();
-  cmd->add_option("--lmax", o->lmax_nm, "spectrin contour length Lmax (nm), in (Lbar, 10000]")
-      ->capture_default_str();
-  cmd->add_option("--persistence", o->persistence_nm, "persistence length (nm), in (0, 10000]")
-      ->capture_default_str();
-  cmd->add_option("--temperature", o->temperature_K, "temperature (K), in (0, 1000]")
-      ->capture_default_str();
-  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J), in (0, 1e-16]")
-      ->capture_default_str();
-  cmd->add_option("--h0", o->h0_per_um, "spontaneous curvature H0 (1/um), in [-100, 100]")
-      ->capture_default_str();
-  cmd->add_option("--q", o->q, "steric exponent q, in (0, 10]")->capture_default_str();
-  cmd->add_option("--eta", o->eta, "steric regularisation eta, in (0, 1]")->capture_default_str();
+  add_model_options(cmd, o->physics);
   auto* tolerance = cmd->add_option("--tolerance", o->tolerance_pN,
-                                    "largest net vertex force at convergence (pN; continuum "
-                                    "default 1e-6), in (0, 10]")
-                        ->capture_default_str();
+                                    "largest net vertex force at convergence (pN), in (0, 10]")
+                        ->default_str("1e-3 (discrete) | 1e-6 (continuum)");
   cmd->add_option("--max-iterations", o->max_iterations,
                   "minimiser iterations per force, in [1, 10000000]")
       ->check(integer_in(1, kMaxIterations))
@@ -658,7 +605,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--warm-start", o->warm_start,
                   "re-solve each force from the equilibria of an earlier `stretch --out DIR` "
                   "(same model, mesh and forces; e.g. after a small parameter change)");
-  cmd->add_flag("--json", o->json, "print a JSON array of points on stdout");
+  cmd->add_flag("--json", o->json, "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   cmd->add_option("--accuracy", o->accuracy,
                   "choose the cheapest model and resolution whose accuracy over the forces "
@@ -674,13 +621,13 @@ void add_stretch_command(CLI::App& app, Action& action) {
     const bool symmetry_given = cmd->get_option("--symmetry")->count() > 0;
     const bool check_given = cmd->get_option("--symmetry-check")->count() > 0;
     std::string changed_physics;  // options that leave the table's default physics
-    for (const char* name :
-         {"--bending", "--dihedral-mapping", "--mesh-quality", "--mesh-orientation", "--contact",
-          "--contact-fraction", "--lbar", "--lmax", "--persistence", "--temperature", "--kappa",
-          "--h0", "--q", "--eta", "--tolerance"})
+    std::vector<std::string> physics = model_option_flags();
+    for (const char* name : {"--mesh-quality", "--mesh-orientation", "--tolerance"})
+      physics.push_back(name);
+    for (const std::string& name : physics)
       if (cmd->get_option(name)->count() > 0)
-        changed_physics += (changed_physics.empty() ? "" : ", ") + std::string(name);
-    action = [o, explicit_choice, accuracy_given, symmetry_given, check_given,
+        changed_physics += (changed_physics.empty() ? "" : ", ") + name;
+    action = [o, cmd, explicit_choice, accuracy_given, symmetry_given, check_given,
               changed_physics]() -> int {
       if (accuracy_given) {
         choose_stretch_method(*o, explicit_choice, symmetry_given);
@@ -698,8 +645,9 @@ void add_stretch_command(CLI::App& app, Action& action) {
             "--symmetry-check applies to --model continuum with --symmetry mirror, got --model " +
             std::string(o->model == StretchModel::continuum ? "continuum" : "discrete") +
             " with --symmetry " + to_string(o->symmetry));
+      o->record = run_record(*cmd);
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
-      return naming_options(kStretchOptionNames, [&]() -> int {
+      return naming_options(stretch_option_names(), [&]() -> int {
         return o->model == StretchModel::discrete ? run_discrete(*o) : run_continuum(*o);
       });
     };

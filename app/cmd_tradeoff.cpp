@@ -5,6 +5,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "compare/accuracy_study.hpp"
@@ -73,6 +74,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("tradeoff", "Accuracy against wall time, with the Pareto front");
+  add_config_option(cmd);
   cmd->add_option("--force", o->force, "total bead force (pN)")->capture_default_str();
   cmd->add_option("--vertices", o->vertices,
                   "discrete network sizes, 100 to 40,000 (default 250 500 1000 2000 4000 8000 "

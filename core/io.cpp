@@ -369,6 +369,7 @@ void write_mesh_snapshot(const std::string& base, const MeshSnapshot& snap) {
     for (const auto& [name, v] : snap.face_fields)
       f.write("/face/" + name, v.data(), static_cast<hsize_t>(v.size()), 1);
     for (const auto& [name, value] : snap.attributes) f.write_attribute(name, value);
+    for (const auto& [name, value] : snap.text_attributes) f.write_attribute(name, value);
     f.close();
   }
   tmp.commit();

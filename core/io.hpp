@@ -133,6 +133,8 @@ struct MeshSnapshot {
   std::vector<MeshField> vertex_fields;
   std::vector<MeshField> face_fields;
   std::vector<std::pair<std::string, double>> attributes;  ///< e.g. force_pN
+  /// Text attributes of the file, e.g. what produced it (rbc_version, rbc_command_line).
+  std::vector<std::pair<std::string, std::string>> text_attributes = {};
 };
 /// Writes base + ".h5" and base + ".xdmf" (an XDMF 3 triangle grid ParaView opens).
 void write_mesh_snapshot(const std::string& base_path, const MeshSnapshot& snapshot);

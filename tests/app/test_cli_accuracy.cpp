@@ -89,7 +89,7 @@ TEST(CliAccuracy, WarnsWhenThePhysicsDiffersFromTheTables) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("rbc: warning: --accuracy"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("--kappa"), std::string::npos) << r.err;
-  const nlohmann::json j = nlohmann::json::parse(r.out);
+  const nlohmann::json j = nlohmann::json::parse(r.out).at("points");
   EXPECT_TRUE(j[0]["accuracy_choice"].contains("warning"));
 }
 
@@ -99,7 +99,7 @@ TEST(CliAccuracy, ChosenMethodMeetsTheAccuracyAtTwoForces) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // What was chosen and why: on stderr and in every JSON point.
   EXPECT_NE(r.err.find("--accuracy 2%: chose "), std::string::npos) << r.err;
-  const nlohmann::json j = nlohmann::json::parse(r.out);
+  const nlohmann::json j = nlohmann::json::parse(r.out).at("points");
   ASSERT_EQ(j.size(), 2u);
   const auto& choice = j[0]["accuracy_choice"];
   EXPECT_EQ(choice["requested_percent"].get<double>(), percent);
@@ -127,7 +127,7 @@ TEST(CliAccuracy, AnExplicitSymmetryRestrictsTheChoiceToItsRows) {
   for (const std::string symmetry : {"none", "mirror"}) {
     const CliRun r = rbc("stretch --accuracy 2% --force 38 --symmetry " + symmetry + " --json -q");
     ASSERT_EQ(r.exit_code, 0) << r.err;
-    const nlohmann::json j = nlohmann::json::parse(r.out);
+    const nlohmann::json j = nlohmann::json::parse(r.out).at("points");
     const auto& choice = j[0]["accuracy_choice"];
     EXPECT_EQ(choice["chosen"]["symmetry"].get<std::string>(), symmetry) << choice;
     if (choice.contains("runner_up")) {

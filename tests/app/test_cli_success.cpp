@@ -64,12 +64,12 @@ CommandRun rbc(const std::string& args, const std::string& dir, const std::strin
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, read_text(err_file)};
 }
 
-/// `rbc stretch ARGS --json -q`: the array of points printed on stdout.
+/// `rbc stretch ARGS --json -q`: the points of the run printed on stdout.
 json stretch_points(const std::string& args, const std::string& dir, const std::string& tag) {
   const CommandRun r = rbc("stretch " + args + " --json -q", dir, tag);
   EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
   if (r.exit_code != 0) return json::array();
-  return json::parse(r.out);
+  return json::parse(r.out).at("points");
 }
 
 json read_json(const std::string& path) {

@@ -62,7 +62,8 @@ TEST(WarmStart, ContinuumReSolveMatchesTheColdRunInFewerIterations) {
   const CommandRun warm = rbc(kContinuum + " --persistence 7.575 --warm-start " + dir);
   ASSERT_EQ(cold.exit_code, 0) << cold.all;
   ASSERT_EQ(warm.exit_code, 0) << warm.all;
-  const auto c = nlohmann::json::parse(cold.out), w = nlohmann::json::parse(warm.out);
+  const auto c = nlohmann::json::parse(cold.out).at("points"),
+             w = nlohmann::json::parse(warm.out).at("points");
   ASSERT_EQ(c.size(), 3u);
   ASSERT_EQ(w.size(), 3u);
   for (size_t k = 0; k < c.size(); ++k) {
@@ -84,7 +85,8 @@ TEST(WarmStart, DiscreteReSolveReachesTheColdEquilibrium) {
   const CommandRun warm = rbc(base + " --lmax 240 --warm-start " + dir);
   ASSERT_EQ(cold.exit_code, 0) << cold.all;
   ASSERT_EQ(warm.exit_code, 0) << warm.all;
-  const auto c = nlohmann::json::parse(cold.out), w = nlohmann::json::parse(warm.out);
+  const auto c = nlohmann::json::parse(cold.out).at("points"),
+             w = nlohmann::json::parse(warm.out).at("points");
   ASSERT_EQ(w.size(), 2u);
   for (size_t k = 0; k < c.size(); ++k) {
     EXPECT_TRUE(w[k]["warm_started"].get<bool>());

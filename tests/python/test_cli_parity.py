@@ -32,7 +32,7 @@ def test_projected_mesh_equals_rbc_mesh():
 def test_discrete_stretch_equals_rbc_stretch():
     args = ["stretch", "--model", "discrete", "--vertices", "250", "--force", "0,30.6,88",
             "--persistence", "8", "--kappa", "3e-19", "--json", "-q"]
-    cli = run_cli_json(*args)
+    cli = run_cli_json(*args)["points"]
     res = rbc.stretch("discrete", [0, 30.6, 88], vertices=250,
                       wlc=rbc.WlcParameters(persistence_nm=8),
                       bending=rbc.BendingParameters(kappa_J=3e-19))
@@ -45,7 +45,7 @@ def test_discrete_stretch_equals_rbc_stretch():
 
 def test_continuum_stretch_equals_rbc_stretch():
     cli = run_cli_json("stretch", "--model", "continuum", "--order", "2", "--elements", "400",
-                       "--force", "0,50", "--json", "-q")
+                       "--force", "0,50", "--json", "-q")["points"]
     res = rbc.stretch(rbc.Model.continuum, forces_pN=[0, 50], elements=400, order=2)
     for p, c in zip(res.to_records(), cli):
         assert set(p) == set(c)

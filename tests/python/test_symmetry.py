@@ -40,7 +40,7 @@ def test_discrete_mirror_equals_the_full_stretch_and_the_cli():
         assert b.transverse_um == pytest.approx(a.transverse_um, abs=scale * dx)
         assert b.residual_pN <= 1e-3  # the full problem's largest net vertex force
     cli = run_cli_json("stretch", "--vertices", "250", "--force", "0,88", "--symmetry", "mirror",
-                       "--json", "-q")
+                       "--json", "-q")["points"]
     assert_same_records(mirror.to_records(), cli)
 
 
@@ -49,7 +49,7 @@ def test_continuum_mirror_points_equal_the_cli():
     assert res.converged.all()
     assert all(p.symmetry_order in (2, 4) and p.symmetry_broken is False for p in res)
     cli = run_cli_json("stretch", "--model", "continuum", "--order", "2", "--elements", "400",
-                       "--force", "0,50", "--symmetry", "mirror", "--json", "-q")
+                       "--force", "0,50", "--symmetry", "mirror", "--json", "-q")["points"]
     assert_same_records(res.to_records(), cli)
 
 
@@ -78,7 +78,7 @@ def test_mirror_planes_mesh_keeps_eight_mirrors_and_matches_the_cli(model, size)
     assert [p.symmetry_order for p in r] == [8, 8]
     size_opt = ["--elements", str(size)] if model == "continuum" else ["--vertices", str(size)]
     cli = run_cli_json("stretch", "--model", model, *size_opt, "--force", "0,88", "--symmetry",
-                       "mirror", "--mesh-orientation", "mirror-planes", "--json", "-q")
+                       "mirror", "--mesh-orientation", "mirror-planes", "--json", "-q")["points"]
     assert_same_records(r.to_records(), cli)
 
 

@@ -34,7 +34,7 @@ def run(rbc, args, symmetry):
                          capture_output=True, text=True, check=True).stdout
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return cpu, json.loads(out)
+    return cpu, json.loads(out)["points"]
 
 
 def main():
