@@ -67,10 +67,11 @@ std::vector<double> parse_force_list(const std::string& text) {
   return parse_number_list(text, "--force", "0,16,88 in pN", false);
 }
 
-ProgressSink stderr_progress(bool quiet) {
+ProgressSink stderr_progress(bool quiet, bool verbose) {
   if (quiet) return {};
   const auto start = std::chrono::steady_clock::now();
-  return [start](const std::string& message) {
+  return [start, verbose](const std::string& message) {
+    if (!verbose && is_detail(message)) return;
     const double t =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::ostringstream line;  // its own format state: std::cerr's stays as it was
@@ -78,6 +79,12 @@ ProgressSink stderr_progress(bool quiet) {
          << "\n";
     std::cerr << line.str() << std::flush;
   };
+}
+
+void add_verbose_flag(CLI::App* cmd, bool& verbose) {
+  cmd->add_flag("--verbose,-v", verbose,
+                "also the solver internals on stderr (Newton iterates, factorisations, "
+                "preconditioner statistics)");
 }
 
 int naming_options(const OptionNames& names, const std::function<int()>& body) {

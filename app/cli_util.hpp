@@ -25,9 +25,13 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
 /// Parses "--force 0,16,38.5" into forces in pN (finite, >= 0).
 std::vector<double> parse_force_list(const std::string& text);
 
-/// Progress sink writing "[elapsed s] message" lines to stderr (quiet = discard). It formats
-/// each line in its own stream, so it never changes std::cerr's number format.
-ProgressSink stderr_progress(bool quiet);
+/// Progress sink writing "[elapsed s] message" lines to stderr (quiet = discard); solver
+/// internals (core/progress.hpp, is_detail) only when verbose. It formats each line in its own
+/// stream, so it never changes std::cerr's number format.
+ProgressSink stderr_progress(bool quiet, bool verbose = false);
+
+/// Adds --verbose,-v ("also the solver internals on stderr") to `cmd`, bound to `verbose`.
+void add_verbose_flag(CLI::App* cmd, bool& verbose);
 
 /// A library quantity (rbc::InvalidParameter::quantity()) -> the command's option for it,
 /// e.g. {"persistence length", "--persistence"}.

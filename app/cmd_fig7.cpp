@@ -3,9 +3,10 @@
 #include <iomanip>
 #include <iostream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/model_options.hpp"
+#include "app/run_config.hpp"
 #include "compare/fig7.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "discrete/stretch.hpp"
@@ -36,11 +37,12 @@ void add_fig7_command(CLI::App& app, Action& action) {
     std::string forces;
     std::vector<std::string> methods;
     std::string data_dir;
-    bool overwrite = false, quiet = false;
+    bool overwrite = false, quiet = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("fig7", "Fig. 7: diameters vs force, models against Mills 2004");
   add_config_option(cmd);
+  auto physics = std::make_shared<ModelCli>();
   cmd->add_option("--out", o->out, "output directory (must be empty unless --force-overwrite)")
       ->capture_default_str();
   cmd->add_option(
@@ -52,17 +54,23 @@ void add_fig7_command(CLI::App& app, Action& action) {
   cmd->add_option("--data", o->data_dir, "directory with the Mills CSV files (default: data/)");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, &action] {
-    action = [o]() -> int {
+  add_verbose_flag(cmd, o->verbose);
+  add_model_options(cmd, *physics);
+  cmd->callback([o, physics, cmd, &action] {
+    action = [o, physics, cmd]() -> int {
       Fig7Options fo;
+      fo.parameters = checked_network_parameters(*physics);
+      const nlohmann::json record = run_record(*cmd);
+      fo.provenance = record_comment_lines(record);
       if (!o->forces.empty()) fo.forces_pN = parse_force_list(o->forces);
       check_increasing_forces(fo.forces_pN);
       for (const auto& m : o->methods) fo.methods.push_back(parse_method(m));
       fo.data_dir = o->data_dir;
       check_method_forces(fo.methods.empty() ? default_fig7_methods() : fo.methods, fo.forces_pN);
       check_output_directory(o->out, o->overwrite);
-      const Fig7Result r = run_fig7(fo, stderr_progress(o->quiet));
+      const Fig7Result r = run_fig7(fo, stderr_progress(o->quiet, o->verbose));
       write_fig7(r, o->out);
+      write_run_record(o->out, record);
       std::cout << "goodness of fit against Mills 2004 (0-193 pN, " << r.experiment.size()
                 << " points):\n";
       for (size_t k = 0; k < r.runs.size(); ++k) {

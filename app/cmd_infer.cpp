@@ -15,10 +15,10 @@
 #include <optional>
 #include <thread>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/run_config.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
 #include "calibrate/stage_checkpoint.hpp"

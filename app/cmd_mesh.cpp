@@ -4,9 +4,9 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"

@@ -11,9 +11,9 @@
 #include <random>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "core/validation.hpp"
 #include "homogenise/disordered_network.hpp"
 #include "homogenise/lattice_density.hpp"
@@ -64,6 +64,9 @@ struct ModuliCli {
   int cells = 0;  // 0: 4 for hex, 12 for disordered
   int seeds = 4;
   bool json = false, quiet = false;
+  /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
+  /// --json includes it beside the study's keys.
+  nlohmann::json record;
 };
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -83,15 +86,15 @@ int run_moduli(const ModuliCli& o) {
   nlohmann::json j = study.json;
   const auto num = [&](const char* key) { return j.at(key).get<double>(); };
   std::ostringstream text;
-  text << std::setprecision(6) << "closed form (Sec. 4.3): mu = " << num("mu_closed")
-       << " uN/m, K = " << num("K_closed") << " uN/m, Young " << num("young_closed")
-       << " uN/m, Poisson " << num("poisson_closed") << "  (steric C = " << num("steric_C")
-       << " pN/um)\n";
+  text << std::setprecision(6) << "closed form (Sec. 4.3): mu = " << num("mu_closed_pN_per_um")
+       << " uN/m, K = " << num("K_closed_pN_per_um") << " uN/m, Young "
+       << num("young_closed_pN_per_um") << " uN/m, Poisson " << num("poisson_closed")
+       << "  (steric C = " << num("steric_C_pN_per_um") << " pN/um)\n";
   if (o.network == ModuliNetwork::hexagonal) {
     const int n = j.at("cells").get<int>();
     text << "numerical (" << n << " x " << n
-         << " periodic hexagonal patch, Schur complement): mu = " << num("mu_numeric")
-         << " uN/m, K = " << num("K_numeric") << " uN/m, Young " << num("young")
+         << " periodic hexagonal patch, Schur complement): mu = " << num("mu_numeric_pN_per_um")
+         << " uN/m, K = " << num("K_numeric_pN_per_um") << " uN/m, Young " << num("young_pN_per_um")
          << " uN/m, Poisson " << num("poisson") << "\n"
          << std::setprecision(3) << "relative difference: mu " << num("mu_relative_difference")
          << ", K " << num("K_relative_difference") << "\n"
@@ -102,7 +105,7 @@ int run_moduli(const ModuliCli& o) {
          << num("psi_patch_over_lattice_minus_1") << "\n";
   } else {
     const double per_seed = seconds_since(t0) / o.seeds;
-    j["seconds_per_seed"] = per_seed;
+    j["wall_per_seed_s"] = per_seed;
     const int cells = j.at("cells").get<int>();
     text << std::setprecision(5) << "disordered networks: X = " << num("disorder") << ", " << cells
          << " x " << j.at("rows").get<int>() << " points (" << j.at("vertices").get<int>()
@@ -110,22 +113,28 @@ int run_moduli(const ModuliCli& o) {
          << "  degree-6 fraction " << num("degree6_fraction") << " +- "
          << num("degree6_fraction_std") << ", Phi/A " << num("phi_over_area") << " +- "
          << study.phi_over_area_std << "\n"
-         << "  affine (Cauchy-Born): mu = " << num("mu_affine") << " +- " << num("mu_affine_std")
-         << ", K = " << num("K_affine") << " +- " << num("K_affine_std") << " uN/m\n"
-         << "  relaxed:              mu = " << num("mu_numeric") << " +- " << num("mu_numeric_std")
-         << ", K = " << num("K_numeric") << " +- " << num("K_numeric_std") << " uN/m, Young "
-         << num("young") << " +- " << num("young_std") << ", Poisson " << num("poisson") << " +- "
+         << "  affine (Cauchy-Born): mu = " << num("mu_affine_pN_per_um") << " +- "
+         << num("mu_affine_std_pN_per_um") << ", K = " << num("K_affine_pN_per_um") << " +- "
+         << num("K_affine_std_pN_per_um") << " uN/m\n"
+         << "  relaxed:              mu = " << num("mu_numeric_pN_per_um") << " +- "
+         << num("mu_numeric_std_pN_per_um") << ", K = " << num("K_numeric_pN_per_um") << " +- "
+         << num("K_numeric_std_pN_per_um") << " uN/m, Young " << num("young_pN_per_um") << " +- "
+         << num("young_std_pN_per_um") << ", Poisson " << num("poisson") << " +- "
          << num("poisson_std") << "\n"
-         << "  relaxed / closed form: mu " << num("mu_numeric") / num("mu_closed") << ", K "
-         << num("K_numeric") / num("K_closed") << "; residual isotropic tension "
-         << num("prestress_uN_per_m") << " +- " << num("prestress_std") << " uN/m\n"
+         << "  relaxed / closed form: mu "
+         << num("mu_numeric_pN_per_um") / num("mu_closed_pN_per_um") << ", K "
+         << num("K_numeric_pN_per_um") / num("K_closed_pN_per_um")
+         << "; residual isotropic tension " << num("prestress_pN_per_um") << " +- "
+         << num("prestress_std_pN_per_um") << " uN/m\n"
          << "  " << per_seed << " s per seed\n";
   }
   if (!study.converged) std::cerr << "rbc: error: " + study.failure + "\n";
-  j["seconds_total"] = seconds_since(t0);
-  if (o.json)
-    std::cout << j.dump(2) << "\n";
-  else
+  j["wall_s"] = seconds_since(t0);
+  if (o.json) {
+    nlohmann::json out = o.record;
+    out.update(j);
+    std::cout << out.dump(2) << "\n";
+  } else
     std::cout << text.str();
   return study.converged ? 0 : 1;
 }
@@ -155,10 +164,14 @@ void add_moduli_command(CLI::App& app, Action& action) {
       ->check(integer_in(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--json", o->json,
-                "print JSON (mu_closed, K_closed, mu_numeric, K_numeric, young, poisson; uN/m; "
-                "young/poisson from the numerical moduli)");
+                "print JSON: the run record (command, config, provenance) and the study, whose "
+                "every key names its unit (mu_closed_pN_per_um, K_closed_pN_per_um, "
+                "mu_numeric_pN_per_um, K_numeric_pN_per_um, young_pN_per_um; pN/um = uN/m) or "
+                "is dimensionless (poisson, *_relative_difference, *_over_lbar, counts); "
+                "young/poisson from the numerical moduli");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress lines on stderr");
-  cmd->callback([o, &action] {
+  cmd->callback([o, cmd, &action] {
+    o->record = run_record(*cmd);
     action = [o] {
       return naming_options(membrane_option_names(), [&] { return run_moduli(*o); });
     };

@@ -7,11 +7,12 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "core/io.hpp"
 #include "core/validation.hpp"
 #include "homogenise/invariant_laws.hpp"
@@ -32,6 +33,10 @@ struct PsiCli {
   std::string out;
   std::string deformation;
   int points = 200;
+  bool json = false;
+  /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
+  /// --json includes it, the CSV's comment lines carry it.
+  nlohmann::json record;
 };
 
 /// F along a path at parameter s: uniaxial diag(s, 1), equibiaxial s I, simple shear
@@ -85,6 +90,10 @@ int run_psi(const PsiCli& o) {
   const IsotropicMembraneLaw law = make_membrane_law(p, s, e);
   const WlcDensity w = make_wlc_density(p, e);
   const double C = steric_constant(w, s);
+  if (o.json && o.deformation.empty())
+    throw std::invalid_argument(
+        "--json: expected --deformation F11,F12,F21,F22 too (the JSON is the evaluation at one "
+        "F)");
   if (o.deformation.empty() && o.out.empty())
     throw std::invalid_argument("--out FILE.csv is required (or give --deformation)");
   if (!o.out.empty()) check_output_file(o.out, "--out");
@@ -105,10 +114,24 @@ int run_psi(const PsiCli& o) {
           ": the largest principal stretch " + format_number(stretch) +
           " must be < Lmax/Lbar = " + format_number(1.0 / w.x0) + " (Psi is infinite there)");
     }
-    std::cout << std::setprecision(10) << "law: " << law.name << "\nI1 = " << I.i1
-              << ", I2 = " << I.i2 << "\nPsi = " << d.psi
-              << " pN/um (lattice at phi = 0: " << psi_lattice << ")\nP = [[" << P(0, 0) << ", "
-              << P(0, 1) << "], [" << P(1, 0) << ", " << P(1, 1) << "]] pN/um\n";
+    if (o.json) {
+      // The keys of rbc.psi() in Python: each names its unit, or is dimensionless (I1, I2).
+      nlohmann::json j = o.record;
+      j.update({{"law", law.name},
+                {"I1", I.i1},
+                {"I2", I.i2},
+                {"psi_pN_per_um", d.psi},
+                {"dpsi_dI1_pN_per_um", d.d1},
+                {"dpsi_dI2_pN_per_um", d.d2},
+                {"first_piola_pN_per_um", {{P(0, 0), P(0, 1)}, {P(1, 0), P(1, 1)}}},
+                {"psi_lattice_pN_per_um", psi_lattice}});
+      std::cout << j.dump(2) << "\n";
+    } else {
+      std::cout << std::setprecision(10) << "law: " << law.name << "\nI1 = " << I.i1
+                << ", I2 = " << I.i2 << "\nPsi = " << d.psi
+                << " pN/um (lattice at phi = 0: " << psi_lattice << ")\nP = [[" << P(0, 0) << ", "
+                << P(0, 1) << "], [" << P(1, 0) << ", " << P(1, 1) << "]] pN/um\n";
+    }
     if (o.out.empty()) return 0;
   }
 
@@ -128,10 +151,19 @@ int run_psi(const PsiCli& o) {
       "s: stretch (uniaxial F = diag(s,1), equibiaxial F = s I) or shear (F = [[1,s],[0,1]]);"
       " the full WLC diverges at s = " +
           std::to_string(s1),
-      "units: psi and stresses pN/um (= uN/m); P = dPsi/dF (first Piola); "
-      "dpsi_ds = P : dF/ds; psi_lattice: un-averaged lattice density at phi = 0"};
-  t.header = {"s",   "I1",  "I2",  "psi_pN_per_um", "dpsi_ds_pN_per_um",
-              "P11", "P12", "P21", "P22",           "psi_lattice_pN_per_um"};
+      "units in the column names (pN/um = uN/m); s, I1, I2 dimensionless; P = dPsi/dF "
+      "(first Piola); dpsi_ds = P : dF/ds; psi_lattice: un-averaged lattice density at phi = 0"};
+  for (const std::string& line : record_comment_lines(o.record)) t.comments.push_back(line);
+  t.header = {"s",
+              "I1",
+              "I2",
+              "psi_pN_per_um",
+              "dpsi_ds_pN_per_um",
+              "P11_pN_per_um",
+              "P12_pN_per_um",
+              "P21_pN_per_um",
+              "P22_pN_per_um",
+              "psi_lattice_pN_per_um"};
   for (int k = 0; k < o.points; ++k) {
     const double sv = s0 + (s1 - s0) * k / o.points;  // stops one step short of the divergence
     const Eigen::Matrix2d F = path_deformation(o.curve, sv);
@@ -142,6 +174,7 @@ int run_psi(const PsiCli& o) {
                       P(1, 0), P(1, 1), lattice_density(w, C, s, F)});
   }
   write_csv(o.out, t);
+  if (o.json) return 0;  // stdout holds the JSON only
   std::cout << "wrote " << o.points << " rows (" << law.name << ", " << o.curve << ", s from " << s0
             << " to " << t.rows.back()[0] << ") to " << o.out << "\n";
   return 0;
@@ -167,7 +200,13 @@ void add_psi_command(CLI::App& app, Action& action) {
   cmd->add_option("--deformation", o->deformation,
                   "evaluate at one F given as F11,F12,F21,F22 (det F > 0, inside the law's "
                   "domain) and print");
-  cmd->callback([o, &action] {
+  cmd->add_flag("--json", o->json,
+                "with --deformation: print JSON: the run record (command, config, provenance) and "
+                "the keys of rbc.psi() in Python (law, I1, I2, psi_pN_per_um, "
+                "dpsi_dI1_pN_per_um, dpsi_dI2_pN_per_um, first_piola_pN_per_um, "
+                "psi_lattice_pN_per_um)");
+  cmd->callback([o, cmd, &action] {
+    o->record = run_record(*cmd);
     action = [o] { return naming_options(membrane_option_names(), [&] { return run_psi(*o); }); };
   });
 }

@@ -7,9 +7,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/model_options.hpp"
+#include "app/run_config.hpp"
 #include "continuum/continuum_model.hpp"
 #include "continuum/relax.hpp"
 #include "core/defaults.hpp"
@@ -26,18 +27,18 @@ namespace {
 struct RelaxCli {
   int elements = 2000;
   std::string h0_list = "0,0.1";
-  double kappa_J = defaults::kKappa_J;
+  ModelCli physics;  ///< the model option group: kappa, and the regulariser's WLC and steric law
   double regulariser = 1e-2;
   double tolerance_pN = 1e-6;
   int max_iterations = 200;
   std::string out;
-  bool json = false, quiet = false, overwrite = false;
+  bool json = false, quiet = false, verbose = false, overwrite = false;
+  nlohmann::json record;  ///< what produced the run (app/run_config.hpp)
 };
 
 /// Library quantities -> this command's options.
 const OptionNames kRelaxOptionNames = {
     {"spontaneous curvature H0", "--h0"},
-    {"bending rigidity kappa", "--kappa"},
     {"regulariser (fraction of the p=2 law)", "--regulariser"},
     {"force tolerance", "--tolerance"},
     {"max iterations", "--max-iterations"},
@@ -50,9 +51,8 @@ std::vector<double> parse_h0_list(const std::string& text) {
 
 int run_relax(const RelaxCli& o) {
   const std::vector<double> h0s = parse_h0_list(o.h0_list);
-  for (double h0 : h0s) BendingParameters{units::joule_to_pNum(o.kappa_J), h0}.validate();
-  // Helfrich bending is the only physics here: kappa = 0 leaves nothing to relax.
-  require_finite_in_range("bending rigidity kappa", "J", o.kappa_J, 0.0, kMaxKappa_J);
+  const NetworkParameters physics = checked_network_parameters(o.physics);
+  for (double h0 : h0s) BendingParameters{physics.bending.kappa_pNum, h0}.validate();
   require_finite_in_range("regulariser (fraction of the p=2 law)", "", o.regulariser, 0.0, 1.0);
   NewtonOptions no;
   no.force_tolerance_pN = o.tolerance_pN;
@@ -62,19 +62,20 @@ int run_relax(const RelaxCli& o) {
     require_distinct(h0s, "--h0", o.h0_list);
     prepare_output_directory(o.out, o.overwrite);
   }
-  const ProgressSink progress = stderr_progress(o.quiet);
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   MeshQualityReport mr;
   const TriMesh mesh = make_continuum_mesh(o.elements, {}, &mr);
   report(progress, "Evans-Fung mesh: " + std::to_string(mr.vertices) + " vertices, " +
                        std::to_string(mr.faces) + " elements");
   const IsotropicMembraneLaw reg = scaled_law(
-      make_membrane_law(WlcParameters{}, StericParameters{}, WlcExpansion::order2), o.regulariser);
+      make_membrane_law(physics.wlc, physics.steric, WlcExpansion::order2), o.regulariser);
   nlohmann::json rows = nlohmann::json::array();
   CsvTable csv;
   csv.comments = {
       "rbc relax: Canham-Helfrich relaxation of the Evans-Fung shape at fixed A, V",
       "units: H0 1/um, lengths um, energy pN*um; regulariser = fraction of the p=2 law",
       "elements " + std::to_string(mr.faces) + ", regulariser " + std::to_string(o.regulariser)};
+  const std::vector<std::string> record_lines = record_comment_lines(o.record);
   csv.header = {"h0_per_um",
                 "largest_displacement_um",
                 "diameter_before_um",
@@ -93,8 +94,7 @@ int run_relax(const RelaxCli& o) {
   int status = 0;
   for (double h0 : h0s) {
     report(progress, "relaxing with H0 = " + std::to_string(h0) + " per um");
-    const RelaxResult r =
-        relax_helfrich(mesh, {units::joule_to_pNum(o.kappa_J), h0}, reg, no, progress);
+    const RelaxResult r = relax_helfrich(mesh, {physics.bending.kappa_pNum, h0}, reg, no, progress);
     rows.push_back({{"h0_per_um", h0},
                     {"largest_displacement_um", r.largest_displacement_um},
                     {"diameter_before_um", r.before.diameter_um},
@@ -122,7 +122,8 @@ int run_relax(const RelaxCli& o) {
     if (!o.out.empty()) {
       const std::string tag = number_tag(h0, 3);  // 0.100, or more digits to tell two apart
       const Eigen::VectorXd u = (r.x - mesh.x).colwise().norm().transpose();
-      MeshSnapshot s{r.x, mesh.topo.faces, {{"displacement_um", u}}, {}, {{"h0_per_um", h0}}};
+      MeshSnapshot s{r.x, mesh.topo.faces,     {{"displacement_um", u}},
+                     {},  {{"h0_per_um", h0}}, record_attributes(o.record)};
       write_mesh_snapshot(o.out + "/relaxed_h0_" + tag, s);
     }
     if (!r.solve.converged()) {
@@ -136,11 +137,16 @@ int run_relax(const RelaxCli& o) {
     }
   }
   if (!o.out.empty()) {
-    write_csv(o.out + "/relax.csv", csv);
+    CsvTable recorded = csv;
+    recorded.comments.insert(recorded.comments.end(), record_lines.begin(), record_lines.end());
+    write_csv(o.out + "/relax.csv", recorded);
     write_text_atomic(o.out + "/relax.json", rows.dump(2) + "\n");
+    write_run_record(o.out, o.record);
   }
   if (o.json) {
-    std::cout << rows.dump(2) << "\n";
+    nlohmann::json out = o.record;
+    out["points"] = rows;
+    std::cout << out.dump(2) << "\n";
   } else {
     std::cout << "# " << csv.comments[2] << "\n"
               << std::setw(8) << "H0" << std::setw(11) << "max_disp" << std::setw(16) << "diameter"
@@ -179,8 +185,6 @@ void add_relax_command(CLI::App& app, Action& action) {
   cmd->add_option("--h0", o->h0_list,
                   "comma-separated spontaneous curvatures H0 (1/um), each in [-100, 100]")
       ->capture_default_str();
-  cmd->add_option("--kappa", o->kappa_J, "bending rigidity (J), in (0, 1e-16]")
-      ->capture_default_str();
   cmd->add_option("--regulariser", o->regulariser,
                   "in-plane mesh regulariser: fraction of the p=2 membrane law (0, 1]")
       ->capture_default_str();
@@ -195,10 +199,14 @@ void add_relax_command(CLI::App& app, Action& action) {
                   "unless --force-overwrite)")
       ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
-  cmd->add_flag("--json", o->json, "print a JSON array on stdout");
+  cmd->add_flag("--json", o->json,
+                "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, &action] {
-    action = [o]() -> int {
+  add_verbose_flag(cmd, o->verbose);
+  add_model_options(cmd, o->physics, {"--h0"});
+  cmd->callback([o, cmd, &action] {
+    action = [o, cmd]() -> int {
+      o->record = run_record(*cmd);
       return naming_options(kRelaxOptionNames, [&] { return run_relax(*o); });
     };
   });

@@ -5,10 +5,10 @@
 #include <memory>
 #include <stdexcept>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/render.hpp"
+#include "app/run_config.hpp"
 
 namespace rbc::app {
 
@@ -26,8 +26,8 @@ void add_render_command(CLI::App& app, Action& action) {
                   "colour by this field (default: tension_max_pN_per_um, displacement_um, "
                   "displacement_x_um or height_um, the first every file has)");
   cmd->add_option("--title", o->title, "a title above the picture (default: none)");
-  cmd->callback([o, &action] {
-    action = [o] {
+  cmd->callback([o, cmd, &action] {
+    action = [o, cmd] {
       namespace fs = std::filesystem;
       for (const auto& file : o->files) {
         std::error_code ec;
@@ -42,6 +42,7 @@ void add_render_command(CLI::App& app, Action& action) {
       check_output_file(o->out_png, "--out");
       if (const std::string why = renderer_unavailable_reason(); !why.empty())
         throw std::invalid_argument("render: " + why);
+      o->metadata = record_png_text(run_record(*cmd));
       render_shapes(*o);
       std::cout << o->out_png << "\n";
       return 0;

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <iostream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/run_config.hpp"
 #include "compare/experiment.hpp"
 #include "compare/report.hpp"
 #include "continuum/continuum_model.hpp"
@@ -18,7 +18,7 @@ void add_stability_command(CLI::App& app, Action& action) {
   struct Opts {
     StabilityOptions s;
     std::string out = "results/stability";
-    bool no_continuum = false, overwrite = false, quiet = false;
+    bool no_continuum = false, overwrite = false, quiet = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("stability", "Where each method stops working (sweeps)");
@@ -35,11 +35,12 @@ void add_stability_command(CLI::App& app, Action& action) {
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   cmd->callback([o, &action] {
     action = [o]() -> int {
       check_output_directory(o->out, o->overwrite);
       o->s.include_continuum = !o->no_continuum;
-      const StabilityResult r = run_stability(o->s, nullptr, stderr_progress(o->quiet));
+      const StabilityResult r = run_stability(o->s, nullptr, stderr_progress(o->quiet, o->verbose));
       write_stability(r, o->out);
       for (const auto& row : r.rows)
         std::cout << to_string(row.study) << " | " << row.method << " | " << row.parameter << " "
@@ -55,7 +56,7 @@ void add_stability_command(CLI::App& app, Action& action) {
 void add_report_command(CLI::App& app, Action& action) {
   struct Opts {
     std::string out = "results/report";
-    bool overwrite = false, quiet = false, quick = false;
+    bool overwrite = false, quiet = false, verbose = false, quick = false;
     std::string calibration;  ///< cached `rbc infer --out` results (empty: data/calibration)
     bool calibration_only = false, no_calibration = false;
   };
@@ -73,6 +74,7 @@ void add_report_command(CLI::App& app, Action& action) {
   cmd->add_flag("--no-calibration", o->no_calibration, "leave the calibration section out");
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   cmd->callback([o, &action] {
     action = [o]() -> int {
       if (o->calibration_only && o->no_calibration)
@@ -100,7 +102,7 @@ void add_report_command(CLI::App& app, Action& action) {
         ro.mc_convergence.mc_budget_s = 30.0;
       }
       ro.mc_convergence.vertices = 500;
-      run_report(ro, o->out, stderr_progress(o->quiet));
+      run_report(ro, o->out, stderr_progress(o->quiet, o->verbose));
       std::cout << "report: " << o->out << "/report.md (figures and CSVs beside it)\n";
       return 0;
     };

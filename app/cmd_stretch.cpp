@@ -47,7 +47,7 @@ struct StretchCli {
   /// --mesh-orientation: where the icosahedron lies (mirror-planes: the scene's full mirror
   /// group, with the bead patches cut between x levels).
   TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex;
-  ModelCli physics;  ///< the model option group (app/model_options.hpp)
+  ModelCli physics;              ///< the model option group (app/model_options.hpp)
   double tolerance_pN = 1e-3;    ///< discrete default; the continuum's is Newton's 1e-6 pN
   bool tolerance_given = false;  ///< --tolerance on the command line (the continuum honours it)
   int max_iterations = 50000;
@@ -59,7 +59,7 @@ struct StretchCli {
   SymmetryCheckAt symmetry_check_at = SymmetryCheckAt::every_force;
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
-  bool json = false, quiet = false, overwrite = false;
+  bool json = false, quiet = false, verbose = false, overwrite = false;
   bool picture = true;  ///< --out: cells.png of the first and the largest force (--no-picture)
   /// --accuracy P%: choose model and resolution from the trade-off table (compare/
   /// accuracy_choice.hpp); the choice is stated on stderr and in every JSON point.
@@ -275,6 +275,7 @@ void draw_stretch_picture(const StretchCli& o, const std::vector<StretchRow>& pt
   r.title = continuum ? "continuum model, " + std::to_string(pts.front().elements) + " elements"
                       : "spectrin network, " + std::to_string(pts.front().vertices) + " vertices";
   r.out_png = o.out + "/cells.png";
+  r.metadata = record_png_text(o.record);
   const std::string why_not = draw_cells(r);
   manifest.picture("cells.png", why_not);
   if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";
@@ -372,7 +373,7 @@ int run_discrete(const StretchCli& o) {
   const NetworkParameters params = to_network_parameters(o);
   StretchOptions so = to_stretch_options(o);
   const bool created_out = prepare_stretch_output(o, forces);
-  const ProgressSink progress = stderr_progress(o.quiet);
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
   ro.quality = o.mesh_quality;
@@ -434,7 +435,7 @@ int run_continuum(const StretchCli& o) {
   co.symmetry_check_at = o.symmetry_check_at;
   co.validate();
   const bool created_out = prepare_stretch_output(o, forces);
-  const ProgressSink progress = stderr_progress(o.quiet);
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   MeshQualityReport mesh_report;
   const TriMesh mesh = make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
   ContinuumParameters cp;
@@ -605,8 +606,10 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--warm-start", o->warm_start,
                   "re-solve each force from the equilibria of an earlier `stretch --out DIR` "
                   "(same model, mesh and forces; e.g. after a small parameter change)");
-  cmd->add_flag("--json", o->json, "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
+  cmd->add_flag("--json", o->json,
+                "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   cmd->add_option("--accuracy", o->accuracy,
                   "choose the cheapest model and resolution whose accuracy over the forces "
                   "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv; "

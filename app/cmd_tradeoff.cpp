@@ -5,9 +5,10 @@
 #include <iostream>
 #include <sstream>
 
-#include "app/run_config.hpp"
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
+#include "app/model_options.hpp"
+#include "app/run_config.hpp"
 #include "compare/accuracy_study.hpp"
 #include "compare/mc_convergence.hpp"
 #include "compare/tradeoff.hpp"
@@ -58,7 +59,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     double force = 88.0;
     std::vector<int> vertices, elements;
     std::vector<std::string> orders;
-    bool no_continuum = false, overwrite = false, quiet = false;
+    bool no_continuum = false, overwrite = false, quiet = false, verbose = false;
     int mc_vertices = 500;
     double mc_budget = 20.0, mc_acceptance = McConvergenceOptions{}.mc_target_acceptance;
     std::string out = "results/tradeoff";
@@ -105,6 +106,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   cmd->add_option("--out", o->out, "output directory")->capture_default_str();
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   cmd->add_flag("--accuracy-table", o->accuracy_table,
                 "instead: the accuracy-cost table over the 13 Mills forces against the "
                 "full-level reference (what `rbc stretch --accuracy` reads; regenerate "
@@ -145,8 +147,20 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "(default OUT/runs)");
   cmd->add_flag("--runs-only", o->runs_only,
                 "--accuracy-table: only run (and cache) the sweeps, write no table");
-  cmd->callback([o, &action] {
-    action = [o]() -> int {
+  auto physics = std::make_shared<ModelCli>();
+  add_model_options(cmd, *physics);
+  cmd->callback([o, physics, cmd, &action] {
+    std::string changed_physics;  // model options given: the accuracy table is measured without
+    for (const std::string& name : model_option_flags())
+      if (changed_physics.empty() && cmd->get_option(name)->count() > 0) changed_physics = name;
+    action = [o, physics, cmd, changed_physics]() -> int {
+      const NetworkParameters parameters = checked_network_parameters(*physics);
+      const nlohmann::json record = run_record(*cmd);
+      if (o->accuracy_table && !changed_physics.empty())
+        throw std::invalid_argument(
+            "--accuracy-table is measured at the default physics (its reference and cached "
+            "sweeps are), got " +
+            changed_physics + " " + cmd->get_option(changed_physics)->results().front());
       if (o->accuracy_table) {
         AccuracyStudyOptions ao;
         if (!o->vertices.empty()) ao.discrete_vertices = o->vertices;
@@ -170,12 +184,13 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         });
         if (!o->runs_only) check_output_directory(o->out, o->overwrite);
         if (o->runs_only) {
-          run_accuracy_sweeps(ao, stderr_progress(o->quiet));
+          run_accuracy_sweeps(ao, stderr_progress(o->quiet, o->verbose));
           std::cout << "sweeps cached in " << ao.cache_dir << "\n";
           return 0;
         }
-        const AccuracyStudy st = run_accuracy_study(ao, stderr_progress(o->quiet));
+        const AccuracyStudy st = run_accuracy_study(ao, stderr_progress(o->quiet, o->verbose));
         write_accuracy_study(st, o->out);
+        write_run_record(o->out, record);
         std::cout << std::defaultfloat << std::setprecision(4);
         for (const auto& r : st.rows)
           std::cout << "  " << std::left << std::setw(52)
@@ -192,6 +207,8 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         return 0;
       }
       TradeoffOptions to;
+      to.parameters = parameters;
+      to.provenance = record_comment_lines(record);
       to.force_pN = o->force;
       if (!o->vertices.empty()) to.discrete_vertices = o->vertices;
       if (!o->elements.empty()) to.continuum_elements = o->elements;
@@ -202,6 +219,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       to.include_continuum = !o->no_continuum;
       McConvergenceOptions mo;
       mo.force_pN = o->force;
+      mo.parameters = parameters;
       mo.vertices = o->mc_vertices;
       mo.mc_budget_s = o->mc_budget;
       mo.mc_target_acceptance = o->mc_acceptance;
@@ -222,8 +240,9 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                          return 0;
                        });
       check_output_directory(o->out, o->overwrite);
-      const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet));
+      const TradeoffResult r = run_tradeoff(to, stderr_progress(o->quiet, o->verbose));
       write_tradeoff(r, o->out);
+      write_run_record(o->out, record);
       std::cout << "reference at " << r.force_pN << " pN: D_A "
                 << format_with_error(r.reference.axial_um, r.reference.axial_error_um)
                 << " um, D_T "
@@ -239,7 +258,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       std::cout << "outputs: " << o->out
                 << "/tradeoff.csv, tradeoff_axial.png, tradeoff_transverse.png\n";
       if (o->mc_budget == 0) return 0;
-      const McConvergenceResult mc = run_mc_convergence(mo, stderr_progress(o->quiet));
+      const McConvergenceResult mc = run_mc_convergence(mo, stderr_progress(o->quiet, o->verbose));
       write_mc_convergence(mc, o->out);
       print_time_to_accuracy(mc);
       std::cout << "outputs: " << o->out << "/mc_convergence.csv, mc_convergence.json, "

@@ -2,6 +2,8 @@
 // The shared model option group (app/model_options.hpp).
 #include "app/model_options.hpp"
 
+#include <algorithm>
+
 #include "core/units.hpp"
 #include "core/validation.hpp"
 #include "discrete/bending_energy.hpp"
@@ -9,7 +11,7 @@
 
 namespace rbc::app {
 
-void add_model_options(CLI::App* cmd, ModelCli& m) {
+void add_model_options(CLI::App* cmd, ModelCli& m, const std::vector<std::string>& omit) {
   CLI::Option_group* g =
       cmd->add_option_group("Model", "the physics every command shares (paper Tables 1-2)");
   g->add_option("--lbar", m.lbar_nm, "spectrin rest link length (nm), in (0, 10000]")
@@ -21,10 +23,10 @@ void add_model_options(CLI::App* cmd, ModelCli& m) {
   g->add_option("--temperature", m.temperature_K,
                 "temperature of the spectrin WLC constants k_B T/p (K), in (0, 1000]")
       ->capture_default_str();
-  g->add_option("--kappa", m.kappa_J, "bending rigidity (J), in (0, 1e-16]")
-      ->capture_default_str();
-  g->add_option("--h0", m.h0_per_um, "spontaneous curvature H0 (1/um), in [-100, 100]")
-      ->capture_default_str();
+  g->add_option("--kappa", m.kappa_J, "bending rigidity (J), in (0, 1e-16]")->capture_default_str();
+  if (std::find(omit.begin(), omit.end(), "--h0") == omit.end())
+    g->add_option("--h0", m.h0_per_um, "spontaneous curvature H0 (1/um), in [-100, 100]")
+        ->capture_default_str();
   g->add_option("--q", m.q, "steric exponent q, in (0, 10]")->capture_default_str();
   g->add_option("--eta", m.eta, "steric regularisation eta, in (0, 1]")->capture_default_str();
   g->add_option("--contact", m.contact, "bead contact rule: area | vertices")
@@ -88,6 +90,15 @@ NetworkParameters to_network_parameters(const ModelCli& m) {
   // Without bending the closed network has no definite shape to stretch (the library allows
   // kappa = 0 for flat test patches; a cell needs kappa > 0).
   require_finite_in_range("bending rigidity kappa", "J", m.kappa_J, 0.0, kMaxKappa_J);
+  return p;
+}
+
+NetworkParameters checked_network_parameters(const ModelCli& m) {
+  NetworkParameters p;
+  naming_options(model_option_names(), [&] {
+    p = to_network_parameters(m);
+    return 0;
+  });
   return p;
 }
 

@@ -142,6 +142,8 @@ void render_shapes(const RenderRequest& request) {
   std::vector<std::string> args{render_python(), "-c", kRenderScript, "--out", "-"};
   if (!request.field.empty()) args.insert(args.end(), {"--field", request.field});
   if (!request.title.empty()) args.insert(args.end(), {"--title", request.title});
+  for (const auto& [key, text] : request.metadata)
+    args.insert(args.end(), {"--metadata", key + "=" + text});
   // "--" ends the options: a shape file whose name starts with '-' is still a file.
   args.push_back("--");
   args.insert(args.end(), request.files.begin(), request.files.end());

@@ -5,6 +5,7 @@
 // numpy, h5py, meshio and matplotlib draw the shapes. The same file is `rbc.plot_shape` in the
 // Python package, so both front ends draw the same picture.
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rbc::app {
@@ -15,6 +16,8 @@ struct RenderRequest {
   std::string out_png;  ///< written atomically (a temporary in the same directory, then renamed)
   std::string field;    ///< colour field; empty = the first of the preferred fields all files have
   std::string title;    ///< figure title; empty = none
+  /// PNG text chunks (key, text): what produced the picture (run_config.hpp, record_png_text).
+  std::vector<std::pair<std::string, std::string>> metadata = {};
 };
 
 /// The interpreter the pictures use: $RBC_PYTHON if set, else /usr/bin/python3 if present, else

@@ -15,6 +15,7 @@
 
 #include "app/cli_util.hpp"
 #include "core/blas_threads.hpp"
+#include "core/io.hpp"
 #include "core/validation.hpp"
 #include "core/version.hpp"
 
@@ -124,8 +125,8 @@ void apply_config(CLI::App& cmd, const std::string& path) {
   const nlohmann::json* options = &file;
   if (file.contains("config")) {
     if (file.contains("command") && file["command"] != cmd.get_name())
-      config_error(path, "written by rbc " + file["command"].dump() + ", not rbc " +
-                             cmd.get_name());
+      config_error(path,
+                   "written by rbc " + file["command"].dump() + ", not rbc " + cmd.get_name());
     options = &file["config"];
     if (!options->is_object()) config_error(path, "\"config\" is not a JSON object");
   }
@@ -246,6 +247,12 @@ nlohmann::json run_record(const CLI::App& cmd) {
           {"provenance", provenance_json()}};
 }
 
+void write_run_record(const std::string& dir, const nlohmann::json& record) {
+  nlohmann::json run = record;
+  run["status"] = "finished";
+  write_text_atomic(dir + "/run.json", run.dump(2) + "\n");
+}
+
 std::vector<std::string> record_comment_lines(const nlohmann::json& record) {
   const nlohmann::json& p = record.at("provenance");
   std::ostringstream machine;
@@ -256,6 +263,14 @@ std::vector<std::string> record_comment_lines(const nlohmann::json& record) {
   return {"rbc " + p.at("rbc_version").get<std::string>() + ": " +
               p.at("command_line").get<std::string>(),
           machine.str(), "config " + record.at("config").dump()};
+}
+
+std::vector<std::pair<std::string, std::string>> record_png_text(const nlohmann::json& record) {
+  const nlohmann::json& p = record.at("provenance");
+  return {{"Software", "rbc " + p.at("rbc_version").get<std::string>()},
+          {"Source", p.at("command_line").get<std::string>()},
+          {"Creation Time", p.at("date_utc").get<std::string>()},
+          {"rbc_config", record.at("config").dump()}};
 }
 
 std::vector<std::pair<std::string, std::string>> record_attributes(const nlohmann::json& record) {

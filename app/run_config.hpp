@@ -42,9 +42,16 @@ nlohmann::json provenance_json();
 /// "provenance": provenance_json()}. run.json starts from it; `--json` objects include it.
 nlohmann::json run_record(const CLI::App& cmd);
 
+/// Writes DIR/run.json: the record with "status": "finished" (atomically).
+void write_run_record(const std::string& dir, const nlohmann::json& record);
+
 /// The record as CSV comment lines (without the "# "): "rbc VERSION: COMMAND LINE",
 /// "date_utc ..., host ..., openmp_threads N, blas ...", "config {compact JSON}".
 std::vector<std::string> record_comment_lines(const nlohmann::json& record);
+
+/// The record as PNG text chunks: Software (rbc VERSION), Source (the command line), Creation
+/// Time (date_utc) and rbc_config (compact JSON of the resolved configuration).
+std::vector<std::pair<std::string, std::string>> record_png_text(const nlohmann::json& record);
 
 /// The record as HDF5 string attributes: rbc_version, rbc_command_line, rbc_config (compact
 /// JSON of the resolved configuration) and rbc_provenance (compact JSON of the provenance).

@@ -33,12 +33,15 @@ Fig7Result run_fig7(const Fig7Options& o, const ProgressSink& progress) {
   check_increasing_forces(o.forces_pN);
   const std::string data = o.data_dir.empty() ? default_data_directory() : o.data_dir;
   Fig7Result r;
+  r.provenance = o.provenance;
   r.experiment = load_experiment(data + "/mills2004_optical_tweezers.csv");
   r.alternative = load_experiment(data + "/mills2004_alternative_reading.csv");
   const std::vector<Method> methods = o.methods.empty() ? default_fig7_methods() : o.methods;
   for (const Method& m : methods) {
     report(progress, "fig7: running " + m.label());
-    r.runs.push_back(run_method(m, o.forces_pN, progress));
+    RunMethodOptions ro;
+    ro.parameters = o.parameters;
+    r.runs.push_back(run_method(m, o.forces_pN, progress, ro));
     std::vector<CurveSample> curve;
     for (const auto& p : r.runs.back().points)
       curve.push_back({p.force_pN, p.axial_um, p.transverse_um});
@@ -91,8 +94,9 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
   CsvTable fit;
   fit.comments = {"goodness of fit against Mills 2004 (main reading), 0-193 pN",
                   "rms in um; inside = points within their error bars"};
-  fit.header = {"method_index",      "axial_rms_um", "transverse_rms_um", "axial_inside",
-                "transverse_inside", "points",       "total_wall_s",      "all_converged"};
+  fit.label_header = "method";
+  fit.header = {"axial_rms_um", "transverse_rms_um", "axial_inside", "transverse_inside",
+                "points",       "total_wall_s",      "all_converged"};
   nlohmann::json summary = nlohmann::json::array();
   for (size_t k = 0; k < r.runs.size(); ++k) {
     const MethodRun& run = r.runs[k];
@@ -103,14 +107,15 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
     for (const auto& p : run.points)
       t.rows.push_back(
           {p.force_pN, p.axial_um, p.transverse_um, p.wall_s, p.converged ? 1.0 : 0.0, p.residual});
+    t.comments.insert(t.comments.end(), r.provenance.begin(), r.provenance.end());
     write_csv(dir + "/" + file, t);
     const char* color = palette[(k + 1) % 8];
     const int dash = run.method.kind == MethodKind::discrete ? 1 : 2;
     spec.series.push_back({run.method.label(), file, "1:2", "lines", color, 7, dash});
     spec.series.push_back({"", file, "1:3", "lines", color, 7, dash});
     const FitQuality& q = r.fits[k];
-    fit.rows.push_back({static_cast<double>(k), q.axial_rms_um, q.transverse_rms_um,
-                        static_cast<double>(q.axial_inside),
+    fit.labels.push_back(run.method.name());
+    fit.rows.push_back({q.axial_rms_um, q.transverse_rms_um, static_cast<double>(q.axial_inside),
                         static_cast<double>(q.transverse_inside), static_cast<double>(q.points),
                         run.total_s, run.all_converged() ? 1.0 : 0.0});
     summary.push_back({{"method", run.method.name()},
@@ -126,8 +131,7 @@ void write_fig7(const Fig7Result& r, const std::string& dir) {
                        {"all_converged", run.all_converged()},
                        {"data", file}});
   }
-  for (size_t k = 0; k < r.runs.size(); ++k)
-    fit.comments.push_back("method_index " + std::to_string(k) + " = " + r.runs[k].method.name());
+  fit.comments.insert(fit.comments.end(), r.provenance.begin(), r.provenance.end());
   write_csv(dir + "/fig7_fit.csv", fit);
   write_text_atomic(dir + "/fig7.json", summary.dump(2) + "\n");
   render_plot(spec, dir, "fig7");

@@ -16,6 +16,10 @@ struct Fig7Options {
                                    108.8, 130.0, 151,  172.8, 193, 220,  250,  300};
   std::vector<Method> methods;  ///< default: see default_fig7_methods()
   std::string data_dir;         ///< empty: default_data_directory()
+  /// The physics of every method (default: paper Tables 1-2).
+  NetworkParameters parameters;
+  /// Comment lines every written CSV carries (what produced it: app/run_config.hpp).
+  std::vector<std::string> provenance;
 };
 
 /// Default methods: the discrete model at N = 2,000 and, when the continuum model is
@@ -25,7 +29,8 @@ std::vector<Method> default_fig7_methods();
 struct Fig7Result {
   std::vector<ExperimentPoint> experiment, alternative;
   std::vector<MethodRun> runs;
-  std::vector<FitQuality> fits;  ///< per run, against `experiment`, up to 193 pN
+  std::vector<FitQuality> fits;         ///< per run, against `experiment`, up to 193 pN
+  std::vector<std::string> provenance;  ///< Fig7Options::provenance, for the written files
 };
 
 /// Throws std::invalid_argument if the forces are not strictly increasing or negative.

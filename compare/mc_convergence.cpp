@@ -185,7 +185,7 @@ McConvergenceResult run_mc_convergence(const McConvergenceOptions& o,
   o.validate();
   McConvergenceResult res;
   res.options = o;
-  const Network net = make_discrete_network(o.vertices);
+  const Network net = make_discrete_network(o.vertices, 0, o.parameters);
   res.vertices = net.topo.num_vertices;
   const std::string tag = "mc_convergence (N = " + std::to_string(res.vertices) + ", " +
                           std::to_string(o.force_pN) + " pN): ";

@@ -15,8 +15,10 @@
 #include <string>
 #include <vector>
 
+#include "discrete/network.hpp"
 #include "core/progress.hpp"
 #include "discrete/constraint_energy.hpp"
+#include "discrete/network.hpp"
 
 namespace rbc {
 
@@ -37,6 +39,8 @@ struct McConvergenceOptions {
   /// > 0 every sample is at a fixed sweep count) instead of the wall-clock budget.
   long long mc_sweeps = 0;
   unsigned long seed = 1;  ///< of the chain's RNG stream
+  /// The network's physics (default: paper Tables 1-2).
+  NetworkParameters parameters;
   /// From loose to the reference's own: at N ~ 500, 88 pN, 0.1 pN already gives D_A to
   /// ~0.02 %, so the looser ones resolve the minimiser's time at the 10 % to 0.3 % levels.
   std::vector<double> force_tolerances_pN = {3.0, 1.0, 0.3, 0.1, 1e-2, 1e-3};

@@ -68,10 +68,15 @@ Network make_discrete_network(int vertices) {
 }
 
 Network make_discrete_network(int vertices, unsigned rotation_seed) {
+  return make_discrete_network(vertices, rotation_seed, NetworkParameters{});
+}
+
+Network make_discrete_network(int vertices, unsigned rotation_seed,
+                              const NetworkParameters& parameters) {
   RestShapeOptions ro;
   ro.target_vertices = vertices;
   ro.rotation_seed = rotation_seed;
-  return build_network(make_rest_shape(ro), NetworkParameters{});
+  return build_network(make_rest_shape(ro), parameters);
 }
 
 double evaluation_cpu_seconds(const std::function<void()>& eval) {
@@ -119,7 +124,7 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   MethodRun run;
   run.method = m;
   run.symmetry = ro.symmetry;
-  const Network net = make_discrete_network(m.resolution, m.rotation_seed);
+  const Network net = make_discrete_network(m.resolution, m.rotation_seed, ro.parameters);
   run.vertices = net.topo.num_vertices;
   run.elements = net.topo.num_faces();
   run.patch_plus_um2 = net.patch.area_plus_um2;
@@ -146,9 +151,13 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
   run.method = m;
   run.symmetry = ro.symmetry;
   const TriMesh mesh = make_continuum_mesh(m.resolution, m.rotation_seed);
-  const NetworkParameters defaults;  // the same spectrin parameters as the discrete model
-  const IsotropicMembraneLaw law = make_membrane_law(defaults.wlc, defaults.steric, m.order);
-  const ContinuumModel model = build_continuum_model(mesh, law, ContinuumParameters{});
+  // The same spectrin, bending and contact parameters as the discrete model.
+  const NetworkParameters& p = ro.parameters;
+  const IsotropicMembraneLaw law = make_membrane_law(p.wlc, p.steric, m.order);
+  ContinuumParameters cp;
+  cp.bending = p.bending;
+  cp.tweezers = p.tweezers;
+  const ContinuumModel model = build_continuum_model(mesh, law, cp);
   run.vertices = model.topo.num_vertices;
   run.elements = model.num_elements();
   run.patch_plus_um2 = model.patch.area_plus_um2;

@@ -64,6 +64,9 @@ struct RunMethodOptions {
   /// Discrete methods: the minimiser's force tolerance (pN per vertex); 0 = StretchOptions'
   /// default (1e-3 pN).
   double discrete_force_tolerance_pN = 0;
+  /// The physics both models share (WLC, steric, bending, bead contact; default: paper Tables
+  /// 1-2): the discrete model's network and the continuum model's law, bending and contact.
+  NetworkParameters parameters;
 };
 
 /// CPU time (s) of one call of `eval`: the median of 7 batches of at least 20 ms CPU each.
@@ -76,6 +79,9 @@ double network_evaluation_cpu_seconds(const Network& net);
 Network make_discrete_network(int vertices);
 /// The same on the triangulation turned by `rotation_seed` (0: identical to the above).
 Network make_discrete_network(int vertices, unsigned rotation_seed);
+/// The same with the given physics.
+Network make_discrete_network(int vertices, unsigned rotation_seed,
+                              const NetworkParameters& parameters);
 
 /// Stretches the cell with the method over `forces_pN` (continuation in the given order).
 MethodRun run_method(const Method& method, const std::vector<double>& forces_pN,

@@ -62,6 +62,7 @@ TradeoffResult run_tradeoff(const TradeoffOptions& o, const ProgressSink& progre
                                 std::to_string(o.force_pN));
   TradeoffResult res;
   res.force_pN = o.force_pN;
+  res.provenance = o.provenance;
   std::vector<Method> methods;
   for (int n : o.discrete_vertices)
     methods.push_back({MethodKind::discrete, n, WlcExpansion::full});
@@ -71,7 +72,9 @@ TradeoffResult run_tradeoff(const TradeoffOptions& o, const ProgressSink& progre
   for (const Method& m : methods) {
     report(progress, "tradeoff: " + m.label() + " at " + std::to_string(o.force_pN) + " pN");
     TradeoffRow row;
-    row.run = run_method(m, {o.force_pN}, progress);
+    RunMethodOptions ro;
+    ro.parameters = o.parameters;
+    row.run = run_method(m, {o.force_pN}, progress, ro);
     const CurvePoint& p = row.run.points.back();
     row.axial_um = p.axial_um;
     row.transverse_um = p.transverse_um;
@@ -138,6 +141,7 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
         .push_back(&row);
     if (row.pareto) series_for("pareto").push_back(&row);
   }
+  all.comments.insert(all.comments.end(), r.provenance.begin(), r.provenance.end());
   write_csv(dir + "/tradeoff.csv", all);
   nlohmann::json j = {{"force_pN", r.force_pN},
                       {"reference",

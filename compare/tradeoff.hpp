@@ -15,6 +15,10 @@ struct TradeoffOptions {
   std::vector<int> continuum_elements = {500, 1000, 2000, 4000, 8000, 16000};
   std::vector<WlcExpansion> continuum_orders = {WlcExpansion::order2, WlcExpansion::full};
   bool include_continuum = true;
+  /// The physics of every method (default: paper Tables 1-2).
+  NetworkParameters parameters;
+  /// Comment lines the written CSV files carry (what produced them: app/run_config.hpp).
+  std::vector<std::string> provenance;
 };
 
 /// The reference answer and how it was obtained. Discrete D(N) = D_inf + c/N + ...
@@ -38,6 +42,7 @@ struct TradeoffResult {
   double force_pN = 0;
   TradeoffReference reference;
   std::vector<TradeoffRow> rows;
+  std::vector<std::string> provenance;  ///< TradeoffOptions::provenance
 };
 
 TradeoffReference richardson_reference(const std::vector<TradeoffRow>& discrete_rows);

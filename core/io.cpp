@@ -338,9 +338,22 @@ void write_csv(const std::string& path, const CsvTable& t) {
   std::ostringstream s;
   s << std::setprecision(10);
   for (const auto& c : t.comments) s << "# " << c << "\n";
+  const bool labelled = !t.label_header.empty();
+  if (labelled && t.labels.size() != t.rows.size())
+    throw std::logic_error(path + ": " + std::to_string(t.labels.size()) + " row labels for " +
+                           std::to_string(t.rows.size()) + " rows");
+  auto quoted = [](const std::string& text) {
+    if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+    std::string q = "\"";
+    for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+  };
+  if (labelled) s << quoted(t.label_header) << (t.header.empty() ? "" : ",");
   for (size_t k = 0; k < t.header.size(); ++k) s << (k ? "," : "") << t.header[k];
   s << "\n";
-  for (const auto& row : t.rows) {
+  for (size_t r = 0; r < t.rows.size(); ++r) {
+    const auto& row = t.rows[r];
+    if (labelled) s << quoted(t.labels[r]) << (row.empty() ? "" : ",");
     for (size_t k = 0; k < row.size(); ++k) s << (k ? "," : "") << row[k];
     s << "\n";
   }

@@ -108,11 +108,15 @@ int live_temporary_count() noexcept;
 /// std::runtime_error "PATH: <strerror>" on failure and leaves no temporary.
 void write_text_atomic(const std::string& path, const std::string& text);
 
-/// A numeric table with named columns; comment lines are written first as "# ...".
+/// A numeric table with named columns; comment lines are written first as "# ...". A table may
+/// name its rows in a leading text column (label_header, one label per row; quoted as RFC 4180
+/// asks where a label holds a comma, a quote or a line break); read_csv reads numeric tables.
 struct CsvTable {
   std::vector<std::string> comments;
   std::vector<std::string> header;
   std::vector<std::vector<double>> rows;
+  std::string label_header = {};
+  std::vector<std::string> labels = {};
 };
 void write_csv(const std::string& path, const CsvTable& table);
 /// Reads a numeric CSV with '#' comment lines and one header line; throws

@@ -7,11 +7,25 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace rbc {
 using ProgressSink = std::function<void(const std::string& message)>;
 inline void report(const ProgressSink& sink, const std::string& message) {
   if (sink) sink(message);
+}
+
+/// Two kinds of message share the channel: progress (a force, stage or block done: what a user
+/// follows) and solver internals (Newton iterates, refactorisations, preconditioner statistics,
+/// symmetry checks). Internals start with kDetailIndent; front ends show them on request
+/// (`rbc ... --verbose`).
+inline constexpr std::string_view kDetailIndent = "  ";
+inline bool is_detail(const std::string& message) {
+  return message.rfind(kDetailIndent, 0) == 0;
+}
+/// Reports a solver internal (the message is indented by kDetailIndent).
+inline void report_detail(const ProgressSink& sink, const std::string& message) {
+  if (sink) sink(std::string(kDetailIndent) + message);
 }
 
 /// Cooperative cancellation: long-running drivers and solvers call it between iterations

@@ -71,15 +71,28 @@ def _value(spec: str) -> tuple[str, str, bool]:
 
 
 def parse_options(text: str) -> list[Option]:
-    """The options of one CLI11 help text, in order (without -h,--help)."""
+    """The options of one CLI11 help text, in order (without -h,--help): the command's own,
+    then those of its option groups ("[Option Group: Model]", indented two more columns)."""
     lines = text.splitlines()
     try:
         start = lines.index("Options:") + 1
     except ValueError as e:
         raise RuntimeError("no 'Options:' section in the help text") from e
+    out = _parse_block(lines[start:])
+    for k, line in enumerate(lines):
+        if line.startswith("[Option Group:"):
+            j = k + 1
+            while j < len(lines) and lines[j].strip() != "Options:":
+                j += 1
+            out += _parse_block([l[2:] for l in lines[j + 1:]])
+    return out
+
+
+def _parse_block(lines: list[str]) -> list[Option]:
+    """Option lines up to the first blank or unindented line."""
     out: list[Option] = []
-    i = start
-    while i < len(lines) and lines[i].strip():
+    i = 0
+    while i < len(lines) and lines[i].strip() and lines[i].startswith(" "):
         line = lines[i]
         if not line.startswith("  -"):
             raise RuntimeError(f"unexpected help line '{line}'")

@@ -67,15 +67,14 @@ ModuliStudy run_moduli_study(const WlcParameters& wlc, const StericParameters& s
   const LinearModuli explicit_forms = paper_explicit_moduli(wlc, steric);
   ModuliStudy out;
   nlohmann::json& j = out.json;
-  j = {{"units", "uN/m (= pN/um)"},
-       {"network", to_string(o.network)},
-       {"mu_closed", closed.mu_pN_per_um},
-       {"K_closed", closed.K_pN_per_um},
-       {"young_closed", closed.young_pN_per_um()},
+  j = {{"network", to_string(o.network)},
+       {"mu_closed_pN_per_um", closed.mu_pN_per_um},
+       {"K_closed_pN_per_um", closed.K_pN_per_um},
+       {"young_closed_pN_per_um", closed.young_pN_per_um()},
        {"poisson_closed", closed.poisson()},
-       {"mu_paper_formula", explicit_forms.mu_pN_per_um},
-       {"K_paper_formula", explicit_forms.K_pN_per_um},
-       {"steric_C", m.C_pN_per_um}};
+       {"mu_paper_formula_pN_per_um", explicit_forms.mu_pN_per_um},
+       {"K_paper_formula_pN_per_um", explicit_forms.K_pN_per_um},
+       {"steric_C_pN_per_um", m.C_pN_per_um}};
   if (o.network == ModuliNetwork::hexagonal) {
     const int n = o.cells > 0 ? o.cells : 4;
     const PeriodicNetwork net = make_hexagonal_patch(n, wlc.lbar_um);
@@ -83,9 +82,9 @@ ModuliStudy run_moduli_study(const WlcParameters& wlc, const StericParameters& s
     const LinearModuli num = moduli_from_tangent(h.relaxed_tangent);
     const Theorem3Check t = theorem3_check(net, m, wlc.lbar_um, o.theorem3);
     const CellRelaxResult& r = t.relax;
-    j.update({{"mu_numeric", num.mu_pN_per_um},
-              {"K_numeric", num.K_pN_per_um},
-              {"young", num.young_pN_per_um()},
+    j.update({{"mu_numeric_pN_per_um", num.mu_pN_per_um},
+              {"K_numeric_pN_per_um", num.K_pN_per_um},
+              {"young_pN_per_um", num.young_pN_per_um()},
               {"poisson", num.poisson()},
               {"cells", n},
               {"mu_relative_difference", num.mu_pN_per_um / closed.mu_pN_per_um - 1.0},
@@ -129,22 +128,22 @@ ModuliStudy run_moduli_study(const WlcParameters& wlc, const StericParameters& s
     worst_residual = std::max(worst_residual, s.relax.residual_pN);
     converged = converged && s.relax.converged();
   }
-  j.update({{"mu_numeric", mu.mean},
-            {"mu_numeric_std", mu.std},
-            {"K_numeric", K.mean},
-            {"K_numeric_std", K.std},
-            {"young", E.mean},
-            {"young_std", E.std},
+  j.update({{"mu_numeric_pN_per_um", mu.mean},
+            {"mu_numeric_std_pN_per_um", mu.std},
+            {"K_numeric_pN_per_um", K.mean},
+            {"K_numeric_std_pN_per_um", K.std},
+            {"young_pN_per_um", E.mean},
+            {"young_std_pN_per_um", E.std},
             {"poisson", nu.mean},
             {"poisson_std", nu.std},
-            {"mu_affine", mua.mean},
-            {"mu_affine_std", mua.std},
-            {"K_affine", Ka.mean},
-            {"K_affine_std", Ka.std},
+            {"mu_affine_pN_per_um", mua.mean},
+            {"mu_affine_std_pN_per_um", mua.std},
+            {"K_affine_pN_per_um", Ka.mean},
+            {"K_affine_std_pN_per_um", Ka.std},
             {"degree6_fraction", deg6.mean},
             {"degree6_fraction_std", deg6.std},
-            {"prestress_uN_per_m", pre.mean},
-            {"prestress_std", pre.std},
+            {"prestress_pN_per_um", pre.mean},
+            {"prestress_std_pN_per_um", pre.std},
             {"phi_over_area", phi.mean},
             {"disorder", d.disorder},
             {"cells", d.cells},

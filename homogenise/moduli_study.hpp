@@ -60,9 +60,12 @@ struct ModuliStudyOptions {
 };
 
 struct ModuliStudy {
-  /// The keys of `rbc moduli --json` except the timing "seconds_total" (the disordered study's
-  /// "seconds_per_seed" is timing too): units, network, mu_closed, K_closed, young_closed,
-  /// poisson_closed, mu_paper_formula, K_paper_formula, steric_C, then the numerical keys.
+  /// The keys of `rbc moduli --json` except the timing "wall_s" (the disordered study's
+  /// "wall_per_seed_s" is timing too): network, mu_closed_pN_per_um, K_closed_pN_per_um,
+  /// young_closed_pN_per_um, poisson_closed, mu_paper_formula_pN_per_um,
+  /// K_paper_formula_pN_per_um, steric_C_pN_per_um, then the numerical keys. Every key names
+  /// its unit (moduli and tensions in pN/um = uN/m) or is dimensionless (poisson*, *_fraction,
+  /// *_relative_difference, *_over_lbar, counts, flags and names).
   nlohmann::json json;
   bool converged = true;
   /// When !converged: "cell problem did not converge: <status>, residual <r> pN" (hex) or

@@ -5,7 +5,15 @@ The compiled core (``rbc._rbc``, pybind11) binds the C++ libraries directly -- n
 executable -- so the numbers are the CLI's for the same inputs. Units are in the names:
 lengths in um, forces in pN, energies in pN*um inside; physical inputs in natural units
 (``persistence_nm``, ``kappa_J``, ``wlc_temperature_K``), converted once. Positions are
-``(N, 3)`` float64 arrays in um, faces ``(F, 3)`` int32.
+``(N, 3)`` float64 arrays in um, faces ``(F, 3)`` int32. The shared physics (the CLI's option
+group of --lbar, --lmax, --persistence, --temperature, --kappa, --h0, --q, --eta, --contact,
+--contact-fraction, --bending, --dihedral-mapping) is one object, rbc.ModelParameters.
+
+Every key of every dict the package returns names its unit (``mu_closed_pN_per_um``,
+``energy_pNum``, ``wall_s``) or is listed in rbc.UNITLESS_KEYS (dimensionless numbers, counts,
+flags, text and groups of other keys); a dict with a ``"unit"`` entry holds numbers in that unit,
+and the dicts under a key with a unit (``"energy_pNum": {"mean": ..., "error": ...}``) are in
+that key's unit.
 
 Long solves release the GIL (Python threads can run several at once) and poll Ctrl-C: a
 KeyboardInterrupt cancels them. Process pools must use the ``spawn`` start method once OpenMP
@@ -15,7 +23,8 @@ OpenMP's thread pool in an unusable state and can hang.
 Example::
 
     import rbc
-    res = rbc.stretch("discrete", forces_pN=[0, 88], vertices=500)
+    res = rbc.stretch("discrete", forces_pN=[0, 88], vertices=500,
+                      parameters=rbc.ModelParameters(persistence_nm=10))
     print(res.axial_um, res.transverse_um)       # D_A, D_T per force (um)
     net = rbc.Network(rbc.rest_shape(500))
     e, g = rbc.network_energy(net, net.rest_positions, force_pN=88.0)
@@ -25,9 +34,15 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-from typing import Any, Callable, Optional, Sequence
+import numbers
+from typing import TYPE_CHECKING, Any, Callable, Optional, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:  # the annotations' types; imported where they are used
+    import meshio
+    import scipy.sparse
+    import scipy.sparse.linalg
 
 from . import _rbc
 from ._rbc import (  # noqa: F401  (re-exported API)
@@ -51,10 +66,8 @@ from ._rbc import (  # noqa: F401  (re-exported API)
     blas_info,
     continuum_mesh,
     diameters,
-    moduli,
     network_energy,
     network_energy_parts,
-    psi,
     rest_shape,
     thermal_energy_pNum,
 )
@@ -65,6 +78,137 @@ __version__ = _rbc.__version__
 #: The forces of `rbc stretch` (pN): those of Mills et al. 2004.
 DEFAULT_FORCES_PN = (0.0, 16.0, 19.5, 30.6, 38.0, 46.6, 67.6, 87.6, 108.8, 130.0, 151.0, 172.8,
                      193.0)
+
+
+#: The keys of the package's dicts that carry no unit suffix, because they are dimensionless
+#: numbers (ratios, relative drifts, invariants, exponents, probabilities, log-likelihoods),
+#: counts, seeds, flags, text, or the names of groups of other keys. Every other key ends in its
+#: unit: _um, _um2, _um3, _nm, _pN, _pNum (pN um), _J, _K, _s, _per_um, _pN_per_um (= uN/m),
+#: _uN_per_m, _pN_per_um2 ... (tests/python/test_units.py checks every returned dict).
+UNITLESS_KEYS = frozenset({
+    # dimensionless numbers
+    "I1", "I2", "poisson", "poisson_closed", "poisson_std", "mu_relative_difference",
+    "K_relative_difference", "max_internal_displacement_over_lbar",
+    "relaxation_start_amplitude_over_lbar", "psi_patch_over_lattice_minus_1", "disorder",
+    "degree6_fraction", "degree6_fraction_std", "phi_over_area", "row_distortion",
+    "area_drift", "volume_drift", "max_area_drift", "max_volume_drift", "worst_aspect_ratio",
+    "volume_scale", "penalty_scale", "acceptance", "beta", "cov", "distinct_parents",
+    "unique_fraction", "log_mean_weight", "log_evidence", "log_evidence_sd",
+    "log_likelihood_samples", "inefficiency", "q", "eta", "contact_fraction",
+    # counts, seeds and indices
+    "cells", "rows", "vertices", "edges", "faces", "elements", "seeds", "seed", "streams",
+    "samples", "samples_per_stage", "discarded_transient", "sweep", "sweeps", "adaptive_sweeps",
+    "colours", "iterations", "newton_iterations", "phi_iterations", "degree_histogram", "stage",
+    "stages", "forward_runs", "made", "retried", "failed", "threads", "ranks",
+    "resumed_from_stage", "symmetry_order",
+    # flags and text
+    "converged", "blocking_converged", "symmetry_broken", "transverse_used", "network", "law",
+    "status", "status_text", "method", "data_file", "command", "unit", "library", "core",
+    "config", "bending", "contact", "dihedral_mapping", "log_evidence_error_estimate",
+    # groups of other keys (their entries carry the units)
+    "parameters", "derived", "timing", "stage_log", "stage_info", "data",
+    "predictive_q05_q50_q95",
+})
+# "samples" of rbc.infer() is (S, P): each column in the unit of InferenceProblem.units.
+
+
+_MODEL_DEFAULTS = _rbc._model_defaults()
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelParameters:
+    """The physics every model shares, in natural units: the CLI's option group "Model"
+    (--lbar, --lmax, --persistence, --temperature, --kappa, --h0, --q, --eta, --contact,
+    --contact-fraction, --bending, --dihedral-mapping) with the same defaults
+    (core/defaults.hpp: Li et al. 2005 / paper Tables 1 and 2).
+
+    lbar_nm: spectrin rest link length Lbar (nm); lmax_nm: contour length Lmax (nm, > Lbar);
+    persistence_nm: persistence length p (nm); temperature_K: temperature of the WLC links (K;
+    a Monte Carlo chain samples at its own sampling_temperature_K); kappa_J: bending rigidity
+    (J); h0_per_um: spontaneous curvature H0 (1/um); q, eta: steric exponent and regularisation
+    (dimensionless); contact: bead contact rule, "area" or "vertices"; contact_fraction: patch
+    fraction per bead (dimensionless, of the area or of the vertices); bending: "juelicher" or
+    "dihedral" (discrete model); dihedral_mapping: k_b(kappa) of the dihedral model, "sphere"
+    or "li".
+
+    Immutable (dataclasses.replace(p, q=2) gives a changed copy). The values are checked when
+    the object is made, by the libraries' validate(): a non-physical value raises ValueError
+    naming it and its limit. rbc.stretch, rbc.Network, rbc.moduli and rbc.psi take it as
+    ``parameters=``; .wlc_parameters, .bending_parameters, .steric_parameters and
+    .contact_parameters are the per-term objects (rbc.WlcParameters, ...) they convert to.
+    """
+
+    lbar_nm: float = _MODEL_DEFAULTS["lbar_nm"]
+    lmax_nm: float = _MODEL_DEFAULTS["lmax_nm"]
+    persistence_nm: float = _MODEL_DEFAULTS["persistence_nm"]
+    temperature_K: float = _MODEL_DEFAULTS["temperature_K"]
+    kappa_J: float = _MODEL_DEFAULTS["kappa_J"]
+    h0_per_um: float = _MODEL_DEFAULTS["h0_per_um"]
+    q: float = _MODEL_DEFAULTS["q"]
+    eta: float = _MODEL_DEFAULTS["eta"]
+    contact: str = _MODEL_DEFAULTS["contact"]
+    contact_fraction: float = _MODEL_DEFAULTS["contact_fraction"]
+    bending: str = _MODEL_DEFAULTS["bending"]
+    dihedral_mapping: str = _MODEL_DEFAULTS["dihedral_mapping"]
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if f.type == "str" and not isinstance(v, str):
+                raise TypeError(f"ModelParameters({f.name}={v!r}): expected a str")
+            if f.type == "float":
+                if isinstance(v, (bool, str)) or not isinstance(v, numbers.Real):
+                    raise TypeError(f"ModelParameters({f.name}={v!r}): expected a number")
+                object.__setattr__(self, f.name, float(v))
+        objects = _rbc._model_objects(**dataclasses.asdict(self))
+        object.__setattr__(self, "_objects", objects)
+
+    @property
+    def wlc_parameters(self) -> WlcParameters:
+        """The spectrin WLC term (lbar_nm, lmax_nm, persistence_nm, temperature_K)."""
+        return self._objects[0]
+
+    @property
+    def bending_parameters(self) -> BendingParameters:
+        """The bending term (kappa_J, h0_per_um, bending, dihedral_mapping)."""
+        return self._objects[1]
+
+    @property
+    def steric_parameters(self) -> StericParameters:
+        """The steric face term (q, eta)."""
+        return self._objects[2]
+
+    @property
+    def contact_parameters(self) -> ContactParameters:
+        """The bead contact (contact, contact_fraction)."""
+        return self._objects[3]
+
+    def to_dict(self) -> dict:
+        """The fields as a dict (keys as the attributes: units in the names)."""
+        return dataclasses.asdict(self)
+
+    def __getstate__(self):
+        return dataclasses.asdict(self)
+
+    def __setstate__(self, state):
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
+        self.__post_init__()
+
+
+def _physics(parameters: Optional[ModelParameters], wlc, bending, steric, contact):
+    """The per-term objects from `parameters` or from the separate keyword arguments."""
+    if parameters is None:
+        return wlc, bending, steric, contact
+    if not isinstance(parameters, ModelParameters):
+        raise TypeError(f"parameters must be an rbc.ModelParameters, got {parameters!r}")
+    given = [n for n, v in (("wlc", wlc), ("bending", bending), ("steric", steric),
+                            ("contact", contact)) if v is not None]
+    if given:
+        raise ValueError(f"give either parameters (rbc.ModelParameters) or {', '.join(given)}, "
+                         "not both")
+    return (parameters.wlc_parameters, parameters.bending_parameters,
+            parameters.steric_parameters, parameters.contact_parameters)
 
 
 class Model(enum.Enum):
@@ -251,6 +395,7 @@ def _force_list(forces_pN) -> list:
 def stretch(model: "Model | str" = "discrete",
             forces_pN: "float | Sequence[float]" = DEFAULT_FORCES_PN, *,
             vertices: int = 2000, elements: int = 4000, order: "Order | str | int" = "2",
+            parameters: Optional[ModelParameters] = None,
             wlc: Optional[WlcParameters] = None, bending: Optional[BendingParameters] = None,
             steric: Optional[StericParameters] = None, contact: Optional[ContactParameters] = None,
             constraints: Optional[ConstraintParameters] = None,
@@ -260,7 +405,11 @@ def stretch(model: "Model | str" = "discrete",
             symmetry: str = "none", check: bool = False,
             cancel: Optional[Callable[[], bool]] = None,
             progress: Optional[Callable[[str], None]] = None) -> StretchResult:
-    """Optical-tweezers stretch by continuation over forces_pN, as ``rbc stretch``.
+    """Optical-tweezers stretch by continuation over forces_pN (pN), as ``rbc stretch``.
+
+    The physics: `parameters` (an rbc.ModelParameters: the CLI's shared options in natural
+    units), or the per-term objects wlc, bending, steric, contact (not both); None = the
+    CLI's defaults. constraints: the area/volume penalties (pN/um^3, pN/um^5).
 
     model 'discrete': the spectrin network on a rest shape of about `vertices` vertices (or the
     given `network`), L-BFGS to `tolerance_pN` (default 1e-3 pN) with augmented-Lagrangian area
@@ -292,6 +441,10 @@ def stretch(model: "Model | str" = "discrete",
     """
     model = Model.of(model)
     forces_pN = _force_list(forces_pN)
+    if parameters is not None and network is not None:
+        raise ValueError("give either network or parameters, not both (the network carries its "
+                         "parameters: rbc.Network(mesh, parameters=...))")
+    wlc, bending, steric, contact = _physics(parameters, wlc, bending, steric, contact)
     # The library's limits (finite forces within the model's documented maximum), before any
     # mesh or network is built.
     _rbc._validate_forces(model.value, forces_pN)
@@ -339,11 +492,16 @@ def stretch(model: "Model | str" = "discrete",
     return result
 
 
-def network_hessian(network: Network, positions, *, area_multiplier_pN_per_um: float = 0.0,
+def network_hessian(network: Network, positions: np.ndarray, *,
+                    area_multiplier_pN_per_um: float = 0.0,
                     volume_multiplier_pN_per_um2: float = 0.0, stiffness_scale: float = 1.0,
-                    exact: bool = True, penalty: bool = False, shift_fraction: float = 0.0):
+                    exact: bool = True, penalty: bool = False,
+                    shift_fraction: float = 0.0) -> "scipy.sparse.csr_matrix":
     """Hessian (pN/um) of rbc.network_energy at `positions` as a scipy.sparse CSR matrix of
-    size 3N x 3N, ordered like the flat positions (x0, y0, z0, x1, ...).
+    size 3N x 3N, ordered like the flat positions (x0, y0, z0, x1, ...). positions: (N, 3)
+    or (3N,) in um; the multipliers lambda_A (pN/um) and lambda_V (pN/um^2) and the penalty
+    scale (dimensionless) as for rbc.network_energy; shift_fraction (dimensionless) shifts the
+    projected matrix's diagonal.
 
     exact=True: the exact Hessian of links, steric faces, Juelicher bending and the constraint
     curvature (sigma d2A + p d2V) -- for the dihedral model the bending part is its Gauss-Newton
@@ -360,17 +518,22 @@ def network_hessian(network: Network, positions, *, area_multiplier_pN_per_um: f
     # The library's matrix is symmetric: its column-major (CSC) arrays are its CSR arrays.
     h = scipy.sparse.csr_matrix((d["data"], d["indices"], d["indptr"]), shape=(n, n))
     if penalty:
-        a = d["area_gradient"].reshape(-1)
-        v = d["volume_gradient"].reshape(-1)
-        dense = d["area_weight"] * np.outer(a, a) + d["volume_weight"] * np.outer(v, v)
+        a = d["area_gradient_um"].reshape(-1)
+        v = d["volume_gradient_um2"].reshape(-1)
+        dense = (d["area_weight_pN_per_um3"] * np.outer(a, a)
+                 + d["volume_weight_pN_per_um5"] * np.outer(v, v))
         h = scipy.sparse.csr_matrix(h + dense)
     return h
 
 
-def network_hessian_operator(network: Network, positions, *, area_multiplier_pN_per_um=0.0,
-                             volume_multiplier_pN_per_um2=0.0, stiffness_scale=1.0, exact=True):
-    """The full Hessian (sparse part + the penalty's rank-two part) as a
-    scipy.sparse.linalg.LinearOperator, for Newton-CG / trust-region solvers at any N."""
+def network_hessian_operator(network: Network, positions: np.ndarray, *,
+                             area_multiplier_pN_per_um: float = 0.0,
+                             volume_multiplier_pN_per_um2: float = 0.0,
+                             stiffness_scale: float = 1.0,
+                             exact: bool = True) -> "scipy.sparse.linalg.LinearOperator":
+    """The full Hessian (pN/um; sparse part + the penalty's rank-two part) as a
+    scipy.sparse.linalg.LinearOperator, for Newton-CG / trust-region solvers at any N
+    (arguments as network_hessian's)."""
     from scipy.sparse.linalg import LinearOperator
 
     d = _rbc._network_hessian(network, positions, area_multiplier_pN_per_um,
@@ -379,9 +542,9 @@ def network_hessian_operator(network: Network, positions, *, area_multiplier_pN_
 
     n = d["size"]
     h = scipy.sparse.csr_matrix((d["data"], d["indices"], d["indptr"]), shape=(n, n))
-    a = d["area_gradient"].reshape(-1)
-    v = d["volume_gradient"].reshape(-1)
-    wa, wv = d["area_weight"], d["volume_weight"]
+    a = d["area_gradient_um"].reshape(-1)
+    v = d["volume_gradient_um2"].reshape(-1)
+    wa, wv = d["area_weight_pN_per_um3"], d["volume_weight_pN_per_um5"]
 
     def matvec(x):
         x = np.asarray(x).reshape(-1)
@@ -392,22 +555,74 @@ def network_hessian_operator(network: Network, positions, *, area_multiplier_pN_
 
 def infer(problem: Optional[InferenceProblem] = None, *,
           cancel: Optional[Callable[[], bool]] = None,
-          progress: Optional[Callable[[str], None]] = None, **options) -> dict:
+          progress: Optional[Callable[[str], None]] = None, **options: Any) -> dict:
     """Bayesian calibration by TMCMC, as ``rbc infer``: the posterior of the inferred parameters
     given force-diameter data (MODEL.md section 7).
 
     Pass an rbc.InferenceProblem, or its keyword arguments (parameters=['persistence', 'lmax',
     'sigma-scale'], priors={name: (lower, upper)}, method='continuum:2:1000', data_file,
     samples=500, seed=1, ...; the CLI's defaults). Returns the fields of ``rbc infer --json``
-    plus 'samples' (S, P) in natural units, 'log_likelihood_samples', the derived
-    'mu_uN_per_m_samples' and 'K_uN_per_m_samples', and 'stage_info'. The GIL is released;
-    Ctrl-C or cancel() returning True stops between stages with KeyboardInterrupt.
+    (each parameter's and each derived modulus's summary is a dict with its "unit") plus
+    'samples' (S, P; column j in the unit InferenceProblem.units[j]: nm, J or dimensionless),
+    'log_likelihood_samples' (dimensionless), the derived 'mu_samples_uN_per_m' and
+    'K_samples_uN_per_m' (S,), and 'stage_info' (per TMCMC stage: stage, beta, cov,
+    log_mean_weight, acceptance, unique_fraction, forward_runs; all dimensionless). The GIL is
+    released; Ctrl-C or cancel() returning True stops between stages with KeyboardInterrupt.
     """
     if problem is None:
         problem = InferenceProblem(**options)
     elif options:
         raise ValueError("give either an InferenceProblem or its options, not both")
     return _rbc._infer(problem, cancel, progress)
+
+
+def moduli(*, parameters: Optional[ModelParameters] = None,
+           wlc: Optional[WlcParameters] = None, steric: Optional[StericParameters] = None,
+           network: str = "hex", cells: int = 0, disorder: float = 0.5, seeds: int = 4,
+           cancel: Optional[Callable[[], bool]] = None,
+           progress: Optional[Callable[[str], None]] = None) -> dict:
+    """Linear moduli of the spectrin network: the keys of ``rbc moduli --json`` without its
+    run record (command, config, provenance) and wall_s.
+
+    The physics: `parameters` (rbc.ModelParameters; its WLC and steric fields count), or wlc
+    and steric (not both); None = the CLI's defaults. network 'hex': the periodic hexagonal
+    patch of `cells` x `cells` cells (0 = 4); 'disordered': `seeds` disordered networks of
+    `cells` (0 = 12) with disorder X = `disorder` in [0, 1].
+
+    Keys: moduli and tensions in pN/um (= uN/m): mu_closed_pN_per_um, K_closed_pN_per_um,
+    young_closed_pN_per_um (closed forms, Sec. 4.3), mu_paper_formula_pN_per_um,
+    K_paper_formula_pN_per_um (the paper's explicit formulas), steric_C_pN_per_um (the steric
+    constant C), mu_numeric_pN_per_um, K_numeric_pN_per_um, young_pN_per_um (the numerical cell
+    problem; disordered: means over the seeds, with *_std_pN_per_um, and the affine
+    mu_affine_pN_per_um, K_affine_pN_per_um, the residual prestress_pN_per_um); lengths
+    max_internal_displacement_um; residual_pN / worst_residual_pN. Dimensionless (see
+    rbc.UNITLESS_KEYS): poisson_closed, poisson, *_relative_difference, *_over_lbar,
+    psi_patch_over_lattice_minus_1, degree6_fraction, phi_over_area, disorder, row_distortion;
+    counts cells, rows, vertices, seeds, newton_iterations; converged; network.
+    """
+    wlc, _, steric, _ = _physics(parameters, wlc, None, steric, None)
+    return _rbc.moduli(wlc=wlc, steric=steric, network=network, cells=cells, disorder=disorder,
+                       seeds=seeds, cancel=cancel, progress=progress)
+
+
+def psi(order: "Order | str | int", deformation: "np.ndarray | Sequence", *,
+        parameters: Optional[ModelParameters] = None, wlc: Optional[WlcParameters] = None,
+        steric: Optional[StericParameters] = None) -> dict:
+    """Homogenised density Psi of the given order (2, 3, 4 or 'full') at a 2x2 surface
+    deformation gradient F (dimensionless; or a stack (M, 2, 2)): the keys of
+    ``rbc psi --deformation F11,F12,F21,F22 --json`` without its run record.
+
+    The physics: `parameters` (rbc.ModelParameters; its WLC and steric fields count), or wlc
+    and steric (not both); None = the CLI's defaults.
+
+    Keys (scalars for one F, arrays of length M for a stack): psi_pN_per_um (Psi, pN/um =
+    energy per reference area), I1 = J - 1 and I2 = tr(F^T F) - 2 (dimensionless),
+    dpsi_dI1_pN_per_um, dpsi_dI2_pN_per_um, first_piola_pN_per_um (P = dPsi/dF, (2, 2) or
+    (M, 2, 2)), psi_lattice_pN_per_um (the un-averaged lattice density at phi = 0) and law (its
+    name). Psi is inf outside the law's domain.
+    """
+    wlc, _, steric, _ = _physics(parameters, wlc, None, steric, None)
+    return _rbc.psi(order, deformation, wlc=wlc, steric=steric)
 
 
 def _mesh_to_meshio(self):
@@ -418,7 +633,7 @@ def _mesh_to_meshio(self):
                        point_data={"vertex_area_um2": self.vertex_areas_um2()})
 
 
-def mesh_from_meshio(m) -> Mesh:
+def mesh_from_meshio(m: "meshio.Mesh") -> Mesh:
     """A rbc.Mesh from a meshio.Mesh's points (um) and triangle cells."""
     tri = [c.data for c in m.cells if c.type == "triangle"]
     if not tri:
@@ -428,12 +643,16 @@ def mesh_from_meshio(m) -> Mesh:
 
 Mesh.to_meshio = _mesh_to_meshio
 
+# ---- dynamics (rbc.dynamics: the scenes of `rbc dynamics`; python/rbc/_dynamics.py) ----
+from ._dynamics import DynamicsResult, dynamics  # noqa: E402  (re-exported API)
+# ---- end of dynamics ----
+
 # Pictures of cells (numpy, h5py, meshio and matplotlib; the same script `rbc render` runs).
 from .render import plot_shape, read_shapes  # noqa: E402  (re-exported API)
 
 __all__ = [name for name in dir() if not name.startswith("_") and name not in (
-    "annotations", "dataclasses", "enum", "math", "np", "Any", "Callable", "Optional",
-    "Sequence")]
+    "annotations", "dataclasses", "enum", "math", "numbers", "np", "TYPE_CHECKING", "Any",
+    "Callable", "Optional", "Sequence")]
 
 
 def __dir__():

@@ -24,7 +24,7 @@ import argparse
 import dataclasses
 import os
 import sys
-from typing import Optional, Sequence
+from typing import BinaryIO, Optional, Sequence
 
 import numpy as _np
 
@@ -140,7 +140,7 @@ def read_shapes(path: str) -> list:
     return shapes
 
 
-def diameters_um(points_um) -> tuple:
+def diameters_um(points_um: _np.ndarray) -> tuple:
     """(D_A, D_T) as rbc measures them (core/geometry.hpp): D_A = max x - min x, and D_T the
     largest extent perpendicular to x, the diameter of the points projected on the y-z plane
     (the largest distance between two corners of their convex hull)."""
@@ -190,13 +190,15 @@ def _project(points_um, elev_deg: float, azim_deg: float):
     return _np.stack([points_um @ right, points_um @ up], axis=1), points_um @ towards
 
 
-def plot_shapes(shapes: Sequence[Shape], out_png, field: Optional[str] = None,
-                title: Optional[str] = None, dpi: int = 110) -> str:
+def plot_shapes(shapes: Sequence[Shape], out_png: str | os.PathLike | BinaryIO,
+                field: Optional[str] = None, title: Optional[str] = None,
+                dpi: int = 110, metadata: Optional[dict] = None) -> str:
     """Draws the shapes (one row each, two views) to ``out_png`` (a path or a binary file
     object); returns the field used.
 
     ``field``: one name of :data:`FIELD_PREFERENCE` or any field the files carry; by default
-    the first of :data:`FIELD_PREFERENCE` that every shape has."""
+    the first of :data:`FIELD_PREFERENCE` that every shape has. ``metadata``: PNG text chunks
+    (key to text), e.g. what produced the shapes."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -269,13 +271,15 @@ def plot_shapes(shapes: Sequence[Shape], out_png, field: Optional[str] = None,
     fig.colorbar(scalar, cax=bar, label=_field_label(field))
     if title:
         fig.suptitle(title, fontsize=12)
-    fig.savefig(out_png, format="png", dpi=dpi, bbox_inches="tight", pad_inches=0.15)
+    fig.savefig(out_png, format="png", dpi=dpi, bbox_inches="tight", pad_inches=0.15,
+                metadata=dict(metadata or {}))
     plt.close(fig)
     return field
 
 
-def plot_shape(files, out_png: str, field: Optional[str] = None,
-               title: Optional[str] = None) -> str:
+def plot_shape(files: str | os.PathLike | Sequence[str | os.PathLike],
+               out_png: str | os.PathLike | BinaryIO, field: Optional[str] = None,
+               title: Optional[str] = None, metadata: Optional[dict] = None) -> str:
     """Draws shape files rbc wrote (one path or a list of .xdmf/.h5) to ``out_png``, as
     ``rbc render`` does; returns the field the triangles are coloured by.
 
@@ -287,7 +291,7 @@ def plot_shape(files, out_png: str, field: Optional[str] = None,
     paths = [files] if isinstance(files, (str, os.PathLike)) else list(files)
     shapes = [s for path in paths for s in read_shapes(os.fspath(path))]
     target = os.fspath(out_png) if isinstance(out_png, (str, os.PathLike)) else out_png
-    return plot_shapes(shapes, target, field=field, title=title)
+    return plot_shapes(shapes, target, field=field, title=title, metadata=metadata)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -298,11 +302,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--field", default=None)
     parser.add_argument("--title", default=None)
+    parser.add_argument("--metadata", action="append", default=[], metavar="KEY=TEXT",
+                        help="a PNG text chunk (repeatable)")
     args = parser.parse_args(argv)
+    metadata = dict(item.split("=", 1) for item in args.metadata if "=" in item)
     # "--out -": the PNG goes to stdout (rbc render writes the file itself).
     target = sys.stdout.buffer if args.out == "-" else args.out
     try:
-        field = plot_shape(args.files, target, field=args.field, title=args.title)
+        field = plot_shape(args.files, target, field=args.field, title=args.title,
+                           metadata=metadata)
     except (ValueError, OSError, KeyError, StopIteration) as error:
         message = str(error) if not isinstance(error, StopIteration) else \
             "the files share no field to colour by"

@@ -181,8 +181,8 @@ void bind_infer(py::module_& m) {
         // (S, P) C-contiguous: a view of the transposed (column-major P x S) copy.
         out["samples"] = owning_rows(Eigen::MatrixXd(r.samples.transpose()));
         out["log_likelihood_samples"] = owning_vector(Eigen::VectorXd(r.log_likelihood));
-        out["mu_uN_per_m_samples"] = owning_vector(Eigen::VectorXd(r.mu_uN_per_m));
-        out["K_uN_per_m_samples"] = owning_vector(Eigen::VectorXd(r.K_uN_per_m));
+        out["mu_samples_uN_per_m"] = owning_vector(Eigen::VectorXd(r.mu_uN_per_m));
+        out["K_samples_uN_per_m"] = owning_vector(Eigen::VectorXd(r.K_uN_per_m));
         py::list stages;
         for (const StageInfo& s : r.stages) {
           py::dict d;

@@ -168,26 +168,36 @@ void bind_mc(py::module_& m) {
            "Run `sweeps` more sweeps (GIL released; Ctrl-C raises KeyboardInterrupt at the end of "
            "the current sweep and leaves the chain there).")
       .def("summary", &MonteCarlo::summary,
-           "Means and blocking errors of the production samples (dict, keys of `rbc mc --json`)")
+           "Means and blocking errors of the production samples: a dict with the keys of "
+           "`rbc mc --json`; each quantity's statistics (mean, error, std, inefficiency) are "
+           "in its key's unit (energy_pNum, axial_um, ...); acceptance and drifts are "
+           "dimensionless")
       .def_property_readonly("series", &MonteCarlo::series,
                              "time series: dict of arrays (sweep, energy_pNum, axial_um, "
                              "transverse_um, area_um2, volume_um3, acceptance, step_um)")
       .def_property_readonly("positions", &MonteCarlo::positions,
                              "(N, 3) current positions in um (copy)")
-      .def_property_readonly("sweeps_done", &MonteCarlo::sweeps_done)
-      .def_property_readonly("energy_pNum", &MonteCarlo::energy)
-      .def_property_readonly("step_um", &MonteCarlo::step)
-      .def_property_readonly("network", &MonteCarlo::network)
-      .def_property_readonly("multipliers",
-                             [](const MonteCarlo& mc) { return mc.setup().multipliers; })
-      .def_property_readonly("reference_axial_um",
-                             [](const MonteCarlo& mc) { return mc.setup().reference_axial_um; })
+      .def_property_readonly("sweeps_done", &MonteCarlo::sweeps_done, "sweeps run so far")
+      .def_property_readonly("energy_pNum", &MonteCarlo::energy,
+                             "free energy of the current state (pN um)")
+      .def_property_readonly("step_um", &MonteCarlo::step, "current trial step (um)")
+      .def_property_readonly("network", &MonteCarlo::network, "the sampled rbc.Network")
+      .def_property_readonly(
+          "multipliers", [](const MonteCarlo& mc) { return mc.setup().multipliers; },
+          "the area/volume multipliers held fixed (pN/um, pN/um^2)")
+      .def_property_readonly(
+          "reference_axial_um", [](const MonteCarlo& mc) { return mc.setup().reference_axial_um; },
+          "D_A of the zero-temperature start (um)")
       .def_property_readonly(
           "reference_transverse_um",
-          [](const MonteCarlo& mc) { return mc.setup().reference_transverse_um; })
-      .def_property_readonly("kT_pNum", [](const MonteCarlo& mc) {
-        return units::thermal_energy_pNum(mc.setup().sampler.temperature_K);
-      });
+          [](const MonteCarlo& mc) { return mc.setup().reference_transverse_um; },
+          "D_T of the zero-temperature start (um)")
+      .def_property_readonly(
+          "kT_pNum",
+          [](const MonteCarlo& mc) {
+            return units::thermal_energy_pNum(mc.setup().sampler.temperature_K);
+          },
+          "k_B T at the sampling temperature (pN um)");
 }
 
 }  // namespace rbc::py_bind

@@ -57,22 +57,41 @@ void bind_network(py::module_& m) {
       "The spectrin network on a rest mesh (MODEL.md section 2): per-link rest lengths and "
       "per-face rest areas taken from the mesh (every element stress-free at its own reference), "
       "material constants, bead patches. Immutable; share it between threads freely.")
-      .def(py::init(&make_network), py::arg("mesh"), py::kw_only(), py::arg("wlc") = py::none(),
-           py::arg("bending") = py::none(), py::arg("steric") = py::none(),
-           py::arg("contact") = py::none(), py::arg("constraints") = py::none(),
-           py::arg("expansion") = "full",
-           "Network(mesh, wlc=WlcParameters(), bending=BendingParameters(), "
-           "steric=StericParameters(), contact=ContactParameters(), "
-           "constraints=ConstraintParameters(), expansion='full'); None = defaults.")
-      .def_readonly("mesh", &PyNetwork::mesh)
-      .def_readonly("wlc", &PyNetwork::wlc)
-      .def_readonly("bending", &PyNetwork::bending)
-      .def_readonly("steric", &PyNetwork::steric)
-      .def_readonly("contact", &PyNetwork::contact)
-      .def_readonly("constraints", &PyNetwork::constraints)
-      .def_readonly("expansion", &PyNetwork::expansion)
-      .def_property_readonly("num_vertices",
-                             [](const PyNetwork& n) { return n.net->topo.num_vertices; })
+      .def(py::init([](std::shared_ptr<PyMesh> mesh, const py::object& parameters,
+                       const py::object& wlc, const py::object& bending, const py::object& steric,
+                       const py::object& contact, const py::object& constraints,
+                       const py::object& expansion) {
+             if (parameters.is_none())
+               return make_network(std::move(mesh), wlc, bending, steric, contact, constraints,
+                                   expansion);
+             if (!wlc.is_none() || !bending.is_none() || !steric.is_none() || !contact.is_none())
+               throw py::value_error(
+                   "give either parameters (rbc.ModelParameters) or wlc, bending, steric, "
+                   "contact, not both");
+             return make_network(std::move(mesh), parameters.attr("wlc_parameters"),
+                                 parameters.attr("bending_parameters"),
+                                 parameters.attr("steric_parameters"),
+                                 parameters.attr("contact_parameters"), constraints, expansion);
+           }),
+           py::arg("mesh"), py::kw_only(), py::arg("parameters") = py::none(),
+           py::arg("wlc") = py::none(), py::arg("bending") = py::none(),
+           py::arg("steric") = py::none(), py::arg("contact") = py::none(),
+           py::arg("constraints") = py::none(), py::arg("expansion") = "full",
+           "Network(mesh, parameters=ModelParameters(), constraints=ConstraintParameters(), "
+           "expansion='full'), or with the physics as wlc=WlcParameters(), "
+           "bending=BendingParameters(), steric=StericParameters(), contact=ContactParameters() "
+           "instead of parameters; None = defaults. mesh: an rbc.Mesh in um.")
+      .def_readonly("mesh", &PyNetwork::mesh, "the rest mesh (rbc.Mesh, um)")
+      .def_readonly("wlc", &PyNetwork::wlc, "rbc.WlcParameters (nm, K)")
+      .def_readonly("bending", &PyNetwork::bending, "rbc.BendingParameters (J, 1/um)")
+      .def_readonly("steric", &PyNetwork::steric, "rbc.StericParameters (dimensionless)")
+      .def_readonly("contact", &PyNetwork::contact, "rbc.ContactParameters (dimensionless)")
+      .def_readonly("constraints", &PyNetwork::constraints,
+                    "rbc.ConstraintParameters (pN/um^3, pN/um^5)")
+      .def_readonly("expansion", &PyNetwork::expansion, "rbc.Order of the WLC density V")
+      .def_property_readonly(
+          "num_vertices", [](const PyNetwork& n) { return n.net->topo.num_vertices; },
+          "vertex count N")
       .def_property_readonly(
           "rest_positions",
           [](py::object self) { return rows_view(self.cast<PyNetwork&>().net->rest, self); },
@@ -93,12 +112,18 @@ void bind_network(py::module_& m) {
           "abar_um2",
           [](py::object self) { return vector_view(self.cast<PyNetwork&>().net->abar_um2, self); },
           "(F,) rest face areas Abar_f in um^2 (read-only view)")
-      .def_property_readonly("area0_um2", [](const PyNetwork& n) { return n.net->area0_um2; })
-      .def_property_readonly("volume0_um3", [](const PyNetwork& n) { return n.net->volume0_um3; })
-      .def_property_readonly("steric_C_pN_per_um",
-                             [](const PyNetwork& n) { return n.net->steric_C_pN_per_um; })
-      .def_property_readonly("dihedral_kb_pNum",
-                             [](const PyNetwork& n) { return n.net->dihedral_kb_pNum; })
+      .def_property_readonly(
+          "area0_um2", [](const PyNetwork& n) { return n.net->area0_um2; },
+          "rest area A0 the area constraint holds (um^2)")
+      .def_property_readonly(
+          "volume0_um3", [](const PyNetwork& n) { return n.net->volume0_um3; },
+          "rest volume V0 the volume constraint holds (um^3)")
+      .def_property_readonly(
+          "steric_C_pN_per_um", [](const PyNetwork& n) { return n.net->steric_C_pN_per_um; },
+          "steric constant C that makes the rest shape stress-free (pN/um)")
+      .def_property_readonly(
+          "dihedral_kb_pNum", [](const PyNetwork& n) { return n.net->dihedral_kb_pNum; },
+          "dihedral bending stiffness k_b (pN um)")
       .def_property_readonly(
           "wlc_x0", [](const PyNetwork& n) { return n.net->wlc.x0; },
           "Lbar/Lmax of the density V (0.31546 for the defaults)")
@@ -116,11 +141,12 @@ void bind_network(py::module_& m) {
                                        n.net->patch.share.data());
           },
           "signed force shares of the bound vertices along +x (each bead sums to +-1; copy)")
-      .def_property_readonly("contact_area_um2",
-                             [](const PyNetwork& n) {
-                               return py::make_tuple(n.net->patch.area_plus_um2,
-                                                     n.net->patch.area_minus_um2);
-                             })
+      .def_property_readonly(
+          "contact_area_um2",
+          [](const PyNetwork& n) {
+            return py::make_tuple(n.net->patch.area_plus_um2, n.net->patch.area_minus_um2);
+          },
+          "(+x bead, -x bead) contact patch areas (um^2)")
       .def(
           "largest_rest_inplane_force_pN",
           [](const PyNetwork& n) { return largest_rest_inplane_force_pN(*n.net); },
@@ -171,17 +197,20 @@ void bind_network(py::module_& m) {
         const double e =
             run_released(nullptr, [&] { return network_energy(*n.net, x, load, nullptr, &p); });
         py::dict d;
-        d["links"] = p.links;
-        d["steric"] = p.steric;
-        d["bending"] = p.bending;
-        d["constraints"] = p.constraints;
-        d["tweezers"] = p.tweezers;
-        d["total"] = e;
+        d["links_pNum"] = p.links;
+        d["steric_pNum"] = p.steric;
+        d["bending_pNum"] = p.bending;
+        d["constraints_pNum"] = p.constraints;
+        d["tweezers_pNum"] = p.tweezers;
+        d["total_pNum"] = e;
         return d;
       },
       py::arg("network"), py::arg("positions"), py::kw_only(), py::arg("force_pN") = 0.0,
       py::arg("area_multiplier_pN_per_um") = 0.0, py::arg("volume_multiplier_pN_per_um2") = 0.0,
-      py::arg("stiffness_scale") = 1.0, "Energy of each term (pN um) as a dict.");
+      py::arg("stiffness_scale") = 1.0,
+      "Energy of each term in pN um as a dict: links_pNum, steric_pNum, bending_pNum, "
+      "constraints_pNum (multipliers and penalties), tweezers_pNum (minus the bead work) and "
+      "total_pNum (their sum, network_energy's value).");
 
   m.def(
       "_network_hessian",
@@ -230,10 +259,10 @@ void bind_network(py::module_& m) {
         d["indices"] = py::array_t<int>(H.nonZeros(), H.innerIndexPtr());
         d["indptr"] = py::array_t<int>(H.outerSize() + 1, H.outerIndexPtr());
         d["size"] = H.rows();
-        d["area_gradient"] = owning_rows(std::move(out.grad_area));
-        d["volume_gradient"] = owning_rows(std::move(out.grad_volume));
-        d["area_weight"] = out.weight_area;
-        d["volume_weight"] = out.weight_volume;
+        d["area_gradient_um"] = owning_rows(std::move(out.grad_area));
+        d["volume_gradient_um2"] = owning_rows(std::move(out.grad_volume));
+        d["area_weight_pN_per_um3"] = out.weight_area;
+        d["volume_weight_pN_per_um5"] = out.weight_volume;
         return d;
       },
       py::arg("network"), py::arg("positions"), py::arg("area_multiplier_pN_per_um"),

@@ -6,6 +6,7 @@
 
 #include "common.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 
 namespace rbc::py_bind {
 
@@ -151,46 +152,51 @@ std::string PyConstraints::repr() const {
          ", tolerance=" + num(lib.tolerance) + ")";
 }
 
-PyWlc make_wlc(double persistence_nm, double lmax_nm, double lbar_nm, double temperature_K) {
+PyWlc make_wlc(double persistence_nm, double lmax_nm, double lbar_nm, double temperature_K,
+               const std::string& call) {
   PyWlc p{persistence_nm, lmax_nm, lbar_nm, temperature_K, {}};
-  finite(p.repr() + ": persistence_nm", persistence_nm);
-  finite(p.repr() + ": lmax_nm", lmax_nm);
-  finite(p.repr() + ": lbar_nm", lbar_nm);
-  finite(p.repr() + ": wlc_temperature_K", temperature_K);
+  const std::string c = call.empty() ? p.repr() : call;
+  finite(c + ": persistence_nm", persistence_nm);
+  finite(c + ": lmax_nm", lmax_nm);
+  finite(c + ": lbar_nm", lbar_nm);
+  finite(c + (call.empty() ? ": wlc_temperature_K" : ": temperature_K"), temperature_K);
   p.lib.persistence_um = units::nm_to_um(persistence_nm);
   p.lib.lmax_um = units::nm_to_um(lmax_nm);
   p.lib.lbar_um = units::nm_to_um(lbar_nm);
   p.lib.temperature_K = temperature_K;
-  validated(p.repr(), [&] { p.lib.validate(); });
+  validated(c, [&] { p.lib.validate(); });
   return p;
 }
 
 PyBending make_bending(double kappa_J, double h0_per_um, BendingModel model,
-                       DihedralMapping mapping) {
+                       DihedralMapping mapping, const std::string& call) {
   PyBending p{kappa_J, h0_per_um, model, mapping, {}};
-  finite(p.repr() + ": kappa_J", kappa_J);
-  finite(p.repr() + ": h0_per_um", h0_per_um);
+  const std::string c = call.empty() ? p.repr() : call;
+  finite(c + ": kappa_J", kappa_J);
+  finite(c + ": h0_per_um", h0_per_um);
   p.lib.kappa_pNum = units::joule_to_pNum(kappa_J);
   p.lib.h0_per_um = h0_per_um;
-  validated(p.repr(), [&] { p.lib.validate(); });
+  validated(c, [&] { p.lib.validate(); });
   return p;
 }
 
-PySteric make_steric(double q, double eta) {
+PySteric make_steric(double q, double eta, const std::string& call) {
   PySteric p{q, eta, {q, eta}};
-  finite(p.repr() + ": q", q);
-  finite(p.repr() + ": eta", eta);
-  validated(p.repr(), [&] { p.lib.validate(); });
+  const std::string c = call.empty() ? p.repr() : call;
+  finite(c + ": q", q);
+  finite(c + ": eta", eta);
+  validated(c, [&] { p.lib.validate(); });
   return p;
 }
 
-PyContact make_contact(double fraction, PatchRule rule, bool level_patch) {
+PyContact make_contact(double fraction, PatchRule rule, bool level_patch, const std::string& call) {
   PyContact p{fraction, rule, level_patch, {}};
-  finite(p.repr() + ": fraction", fraction);
+  const std::string c = call.empty() ? p.repr() : call;
+  finite(c + (call.empty() ? ": fraction" : ": contact_fraction"), fraction);
   p.lib.contact_fraction = fraction;
   p.lib.rule = rule;
   p.lib.keep_equal_x_together = level_patch;
-  validated(p.repr(), [&] { p.lib.validate(); });
+  validated(c, [&] { p.lib.validate(); });
   return p;
 }
 
@@ -256,6 +262,16 @@ DihedralMapping dihedral_mapping_from_string(const std::string& s) {
   if (s == "sphere") return DihedralMapping::sphere_matched;
   if (s == "li") return DihedralMapping::li_et_al;
   throw std::invalid_argument("dihedral mapping '" + s + "' is not one of sphere, li");
+}
+}  // namespace
+
+namespace {
+/// "ModelParameters(name=value, ...)" of the given fields, for error messages.
+std::string model_call(std::initializer_list<std::pair<const char*, double>> fields) {
+  std::string s = "ModelParameters(";
+  for (const auto& [name, value] : fields)
+    s += (s.back() == '(' ? "" : ", ") + std::string(name) + "=" + num(value);
+  return s + ")";
 }
 }  // namespace
 
@@ -332,7 +348,8 @@ void bind_parameters(py::module_& m) {
 
   py::class_<PySteric>(m, "StericParameters",
                        "Steric face term 2C/((A/Abar)^q + eta): exponent q, regularisation eta.")
-      .def(py::init(&make_steric), py::kw_only(), py::arg("q") = 1.0, py::arg("eta") = 0.005)
+      .def(py::init([](double q, double eta) { return make_steric(q, eta); }), py::kw_only(),
+           py::arg("q") = 1.0, py::arg("eta") = 0.005)
       .def_readonly("q", &PySteric::q)
       .def_readonly("eta", &PySteric::eta)
       .def("__repr__", &PySteric::repr)
@@ -384,6 +401,68 @@ void bind_parameters(py::module_& m) {
           [](const py::tuple& t) {
             return make_constraints(t[0].cast<double>(), t[1].cast<double>(), t[2].cast<double>());
           }));
+
+  // rbc.ModelParameters (python/rbc/__init__.py) is a dataclass over these two functions: the
+  // defaults come from the library (core/defaults.hpp and the parameter structs, which the
+  // CLI's options use too) and the values are checked by the libraries' validate().
+  m.def(
+      "_model_defaults",
+      [] {
+        py::dict d;
+        d["lbar_nm"] = defaults::kLbar_nm;
+        d["lmax_nm"] = defaults::kLmax_nm;
+        d["persistence_nm"] = defaults::kPersistence_nm;
+        d["temperature_K"] = defaults::kWlcTemperature_K;
+        d["kappa_J"] = defaults::kKappa_J;
+        d["h0_per_um"] = BendingParameters{}.h0_per_um;
+        d["q"] = StericParameters{}.q;
+        d["eta"] = StericParameters{}.eta;
+        d["contact"] = to_string(TweezersParameters{}.rule);
+        d["contact_fraction"] = TweezersParameters{}.contact_fraction;
+        d["bending"] = to_string(NetworkParameters{}.bending_model);
+        d["dihedral_mapping"] =
+            NetworkParameters{}.dihedral_mapping == DihedralMapping::sphere_matched ? "sphere"
+                                                                                    : "li";
+        return d;
+      },
+      "The defaults of rbc.ModelParameters (natural units), the CLI's.");
+  m.def(
+      "_model_objects",
+      [](double lbar_nm, double lmax_nm, double persistence_nm, double temperature_K,
+         double kappa_J, double h0_per_um, double q, double eta, const std::string& contact,
+         double contact_fraction, const std::string& bending, const std::string& mapping) {
+        const PyWlc w = make_wlc(persistence_nm, lmax_nm, lbar_nm, temperature_K,
+                                 model_call({{"lbar_nm", lbar_nm},
+                                             {"lmax_nm", lmax_nm},
+                                             {"persistence_nm", persistence_nm},
+                                             {"temperature_K", temperature_K}}));
+        const std::string bcall = model_call({{"kappa_J", kappa_J}, {"h0_per_um", h0_per_um}});
+        BendingModel model{};
+        DihedralMapping map{};
+        validated("ModelParameters(bending='" + bending + "')",
+                  [&] { model = bending_model_from_string(bending); });
+        validated("ModelParameters(dihedral_mapping='" + mapping + "')",
+                  [&] { map = dihedral_mapping_from_string(mapping); });
+        const PyBending b = make_bending(kappa_J, h0_per_um, model, map, bcall);
+        // As the CLI's Model options (app/model_options.cpp): a cell needs kappa > 0 (the
+        // library's BendingParameters allows 0 for flat test patches).
+        validated(bcall, [&] {
+          require_finite_in_range("bending rigidity kappa", "J", kappa_J, 0.0, kMaxKappa_J);
+        });
+        const PySteric s = make_steric(q, eta, model_call({{"q", q}, {"eta", eta}}));
+        PatchRule rule{};
+        validated("ModelParameters(contact='" + contact + "')",
+                  [&] { rule = patch_rule_from_string(contact); });
+        const PyContact c = make_contact(contact_fraction, rule, false,
+                                         model_call({{"contact_fraction", contact_fraction}}));
+        return py::make_tuple(w, b, s, c);
+      },
+      py::kw_only(), py::arg("lbar_nm"), py::arg("lmax_nm"), py::arg("persistence_nm"),
+      py::arg("temperature_K"), py::arg("kappa_J"), py::arg("h0_per_um"), py::arg("q"),
+      py::arg("eta"), py::arg("contact"), py::arg("contact_fraction"), py::arg("bending"),
+      py::arg("dihedral_mapping"),
+      "(WlcParameters, BendingParameters, StericParameters, ContactParameters) of the shared "
+      "physics; ValueError naming the value and the limit (the libraries' validate()).");
 
   m.def(
       "thermal_energy_pNum",

@@ -181,11 +181,15 @@ struct PyConstraints {
   std::string repr() const;
 };
 
-PyWlc make_wlc(double persistence_nm, double lmax_nm, double lbar_nm, double temperature_K);
+/// The parameter objects, validated by the library's validate(); a ValueError is prefixed by
+/// `call` (the Python call that gave the values; empty: the object's repr).
+PyWlc make_wlc(double persistence_nm, double lmax_nm, double lbar_nm, double temperature_K,
+               const std::string& call = {});
 PyBending make_bending(double kappa_J, double h0_per_um, BendingModel model,
-                       DihedralMapping mapping);
-PySteric make_steric(double q, double eta);
-PyContact make_contact(double fraction, PatchRule rule, bool level_patch = false);
+                       DihedralMapping mapping, const std::string& call = {});
+PySteric make_steric(double q, double eta, const std::string& call = {});
+PyContact make_contact(double fraction, PatchRule rule, bool level_patch = false,
+                       const std::string& call = {});
 PyConstraints make_constraints(double area_stiffness, double volume_stiffness, double tolerance);
 
 /// A triangle mesh with its quality report.
@@ -225,5 +229,6 @@ void bind_stretch(py::module_& m);
 void bind_homogenise(py::module_& m);
 void bind_mc(py::module_& m);
 void bind_infer(py::module_& m);
+void bind_dynamics(py::module_& m);
 
 }  // namespace rbc::py_bind

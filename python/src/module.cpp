@@ -14,6 +14,10 @@ PYBIND11_MODULE(_rbc, m) {
   // A solve that did not converge, raised only when asked (check=True); carries residual_pN.
   static py::exception<std::runtime_error> convergence_error(m, "ConvergenceError",
                                                              PyExc_RuntimeError);
+  convergence_error.attr("__doc__") =
+      "A solve that did not converge (a RuntimeError), raised only with check=True: "
+      ".residual_pN (largest net vertex force at the end, pN), .force_pN (the force, pN) and, "
+      "from rbc.stretch, .result (the StretchResult with every point).";
   // A cancelled solve (Ctrl-C or a cancel callback) surfaces as KeyboardInterrupt.
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -29,6 +33,7 @@ PYBIND11_MODULE(_rbc, m) {
   bind_homogenise(m);
   bind_mc(m);
   bind_infer(m);
+  bind_dynamics(m);
   m.def(
       "blas_info",
       [] {

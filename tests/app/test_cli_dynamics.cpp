@@ -67,7 +67,7 @@ TEST(CliDynamics, BadTimesAndViscositiesExitTwoAndWriteNothing) {
       {"--membrane-viscosity 0", "--membrane-viscosity"},
       {"--membrane-viscosity -0.5", "-0.5"},
       {"--membrane-viscosity inf", "inf"},
-      {"--dt 0.2 --duration 0.1", "must not exceed --duration 0.1"},
+      {"--dt 0.2 --duration 0.1", "at most the duration 0.1 s"},
       {"--model discrete --scene relax", "--scene relax"},
       {"--model discrete --force 600", "600"},
       {"--model continuum --force 450", "450"},
@@ -232,6 +232,91 @@ TEST(CliDynamics, RelaxSceneEndsAtTheStaticHelfrichRelaxation) {
   EXPECT_LT(viscous, base / 3);
   EXPECT_GT(dragged, base / 2);
   EXPECT_LT(dragged, base);
+}
+
+}  // namespace
+
+namespace {
+
+/// The data rows of a CSV file (its "#" comment lines, which carry the date and the command
+/// line, left out).
+std::vector<std::string> csv_rows(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> rows;
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind('#', 0) != 0) rows.push_back(line);
+  return rows;
+}
+
+nlohmann::json read_json(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+// The model option group reaches the scene. The WLC link energy is k_B T Lmax/(4 p) times a
+// function of L/Lmax: its stiffness scales as k_B T/p, so a LARGER persistence length p is a
+// SOFTER network. With --persistence 10 (default 7.5 nm) the shear modulus is 7.5/10 of the
+// default's, the Kelvin-Voigt time eta_m/mu 10/7.5 of it, and the same force stretches the cell
+// further: the static D_A under load and the D_A the trajectory reaches are both larger.
+TEST(CliDynamics, LargerPersistenceLengthGivesASofterNetwork) {
+  const std::string args =
+      "--model discrete -n 250 --scene stretch --force 50 --duration 0.1 --dt 0.01 --json -q";
+  const CommandResult a = dynamics(args, "persistence_default");
+  const CommandResult b = dynamics(args + " --persistence 10", "persistence_10");
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const auto ja = nlohmann::json::parse(a.out), jb = nlohmann::json::parse(b.out);
+  EXPECT_EQ(ja.at("config").at("persistence").get<double>(), 7.5);
+  EXPECT_EQ(jb.at("config").at("persistence").get<double>(), 10.0);
+  EXPECT_EQ(jb.at("command"), "dynamics");
+  EXPECT_TRUE(jb.at("provenance").contains("rbc_version"));
+  EXPECT_NEAR(jb.at("shear_modulus_pN_per_um").get<double>() /
+                  ja.at("shear_modulus_pN_per_um").get<double>(),
+              0.75, 1e-12);
+  EXPECT_NEAR(
+      jb.at("kelvin_voigt_time_s").get<double>() / ja.at("kelvin_voigt_time_s").get<double>(),
+      10.0 / 7.5, 1e-12);
+  const double static_a = ja.at("static_axial_um"), static_b = jb.at("static_axial_um");
+  const double end_a = ja.at("samples").back().at("axial_um");
+  const double end_b = jb.at("samples").back().at("axial_um");
+  const double rest_a = ja.at("samples").front().at("axial_um");
+  EXPECT_GT(static_b - rest_a, 1.1 * (static_a - rest_a)) << static_a << " " << static_b;
+  EXPECT_GT(end_b, end_a + 0.1) << end_a << " " << end_b;
+}
+
+// A run's run.json repeats it: `--config D/run.json --out E` reads the options back (here a
+// non-default persistence length and scene) and gives the same numbers, bit for bit.
+TEST(CliDynamics, ConfigFromRunJsonRepeatsTheRunBitForBit) {
+  const fs::path d = fresh_dir("config_first"), e = fresh_dir("config_again");
+  const CommandResult first = dynamics(
+      "--model discrete -n 250 --scene release --force 40 --persistence 10 --kappa 3e-19 "
+      "--duration 0.05 --dt 0.005 --no-picture -q --out " +
+          d.string(),
+      "config_first");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const nlohmann::json run = read_json(d / "run.json");
+  EXPECT_TRUE(run.at("complete").get<bool>());
+  EXPECT_EQ(run.at("config").at("persistence").get<double>(), 10.0);
+  const CommandResult again =
+      dynamics("--config " + (d / "run.json").string() + " --out " + e.string(), "config_again");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const std::vector<std::string> rows = csv_rows(d / "dynamics.csv");
+  ASSERT_EQ(rows.size(), 12u);  // header and 11 samples
+  EXPECT_EQ(csv_rows(e / "dynamics.csv"), rows);
+  nlohmann::json a = read_json(d / "dynamics.json"), b = read_json(e / "dynamics.json");
+  for (nlohmann::json* j : {&a, &b}) {
+    j->erase("wall_s");
+    j->erase("provenance");
+    j->at("config").erase("out");
+  }
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(b.at("force_pN").get<double>(), 40.0);
+  EXPECT_EQ(b.at("config").at("kappa").get<double>(), 3e-19);
+  // The record is in the CSV comments too.
+  std::ifstream csv(e / "dynamics.csv");
+  std::stringstream text;
+  text << csv.rdbuf();
+  EXPECT_NE(text.str().find("\"persistence\":10"), std::string::npos) << text.str();
 }
 
 }  // namespace

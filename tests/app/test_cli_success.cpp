@@ -223,6 +223,16 @@ TEST(CliSuccess, Fig7CurvesEqualStretchAndItsFitEqualsTheRecomputedRms) {
                         "fig7_continuum_p2_E200.csv", "experiment_mills2004.csv",
                         "experiment_mills2004_alternative.csv"})
     EXPECT_TRUE(fs::is_regular_file(out + "/" + f)) << f;
+  {  // fig7_fit.csv names each method in its first column.
+    std::ifstream in(out + "/fig7_fit.csv");
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind('#', 0) != 0) lines.push_back(line);
+    ASSERT_EQ(lines.size(), 3u);
+    EXPECT_EQ(lines[0].rfind("method,axial_rms_um,", 0), 0u) << lines[0];
+    EXPECT_EQ(lines[1].rfind("discrete_N150,", 0), 0u) << lines[1];
+    EXPECT_EQ(lines[2].rfind("continuum_p2_E200,", 0), 0u) << lines[2];
+  }
   const json summary = read_json(out + "/fig7.json");
   ASSERT_EQ(summary.size(), 2u);
   const Csv mills =
@@ -390,8 +400,8 @@ TEST(CliSuccess, StabilityRowsEqualModuliStretchAndTheOrderCurves) {
     ASSERT_EQ(m.exit_code, 0) << m.err;
     const json mj = json::parse(m.out);
     if (const json* k = stability_row(rows, "steric", s.method, "K_closed_pN_per_um", eta))
-      expect_rel(k->at("value").get<double>(), mj.at("K_paper_formula").get<double>(), kSameDouble,
-                 "K");
+      expect_rel(k->at("value").get<double>(), mj.at("K_paper_formula_pN_per_um").get<double>(),
+                 kSameDouble, "K");
     const json pts =
         stretch_points(std::string("-n 100 --force 0,88 --q ") + s.q + " --eta " + s.eta, dir,
                        std::string("stretch_q") + s.q + "_eta" + s.eta);

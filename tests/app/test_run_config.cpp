@@ -47,8 +47,8 @@ std::vector<double> shape_positions(const fs::path& h5) {
 nlohmann::json physics_of(const nlohmann::json& points) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& p : points)
-    out.push_back({p.at("force_pN"), p.at("axial_um"), p.at("transverse_um"),
-                   p.at("energy_pNum"), p.at("iterations"), p.at("residual_pN")});
+    out.push_back({p.at("force_pN"), p.at("axial_um"), p.at("transverse_um"), p.at("energy_pNum"),
+                   p.at("iterations"), p.at("residual_pN")});
   return out;
 }
 
@@ -89,8 +89,8 @@ TEST(RunConfig, CommandLineOverridesTheFile) {
   const fs::path d = rbc::testing::fresh_output_dir("run_config_override");
   write_text(d / "soft.json", R"({"persistence": 10, "force": [50], "vertices": 300})");
   const auto from_file = run_rbc("stretch --quiet --json --config " + (d / "soft.json").string());
-  const auto overridden = run_rbc("stretch --quiet --json --persistence 7.5 --config " +
-                                  (d / "soft.json").string());
+  const auto overridden =
+      run_rbc("stretch --quiet --json --persistence 7.5 --config " + (d / "soft.json").string());
   const auto plain = run_rbc("stretch --quiet --json --force 50 --vertices 300");
   ASSERT_EQ(from_file.exit_code, 0) << from_file.all();
   ASSERT_EQ(overridden.exit_code, 0) << overridden.all();
@@ -149,9 +149,8 @@ TEST(RunConfig, EveryOutputOfStretchRecordsWhatProducedIt) {
   std::string v = version.out;
   while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
   ASSERT_FALSE(v.empty());
-  const auto r = run_rbc(kSmallStretch + " --lmax 210 --json --no-picture --out " +
-                             (d / "D").string(),
-                         2);
+  const auto r =
+      run_rbc(kSmallStretch + " --lmax 210 --json --no-picture --out " + (d / "D").string(), 2);
   ASSERT_EQ(r.exit_code, 0) << r.all();
   const nlohmann::json run = read_json(d / "D" / "run.json");
   const nlohmann::json printed = nlohmann::json::parse(r.out);
@@ -175,6 +174,57 @@ TEST(RunConfig, EveryOutputOfStretchRecordsWhatProducedIt) {
             run.at("provenance").at("rbc_version").get<std::string>());
   EXPECT_EQ(nlohmann::json::parse(h5.read_attribute_string("rbc_config")), run.at("config"));
   EXPECT_NE(h5.read_attribute_string("rbc_command_line").find("--lmax 210"), std::string::npos);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(RunConfig, RelaxTakesTheModelGroupAndRepeatsFromItsRunJson) {
+  const fs::path d = rbc::testing::fresh_output_dir("run_config_relax");
+  const std::string base = "relax --elements 300 --h0 0 --quiet ";
+  const auto stiff = run_rbc(base + "--kappa 4e-19 --out " + (d / "D").string());
+  ASSERT_EQ(stiff.exit_code, 0) << stiff.all();
+  const nlohmann::json run = read_json(d / "D" / "run.json");
+  EXPECT_EQ(run.at("config").at("kappa"), 4e-19);
+  const auto repeat = run_rbc("relax --json --config " + (d / "D" / "run.json").string() +
+                              " --out " + (d / "E").string());
+  const auto plain = run_rbc(base + "--json");
+  ASSERT_EQ(repeat.exit_code, 0) << repeat.all();
+  ASSERT_EQ(plain.exit_code, 0) << plain.all();
+  const auto diameter = [](const std::string& out) {
+    return nlohmann::json::parse(out).at("points").at(0).at("diameter_after_um").get<double>();
+  };
+  EXPECT_EQ(read_json(d / "E" / "relax.json").at(0).at("diameter_after_um"),
+            read_json(d / "D" / "relax.json").at(0).at("diameter_after_um"));
+  // A stiffer bilayer relaxes the Evans-Fung shape differently from the default one.
+  EXPECT_NE(diameter(repeat.out), diameter(plain.out));
+}
+
+TEST(RunConfig, AccuracyTableRefusesPhysicsItWasNotMeasuredWith) {
+  const auto r = run_rbc("tradeoff --accuracy-table --lmax 200 --out " +
+                         rbc::testing::fresh_output_dir("run_config_table").string() + "/o");
+  EXPECT_EQ(r.exit_code, 2) << r.all();
+  EXPECT_NE(r.err.find("--accuracy-table is measured at the default physics"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--lmax 200"), std::string::npos) << r.err;
+}
+
+}  // namespace
+
+namespace {
+
+// Progress per force at the default verbosity; the solver's internals only with --verbose.
+TEST(RunConfig, SolverInternalsOnlyWithVerbose) {
+  const auto plain = run_rbc("stretch --force 0,50 --vertices 300");
+  const auto verbose = run_rbc("stretch --force 0,50 --vertices 300 --verbose");
+  ASSERT_EQ(plain.exit_code, 0) << plain.all();
+  ASSERT_EQ(verbose.exit_code, 0) << verbose.all();
+  EXPECT_NE(plain.err.find("F = 50 pN"), std::string::npos) << plain.err;
+  EXPECT_EQ(plain.err.find("preconditioner:"), std::string::npos) << plain.err;
+  EXPECT_EQ(plain.err.find("s]   "), std::string::npos) << "an indented (internal) line\n"
+                                                        << plain.err;
+  EXPECT_NE(verbose.err.find("preconditioner:"), std::string::npos) << verbose.err;
 }
 
 }  // namespace

@@ -147,6 +147,28 @@ std::string read_error(F f) {
   return "";
 }
 
+// A leading text column names the rows; a label holding a comma or a quote is quoted (RFC 4180),
+// so a standard CSV reader gets the label back whole.
+TEST(CsvLabels, RowsNamedInALeadingQuotedColumn) {
+  const auto dir = rbc::testing::fresh_output_dir("csv_labels");
+  rbc::CsvTable t;
+  t.comments = {"two methods"};
+  t.label_header = "method";
+  t.header = {"error_percent"};
+  t.labels = {"discrete_N2000", "continuum, \"full\" law"};
+  t.rows = {{0.5}, {1.25}};
+  rbc::write_csv((dir / "t.csv").string(), t);
+  std::ifstream in(dir / "t.csv");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(),
+            "# two methods\nmethod,error_percent\ndiscrete_N2000,0.5\n"
+            "\"continuum, \"\"full\"\" law\",1.25\n");
+  t.labels.pop_back();  // a label per row, or the table is not written
+  EXPECT_THROW(rbc::write_csv((dir / "u.csv").string(), t), std::logic_error);
+  EXPECT_FALSE(std::filesystem::exists(dir / "u.csv"));
+}
+
 TEST(CsvMessages, ADirectoryIsNamedAsOne) {
   const auto dir = rbc::testing::fresh_output_dir("csv_messages_directory");
   const std::string expected =

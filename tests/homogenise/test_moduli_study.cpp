@@ -72,8 +72,8 @@ TEST(ModuliStudy, HexagonalJsonCarriesTheClosedFormsAndTheCheck) {
   ASSERT_TRUE(s.converged) << s.failure;
   const LinearModuli closed = closed_form_moduli(wlc, steric);
   EXPECT_EQ(s.json.at("network"), "hex");
-  EXPECT_DOUBLE_EQ(s.json.at("mu_closed").get<double>(), closed.mu_pN_per_um);
-  EXPECT_DOUBLE_EQ(s.json.at("K_closed").get<double>(), closed.K_pN_per_um);
+  EXPECT_DOUBLE_EQ(s.json.at("mu_closed_pN_per_um").get<double>(), closed.mu_pN_per_um);
+  EXPECT_DOUBLE_EQ(s.json.at("K_closed_pN_per_um").get<double>(), closed.K_pN_per_um);
   // The perfect lattice's numerical moduli equal the closed forms (Sec. 4.3).
   EXPECT_LT(std::abs(s.json.at("mu_relative_difference").get<double>()), 1e-8);
   EXPECT_LT(std::abs(s.json.at("K_relative_difference").get<double>()), 1e-8);

@@ -129,12 +129,12 @@ TEST(ModuliStudyDisordered, SeedStatisticsAreThoseOfIndependentPerSeedRuns) {
       EXPECT_NEAR(json_number(s, std_key), t.std, rel * std::abs(t.mean)) << std_key;
     }
   };
-  expect_stats("mu_numeric", "mu_numeric_std", &PerSeed::mu);
-  expect_stats("K_numeric", "K_numeric_std", &PerSeed::K);
-  expect_stats("young", "young_std", &PerSeed::young);
+  expect_stats("mu_numeric_pN_per_um", "mu_numeric_std_pN_per_um", &PerSeed::mu);
+  expect_stats("K_numeric_pN_per_um", "K_numeric_std_pN_per_um", &PerSeed::K);
+  expect_stats("young_pN_per_um", "young_std_pN_per_um", &PerSeed::young);
   expect_stats("poisson", "poisson_std", &PerSeed::poisson);
-  expect_stats("mu_affine", "mu_affine_std", &PerSeed::mu_affine);
-  expect_stats("K_affine", "K_affine_std", &PerSeed::K_affine);
+  expect_stats("mu_affine_pN_per_um", "mu_affine_std_pN_per_um", &PerSeed::mu_affine);
+  expect_stats("K_affine_pN_per_um", "K_affine_std_pN_per_um", &PerSeed::K_affine);
   expect_stats("degree6_fraction", "degree6_fraction_std", &PerSeed::degree6);
   expect_stats("phi_over_area", nullptr, &PerSeed::phi_over_area);
   EXPECT_NEAR(s.phi_over_area_std, column(&PerSeed::phi_over_area).std,
@@ -156,8 +156,8 @@ TEST(ModuliStudyDisordered, MeansFollowTheClosedFormsOfTheHexagonalLattice) {
   ASSERT_TRUE(s.converged) << s.failure;
   const NetworkMaterial m = make_network_material(wlc, steric);
   const LinearModuli closed = closed_form_moduli(m.w, steric);
-  EXPECT_DOUBLE_EQ(json_number(s, "mu_closed"), closed.mu_pN_per_um);
-  EXPECT_DOUBLE_EQ(json_number(s, "K_closed"), closed.K_pN_per_um);
+  EXPECT_DOUBLE_EQ(json_number(s, "mu_closed_pN_per_um"), closed.mu_pN_per_um);
+  EXPECT_DOUBLE_EQ(json_number(s, "K_closed_pN_per_um"), closed.K_pN_per_um);
   const double v1 = derivative_at_rest(m.w, 1), v2 = derivative_at_rest(m.w, 2);
   const double phi = json_number(s, "phi_over_area");
   ASSERT_GT(phi, 0.0);  // a disordered network is not equilateral
@@ -173,8 +173,8 @@ TEST(ModuliStudyDisordered, MeansFollowTheClosedFormsOfTheHexagonalLattice) {
   // linear in Phi/A, so the identity holds for the means over seeds too.
   const double mu_affine = closed.mu_pN_per_um + 0.5 * units::sqrt3 * (v1 + v2) * phi;
   const double K_affine = closed.K_pN_per_um + units::sqrt3 * (v2 + 0.5 * v1) * phi;
-  EXPECT_NEAR(json_number(s, "mu_affine"), mu_affine, 1e-10 * mu_affine);
-  EXPECT_NEAR(json_number(s, "K_affine"), K_affine, 1e-10 * K_affine);
+  EXPECT_NEAR(json_number(s, "mu_affine_pN_per_um"), mu_affine, 1e-10 * mu_affine);
+  EXPECT_NEAR(json_number(s, "K_affine_pN_per_um"), K_affine, 1e-10 * K_affine);
 
   // Relaxed means. The disorder changes the moduli at second order in the jitter delta (the
   // jitter is isotropic, so first-order changes average out), and Phi/A is the network's
@@ -187,7 +187,8 @@ TEST(ModuliStudyDisordered, MeansFollowTheClosedFormsOfTheHexagonalLattice) {
   // standard errors. The seeds are fixed, so the test is deterministic; were they drawn at
   // random, a Gaussian mean would cross a bound with probability below P(|Z| > 40) < 1e-300
   // per check, far below 1e-3 for the checks together.
-  const double mu = json_number(s, "mu_numeric"), K = json_number(s, "K_numeric");
+  const double mu = json_number(s, "mu_numeric_pN_per_um"),
+               K = json_number(s, "K_numeric_pN_per_um");
   EXPECT_LE(std::abs(mu - closed.mu_pN_per_um), mu_affine - closed.mu_pN_per_um);
   EXPECT_LE(std::abs(K - closed.K_pN_per_um), K_affine - closed.K_pN_per_um);
   // And relaxation lowers the moduli below the Cauchy-Born ones (Schur complement, E_uu > 0).

@@ -199,8 +199,8 @@ def test_psi_matches_the_closed_form_moduli():
     shear_m = np.array([[1 - s, 0], [0, 1 + s]])
     mu = (psi(shear) - 2 * p0 + psi(shear_m)) / s**2 / 4  # 4 mu = d2 Psi / ds2
     K = (psi((1 + s) * np.eye(2)) - 2 * p0 + psi((1 - s) * np.eye(2))) / s**2 / 4
-    assert mu == pytest.approx(d["mu_closed"], rel=1e-5)
-    assert K == pytest.approx(d["K_closed"], rel=1e-5)
+    assert mu == pytest.approx(d["mu_closed_pN_per_um"], rel=1e-5)
+    assert K == pytest.approx(d["K_closed_pN_per_um"], rel=1e-5)
 
 
 def test_meshes_networks_and_results_pickle(small_network, perturbed):

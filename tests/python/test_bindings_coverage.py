@@ -30,27 +30,29 @@ def test_energy_parts_sum_to_the_total_of_network_energy(small_network, perturbe
     kw = dict(force_pN=30.0, area_multiplier_pN_per_um=0.4, volume_multiplier_pN_per_um2=-0.02,
               stiffness_scale=3.0)
     parts = rbc.network_energy_parts(small_network, perturbed, **kw)
-    assert set(parts) == {"links", "steric", "bending", "constraints", "tweezers", "total"}
+    assert set(parts) == {"links_pNum", "steric_pNum", "bending_pNum", "constraints_pNum",
+                          "tweezers_pNum", "total_pNum"}
     total, _ = rbc.network_energy(small_network, perturbed, **kw)
-    terms = [parts[k] for k in ("links", "steric", "bending", "constraints", "tweezers")]
+    terms = [parts[k] for k in ("links_pNum", "steric_pNum", "bending_pNum", "constraints_pNum",
+                                "tweezers_pNum")]
     # The two calls sum the same terms (possibly in another order): last bits only.
-    assert parts["total"] == pytest.approx(total, rel=1e-12)
+    assert parts["total_pNum"] == pytest.approx(total, rel=1e-12)
     assert sum(terms) == pytest.approx(total, rel=1e-12)
     # Every physical term is there: links, steric and bending are positive on a perturbed cell.
-    assert parts["links"] > 0 and parts["steric"] > 0 and parts["bending"] > 0
+    assert parts["links_pNum"] > 0 and parts["steric_pNum"] > 0 and parts["bending_pNum"] > 0
 
 
 def test_tweezer_part_is_the_bead_work_and_the_others_do_not_see_the_force(small_network,
                                                                            perturbed):
     at0 = rbc.network_energy_parts(small_network, perturbed, force_pN=0.0)
     at = rbc.network_energy_parts(small_network, perturbed, force_pN=45.0)
-    assert at0["tweezers"] == 0.0
+    assert at0["tweezers_pNum"] == 0.0
     # E_tweezers = -F sum_i share_i (x_i - X_i) . e_x over the bead-bound vertices.
     v = small_network.contact_vertices
     dx = perturbed[v, 0] - np.asarray(small_network.rest_positions)[v, 0]
     work = -45.0 * np.dot(small_network.contact_shares, dx)
-    assert at["tweezers"] == pytest.approx(work, rel=1e-12)
-    for k in ("links", "steric", "bending", "constraints"):
+    assert at["tweezers_pNum"] == pytest.approx(work, rel=1e-12)
+    for k in ("links_pNum", "steric_pNum", "bending_pNum", "constraints_pNum"):
         assert at[k] == pytest.approx(at0[k], rel=1e-13), k
 
 
@@ -58,14 +60,15 @@ def test_constraint_part_follows_the_multipliers_and_the_penalty_scale(small_net
     A, V = area_volume(perturbed, small_network.faces)
     dA, dV = A - small_network.area0_um2, V - small_network.volume0_um3
     assert abs(dA) > 1e-6 and abs(dV) > 1e-6  # the perturbation moved both
-    base = rbc.network_energy_parts(small_network, perturbed)["constraints"]
+    base = rbc.network_energy_parts(small_network, perturbed)["constraints_pNum"]
     # Multiplier terms lambda_A (A - A0) + lambda_V (V - V0), added to the penalties.
     la, lv = 0.7, -0.03
     with_l = rbc.network_energy_parts(small_network, perturbed, area_multiplier_pN_per_um=la,
-                                      volume_multiplier_pN_per_um2=lv)["constraints"]
+                                      volume_multiplier_pN_per_um2=lv)["constraints_pNum"]
     assert with_l - base == pytest.approx(la * dA + lv * dV, rel=1e-9, abs=1e-12 * abs(base))
     # The penalties s kA/2 (A - A0)^2 + s kV/2 (V - V0)^2 are linear in the scale s.
-    scaled = rbc.network_energy_parts(small_network, perturbed, stiffness_scale=2.5)["constraints"]
+    scaled = rbc.network_energy_parts(small_network, perturbed,
+                                      stiffness_scale=2.5)["constraints_pNum"]
     assert base > 0
     assert scaled == pytest.approx(2.5 * base, rel=1e-12)
 
@@ -73,8 +76,8 @@ def test_constraint_part_follows_the_multipliers_and_the_penalty_scale(small_net
 def test_energy_parts_at_the_rest_shape_have_no_constraint_or_tweezer_energy(small_network):
     p = rbc.network_energy_parts(small_network, small_network.rest_positions)
     # A = A0 and V = V0 at rest (to rounding): the penalties are (rounding)^2.
-    assert abs(p["constraints"]) < 1e-12 * p["total"]
-    assert p["tweezers"] == 0.0
+    assert abs(p["constraints_pNum"]) < 1e-12 * p["total_pNum"]
+    assert p["tweezers_pNum"] == 0.0
 
 
 # ---- MonteCarlo.series ----

@@ -135,6 +135,9 @@ def _cases(net, mesh):
         ("StericParameters", "q", lambda v: rbc.StericParameters(q=v)),
         ("StericParameters", "eta", lambda v: rbc.StericParameters(eta=v)),
         ("ContactParameters", "fraction", lambda v: rbc.ContactParameters(fraction=v)),
+        *[("_model_objects", name, lambda v, name=name: rbc.ModelParameters(**{name: v}))
+          for name in ("lbar_nm", "lmax_nm", "persistence_nm", "temperature_K", "kappa_J",
+                       "h0_per_um", "q", "eta", "contact_fraction")],
         ("ConstraintParameters", "area_stiffness_pN_per_um3",
          lambda v: rbc.ConstraintParameters(area_stiffness_pN_per_um3=v)),
         ("ConstraintParameters", "volume_stiffness_pN_per_um5",
@@ -169,6 +172,10 @@ def _cases(net, mesh):
         ("InferenceProblem", "priors",
          lambda v: rbc.InferenceProblem(parameters=["persistence"],
                                         priors={"persistence": (3.0, v)})),
+        *[("_dynamics", name, lambda v, name=name: rbc.dynamics(**{name: v}))
+          for name in ("force_pN", "membrane_viscosity_pN_s_per_um", "dilatational_ratio",
+                       "duration_s", "dt_s", "tolerance_pN_per_s", "normal_drag_pN_s_per_um3",
+                       "regulariser")],
     ]
 
 
