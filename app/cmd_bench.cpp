@@ -483,10 +483,11 @@ void BM_ContinuumStabilityCheck(benchmark::State& state) {
   state.counters["vertices"] = static_cast<double>(m.rest.cols());
 }
 
-/// Metropolis sweeps at 300 K, zero force, from the rest shape, on state.range(1) OpenMP threads.
-/// Two RNG streams whatever the thread count, so both thread counts run the SAME chain and the
-/// ratio of their rates is the parallel speed-up. 20 adaptive sweeps first bring the acceptance
-/// to its 40 % target (the cost of a move does not depend much on it).
+/// Metropolis sweeps at 300 K, zero force, from the rest shape, on state.range(1) OpenMP threads
+/// (McOptions::threads: forced, where `rbc mc` takes mc_thread_decision's one thread below
+/// kMcParallelVertices). Two RNG streams whatever the thread count, so both thread counts run
+/// the SAME chain and the ratio of their rates is the parallel speed-up. 20 adaptive sweeps first
+/// bring the acceptance to its 40 % target (the cost of a move does not depend much on it).
 void BM_McSweep(benchmark::State& state) {
   const Network& net = cached_network(static_cast<int>(state.range(0)));
   const int threads = static_cast<int>(state.range(1));
@@ -496,6 +497,7 @@ void BM_McSweep(benchmark::State& state) {
   o.temperature_K = 300.0;
   o.seed = 1;
   o.streams = 2;
+  o.threads = threads;
   o.adapt_sweeps = 20;
   LoadState load;
   load.stiffness_scale = 25.0;  // McRunSetup's default

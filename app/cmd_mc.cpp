@@ -6,8 +6,9 @@
 // solve_equilibrium, by continuation: mc_startup_forces()); its area/volume multipliers are
 // then held fixed while sampling, so the chain at T -> 0 collapses onto that equilibrium and the
 // reported thermal shift is <D> - D(T = 0). --start rest starts from the rest shape instead
-// (same multipliers). The WLC links keep their own temperature (300 K, spectrin level);
-// --temperature sets the sampling temperature only.
+// (same multipliers). The physics is the shared model option group (app/model_options.hpp):
+// --temperature is the temperature of the WLC constants k_B T/p, and the chain samples at
+// --sampling-temperature, which defaults to it (one --temperature sets both).
 #include <omp.h>
 
 #include <algorithm>
@@ -24,6 +25,7 @@
 #include "app/cli_util.hpp"
 #include "app/commands.hpp"
 #include "app/interrupt.hpp"
+#include "app/model_options.hpp"
 #include "app/render.hpp"
 #include "app/run_config.hpp"
 #include "core/geometry.hpp"
@@ -44,7 +46,9 @@ namespace {
 struct McCli {
   int vertices = 500;
   double force_pN = 0.0;
-  double temperature_K = 300.0;
+  ModelCli physics;                         ///< the model option group (app/model_options.hpp)
+  double sampling_temperature_K = 0.0;      ///< --sampling-temperature (K), when given
+  bool sampling_temperature_given = false;  ///< else the chain samples at --temperature
   long long sweeps = 2000;
   unsigned long seed = 1;
   int streams = 2;  // fixed by default, so the chain does not depend on the thread count
@@ -54,25 +58,35 @@ struct McCli {
   double penalty_scale = McRunSetup{}.penalty_scale;
   std::string checkpoint, resume, out;
   McStart start = McStart::equilibrium;
-  BendingModel bending = BendingModel::juelicher;
   long long checkpoint_every = 100;
   long long snapshot_every = 0;
   bool json = false, quiet = false, overwrite = false;
   bool picture = true;  ///< --out: cells.png of the first and the last snapshot (--no-picture)
+  /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
+  /// run.json starts from it, mc_summary.json and --json include it.
+  nlohmann::json record;
+  /// The temperature the chain samples at (K): --sampling-temperature, else --temperature.
+  double sampling_temperature() const {
+    return sampling_temperature_given ? sampling_temperature_K : physics.temperature_K;
+  }
 };
 
 /// Largest --sweeps accepted: 1e12 sweeps (about 30 years at 1,000 sweeps/s).
 constexpr long long kMaxSweeps = 1000000000000LL;
 
-/// Library quantities -> this command's options.
-const OptionNames kMcOptionNames = {
-    {"force (discrete model)", "--force"},
-    {"sampling temperature", "--temperature"},
-    {"RNG streams", "--streams"},
-    {"penalty scale", "--penalty-scale"},
-    {"sample interval (sweeps)", "--sample-every"},
-    {"adaptive fraction", "--adapt-fraction"},
-};
+/// Library quantities -> this command's options (errors name the option the user typed).
+OptionNames mc_option_names() {
+  OptionNames names = model_option_names();
+  names.insert({
+      {"force (discrete model)", "--force"},
+      {"sampling temperature", "--sampling-temperature"},
+      {"RNG streams", "--streams"},
+      {"penalty scale", "--penalty-scale"},
+      {"sample interval (sweeps)", "--sample-every"},
+      {"adaptive fraction", "--adapt-fraction"},
+  });
+  return names;
+}
 
 /// Whether DIR holds the outputs of an `rbc mc` run (so a resumed run may write into it): its
 /// series or summary, or its run.json (all a run killed before its first series leaves).
@@ -97,15 +111,20 @@ struct McProgress {
 /// DIR/run.json of `mc --out`: whether the outputs are those of a finished run ("complete"),
 /// the status (running | interrupted | finished), the reason, the sweeps done and requested
 /// and the checkpoint written on the way out. Rewritten atomically at each change.
-void write_mc_manifest(const std::string& dir, bool complete, const std::string& status,
-                       const std::string& reason, long long sweeps_done, long long sweeps,
+/// The run record (command, config, provenance: app/run_config.hpp) comes first, so
+/// `--config DIR/run.json` repeats the run.
+void write_mc_manifest(const McCli& o, bool complete, const std::string& status,
+                       const std::string& reason, long long sweeps_done,
                        const std::string& checkpoint, const nlohmann::json& extra = {}) {
+  const std::string& dir = o.out;
+  const long long sweeps = o.sweeps;
   if (dir.empty()) return;
-  nlohmann::json j = {{"command", "mc"},
-                      {"complete", complete},
-                      {"status", status},
-                      {"sweeps_done", sweeps_done},
-                      {"sweeps_requested", sweeps}};
+  nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
+  j.update({{"command", "mc"},
+            {"complete", complete},
+            {"status", status},
+            {"sweeps_done", sweeps_done},
+            {"sweeps_requested", sweeps}});
   if (!reason.empty()) j["reason"] = reason;
   if (!checkpoint.empty()) j["checkpoint"] = checkpoint;
   if (complete) {
@@ -150,7 +169,7 @@ McRunSetup to_setup(const McCli& o) {
   require_finite_in_range("adaptive fraction", "", o.adapt_fraction, 0.0, 1.0, Ends::closed_open);
   McRunSetup setup;
   setup.force_pN = o.force_pN;
-  setup.sampler.temperature_K = o.temperature_K;
+  setup.sampler.temperature_K = o.sampling_temperature();
   setup.sampler.seed = o.seed;
   setup.sampler.streams = o.streams > 0 ? o.streams : omp_get_max_threads();
   setup.sampler.adapt_sweeps = static_cast<int>(std::min<double>(
@@ -167,6 +186,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
         "--adapt-sweeps " + std::to_string(o.adapt_sweeps) +
         ": expected an integer in [0, --sweeps = " + std::to_string(o.sweeps) + "]");
   to_setup(o);  // every number up front (on --resume too: a given option must be valid)
+  const NetworkParameters model = to_network_parameters(o.physics);  // the physics, validated
   if (std::error_code ec; !o.resume.empty() && !std::filesystem::is_regular_file(o.resume, ec))
     throw std::invalid_argument("--resume " + o.resume + ": no such checkpoint file");
   if (!o.checkpoint.empty()) check_output_file(o.checkpoint, "--checkpoint");
@@ -177,14 +197,13 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
 
   RestShapeOptions ro;
   ro.target_vertices = o.vertices;
-  NetworkParameters params;
-  params.bending_model = o.bending;
+  NetworkParameters params = model;
   McResumeRequest request;  // the chain-defining options given (checked against a checkpoint)
   if (given.force) request.force_pN = o.force_pN;
-  if (given.temperature) request.temperature_K = o.temperature_K;
+  if (given.temperature) request.temperature_K = o.sampling_temperature();
   if (given.seed) request.seed = o.seed;
   if (given.penalty_scale) request.penalty_scale = o.penalty_scale;
-  if (given.bending) request.bending_model = o.bending;
+  if (given.bending) request.bending_model = o.physics.bending;
   if (given.adapt_fraction) request.adapt_fraction = o.adapt_fraction;
   if (o.adapt_sweeps >= 0) request.adapt_sweeps = o.adapt_sweeps;
   request.total_sweeps = o.sweeps;
@@ -245,7 +264,9 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   };
   progress_made.sweeps_done = first_sweep;
   progress_made.running = !o.out.empty();
-  write_mc_manifest(o.out, false, "running", "the run has not finished", first_sweep, o.sweeps, "");
+  // The thread decision (discrete/mc_sampler.hpp mc_thread_decision), in every manifest.
+  const nlohmann::json threads = {{"threads", to_json(run->sampler().thread_decision())}};
+  write_mc_manifest(o, false, "running", "the run has not finished", first_sweep, "", threads);
   if (!o.out.empty()) write_mc_snapshot(o.out, net, *run);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_report = t0;
@@ -274,11 +295,11 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     const long long s = run->sampler().sweeps_done();
     write_checkpoint(*run);
     if (!o.out.empty()) write_mc_series(o.out, *run);
-    write_mc_manifest(o.out, false, "interrupted",
+    write_mc_manifest(o, false, "interrupted",
                       "interrupted by " + interrupt_name() + " after sweep " + std::to_string(s) +
                           " of " + std::to_string(o.sweeps) +
                           (o.checkpoint.empty() ? "" : "; resume with --resume " + o.checkpoint),
-                      s, o.sweeps, o.checkpoint);
+                      s, o.checkpoint, threads);
     throw;
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -294,9 +315,10 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   for (const auto& c : run->sampler().colours()) mobile += static_cast<long long>(c.size());
   const double sweeps_per_s = wall > 0 ? double(done) / wall : 0.0;
   const McRunSetup& su = run->setup();
-  nlohmann::json j = mc_run_json(net, *run);
-  j.update({{"threads", omp_get_max_threads()},
-            {"sweeps_this_run", done},
+  // The run record first (command, config, provenance), then the run and its statistics.
+  nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
+  j.update(mc_run_json(net, *run));
+  j.update({{"sweeps_this_run", done},
             {"wall_s", wall},
             {"sweeps_per_s", sweeps_per_s},
             {"moves_per_s", sweeps_per_s * double(mobile)}});
@@ -318,8 +340,8 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
         why_not.empty() ? "cells.png" : why_not;
     if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";
   }
-  write_mc_manifest(o.out, true, "finished", "", run->sampler().sweeps_done(), o.sweeps,
-                    o.checkpoint, picture);
+  picture.update(threads);
+  write_mc_manifest(o, true, "finished", "", run->sampler().sweeps_done(), o.checkpoint, picture);
   if (o.json) {
     std::cout << j.dump(2) << "\n";
     return 0;
@@ -330,7 +352,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
             << " adaptive), " << su.sampler.streams << " streams, "
             << run->sampler().colours().size() << " colours\n"
             << "speed: " << sweeps_per_s << " sweeps/s, " << sweeps_per_s * double(mobile)
-            << " moves/s on " << omp_get_max_threads() << " threads\n";
+            << " moves/s; threads " << run->sampler().thread_decision().reason << "\n";
   if (!have_stats) {
     std::cout << "statistics: " << j["statistics"].get<std::string>() << "\n";
     return 0;
@@ -372,7 +394,7 @@ int run_mc_recorded(const McCli& o, const GivenOptions& given) {
   } catch (const std::exception& e) {
     if (made.running)
       record_failed_manifest(o.out + "/run.json", [&] {
-        write_mc_manifest(o.out, false, "failed", e.what(), made.sweeps_done, o.sweeps, "");
+        write_mc_manifest(o, false, "failed", e.what(), made.sweeps_done, "");
       });
     throw;
   }
@@ -385,17 +407,24 @@ void add_mc_command(CLI::App& app, Action& action) {
   auto* cmd =
       app.add_subcommand("mc", "Metropolis Monte Carlo of the spectrin network at temperature T");
   add_config_option(cmd);
-  auto* vertices = cmd->add_option("--vertices,-n", o->vertices,
-                                   "vertex count N (100 to 40,000; --resume: the checkpoint's)")
-                       ->check(integer_in(100, 40000))
-                       ->capture_default_str();
-  auto* force = cmd->add_option("--force,-f", o->force_pN,
+  auto* vertices =
+      cmd->add_option("--vertices,-n", o->vertices,
+                      "vertex count N (100 to 40,000; --resume: the checkpoint's). The default is "
+                      "smaller than stretch's 2,000 because a run takes thousands of sweeps of N "
+                      "moves each (about 1 s per 1,000 sweeps at N = 500)")
+          ->check(integer_in(100, 40000))
+          ->capture_default_str();
+  auto* force = cmd->add_option("--force", o->force_pN,
                                 "total bead force F (pN), in [0, " +
                                     format_number(kMaxDiscreteForce_pN) + "]")
                     ->capture_default_str();
-  auto* temp = cmd->add_option("--temperature,-T", o->temperature_K,
-                               "sampling temperature (K), in [0, 100000]")
-                   ->capture_default_str();
+  add_model_options(cmd, o->physics);
+  auto* sampling_temp =
+      cmd->add_option("--sampling-temperature", o->sampling_temperature_K,
+                      "temperature the chain samples at (K), in [0, 100000]; default: the WLC "
+                      "--temperature, so one --temperature sets both and the chain samples the "
+                      "model at its own temperature")
+          ->type_name("FLOAT");
   cmd->add_option("--sweeps,-s", o->sweeps, "total sweeps (one move per vertex each)")
       ->check(integer_in(0, kMaxSweeps))
       ->capture_default_str();
@@ -424,12 +453,6 @@ void add_mc_command(CLI::App& app, Action& action) {
           enum_choice<McStart>({{"equilibrium", McStart::equilibrium}, {"rest", McStart::rest}}))
       ->type_name("TEXT")
       ->default_str("equilibrium");
-  auto* bending =
-      cmd->add_option("--bending", o->bending, "juelicher | dihedral (--resume: the checkpoint's)")
-          ->transform(enum_choice<BendingModel>(
-              {{"juelicher", BendingModel::juelicher}, {"dihedral", BendingModel::dihedral}}))
-          ->type_name("TEXT")
-          ->default_str("juelicher");
   auto* penalty =
       cmd->add_option("--penalty-scale", o->penalty_scale,
                       "multiplies the area/volume penalty stiffnesses while sampling (thermal "
@@ -454,16 +477,24 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_flag("!--no-picture", o->picture,
                 "with --out: no cells.png (the first and the last snapshot, drawn as rbc render "
                 "draws them)");
-  cmd->add_flag("--json", o->json, "print the summary as JSON");
+  cmd->add_flag("--json", o->json,
+                "print the run as JSON: {command, config, provenance, threads, the run's keys and "
+                "statistics}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
-  cmd->callback([o, force, temp, seed, penalty, vertices, bending, adapt_fraction, &action] {
-    const GivenOptions given{force->count() > 0,         temp->count() > 0,
-                             seed->count() > 0,          penalty->count() > 0,
-                             vertices->count() > 0,      bending->count() > 0,
-                             adapt_fraction->count() > 0};
-    action = [o, given] {
+  cmd->callback([o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, &action] {
+    const GivenOptions given{
+        force->count() > 0,
+        sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
+        seed->count() > 0,
+        penalty->count() > 0,
+        vertices->count() > 0,
+        cmd->get_option("--bending")->count() > 0,
+        adapt_fraction->count() > 0};
+    o->sampling_temperature_given = sampling_temp->count() > 0;
+    action = [o, cmd, given] {
+      o->record = run_record(*cmd);
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
-      return naming_options(kMcOptionNames, [&] { return run_mc_recorded(*o, given); });
+      return naming_options(mc_option_names(), [&] { return run_mc_recorded(*o, given); });
     };
   });
 }

@@ -23,7 +23,9 @@ static_assert(kMcCheckpointSeriesColumns == kMcSampleColumns);
 // 2: penalty_scale; bending model in the fingerprint. 3: the adaptation schedule's origin
 // (planned_sweeps, adapt_fraction) next to its absolute length adapt_sweeps. 4: a checksum of
 // every dataset and attribute (content_checksum), so a changed byte is refused, never resumed.
-constexpr long long kFormat = 4;
+// 5: the links (rest lengths, WLC density), the steric term and the bead patch in the
+// fingerprint, so a chain resumes only on the energy it sampled.
+constexpr long long kFormat = 5;
 /// Where the checksum of everything else in the file is kept.
 constexpr const char* kChecksumAttribute = "content_checksum";
 
@@ -64,6 +66,16 @@ std::uint64_t network_fingerprint(const Network& net) {
   const double bending[] = {net.bending.kappa_pNum, net.bending.h0_per_um, net.dihedral_kb_pNum};
   f.add(&model, sizeof model);
   f.add(bending, sizeof bending);
+  // The links, the steric term and the bead patch (the model options of the front ends).
+  f.add(net.lbar_um.data(), sizeof(double) * std::size_t(net.lbar_um.size()));
+  const int expansion = static_cast<int>(net.wlc.expansion);
+  const double links_steric[] = {net.wlc.prefactor_pN_per_um, net.wlc.x0, net.steric.q,
+                                 net.steric.eta, net.steric_C_pN_per_um};
+  f.add(&expansion, sizeof expansion);
+  f.add(links_steric, sizeof links_steric);
+  f.add(net.wlc.taylor.data(), sizeof(double) * net.wlc.taylor.size());
+  f.add(net.patch.vertex.data(), sizeof(int) * net.patch.vertex.size());
+  f.add(net.patch.share.data(), sizeof(double) * net.patch.share.size());
   return f.h;
 }
 

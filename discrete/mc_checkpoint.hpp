@@ -5,16 +5,17 @@
 // chain bit for bit: positions, the raw GSL mt19937 state of every stream (gsl_rng_state bytes),
 // the step size, the sweep count, the run setup (temperature, force, fixed multipliers, seed,
 // streams, adaptive sweeps, sample interval) and the time series so far. A fingerprint of the
-// network (vertex and face counts, a hash of the faces and rest positions) refuses a checkpoint
-// written for another network. Written atomically (temporary file + rename).
+// network (vertex and face counts, a hash of the faces, rest positions, bending, links, steric
+// term and bead patch) refuses a checkpoint written for another network. Written atomically
+// (temporary file + rename).
 //
 // Layout: /positions_um (N x 3), /rng_state (streams x words, uint64, little-endian packing of
 // the state bytes), /series (samples x 8, see mc_sample_columns()); root attributes
 // format, fingerprint, vertices, bending_model, faces, sweep, step_um, rng_type, rng_bytes,
 // temperature_K, force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams,
 // adapt_sweeps, sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,
-// reference_transverse_um, planned_sweeps, adapt_fraction (format 3; older formats are refused
-// with a message naming the version).
+// reference_transverse_um, planned_sweeps, adapt_fraction, content_checksum (format 5; older
+// formats are refused with a message naming the version).
 #include <cstdint>
 #include <string>
 #include <utility>

@@ -45,6 +45,32 @@ void McOptions::validate() const {
   require_integer_in_range("adaptive sweeps", adapt_sweeps, 0, std::numeric_limits<int>::max());
   require_finite_in_range("target acceptance", "", target_acceptance, 0.0, 1.0, Ends::open_open);
   require_finite_in_range("step adaptation gain", "", adapt_gain, 0.0, 10.0, Ends::closed_closed);
+  require_integer_in_range("Monte Carlo threads", threads, 0, kMaxMcStreams);
+}
+
+McThreadDecision mc_thread_decision(int mobile_vertices, int streams, int requested_threads,
+                                    int forced_threads) {
+  McThreadDecision d;
+  d.requested = std::max(1, requested_threads);
+  auto say = [&](int threads, const std::string& why) {
+    d.threads = threads;
+    d.reason = std::to_string(threads) + ": " + why;
+    return d;
+  };
+  if (forced_threads > 0) {
+    const int t = std::max(1, std::min(forced_threads, streams));
+    return say(t, "set by the caller (" + std::to_string(forced_threads) + " threads, " +
+                      std::to_string(streams) + " RNG streams)");
+  }
+  if (d.requested == 1) return say(1, "one thread requested (OMP_NUM_THREADS)");
+  if (streams <= 1) return say(1, "one RNG stream, so one chunk per colour");
+  if (mobile_vertices < kMcParallelVertices)
+    return say(1, "a second thread does not pay below N = " + std::to_string(kMcParallelVertices) +
+                      " vertices");
+  return say(std::min(d.requested, streams), std::to_string(mobile_vertices) +
+                                                 " vertices, at least " +
+                                                 std::to_string(kMcParallelVertices) + ", on " +
+                                                 std::to_string(streams) + " RNG streams");
 }
 
 double constraint_energy_of_totals(const Network& net, const LoadState& load, double area,
@@ -203,6 +229,11 @@ McSampler::McSampler(const Network& net, const LoadState& load, const Positions&
   // Distance >= 3: see the header (Juelicher terms of a move at v read positions up to distance 2).
   colours_ = colour_vertices(net.topo, 3, opt_.mobile);
   const int n = net.topo.num_vertices;
+  {
+    int mobile = 0;
+    for (const auto& c : colours_) mobile += static_cast<int>(c.size());
+    threads_ = mc_thread_decision(mobile, opt_.streams, omp_get_max_threads(), opt_.threads);
+  }
   // The model's list (model_terms): the production kinds the sampler's kernels cover, plus
   // custom terms with local pieces.
   for (TermKind k : {TermKind::in_plane, TermKind::area_volume, TermKind::tweezers})
@@ -316,14 +347,14 @@ void McSampler::restore(const McChainState& s) {
   const Topology& t = net_.topo;
   const int ne = t.num_edges(), nf = t.num_faces();
   link_e_.resize(ne);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_.threads)
   for (int e = 0; e < ne; ++e)
     link_e_[e] =
         link_energy(net_.wlc, net_.lbar_um(e), x_.col(t.edges(0, e)), x_.col(t.edges(1, e)));
   face_area_.resize(nf);
   face_volume_.resize(nf);
   steric_.resize(nf);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_.threads)
   for (int f = 0; f < nf; ++f) {
     const auto& c = t.faces.col(f);
     face_area_[f] = triangle_area(x_.col(c(0)), x_.col(c(1)), x_.col(c(2)));
@@ -333,9 +364,9 @@ void McSampler::restore(const McChainState& s) {
   bend_.resize(bend_terms_.count);
   if (juelicher_) {
     lt_.resize(ne);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_.threads)
     for (int e = 0; e < ne; ++e) lt_[e] = hinge_length_angle(x_, t, e);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_.threads)
     for (int w = 0; w < bend_terms_.count; ++w) {
       bend_[w] = juelicher_vertex_cell(
                      t, net_.bending, w, [&](int e) { return lt_[e]; },
@@ -343,13 +374,13 @@ void McSampler::restore(const McChainState& s) {
                      .energy_pNum;
     }
   } else {  // dihedral hinges (bend_terms_.count = 0 without a production bending term)
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_.threads)
     for (int e = 0; e < bend_terms_.count; ++e)
       bend_[e] = dihedral_hinge_energy(x_, t, net_.dihedral_kb_pNum, 0.0, e);
   }
   for (CustomPieces& c : custom_) {
     c.cache.resize(c.stencil.count);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_.threads)
     for (int p = 0; p < c.stencil.count; ++p) c.cache[p] = c.term->pieces.energy(net_, x_, p);
   }
   recompute_totals();
@@ -523,8 +554,9 @@ McSweepStats McSampler::sweep() {
   const int streams = opt_.streams;
   McSweepStats st;
   const double step = step_;
-  const int threads = std::min(streams, omp_get_max_threads());
-#pragma omp parallel num_threads(threads)
+  // One region per sweep, two barriers per colour: on threads_.threads threads (at the sizes
+  // the sampler runs today, one: see kMcParallelVertices).
+#pragma omp parallel num_threads(threads_.threads)
   for (const std::vector<int>& cls : colours_) {
     const int m = static_cast<int>(cls.size());
     // Phase 1: proposals in parallel, stream s owns the contiguous chunk s of the colour.

@@ -44,6 +44,7 @@
 #include <gsl/gsl_rng.h>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "discrete/network.hpp"
@@ -56,6 +57,10 @@ struct McOptions {
   /// Independent RNG streams = parallel chunks per colour (the chain depends on it, not on the
   /// number of threads). Default 1.
   int streams = 1;
+  /// OpenMP threads of the sweeps: 0 = mc_thread_decision() (one thread at the sizes the
+  /// sampler runs today); k > 0 = min(k, streams), whatever the size (benchmarks and the
+  /// thread-independence tests). The chain never depends on it.
+  int threads = 0;
   /// Initial half-width of the uniform trial displacement per coordinate (um);
   /// 0 selects 0.01 x the shortest rest link.
   double initial_step_um = 0.0;
@@ -67,9 +72,30 @@ struct McOptions {
   std::vector<int> mobile;
   /// Throws std::invalid_argument (rbc::InvalidParameter) naming the value, every number finite:
   /// T in [0, kMaxSamplingTemperature_K] K, streams in [1, kMaxMcStreams], step in [0, 1] um,
-  /// adapt_sweeps >= 0, target in (0, 1), gain in [0, 10].
+  /// adapt_sweeps >= 0, target in (0, 1), gain in [0, 10], threads in [0, kMaxMcStreams].
   void validate() const;
 };
+
+/// Fewest mobile vertices for which the sweeps run on more than one thread. A sweep is a
+/// sequence of colour passes (12-13 colours at every size), each two barriers apart, and the
+/// work of one pass is small: on the 2-core machine two threads ran the sweeps of `rbc bench
+/// mc` 0.83x as fast as one at N = 500, 1.02x at 2,000 and 1.12x at 8,000 when it was idle, and
+/// 0.1x-0.6x (N = 500 to 32,000) beside other busy processes, where every barrier waits for a
+/// descheduled thread. So every network `rbc mc` accepts (N <= 40,000) samples on one thread.
+inline constexpr int kMcParallelVertices = 50000;
+
+/// How many OpenMP threads the sweeps use, and why (recorded in the run's outputs).
+struct McThreadDecision {
+  int threads = 1;     ///< threads the sweeps run on
+  int requested = 1;   ///< threads available to the caller (omp_get_max_threads())
+  std::string reason;  ///< e.g. "1: a second thread does not pay below N = 50000 vertices"
+};
+
+/// The thread decision for `mobile_vertices` moving vertices, `streams` RNG streams (at most
+/// one thread per stream), `requested_threads` available and `forced_threads` (McOptions::
+/// threads: 0 = decide, k > 0 = min(k, streams)).
+McThreadDecision mc_thread_decision(int mobile_vertices, int streams, int requested_threads,
+                                    int forced_threads = 0);
 
 /// Largest sampling temperature (K). Far above any physical temperature of the cell: `rbc
 /// stability` samples up to 30,000 K to show where the area/volume penalties stop holding.
@@ -168,6 +194,8 @@ class McSampler {
   const LoadState& load() const { return load_; }
   const McOptions& options() const { return opt_; }
   const std::vector<std::vector<int>>& colours() const { return colours_; }
+  /// The threads the sweeps run on (mc_thread_decision at construction).
+  const McThreadDecision& thread_decision() const { return threads_; }
   /// Largest |running - recomputed| of A (um^2) and V (um^3) seen at the per-sweep resets.
   double max_area_drift_um2() const { return max_area_drift_; }
   double max_volume_drift_um3() const { return max_volume_drift_; }
@@ -198,6 +226,7 @@ class McSampler {
   double area_ = 0, volume_ = 0;
   double max_area_drift_ = 0, max_volume_drift_ = 0;
   std::vector<std::vector<int>> colours_;
+  McThreadDecision threads_;
   struct RngFree {
     void operator()(gsl_rng* r) const noexcept { gsl_rng_free(r); }
   };

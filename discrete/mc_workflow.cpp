@@ -135,6 +135,10 @@ nlohmann::json to_json(const McSummary& s, const McRunSetup& su) {
           {"max_volume_drift", s.max_volume_drift}};
 }
 
+nlohmann::json to_json(const McThreadDecision& d) {
+  return {{"used", d.threads}, {"requested", d.requested}, {"reason", d.reason}};
+}
+
 nlohmann::json mc_run_json(const Network& net, const McRun& run) {
   const McRunSetup& su = run.setup();
   return {{"vertices", net.topo.num_vertices},
@@ -143,6 +147,7 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
           {"kT_pNum", units::thermal_energy_pNum(su.sampler.temperature_K)},
           {"seed", su.sampler.seed},
           {"streams", su.sampler.streams},
+          {"threads", to_json(run.sampler().thread_decision())},
           {"bending", to_string(net.bending_model)},
           {"penalty_scale", su.penalty_scale},
           {"colours", run.sampler().colours().size()},
@@ -190,9 +195,13 @@ void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& 
   std::ostringstream name;
   name << dir << "/mc_snapshot_" << std::setw(8) << std::setfill('0')
        << run.sampler().sweeps_done();
+  // displacement_um is |x - X| as in the stretch shapes; displacement_x_um its x component
+  // (the bead axis).
+  const Positions u = x - net.rest;
   MeshSnapshot s{x,
                  net.topo.faces,
-                 {{"displacement_x_um", (x - net.rest).row(0).transpose()}},
+                 {{"displacement_um", u.colwise().norm().transpose()},
+                  {"displacement_x_um", u.row(0).transpose()}},
                  {},
                  {{"force_pN", run.setup().force_pN},
                   {"temperature_K", run.setup().sampler.temperature_K},

@@ -93,15 +93,20 @@ std::string check_mc_resume(const McCheckpoint& checkpoint, const McResumeReques
 /// thermal_shift_transverse_um, max_area_drift, max_volume_drift.
 nlohmann::json to_json(const McSummary& summary, const McRunSetup& setup);
 
+/// The thread decision as JSON: {"used": threads, "requested": requested, "reason": reason}.
+nlohmann::json to_json(const McThreadDecision& decision);
+
 /// The run keys (no timing): vertices, force_pN, temperature_K, kT_pNum, seed, streams,
-/// bending, penalty_scale, colours, sweeps, adaptive_sweeps, step_um, reference_axial_um,
-/// reference_transverse_um, running_total_drift_area_um2, running_total_drift_volume_um3.
+/// threads (to_json(McThreadDecision)), bending, penalty_scale, colours, sweeps,
+/// adaptive_sweeps, step_um, reference_axial_um, reference_transverse_um,
+/// running_total_drift_area_um2, running_total_drift_volume_um3.
 nlohmann::json mc_run_json(const Network& net, const McRun& run);
 
 /// DIR/mc_series.csv and DIR/mc_series.h5 (/series, samples x 8, columns attribute), atomic.
 void write_mc_series(const std::string& dir, const McRun& run);
 
-/// DIR/mc_snapshot_SSSSSSSS.h5/.xdmf: positions, displacement_x_um, force, temperature, sweep.
+/// DIR/mc_snapshot_SSSSSSSS.h5/.xdmf: positions, displacement_um (|x - X|, as the stretch shapes),
+/// displacement_x_um (its x component), force, temperature, sweep.
 void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run);
 
 }  // namespace rbc

@@ -210,7 +210,9 @@ TEST(McSampler, ChainDependsOnStreamsNotOnThreadCount) {
   auto run = [&](int threads) {
     const int saved = omp_get_max_threads();
     omp_set_num_threads(threads);
+    o.threads = threads;  // forced: the decision would run this small mesh on one thread
     McSampler mc(c.net, c.load, c.x, o);
+    EXPECT_EQ(mc.thread_decision().threads, threads);
     for (int s = 0; s < 10; ++s) mc.sweep();
     omp_set_num_threads(saved);
     return mc.state();
@@ -221,6 +223,44 @@ TEST(McSampler, ChainDependsOnStreamsNotOnThreadCount) {
   EXPECT_EQ(one.rng_state, two.rng_state);
   // And the chain moved.
   EXPECT_GT((one.x - c.x).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(McSampler, ThreadDecisionTakesOneThreadWhereASecondDoesNotPay) {
+  // The rules of mc_thread_decision, checked on their inputs (no timing).
+  const McThreadDecision small = mc_thread_decision(500, 2, 2);
+  EXPECT_EQ(small.threads, 1);
+  EXPECT_EQ(small.requested, 2);
+  EXPECT_EQ(small.reason.rfind("1: a second thread does not pay below N = ", 0), 0u)
+      << small.reason;
+  const McThreadDecision largest_cli = mc_thread_decision(40000, 2, 2);  // rbc mc's largest N
+  EXPECT_EQ(largest_cli.threads, 1);
+  const McThreadDecision large = mc_thread_decision(kMcParallelVertices, 2, 4);
+  EXPECT_EQ(large.threads, 2);  // one thread per stream at most
+  EXPECT_EQ(large.reason.rfind("2: ", 0), 0u) << large.reason;
+  EXPECT_EQ(mc_thread_decision(kMcParallelVertices, 2, 1).threads, 1);
+  EXPECT_NE(mc_thread_decision(kMcParallelVertices, 2, 1).reason.find("one thread requested"),
+            std::string::npos);
+  EXPECT_EQ(mc_thread_decision(kMcParallelVertices, 1, 2).threads, 1);
+  const McThreadDecision forced = mc_thread_decision(100, 3, 1, 2);
+  EXPECT_EQ(forced.threads, 2);
+  EXPECT_EQ(forced.requested, 1);
+  EXPECT_EQ(mc_thread_decision(100, 2, 1, 8).threads, 2);
+
+  // The sampler decides on its mobile vertices and the threads available at construction.
+  SmallCell c;
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(2);
+  McOptions o;
+  o.streams = 2;
+  const McSampler automatic(c.net, c.load, c.x, o);
+  o.threads = 2;
+  const McSampler two(c.net, c.load, c.x, o);
+  omp_set_num_threads(saved);
+  EXPECT_EQ(automatic.thread_decision().threads, 1);
+  EXPECT_EQ(automatic.thread_decision().requested, 2);
+  EXPECT_EQ(two.thread_decision().threads, 2);
+  o.threads = -1;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
 }
 
 TEST(McSampler, RunningTotalsMatchRecomputedAreaAndVolume) {
