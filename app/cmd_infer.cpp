@@ -45,7 +45,8 @@ struct InferCli {
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   Symmetry symmetry = ForwardOptions::default_newton().symmetry;
   std::string out, resume;
-  bool json = false, overwrite = false, quiet = false, forward_check = false, trace = false;
+  bool json = false, overwrite = false, quiet = false, verbose = false, forward_check = false,
+       trace = false;
   int repeat = 1;  ///< --forward-check: warm sweeps timed (median reported)
   std::vector<std::string> at;
   ModelCli physics;  ///< the model option group: the values of the parameters not inferred
@@ -375,6 +376,7 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_option("--at", c->at, "forward-check parameter NAME=VALUE (natural units), repeatable");
   cmd->add_flag("--force-overwrite", c->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, c->verbose);
   // The physics every command shares: here the values of the parameters not inferred.
   add_model_options(cmd, c->physics);
   cmd->callback([c, &action, cmd] {
@@ -405,7 +407,7 @@ void add_infer_command(CLI::App& app, Action& action) {
       // SIGINT/SIGTERM: the sampler stops between chains (calibrate/tmcmc.hpp), the last
       // complete stage stays in the checkpoint, main() exits 130/143 (app/interrupt.hpp).
       make_cancellable();
-      const ProgressSink progress = stderr_progress(c->quiet || !master);
+      const ProgressSink progress = stderr_progress(c->quiet || !master, c->verbose);
       const std::string checkpoint = out.empty() ? std::string() : out + "/" + kStageCheckpointName;
       std::optional<SamplerState> resume_state;
       const auto checkpointing = [&] {

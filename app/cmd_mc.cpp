@@ -60,7 +60,7 @@ struct McCli {
   McStart start = McStart::equilibrium;
   long long checkpoint_every = 100;
   long long snapshot_every = 0;
-  bool json = false, quiet = false, overwrite = false;
+  bool json = false, quiet = false, verbose = false, overwrite = false;
   bool picture = true;  ///< --out: cells.png of the first and the last snapshot (--no-picture)
   /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
   /// run.json starts from it, mc_summary.json and --json include it.
@@ -108,6 +108,13 @@ struct McProgress {
   long long sweeps_done = 0;
 };
 
+/// What the written files record of the run (app/run_config.hpp): CSV comment lines, HDF5
+/// text attributes.
+OutputRecord output_record(const McCli& o) {
+  if (!o.record.is_object()) return {};
+  return {record_comment_lines(o.record), record_attributes(o.record)};
+}
+
 /// DIR/run.json of `mc --out`: whether the outputs are those of a finished run ("complete"),
 /// the status (running | interrupted | finished), the reason, the sweeps done and requested
 /// and the checkpoint written on the way out. Rewritten atomically at each change.
@@ -153,6 +160,7 @@ std::string draw_mc_picture(const McCli& o, const Network& net, const McRunSetup
         << " pN, T = " << su.sampler.temperature_K << " K";
   r.title = title.str();
   r.out_png = o.out + "/cells.png";
+  if (o.record.is_object()) r.metadata = record_png_text(o.record);
   return draw_cells(r);
 }
 
@@ -192,7 +200,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   if (!o.checkpoint.empty()) check_output_file(o.checkpoint, "--checkpoint");
   if (!o.out.empty())
     prepare_output_directory(o.out, o.overwrite, !o.resume.empty() && holds_mc_run(o.out));
-  const ProgressSink progress = stderr_progress(o.quiet);
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   const CancelCheck cancel = interrupt_check();
 
   RestShapeOptions ro;
@@ -267,7 +275,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   // The thread decision (discrete/mc_sampler.hpp mc_thread_decision), in every manifest.
   const nlohmann::json threads = {{"threads", to_json(run->sampler().thread_decision())}};
   write_mc_manifest(o, false, "running", "the run has not finished", first_sweep, "", threads);
-  if (!o.out.empty()) write_mc_snapshot(o.out, net, *run);
+  if (!o.out.empty()) write_mc_snapshot(o.out, net, *run, output_record(o));
   const auto t0 = std::chrono::steady_clock::now();
   auto last_report = t0;
   try {
@@ -276,7 +284,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
       progress_made.sweeps_done = s;
       if (s % o.checkpoint_every == 0) write_checkpoint(r);
       if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
-        write_mc_snapshot(o.out, net, r);
+        write_mc_snapshot(o.out, net, r, output_record(o));
       const auto now = std::chrono::steady_clock::now();
       if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
         last_report = now;
@@ -294,7 +302,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     // are written on the way out (complete files); the manifest says the run is incomplete.
     const long long s = run->sampler().sweeps_done();
     write_checkpoint(*run);
-    if (!o.out.empty()) write_mc_series(o.out, *run);
+    if (!o.out.empty()) write_mc_series(o.out, *run, output_record(o));
     write_mc_manifest(o, false, "interrupted",
                       "interrupted by " + interrupt_name() + " after sweep " + std::to_string(s) +
                           " of " + std::to_string(o.sweeps) +
@@ -305,9 +313,9 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_checkpoint(*run);
   if (!o.out.empty()) {
-    write_mc_series(o.out, *run);
+    write_mc_series(o.out, *run, output_record(o));
     if (o.snapshot_every == 0 || run->sampler().sweeps_done() % o.snapshot_every != 0)
-      write_mc_snapshot(o.out, net, *run);
+      write_mc_snapshot(o.out, net, *run, output_record(o));
   }
 
   const long long done = run->sampler().sweeps_done() - first_sweep;
@@ -481,6 +489,7 @@ void add_mc_command(CLI::App& app, Action& action) {
                 "print the run as JSON: {command, config, provenance, threads, the run's keys and "
                 "statistics}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
+  add_verbose_flag(cmd, o->verbose);
   cmd->callback([o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, &action] {
     const GivenOptions given{
         force->count() > 0,

@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <fstream>
@@ -238,6 +239,7 @@ nlohmann::json provenance_json() {
           {"date_utc", utc_now()},
           {"host", std::string(host)},
           {"openmp_threads", omp_get_max_threads()},
+          {"omp_wait_policy", std::getenv("OMP_WAIT_POLICY") ? std::getenv("OMP_WAIT_POLICY") : ""},
           {"blas", {{"library", blas.library}, {"core", blas.core}, {"config", blas.config}}}};
 }
 

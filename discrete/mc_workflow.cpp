@@ -160,13 +160,14 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
           {"running_total_drift_volume_um3", run.sampler().max_volume_drift_um3()}};
 }
 
-void write_mc_series(const std::string& dir, const McRun& run) {
+void write_mc_series(const std::string& dir, const McRun& run, const OutputRecord& record) {
   CsvTable t;
   t.comments = {"rbc mc time series: one row per recorded sweep",
                 "force_pN " + std::to_string(run.setup().force_pN) + ", temperature_K " +
                     std::to_string(run.setup().sampler.temperature_K) + ", adaptive sweeps " +
                     std::to_string(run.setup().sampler.adapt_sweeps) +
                     " (rows with sweep <= that are equilibration)"};
+  t.comments.insert(t.comments.end(), record.comment_lines.begin(), record.comment_lines.end());
   t.header = mc_sample_columns();
   std::vector<double> flat_rows;
   for (const McSample& s : run.series()) {
@@ -185,12 +186,14 @@ void write_mc_series(const std::string& dir, const McRun& run) {
     h.write_attribute("columns", cols);
     h.write_attribute("force_pN", run.setup().force_pN);
     h.write_attribute("temperature_K", run.setup().sampler.temperature_K);
+    for (const auto& [name, text] : record.attributes) h.write_attribute(name, text);
     h.close();
   }
   tmp.commit();
 }
 
-void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run) {
+void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run,
+                       const OutputRecord& record) {
   const Positions& x = run.sampler().positions();
   std::ostringstream name;
   name << dir << "/mc_snapshot_" << std::setw(8) << std::setfill('0')
@@ -205,7 +208,8 @@ void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& 
                  {},
                  {{"force_pN", run.setup().force_pN},
                   {"temperature_K", run.setup().sampler.temperature_K},
-                  {"sweep", double(run.sampler().sweeps_done())}}};
+                  {"sweep", double(run.sampler().sweeps_done())}},
+                 record.attributes};
   write_mesh_snapshot(name.str(), s);
 }
 

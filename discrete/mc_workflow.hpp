@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/progress.hpp"
 #include "discrete/mc_checkpoint.hpp"
@@ -102,11 +104,19 @@ nlohmann::json to_json(const McThreadDecision& decision);
 /// running_total_drift_area_um2, running_total_drift_volume_um3.
 nlohmann::json mc_run_json(const Network& net, const McRun& run);
 
+/// Text a caller adds to the files it writes: comment lines of the CSV files, text attributes of
+/// the HDF5 files (e.g. what produced them: the rbc version, command line, configuration).
+struct OutputRecord {
+  std::vector<std::string> comment_lines;
+  std::vector<std::pair<std::string, std::string>> attributes;
+};
+
 /// DIR/mc_series.csv and DIR/mc_series.h5 (/series, samples x 8, columns attribute), atomic.
-void write_mc_series(const std::string& dir, const McRun& run);
+void write_mc_series(const std::string& dir, const McRun& run, const OutputRecord& record = {});
 
 /// DIR/mc_snapshot_SSSSSSSS.h5/.xdmf: positions, displacement_um (|x - X|, as the stretch shapes),
 /// displacement_x_um (its x component), force, temperature, sweep.
-void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run);
+void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run,
+                       const OutputRecord& record = {});
 
 }  // namespace rbc

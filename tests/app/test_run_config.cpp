@@ -283,3 +283,32 @@ TEST(RunConfig, Fig7TakesTheModelOptionsForBothModels) {
 }
 
 }  // namespace
+
+namespace {
+
+// The Monte Carlo outputs record the run as stretch's do: CSV comment lines, HDF5 attributes.
+TEST(RunConfig, MonteCarloOutputsRecordWhatProducedThem) {
+  const fs::path d = rbc::testing::fresh_output_dir("run_config_mc");
+  const auto r = run_rbc(
+      "mc --vertices 150 --force 16 --sweeps 20 --seed 2 --lmax 220 -q "
+      "--no-picture --out " +
+      (d / "D").string());
+  ASSERT_EQ(r.exit_code, 0) << r.all();
+  const nlohmann::json run = read_json(d / "D" / "run.json");
+  const std::string version = run.at("provenance").at("rbc_version").get<std::string>();
+  EXPECT_NE(read_text(d / "D" / "mc_series.csv").find("# rbc " + version), std::string::npos);
+  const rbc::H5File h5 = rbc::H5File::open_read((d / "D" / "mc_series.h5").string());
+  EXPECT_EQ(h5.read_attribute_string("rbc_version"), version);
+  EXPECT_EQ(nlohmann::json::parse(h5.read_attribute_string("rbc_config")).at("lmax"), 220);
+  bool snapshot = false;
+  for (const auto& e : fs::directory_iterator(d / "D"))
+    if (e.path().extension() == ".h5" &&
+        e.path().filename().string().rfind("mc_snapshot", 0) == 0) {
+      snapshot = true;
+      EXPECT_EQ(rbc::H5File::open_read(e.path().string()).read_attribute_string("rbc_version"),
+                version);
+    }
+  EXPECT_TRUE(snapshot);
+}
+
+}  // namespace
