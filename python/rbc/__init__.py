@@ -100,13 +100,14 @@ UNITLESS_KEYS = frozenset({
     "samples", "samples_per_stage", "discarded_transient", "sweep", "sweeps", "adaptive_sweeps",
     "colours", "iterations", "newton_iterations", "phi_iterations", "degree_histogram", "stage",
     "stages", "forward_runs", "made", "retried", "failed", "threads", "ranks",
-    "resumed_from_stage", "symmetry_order",
+    "resumed_from_stage", "symmetry_order", "used", "requested",
     # flags and text
     "converged", "blocking_converged", "symmetry_broken", "transverse_used", "network", "law",
     "status", "status_text", "method", "data_file", "command", "unit", "library", "core",
-    "config", "bending", "contact", "dihedral_mapping", "log_evidence_error_estimate",
+    "config", "bending", "contact", "dihedral_mapping", "log_evidence_error_estimate", "reason",
+    "file", "name", "sigma",
     # groups of other keys (their entries carry the units)
-    "parameters", "derived", "timing", "stage_log", "stage_info", "data",
+    "parameters", "derived", "timing", "stage_log", "stage_info", "data", "data_sets",
     "predictive_q05_q50_q95",
 })
 # "samples" of rbc.infer() is (S, P): each column in the unit of InferenceProblem.units.
