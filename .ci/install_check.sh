@@ -90,7 +90,7 @@ rm -rf "$build/setuptools"
   <<'PY' || fail "Python package"
 import json, os, sys
 import rbc
-venv, version, cli = sys.argv[1], sys.argv[2], json.load(open(sys.argv[3]))
+venv, version, cli = sys.argv[1], sys.argv[2], json.load(open(sys.argv[3]))["points"]
 assert os.path.realpath(rbc.__file__).startswith(os.path.realpath(venv)), rbc.__file__
 assert rbc.__version__ == version, (rbc.__version__, version)
 res = rbc.stretch("continuum", forces_pN=[0.0, 88.0], elements=500, check=True)
