@@ -101,6 +101,7 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
                       std::to_string(r.reference.transverse_um) + " +- " +
                       std::to_string(r.reference.transverse_error_um) + " um",
                   "kind: 0 discrete, 1 continuum; order: 0 full, 2, 3, 4 (continuum law)"};
+  all.label_header = "method";
   all.header = {"kind",      "order",          "resolution",          "vertices",
                 "elements",  "axial_um",       "transverse_um",       "wall_s",
                 "converged", "axial_error_um", "transverse_error_um", "pareto"};
@@ -119,6 +120,7 @@ void write_tradeoff(const TradeoffResult& r, const std::string& dir) {
                       : m.order == WlcExpansion::order2 ? 2
                       : m.order == WlcExpansion::order3 ? 3
                                                         : 4;
+    all.labels.push_back(m.name());
     all.rows.push_back({m.kind == MethodKind::discrete ? 0.0 : 1.0,
                         m.kind == MethodKind::discrete ? 0.0 : static_cast<double>(order),
                         static_cast<double>(m.resolution), static_cast<double>(row.run.vertices),

@@ -59,7 +59,37 @@ void check_csv_file(const std::string& path) {
   std::fclose(f);
 }
 
-CsvTable parse_csv(std::istream& in, const std::string& path) {
+namespace {
+
+/// Splits off the first cell of `line` (RFC 4180: a quoted cell may hold commas and doubled
+/// quotes); returns false for an unterminated quote.
+bool take_first_cell(std::string& line, std::string& cell) {
+  cell.clear();
+  if (line.empty() || line[0] != '"') {
+    const auto comma = line.find(',');
+    cell = line.substr(0, comma);
+    line = comma == std::string::npos ? "" : line.substr(comma + 1);
+    return true;
+  }
+  std::size_t k = 1;
+  for (; k < line.size(); ++k) {
+    if (line[k] != '"') {
+      cell += line[k];
+    } else if (k + 1 < line.size() && line[k + 1] == '"') {
+      cell += '"';
+      ++k;
+    } else {
+      break;
+    }
+  }
+  if (k >= line.size()) return false;  // no closing quote
+  line = k + 1 < line.size() && line[k + 1] == ',' ? line.substr(k + 2) : line.substr(k + 1);
+  return true;
+}
+
+}  // namespace
+
+CsvTable parse_csv(std::istream& in, const std::string& path, CsvLabels labels) {
   CsvTable t;
   std::string line;
   int lineno = 0;
@@ -73,6 +103,16 @@ CsvTable parse_csv(std::istream& in, const std::string& path) {
                                            ? line.size()
                                            : line.find_first_not_of("# ")));
       continue;
+    }
+    if (labels == CsvLabels::first_column) {
+      std::string label;
+      if (!take_first_cell(line, label))
+        throw std::runtime_error("CSV file '" + path + "' line " + std::to_string(lineno) +
+                                 ": a quoted label without its closing quote");
+      if (t.header.empty() && t.label_header.empty())
+        t.label_header = label;
+      else
+        t.labels.push_back(label);
     }
     std::vector<std::string> cells;
     std::stringstream ss(line);

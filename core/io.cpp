@@ -360,11 +360,11 @@ void write_csv(const std::string& path, const CsvTable& t) {
   write_text_atomic(path, s.str());
 }
 
-CsvTable read_csv(const std::string& path) {
+CsvTable read_csv(const std::string& path, CsvLabels labels) {
   check_csv_file(path);
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open CSV file '" + path + "'");
-  return parse_csv(in, path);
+  return parse_csv(in, path, labels);
 }
 
 void write_mesh_snapshot(const std::string& base, const MeshSnapshot& snap) {

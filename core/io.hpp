@@ -119,11 +119,14 @@ struct CsvTable {
   std::vector<std::string> labels = {};
 };
 void write_csv(const std::string& path, const CsvTable& table);
-/// Reads a numeric CSV with '#' comment lines and one header line; throws
-/// std::runtime_error naming the file and line for missing files or malformed values.
-CsvTable read_csv(const std::string& path);
+/// Whether a CSV file names its rows in a leading text column (CsvTable::labels).
+enum class CsvLabels { none, first_column };
+/// Reads a numeric CSV with '#' comment lines and one header line (with CsvLabels::first_column,
+/// the first column is the rows' labels, RFC 4180 quoting undone); throws std::runtime_error
+/// naming the file and line for missing files or malformed values.
+CsvTable read_csv(const std::string& path, CsvLabels labels = CsvLabels::none);
 /// The same reader on a stream; `path` names the source in the messages (core/csv.cpp).
-CsvTable parse_csv(std::istream& in, const std::string& path);
+CsvTable parse_csv(std::istream& in, const std::string& path, CsvLabels labels = CsvLabels::none);
 /// Throws std::runtime_error naming the file and the cause unless `path` can be opened as a
 /// data file: "cannot open CSV file 'x': No such file or directory" (the system's text for the
 /// error), "CSV file 'x' is a directory, expected a CSV file" (core/csv.cpp).

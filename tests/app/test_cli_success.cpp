@@ -96,12 +96,14 @@ std::vector<std::string> split(const std::string& line, char sep) {
   return cells;
 }
 
-Csv read_numeric_csv(const std::string& path) {
+/// A numeric CSV; with `labelled`, its first column (the rows' names) is left out.
+Csv read_numeric_csv(const std::string& path, bool labelled = false) {
   std::ifstream in(path);
   EXPECT_TRUE(in.good()) << path;
   Csv t;
   for (std::string line; std::getline(in, line);) {
     if (line.empty() || line[0] == '#') continue;
+    if (labelled) line = line.substr(line.find(',') + 1);
     if (t.header.empty()) {
       t.header = split(line, ',');
       continue;
@@ -337,7 +339,7 @@ TEST(CliSuccess, TradeoffRowsEqualStretchAndItsReferenceIsTheRichardsonFormula) 
     EXPECT_EQ(row.at("pareto").get<bool>(), !dominated) << row.at("method");
   }
   // The CSV holds the same rows.
-  const Csv csv = read_numeric_csv(out + "/tradeoff.csv");
+  const Csv csv = read_numeric_csv(out + "/tradeoff.csv", /*labelled=*/true);
   ASSERT_EQ(csv.rows.size(), rows.size());
   for (size_t k = 0; k < rows.size(); ++k)
     expect_rel(csv.rows[k][csv.col("axial_um")], rows[k]["axial_um"].get<double>(), kTenDigits,

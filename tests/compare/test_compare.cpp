@@ -137,8 +137,10 @@ TEST(Compare, TinyReportWritesEveryFileWithSensibleNumbers) {
   // force than across it (D_A > D_T), and all solve the same physics, so each lies within
   // 10 % of the reference D_A; the finest discrete network is closer to the reference than
   // the coarsest.
-  const CsvTable t = read_csv(dir + "/tradeoff/tradeoff.csv");
+  const CsvTable t = read_csv(dir + "/tradeoff/tradeoff.csv", CsvLabels::first_column);
   ASSERT_EQ(t.rows.size(), 5u);
+  EXPECT_EQ(t.label_header, "method");
+  EXPECT_EQ(t.labels.front().rfind("discrete_N", 0), 0u) << t.labels.front();
   for (const auto& r : t.rows) {
     EXPECT_EQ(r[8], 1.0) << "converged";
     EXPECT_GT(r[5], r[6]) << "D_A > D_T";

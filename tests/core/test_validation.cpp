@@ -164,6 +164,12 @@ TEST(CsvLabels, RowsNamedInALeadingQuotedColumn) {
   EXPECT_EQ(text.str(),
             "# two methods\nmethod,error_percent\ndiscrete_N2000,0.5\n"
             "\"continuum, \"\"full\"\" law\",1.25\n");
+  // read back: the labels unquoted, the numbers as written
+  const rbc::CsvTable back = rbc::read_csv((dir / "t.csv").string(), rbc::CsvLabels::first_column);
+  EXPECT_EQ(back.label_header, "method");
+  EXPECT_EQ(back.labels, t.labels);
+  EXPECT_EQ(back.header, t.header);
+  EXPECT_EQ(back.rows, t.rows);
   t.labels.pop_back();  // a label per row, or the table is not written
   EXPECT_THROW(rbc::write_csv((dir / "u.csv").string(), t), std::logic_error);
   EXPECT_FALSE(std::filesystem::exists(dir / "u.csv"));
