@@ -118,7 +118,7 @@ nitpick_ignore_regex = [
     (r"cpp:identifier", r"(rbc::)?(rbc|units|defaults|detail)"),
     (r"cpp:identifier", r"(std|Eigen|CLI|nlohmann|H5|hid_t|hsize_t|herr_t|cholmod_.*)(::.*)?"),
     (r"cpp:identifier", r"(size_t|uint64_t|int64_t|uint32_t|int32_t|ptrdiff_t)"),
-    (r"py:class", r"(numpy|scipy|meshio|collections|typing|enum)\..*"),
+    (r"py:class", r"(numpy|np|scipy|meshio|collections|typing|enum|os|io)\..*"),
     (r"py:class", r"(numpy\.)?ndarray.*|NDArray.*|ArrayLike|Callable.*|Optional.*|Sequence.*"),
     (r"py:class", r"(float|int|str|bool|object|dict|list|tuple|None|Any)"),
     (r"py:class", r"handle"),  # pybind11's name for an argument of any Python type

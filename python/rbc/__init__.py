@@ -3,7 +3,7 @@
 
 The compiled core (``rbc._rbc``, pybind11) binds the C++ libraries directly -- not the ``rbc``
 executable -- so the numbers are the CLI's for the same inputs. Units are in the names:
-lengths in um, forces in pN, energies in pN*um inside; physical inputs in natural units
+lengths in um, forces in pN, energies in pN um inside; physical inputs in natural units
 (``persistence_nm``, ``kappa_J``, ``wlc_temperature_K``), converted once. Positions are
 ``(N, 3)`` float64 arrays in um, faces ``(F, 3)`` int32. The shared physics (the CLI's option
 group of --lbar, --lmax, --persistence, --temperature, --kappa, --h0, --q, --eta, --contact,
@@ -594,10 +594,10 @@ def moduli(*, parameters: Optional[ModelParameters] = None,
     young_closed_pN_per_um (closed forms, Sec. 4.3), mu_paper_formula_pN_per_um,
     K_paper_formula_pN_per_um (the paper's explicit formulas), steric_C_pN_per_um (the steric
     constant C), mu_numeric_pN_per_um, K_numeric_pN_per_um, young_pN_per_um (the numerical cell
-    problem; disordered: means over the seeds, with *_std_pN_per_um, and the affine
+    problem; disordered: means over the seeds, with ``*_std_pN_per_um``, and the affine
     mu_affine_pN_per_um, K_affine_pN_per_um, the residual prestress_pN_per_um); lengths
     max_internal_displacement_um; residual_pN / worst_residual_pN. Dimensionless (see
-    rbc.UNITLESS_KEYS): poisson_closed, poisson, *_relative_difference, *_over_lbar,
+    rbc.UNITLESS_KEYS): poisson_closed, poisson, ``*_relative_difference``, ``*_over_lbar``,
     psi_patch_over_lattice_minus_1, degree6_fraction, phi_over_area, disorder, row_distortion;
     counts cells, rows, vertices, seeds, newton_iterations; converged; network.
     """
