@@ -61,8 +61,9 @@ void add_mesh_command(CLI::App& app, Action& action) {
       ->check(nonempty_path());
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--json", o->json, "print the report as JSON");
-  cmd->callback([o, &action] {
-    action = [o] {
+  cmd->callback([o, cmd, &action] {
+    action = [o, cmd] {
+      const nlohmann::json record = run_record(*cmd);
       RestShapeOptions ro;
       ro.target_vertices = o->vertices;
       ro.quality = rest_mesh_quality_from_string(o->quality);
@@ -72,12 +73,16 @@ void add_mesh_command(CLI::App& app, Action& action) {
       const TriMesh m = make_rest_shape(ro, &r);
       const nlohmann::json j = mesh_report_json(r);
       if (!o->out.empty()) {
-        MeshSnapshot s{m.x, m.topo.faces, {{"vertex_area_um2", vertex_areas(m.x, m.topo)}}, {}, {}};
+        MeshSnapshot s{m.x, m.topo.faces, {{"vertex_area_um2", vertex_areas(m.x, m.topo)}},
+                       {},  {},           record_attributes(record)};
         write_mesh_snapshot(o->out + "/rest_shape", s);
         write_text_atomic(o->out + "/mesh_quality.json", j.dump(2) + "\n");
+        write_run_record(o->out, record);
       }
       if (o->json) {
-        std::cout << j.dump(2) << "\n";
+        nlohmann::json out = record;
+        out.update(j);
+        std::cout << out.dump(2) << "\n";
       } else {
         std::cout << std::setprecision(5) << "vertices " << r.vertices << ", edges " << r.edges
                   << ", faces " << r.faces << "\narea " << r.area_um2 << " um^2, volume "

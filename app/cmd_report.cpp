@@ -36,12 +36,14 @@ void add_stability_command(CLI::App& app, Action& action) {
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
-  cmd->callback([o, &action] {
-    action = [o]() -> int {
+  cmd->callback([o, cmd, &action] {
+    action = [o, cmd]() -> int {
+      const nlohmann::json record = run_record(*cmd);
       check_output_directory(o->out, o->overwrite);
       o->s.include_continuum = !o->no_continuum;
       const StabilityResult r = run_stability(o->s, nullptr, stderr_progress(o->quiet, o->verbose));
       write_stability(r, o->out);
+      write_run_record(o->out, record);
       for (const auto& row : r.rows)
         std::cout << to_string(row.study) << " | " << row.method << " | " << row.parameter << " "
                   << row.parameter_value << " | " << to_string(row.metric) << " = "
@@ -75,8 +77,9 @@ void add_report_command(CLI::App& app, Action& action) {
   cmd->add_flag("--force-overwrite", o->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
-  cmd->callback([o, &action] {
-    action = [o]() -> int {
+  cmd->callback([o, cmd, &action] {
+    action = [o, cmd]() -> int {
+      const nlohmann::json record = run_record(*cmd);
       if (o->calibration_only && o->no_calibration)
         throw std::invalid_argument("--calibration-only and --no-calibration exclude each other");
       const std::string cache =
@@ -86,6 +89,7 @@ void add_report_command(CLI::App& app, Action& action) {
       check_output_directory(o->out, o->overwrite);
       if (o->calibration_only) {
         run_calibration_report(cache, o->out);
+        write_run_record(o->out, record);
         std::cout << "report: " << o->out << "/report.md (calibration section)\n";
         return 0;
       }
@@ -103,6 +107,7 @@ void add_report_command(CLI::App& app, Action& action) {
       }
       ro.mc_convergence.vertices = 500;
       run_report(ro, o->out, stderr_progress(o->quiet, o->verbose));
+      write_run_record(o->out, record);
       std::cout << "report: " << o->out << "/report.md (figures and CSVs beside it)\n";
       return 0;
     };
