@@ -92,7 +92,7 @@ void BM_DiscreteStretch88(benchmark::State& state) {
   state.counters["vertices"] = net.topo.num_vertices;
 }
 
-/// The 13 Mills et al. (2004) forces (pN), the CLI's default list.
+/// The 13 forces of the stretch data (pN, Suresh et al. 2005), the CLI's default list.
 const std::vector<double> kMillsForces{0,    16,    19.5, 30.6, 38,    46.6, 67.6,
                                        87.6, 108.8, 130,  151,  172.8, 193};
 

@@ -108,12 +108,13 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
   cmd->add_flag("--accuracy-table", o->accuracy_table,
-                "instead: the accuracy-cost table over the 13 Mills forces against the "
+                "instead: the accuracy-cost table over the 13 forces of the stretch data (0-193 "
+                "pN) against the "
                 "full-level reference (what `rbc stretch --accuracy` reads; regenerate "
                 "data/tradeoff/ with --out data/tradeoff --force-overwrite). Uses --vertices, "
                 "--elements, --orders (defaults here: vertices 250,500,1000,2000,4000,8000,16000; "
                 "elements 500,980,2000,3920,8000,15680,32000; orders 2,full, the full law up "
-                "to 8,000 elements); the forces are the 13 Mills forces");
+                "to 8,000 elements); the forces are those of the stretch data");
   cmd->add_option("--reference-seeds", o->reference_seeds,
                   "--accuracy-table: triangulation rotations of the reference (0 = default "
                   "mesh; default 0,1,2,3,4)")

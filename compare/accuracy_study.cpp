@@ -611,8 +611,8 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   static const char* colors[] = {"#1f77b4", "#2ca02c", "#ff7f0e", "#d62728", "#9467bd"};
   for (const bool by_cost : {true, false}) {
     PlotSpec spec;
-    spec.title = by_cost ? "Accuracy against cost, 13 Mills forces"
-                         : "Error against resolution, 13 Mills forces";
+    spec.title = by_cost ? "Accuracy against cost, 13 forces of 0-193 pN"
+                         : "Error against resolution, 13 forces of 0-193 pN";
     spec.xlabel = by_cost ? "cost (energy+gradient evaluations of the N = 1,002 network)"
                           : "mesh vertices (network: junction complexes; continuum: element "
                             "corners)";

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // The accuracy-cost study behind `rbc stretch --accuracy`: every method and
-// resolution stretched over the 13 Mills forces, measured against a reference built from
-// the full spectrin level on several rotated triangulations, with the cost of each run in
+// resolution stretched over the 13 forces of the stretch data, measured against a reference built
+// from the full spectrin level on several rotated triangulations, with the cost of each run in
 // equivalent energy+gradient evaluations (CPU time, machine independent to first order).
 #include <string>
 #include <vector>

@@ -296,7 +296,7 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
         "error against the discrete reference includes the homogenisation error (and the "
         "discrete network's residual prestress, MODEL.md section 2), not only discretisation.\n";
   if (mc) write_mc_convergence_section(md, *mc);
-  md << "\n## Accuracy against cost over the 13 Mills forces\n\n";
+  md << "\n## Accuracy against cost over the 13 forces of the stretch data (0-193 pN)\n\n";
   if (accuracy) {
     std::error_code ec;
     std::filesystem::copy_file(accuracy_dir + "/accuracy_cost.png",
