@@ -58,23 +58,26 @@ struct InferCli {
 /// so is a value for a parameter that is inferred (its prior box gives its range).
 ForwardParameters fixed_parameters(const ModelCli& m, const std::vector<Parameter>& inferred) {
   const ModelCli paper;
+  const std::string unsupported =
+      "rbc infer's forward model keeps the paper's value; expected the default";
   auto refuse_other = [](const std::string& option, double value, const std::string& why) {
     throw std::invalid_argument(option + " " + format_number(value) + ": " + why);
   };
-  const std::string unsupported =
-      "rbc infer's forward model keeps the paper's value; expected the default";
-  if (m.lbar_nm != paper.lbar_nm) refuse_other("--lbar", m.lbar_nm, unsupported);
+  auto refuse_fixed = [&](const std::string& option, double value, double paper_value) {
+    refuse_other(option, value, unsupported + " " + format_number(paper_value));
+  };
+  if (m.lbar_nm != paper.lbar_nm) refuse_fixed("--lbar", m.lbar_nm, paper.lbar_nm);
   if (m.temperature_K != paper.temperature_K)
-    refuse_other("--temperature", m.temperature_K, unsupported);
-  if (m.h0_per_um != paper.h0_per_um) refuse_other("--h0", m.h0_per_um, unsupported);
-  if (m.q != paper.q) refuse_other("--q", m.q, unsupported);
-  if (m.eta != paper.eta) refuse_other("--eta", m.eta, unsupported);
+    refuse_fixed("--temperature", m.temperature_K, paper.temperature_K);
+  if (m.h0_per_um != paper.h0_per_um) refuse_fixed("--h0", m.h0_per_um, paper.h0_per_um);
+  if (m.q != paper.q) refuse_fixed("--q", m.q, paper.q);
+  if (m.eta != paper.eta) refuse_fixed("--eta", m.eta, paper.eta);
   if (m.contact != paper.contact)
-    throw std::invalid_argument("--contact vertices: " + unsupported + " (area)");
+    throw std::invalid_argument("--contact vertices: " + unsupported + " area");
   if (m.bending != paper.bending)
-    throw std::invalid_argument("--bending dihedral: " + unsupported + " (juelicher)");
+    throw std::invalid_argument("--bending dihedral: " + unsupported + " juelicher");
   if (m.dihedral_mapping != paper.dihedral_mapping)
-    throw std::invalid_argument("--dihedral-mapping li: " + unsupported + " (sphere)");
+    throw std::invalid_argument("--dihedral-mapping li: " + unsupported + " sphere");
   ForwardParameters f;
   f.persistence_nm = m.persistence_nm;
   f.lmax_nm = m.lmax_nm;

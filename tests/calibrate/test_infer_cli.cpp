@@ -85,7 +85,8 @@ TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
       // physics the forward model keeps fixed are refused, not ignored.
       {"--persistence 10", "rbc: error: --persistence 10: persistence is inferred (--params)"},
       {"--params lmax,sigma-scale --persistence -3", "--persistence -3: expected"},
-      {"--lbar 80", "--lbar 80: rbc infer's forward model keeps the paper's value"},
+      {"--lbar 80",
+       "--lbar 80: rbc infer's forward model keeps the paper's value; expected the default 75"},
       {"--bending dihedral", "--bending dihedral: rbc infer's forward model keeps"},
       {"--data-file " +
            write_file("misspelt.csv", "# extra_uncertainty: 0.2\n" + std::string(kHeader) + good),
