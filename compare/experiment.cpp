@@ -71,7 +71,7 @@ void read_declarations(const std::vector<std::string>& comments, ExperimentFile&
       if (have_extra) throw bad("declares 'extra_uncertainty_um' twice");
       const std::optional<double> v = parse_number(value);
       if (!v || !std::isfinite(*v) || *v < 0)
-        throw bad("declares extra_uncertainty_um '" + value +
+        throw bad("declares extra_uncertainty_um '" + printable(value) +
                   "': expected a finite number >= 0 (um)");
       f.extra_uncertainty_um = *v;
       have_extra = true;

@@ -14,8 +14,6 @@
 // The CSV reader on a stream, apart from io.cpp so the fuzz target (fuzz/) links it alone.
 namespace rbc {
 
-namespace {
-
 /// Text taken from a file, fit for a one-line message: printable ASCII as it is, every other
 /// byte (NUL, control characters, non-ASCII) as \xNN, so a message is never cut at a NUL or
 /// broken by a control character; at most 60 bytes of the text are shown.
@@ -35,6 +33,8 @@ std::string printable(std::string_view text) {
   if (text.size() > kShown) out += "...";
   return out;
 }
+
+namespace {
 
 std::runtime_error is_a_directory(const std::string& path) {
   return std::runtime_error("CSV file '" + path + "' is a directory, expected a CSV file");

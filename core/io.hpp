@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <iosfwd>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -119,6 +120,10 @@ struct CsvTable {
   std::vector<std::string> labels = {};
 };
 void write_csv(const std::string& path, const CsvTable& table);
+/// Text taken from a file, fit for a one-line message: printable ASCII as it is, every other
+/// byte (NUL, control characters, non-ASCII) as \xNN; at most 60 bytes shown, then "...".
+std::string printable(std::string_view text);
+
 /// Whether a CSV file names its rows in a leading text column (CsvTable::labels).
 enum class CsvLabels { none, first_column };
 /// Reads a numeric CSV with '#' comment lines and one header line (with CsvLabels::first_column,

@@ -88,6 +88,8 @@ TEST(ExperimentFile, BadDeclarationsAreRefusedNamingTheFile) {
       // A misspelt uncertainty would silently leave the error bars as they are: refused.
       {"# extra_uncertainty: 0.1\n", "'extra_uncertainty', which is not a declaration"},
       {"# reading_uncertainty_um: 0.4\n", "'reading_uncertainty_um'"},
+      // Bytes of the file are quoted escaped, so the message stays one printable line.
+      {"# extra_uncertainty_um: 0.1\xff\x01\n", "'0.1\\xff\\x01'"},
   };
   for (const auto& [head, fragment] : cases) {
     try {
