@@ -13,10 +13,8 @@
 #include "app/run_config.hpp"
 #include "continuum/continuum_model.hpp"
 #include "continuum/relax.hpp"
-#include "core/defaults.hpp"
 #include "core/io.hpp"
 #include "core/lbfgs.hpp"
-#include "core/units.hpp"
 #include "core/validation.hpp"
 #include "homogenise/invariant_laws.hpp"
 

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc stretch`: the optical-tweezers stretch (Mills et al. 2004) of one model over a list
 // of forces, by continuation: each force starts from the previous equilibrium.
-#include <omp.h>
-
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -19,12 +17,9 @@
 #include "app/warm_start.hpp"
 #include "compare/accuracy_choice.hpp"
 #include "continuum/continuum_stretch.hpp"
-#include "core/blas_threads.hpp"
-#include "core/defaults.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
-#include "core/units.hpp"
 #include "core/validation.hpp"
 #include "discrete/stretch.hpp"
 #include "homogenise/invariant_laws.hpp"
