@@ -21,6 +21,7 @@
 #include "continuum/dynamics.hpp"
 #include "core/blas_threads.hpp"
 #include "core/rest_shape.hpp"
+#include "discrete/hmc_sampler.hpp"
 #include "discrete/mc_sampler.hpp"
 #include "discrete/network.hpp"
 #include "discrete/newton_preconditioner.hpp"
@@ -516,6 +517,47 @@ void BM_McSweep(benchmark::State& state) {
   state.counters["moves_per_s"] = benchmark::Counter(double(moves), benchmark::Counter::kIsRate);
 }
 
+/// Hamiltonian Monte Carlo trajectories (discrete/hmc_sampler.hpp) at 300 K, zero force, from
+/// the rest shape (the mass matrix built there), on state.range(1) OpenMP threads (the energy
+/// and gradient's; the solves run on one BLAS thread). 20 adaptive trajectories first bring the
+/// acceptance to its target. Counters: energy + gradient evaluations and factor solves per
+/// trajectory, the mass matrix's factor entries and build time, acceptance and step.
+void BM_HmcTrajectory(benchmark::State& state) {
+  const Network& net = cached_network(static_cast<int>(state.range(0)));
+  const int threads = static_cast<int>(state.range(1));
+  const int saved_threads = omp_get_max_threads();
+  omp_set_num_threads(threads);
+  McOptions o;
+  o.algorithm = McAlgorithm::hmc;
+  o.temperature_K = 300.0;
+  o.seed = 1;
+  o.adapt_sweeps = 20;
+  LoadState load;
+  load.stiffness_scale = 25.0;  // McRunSetup's default
+  const auto t0 = std::chrono::steady_clock::now();
+  HmcSampler hmc(net, load, net.rest, o);
+  const double build_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (int s = 0; s < o.adapt_sweeps; ++s) hmc.sweep();
+  const long long e0 = hmc.evaluations(), s0 = hmc.solves();
+  long long trajectories = 0, accepted = 0;
+  for (auto _ : state) {
+    const McSweepStats st = hmc.sweep();
+    ++trajectories;
+    accepted += st.accepted;
+  }
+  omp_set_num_threads(saved_threads);
+  const double n = double(std::max(1LL, trajectories));
+  state.counters["vertices"] = net.topo.num_vertices;
+  state.counters["threads"] = threads;
+  state.counters["acceptance"] = double(accepted) / n;
+  state.counters["step"] = hmc.step_um();
+  state.counters["evals_per_traj"] = double(hmc.evaluations() - e0) / n;
+  state.counters["solves_per_traj"] = double(hmc.solves() - s0) / n;
+  state.counters["factor_entries"] = hmc.mass_info().factor_nonzeros;
+  state.counters["mass_build_s"] = build_s;
+}
+
 /// The console reporter plus a closing table of the Monte Carlo parallel speed-up: moves/s on
 /// 2 threads over moves/s on 1 thread, per network size (from the mc/sweep runs).
 class SpeedupReporter : public benchmark::ConsoleReporter {
@@ -697,6 +739,12 @@ void add_bench_command(CLI::App& app, Action& action) {
         reg("mc/sweep", BM_McSweep)
             ->ArgNames({"N", "threads"})
             ->ArgsProduct({{500, 2000, 8000}, {1, 2}})
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime()
+            ->MinTime(2.0);
+        reg("mc/hmc_trajectory", BM_HmcTrajectory)
+            ->ArgNames({"N", "threads"})
+            ->ArgsProduct({{500, 2000, 8000, 27500}, {1, 2}})
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime()
             ->MinTime(2.0);

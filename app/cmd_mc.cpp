@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// `rbc mc`: Metropolis Monte Carlo of the spectrin network at finite temperature, with
+// `rbc mc`: Monte Carlo of the spectrin network at finite temperature (single-vertex Metropolis,
+// or Hamiltonian Monte Carlo of all vertices: --sampler), with
 // means and blocking errors of D_A, D_T and the energy, checkpoint/restart and time series.
 //
 // Start: the zero-temperature equilibrium at the requested force (discrete/stretch.hpp
@@ -58,6 +59,8 @@ struct McCli {
   double penalty_scale = McRunSetup{}.penalty_scale;
   std::string checkpoint, resume, out;
   McStart start = McStart::equilibrium;
+  McAlgorithm algorithm = McAlgorithm::metropolis;  ///< --sampler
+  HmcOptions hmc;                                   ///< --hmc-step, --hmc-trajectory-time
   long long checkpoint_every = 100;
   long long snapshot_every = 0;
   bool json = false, quiet = false, verbose = false, overwrite = false;
@@ -84,6 +87,9 @@ OptionNames mc_option_names() {
       {"penalty scale", "--penalty-scale"},
       {"sample interval (sweeps)", "--sample-every"},
       {"adaptive fraction", "--adapt-fraction"},
+      {"HMC leapfrog step", "--hmc-step"},
+      {"HMC trajectory time", "--hmc-trajectory-time"},
+      {"HMC sampling temperature", "--sampling-temperature"},
   });
   return names;
 }
@@ -168,7 +174,7 @@ std::string draw_mc_picture(const McCli& o, const Network& net, const McRunSetup
 /// checkpoint, which otherwise supplies them).
 struct GivenOptions {
   bool force = false, temperature = false, seed = false, penalty_scale = false, vertices = false,
-       bending = false, adapt_fraction = false;
+       bending = false, adapt_fraction = false, sampler = false;
 };
 
 /// The run's setup from the command line (multipliers and reference filled in later),
@@ -179,6 +185,8 @@ McRunSetup to_setup(const McCli& o) {
   setup.force_pN = o.force_pN;
   setup.sampler.temperature_K = o.sampling_temperature();
   setup.sampler.seed = o.seed;
+  setup.sampler.algorithm = o.algorithm;
+  setup.sampler.hmc = o.hmc;
   setup.sampler.streams = o.streams > 0 ? o.streams : omp_get_max_threads();
   setup.sampler.adapt_sweeps = static_cast<int>(std::min<double>(
       std::llround(o.adapt_fraction * double(o.sweeps)), std::numeric_limits<int>::max()));
@@ -213,6 +221,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   if (given.penalty_scale) request.penalty_scale = o.penalty_scale;
   if (given.bending) request.bending_model = o.physics.bending;
   if (given.adapt_fraction) request.adapt_fraction = o.adapt_fraction;
+  if (given.sampler) request.algorithm = o.algorithm;
   if (o.adapt_sweeps >= 0) request.adapt_sweeps = o.adapt_sweeps;
   request.total_sweeps = o.sweeps;
   if (!o.resume.empty()) {
@@ -289,7 +298,8 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
       if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
         last_report = now;
         std::ostringstream m;
-        m << "sweep " << s << "/" << o.sweeps << ", step " << r.sampler().step_um() << " um";
+        m << "sweep " << s << "/" << o.sweeps << ", step " << r.sampler().step_um()
+          << (r.sampler().algorithm() == McAlgorithm::hmc ? "" : " um");
         if (!r.series().empty())
           m << ", acceptance " << r.series().back().acceptance << ", D_A "
             << r.series().back().axial_um << " um";
@@ -319,8 +329,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   }
 
   const long long done = run->sampler().sweeps_done() - first_sweep;
-  long long mobile = 0;
-  for (const auto& c : run->sampler().colours()) mobile += static_cast<long long>(c.size());
+  const long long mobile = run->sampler().mobile_vertices();
   const double sweeps_per_s = wall > 0 ? double(done) / wall : 0.0;
   const McRunSetup& su = run->setup();
   // The run record first (command, config, provenance), then the run and its statistics.
@@ -354,11 +363,11 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     std::cout << j.dump(2) << "\n";
     return 0;
   }
-  std::cout << std::setprecision(6) << "Monte Carlo: N = " << net.topo.num_vertices
-            << ", F = " << su.force_pN << " pN, T = " << su.sampler.temperature_K << " K, "
-            << run->sampler().sweeps_done() << " sweeps (" << su.sampler.adapt_sweeps
-            << " adaptive), " << su.sampler.streams << " streams, "
-            << run->sampler().colours().size() << " colours\n"
+  std::cout << std::setprecision(6) << "Monte Carlo (" << to_string(su.sampler.algorithm)
+            << "): N = " << net.topo.num_vertices << ", F = " << su.force_pN
+            << " pN, T = " << su.sampler.temperature_K << " K, " << run->sampler().sweeps_done()
+            << " sweeps (" << su.sampler.adapt_sweeps << " adaptive), " << su.sampler.streams
+            << " streams, " << run->sampler().colour_count() << " colours\n"
             << "speed: " << sweeps_per_s << " sweeps/s, " << sweeps_per_s * double(mobile)
             << " moves/s; threads " << run->sampler().thread_decision().reason << "\n";
   if (!have_stats) {
@@ -375,7 +384,9 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
               << (b.converged ? "" : ", error not converged: run longer") << ")\n";
   };
   std::cout << "production samples " << s.samples << ", transient discarded " << s.discarded
-            << ", acceptance " << s.acceptance << ", step " << run->sampler().step_um() << " um\n";
+            << ", acceptance " << s.acceptance << ", step " << run->sampler().step_um()
+            << (run->sampler().algorithm() == McAlgorithm::hmc ? " (leapfrog, dimensionless)\n"
+                                                               : " um\n");
   line("D_A", s.axial, "um");
   line("D_T", s.transverse, "um");
   line("energy", s.energy, "pN um");
@@ -412,8 +423,8 @@ int run_mc_recorded(const McCli& o, const GivenOptions& given) {
 
 void add_mc_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<McCli>();
-  auto* cmd =
-      app.add_subcommand("mc", "Metropolis Monte Carlo of the spectrin network at temperature T");
+  auto* cmd = app.add_subcommand(
+      "mc", "Monte Carlo of the spectrin network at temperature T (Metropolis or HMC)");
   add_config_option(cmd);
   auto* vertices =
       cmd->add_option("--vertices,-n", o->vertices,
@@ -456,6 +467,24 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_option("--sample-every", o->sample_every, "sweeps between recorded samples")
       ->check(integer_in(1, std::numeric_limits<int>::max()))
       ->capture_default_str();
+  auto* sampler =
+      cmd->add_option("--sampler", o->algorithm,
+                      "metropolis: single-vertex moves, the reference sampler (a sweep offers "
+                      "every vertex one move); hmc: Hamiltonian Monte Carlo of all vertices "
+                      "with the zero-temperature Hessian as mass matrix (a sweep is one "
+                      "trajectory; needs a sampling temperature > 0)")
+          ->transform(enum_choice<McAlgorithm>(
+              {{"metropolis", McAlgorithm::metropolis}, {"hmc", McAlgorithm::hmc}}))
+          ->type_name("TEXT")
+          ->default_str("metropolis");
+  cmd->add_option("--hmc-step", o->hmc.step,
+                  "hmc: initial leapfrog step (dimensionless time; adapted during the adaptive "
+                  "sweeps towards 65 % acceptance), in (0, 4]")
+      ->capture_default_str();
+  cmd->add_option("--hmc-trajectory-time", o->hmc.trajectory_time,
+                  "hmc: trajectory duration (dimensionless time; pi/2 decorrelates every mode of "
+                  "the harmonic approximation), jittered by +-20 %, in (0, 100]")
+      ->capture_default_str();
   cmd->add_option("--start", o->start, "equilibrium | rest")
       ->transform(
           enum_choice<McStart>({{"equilibrium", McStart::equilibrium}, {"rest", McStart::rest}}))
@@ -490,22 +519,24 @@ void add_mc_command(CLI::App& app, Action& action) {
                 "statistics}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
-  cmd->callback([o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, &action] {
-    const GivenOptions given{
-        force->count() > 0,
-        sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
-        seed->count() > 0,
-        penalty->count() > 0,
-        vertices->count() > 0,
-        cmd->get_option("--bending")->count() > 0,
-        adapt_fraction->count() > 0};
-    o->sampling_temperature_given = sampling_temp->count() > 0;
-    action = [o, cmd, given] {
-      o->record = run_record(*cmd);
-      make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
-      return naming_options(mc_option_names(), [&] { return run_mc_recorded(*o, given); });
-    };
-  });
+  cmd->callback(
+      [o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, sampler, &action] {
+        const GivenOptions given{
+            force->count() > 0,
+            sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
+            seed->count() > 0,
+            penalty->count() > 0,
+            vertices->count() > 0,
+            cmd->get_option("--bending")->count() > 0,
+            adapt_fraction->count() > 0,
+            sampler->count() > 0};
+        o->sampling_temperature_given = sampling_temp->count() > 0;
+        action = [o, cmd, given] {
+          o->record = run_record(*cmd);
+          make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
+          return naming_options(mc_option_names(), [&] { return run_mc_recorded(*o, given); });
+        };
+      });
 }
 
 }  // namespace rbc::app

@@ -845,6 +845,43 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
   return x;
 }
 
+Eigen::VectorXd SparseCholesky::solve_factor_transpose(const Eigen::VectorXd& z) const {
+  if (!impl_->ok) throw std::logic_error("sparse Cholesky: factor solve without a factorisation");
+  if (z.rows() != impl_->n)
+    throw std::invalid_argument("sparse Cholesky: right-hand side of " + std::to_string(z.rows()) +
+                                " rows for " + std::to_string(impl_->n) + " unknowns");
+  const ScopedBlasThreads blas(impl_->options.blas_threads);
+  if (!impl_->ensure_double())
+    throw std::runtime_error(
+        "sparse Cholesky: the double factorisation of a matrix factorised in float failed");
+  cholmod_factor* l = const_cast<cholmod_factor*>(impl_->factor.raw());
+  if (!l->is_ll) throw std::logic_error("sparse Cholesky: factor solve needs an LL' factor");
+  cholmod_common& common = impl_->factor.cholmod();
+  // G = Pm' Q' L with Pm the analysis' permutation (pattern->perm) and Q CHOLMOD's own (L L' =
+  // Q Ap Q', Ap the permuted matrix): G'^-1 z = Pm' Q' L'^-1 z.
+  Eigen::VectorXd work = z;
+  cholmod_dense b{};
+  b.nrow = b.d = static_cast<size_t>(z.rows());
+  b.ncol = 1;
+  b.nzmax = b.nrow;
+  b.x = work.data();
+  b.xtype = CHOLMOD_REAL;
+  b.dtype = CHOLMOD_DOUBLE;
+  cholmod_dense* y = cholmod_solve(CHOLMOD_Lt, l, &b, &common);
+  cholmod_dense* w = y ? cholmod_solve(CHOLMOD_Pt, l, y, &common) : nullptr;
+  if (!w) {
+    if (y) cholmod_free_dense(&y, &common);
+    throw std::bad_alloc();
+  }
+  const double* wp = static_cast<const double*>(w->x);
+  const std::vector<int>& perm = impl_->pattern->perm;
+  Eigen::VectorXd x(z.rows());
+  for (Eigen::Index k = 0; k < z.rows(); ++k) x(perm[k]) = wp[k];
+  cholmod_free_dense(&w, &common);
+  cholmod_free_dense(&y, &common);
+  return x;
+}
+
 double SparseCholesky::factor_nonzeros() const {
   return impl_->analysed ? static_cast<double>(impl_->factor.cholmod().lnz) : 0.0;
 }

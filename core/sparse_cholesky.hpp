@@ -129,6 +129,13 @@ class SparseCholesky {
   /// double factorisation then (clones are independent).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
+  /// With the factorised matrix written A = G G' (G = P' L, L CHOLMOD's lower factor and P
+  /// every permutation of the analysis), returns G'^-1 z. For z of independent standard normal
+  /// entries the result is a draw of N(0, A^-1), and A times it a draw of N(0, A): the momenta
+  /// of Hamiltonian Monte Carlo with mass matrix A (discrete/hmc_sampler.hpp). Always in double
+  /// precision (a double factorisation is made first under single_precision_factorisation).
+  /// std::logic_error without a factorisation or for an LDL' factor (a simplicial analysis).
+  Eigen::VectorXd solve_factor_transpose(const Eigen::VectorXd& z) const;
   /// Nonzeros of the factor L (0 before the first factorisation).
   double factor_nonzeros() const;
   /// Entries stored for L, the explicit zeros of amalgamated supernodes included (0 before the

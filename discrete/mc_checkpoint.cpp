@@ -25,7 +25,7 @@ static_assert(kMcCheckpointSeriesColumns == kMcSampleColumns);
 // every dataset and attribute (content_checksum), so a changed byte is refused, never resumed.
 // 5: the links (rest lengths, WLC density), the steric term and the bead patch in the
 // fingerprint, so a chain resumes only on the energy it sampled.
-constexpr long long kFormat = 5;
+constexpr long long kFormat = 6;
 /// Where the checksum of everything else in the file is kept.
 constexpr const char* kChecksumAttribute = "content_checksum";
 
@@ -132,6 +132,19 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     std::vector<int> mobile = u.sampler.mobile;
     if (mobile.empty()) mobile.push_back(-1);  // -1: every vertex moves
     h.write("/mobile", mobile.data(), hsize_t(mobile.size()), 1);
+    h.write_attribute("sampler", to_string(u.sampler.algorithm));
+    if (u.sampler.algorithm == McAlgorithm::hmc) {
+      if (c.mass_reference.cols() != c.x.cols())
+        throw std::invalid_argument("HMC chain state without its mass reference");
+      h.write("/mass_reference_um", c.mass_reference.data(), hsize_t(c.mass_reference.cols()), 3);
+      const HmcOptions& m = u.sampler.hmc;
+      h.write_attribute("hmc_step", m.step);
+      h.write_attribute("hmc_trajectory_time", m.trajectory_time);
+      h.write_attribute("hmc_jitter", m.jitter);
+      h.write_attribute("hmc_target_acceptance", m.target_acceptance);
+      h.write_attribute("hmc_adapt_gain", m.adapt_gain);
+      h.write_attribute("hmc_max_steps", static_cast<long long>(m.max_steps));
+    }
     h.write_attribute(kChecksumAttribute, hex_digits(h.content_checksum(kChecksumAttribute)));
     h.close();
   }
@@ -223,6 +236,27 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
         (cp.schedule.adapt_fraction >= 0 && cp.schedule.adapt_fraction < 1)))
     throw corrupt("adaptation schedule out of range");
   if (!(a.mobile.size() == 1 && a.mobile[0] == -1)) u.sampler.mobile = a.mobile;
+  try {
+    u.sampler.algorithm = mc_algorithm_from_string(h.read_attribute_string("sampler"));
+  } catch (const std::invalid_argument& e) {
+    throw corrupt(e.what());
+  }
+  if (u.sampler.algorithm == McAlgorithm::hmc) {
+    std::vector<double> reference;
+    const auto [rows, cols] = h.read("/mass_reference_um", reference);
+    if (static_cast<long long>(rows) != nv || cols != 3 ||
+        !Eigen::Map<const Eigen::VectorXd>(reference.data(), Eigen::Index(reference.size()))
+             .allFinite())
+      throw corrupt("HMC mass reference is not " + std::to_string(nv) + " x 3 finite positions");
+    cp.chain.mass_reference = Eigen::Map<const Eigen::Matrix3Xd>(reference.data(), 3, nv);
+    HmcOptions& m = u.sampler.hmc;
+    m.step = h.read_attribute_double("hmc_step");
+    m.trajectory_time = h.read_attribute_double("hmc_trajectory_time");
+    m.jitter = h.read_attribute_double("hmc_jitter");
+    m.target_acceptance = h.read_attribute_double("hmc_target_acceptance");
+    m.adapt_gain = h.read_attribute_double("hmc_adapt_gain");
+    m.max_steps = static_cast<int>(h.read_attribute_int("hmc_max_steps"));
+  }
   try {
     u.validate();
   } catch (const std::invalid_argument& e) {

@@ -14,8 +14,11 @@
 // format, fingerprint, vertices, bending_model, faces, sweep, step_um, rng_type, rng_bytes,
 // temperature_K, force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams,
 // adapt_sweeps, sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,
-// reference_transverse_um, planned_sweeps, adapt_fraction, content_checksum (format 5; older
-// formats are refused with a message naming the version).
+// reference_transverse_um, planned_sweeps, adapt_fraction, sampler (metropolis or hmc),
+// content_checksum; an HMC chain adds /mass_reference_um (N x 3, the positions its mass matrix
+// was built at) and hmc_step, hmc_trajectory_time, hmc_jitter, hmc_target_acceptance,
+// hmc_adapt_gain, hmc_max_steps (format 6; older formats are refused with a message naming the
+// version).
 #include <cstdint>
 #include <string>
 #include <utility>

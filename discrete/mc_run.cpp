@@ -7,6 +7,7 @@
 
 #include "core/geometry.hpp"
 #include "core/validation.hpp"
+#include "discrete/hmc_sampler.hpp"
 #include "discrete/stretch.hpp"
 
 namespace rbc {
@@ -77,14 +78,24 @@ LoadState load_of(const McRunSetup& s) {
 McRun::McRun(const Network& net, const McRunSetup& setup, const Positions& start)
     : net_(net), setup_(setup) {
   setup_.validate();
-  sampler_ = std::make_unique<McSampler>(net, load_of(setup_), start, setup_.sampler);
+  if (setup_.sampler.algorithm == McAlgorithm::hmc)
+    sampler_ = std::make_unique<HmcSampler>(net, load_of(setup_), start, setup_.sampler);
+  else
+    sampler_ = std::make_unique<McSampler>(net, load_of(setup_), start, setup_.sampler);
 }
 
 McRun::McRun(const Network& net, const McRunSetup& setup, const McChainState& state,
              std::vector<McSample> series)
     : net_(net), setup_(setup), series_(std::move(series)) {
   setup_.validate();
-  sampler_ = std::make_unique<McSampler>(net, load_of(setup_), state.x, setup_.sampler);
+  if (setup_.sampler.algorithm == McAlgorithm::hmc) {
+    if (state.mass_reference.cols() != net.topo.num_vertices)
+      throw std::invalid_argument("HMC chain state has no mass reference positions");
+    sampler_ = std::make_unique<HmcSampler>(net, load_of(setup_), state.x, state.mass_reference,
+                                            setup_.sampler);
+  } else {
+    sampler_ = std::make_unique<McSampler>(net, load_of(setup_), state.x, setup_.sampler);
+  }
   sampler_->restore(state);
 }
 

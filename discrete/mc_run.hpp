@@ -82,7 +82,8 @@ class McRun {
   /// completed sweep (state() and series() are consistent and can be checkpointed).
   bool advance(long long total_sweeps, const std::function<bool(const McRun&)>& after_sweep = {});
 
-  const McSampler& sampler() const { return *sampler_; }
+  /// The chain (McSampler or HmcSampler, as setup().sampler.algorithm says).
+  const McChain& sampler() const { return *sampler_; }
   const McRunSetup& setup() const { return setup_; }
   const std::vector<McSample>& series() const { return series_; }
   McChainState state() const { return sampler_->state(); }
@@ -96,7 +97,7 @@ class McRun {
   McSample measure(const McSweepStats& st, double step) const;
   const Network& net_;
   McRunSetup setup_;
-  std::unique_ptr<McSampler> sampler_;
+  std::unique_ptr<McChain> sampler_;
   std::vector<McSample> series_;
 };
 

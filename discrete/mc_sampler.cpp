@@ -35,9 +35,27 @@ std::uint64_t splitmix64(std::uint64_t z) {
 
 }  // namespace
 
+std::string to_string(McAlgorithm a) {
+  return a == McAlgorithm::hmc ? "hmc" : "metropolis";
+}
+
+McAlgorithm mc_algorithm_from_string(const std::string& s) {
+  if (s == "metropolis") return McAlgorithm::metropolis;
+  if (s == "hmc") return McAlgorithm::hmc;
+  throw std::invalid_argument("sampler '" + s + "' is not one of metropolis, hmc");
+}
+
 void McOptions::validate() const {
   require_finite_in_range("sampling temperature", "K", temperature_K, 0.0,
                           kMaxSamplingTemperature_K, Ends::closed_closed);
+  if (algorithm == McAlgorithm::hmc) {
+    require_finite_in_range("HMC sampling temperature", "K", temperature_K, 0.0,
+                            kMaxSamplingTemperature_K, Ends::open_closed);
+    hmc.validate();
+    if (!mobile.empty())
+      throw InvalidParameter("mobile vertices", std::to_string(mobile.size()),
+                             "all (HMC moves every vertex; a subset needs the metropolis sampler)");
+  }
   require_integer_in_range("RNG streams", streams, 1, kMaxMcStreams);
   // A trial step beyond 1 um (a quarter of the cell's radius) can only be rejected.
   require_finite_in_range("initial Monte Carlo step", "um", initial_step_um, 0.0, 1.0,
@@ -305,6 +323,12 @@ double McSampler::energy() const {
     for (double v : c.cache) e += v;
   e += tweezers_energy(net_.patch, load_.force_pN, x_, net_.rest);
   return e + constraint_energy_of_totals(net_, load_, area_, volume_);
+}
+
+int McSampler::mobile_vertices() const {
+  int n = 0;
+  for (const auto& c : colours_) n += static_cast<int>(c.size());
+  return n;
 }
 
 McChainState McSampler::state() const {

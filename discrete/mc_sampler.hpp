@@ -47,11 +47,32 @@
 #include <string>
 #include <vector>
 
+#include "discrete/hmc_kernel.hpp"
 #include "discrete/network.hpp"
 
 namespace rbc {
 
+/// The Markov chain of a Monte Carlo run. Both sample the same law (the free energy and fixed
+/// multipliers above, at the sampling temperature); spelled "metropolis", "hmc" on the command
+/// line and in Python.
+enum class McAlgorithm {
+  /// Single-vertex Metropolis moves (this file): the reference sampler; a sweep offers every
+  /// mobile vertex one move.
+  metropolis,
+  /// Hamiltonian Monte Carlo of all vertices at once with the Hessian at the start as mass
+  /// matrix (discrete/hmc_sampler.hpp); a sweep is one trajectory.
+  hmc,
+};
+std::string to_string(McAlgorithm a);
+/// Throws std::invalid_argument ("sampler 'x' is not one of metropolis, hmc").
+McAlgorithm mc_algorithm_from_string(const std::string& s);
+
 struct McOptions {
+  /// Which chain samples the law (HMC needs temperature_K > 0 and all vertices mobile).
+  McAlgorithm algorithm = McAlgorithm::metropolis;
+  /// The HMC transition (algorithm == hmc): step, trajectory time, jitter, target acceptance
+  /// and gain of the step adaptation (adapt_sweeps trajectories long). Ignored by Metropolis.
+  HmcOptions hmc;
   double temperature_K = 300.0;  ///< sampling temperature, K; 0 = quench (downhill moves only)
   unsigned long seed = 1;        ///< seed of the GSL mt19937 streams
   /// Independent RNG streams = parallel chunks per colour (the chain depends on it, not on the
@@ -108,8 +129,11 @@ inline constexpr int kMaxMcStreams = 1024;
 struct McChainState {
   Positions x;                                        ///< 3 x N, um
   std::vector<std::vector<unsigned char>> rng_state;  ///< gsl_rng_state bytes, per stream
+  /// Metropolis: the trial half-width (um); HMC: the leapfrog step (dimensionless time).
   double step_um = 0;
   long long sweep = 0;  ///< completed sweeps
+  /// HMC: the positions the mass matrix was built at (3 x N, um); empty for Metropolis.
+  Positions mass_reference;
 };
 
 /// Counts of one sweep.
@@ -159,9 +183,41 @@ BendingTerms hinge_stencil(const Topology& topo);
 std::vector<std::vector<int>> colour_vertices(const Topology& topo, int min_distance,
                                               const std::vector<int>& vertices = {});
 
+/// What a Monte Carlo run needs of its chain (McSampler, HmcSampler): advance by one sweep,
+/// the state and its observables, checkpointable state.
+class McChain {
+ public:
+  virtual ~McChain() = default;
+  /// One sweep: Metropolis, every mobile vertex offered one move; HMC, one trajectory
+  /// (attempted 1, accepted 0 or 1, infeasible 1 when it left the domain).
+  virtual McSweepStats sweep() = 0;
+  /// The sampled free energy F at the current state (pN um), bit-reproducible for any thread
+  /// count.
+  virtual double energy() const = 0;
+  virtual const Positions& positions() const = 0;
+  /// Metropolis: trial half-width (um); HMC: leapfrog step (dimensionless time).
+  virtual double step_um() const = 0;
+  virtual long long sweeps_done() const = 0;
+  virtual double area_um2() const = 0;
+  virtual double volume_um3() const = 0;
+  virtual const McThreadDecision& thread_decision() const = 0;
+  /// Largest |running - recomputed| of A (um^2) and V (um^3) (0 where totals are recomputed).
+  virtual double max_area_drift_um2() const = 0;
+  virtual double max_volume_drift_um3() const = 0;
+  /// Vertices that move.
+  virtual int mobile_vertices() const = 0;
+  /// Metropolis: the colour classes of a sweep; HMC: 0.
+  virtual int colour_count() const = 0;
+  virtual McAlgorithm algorithm() const = 0;
+  virtual McChainState state() const = 0;
+  /// Restores a state written by state() of the same kind of chain; std::invalid_argument when
+  /// it does not fit.
+  virtual void restore(const McChainState& s) = 0;
+};
+
 /// The Metropolis sampler. Owns the prepared state (colouring, RNG streams, caches); the
 /// network must outlive it.
-class McSampler {
+class McSampler final : public McChain {
  public:
   /// Starts the chain at `start` (must be feasible) with fresh streams seeded from options.seed.
   /// Throws std::invalid_argument for invalid options or an infeasible start. The area and
@@ -172,7 +228,7 @@ class McSampler {
   McSampler& operator=(const McSampler&) = delete;
 
   /// One sweep: every mobile vertex is offered one move, colour by colour.
-  McSweepStats sweep();
+  McSweepStats sweep() override;
 
   /// Local-update energy change of moving v to `to` at the current state, including the
   /// global area/volume term from the running totals (pN um); +inf when infeasible.
@@ -183,27 +239,30 @@ class McSampler {
   /// The sampled free energy F at the current state (pN um): the cached local terms (exact
   /// kernel values) summed in a fixed order, plus tweezers and the area/volume terms. It is
   /// bit-reproducible for any thread count and agrees with network_energy() to round-off.
-  double energy() const;
+  double energy() const override;
 
-  const Positions& positions() const { return x_; }
-  double step_um() const { return step_; }
-  long long sweeps_done() const { return sweep_; }
-  double area_um2() const { return area_; }
-  double volume_um3() const { return volume_; }
+  const Positions& positions() const override { return x_; }
+  double step_um() const override { return step_; }
+  long long sweeps_done() const override { return sweep_; }
+  double area_um2() const override { return area_; }
+  double volume_um3() const override { return volume_; }
   double beta_per_pNum() const { return beta_; }
   const LoadState& load() const { return load_; }
   const McOptions& options() const { return opt_; }
   const std::vector<std::vector<int>>& colours() const { return colours_; }
   /// The threads the sweeps run on (mc_thread_decision at construction).
-  const McThreadDecision& thread_decision() const { return threads_; }
+  const McThreadDecision& thread_decision() const override { return threads_; }
   /// Largest |running - recomputed| of A (um^2) and V (um^3) seen at the per-sweep resets.
-  double max_area_drift_um2() const { return max_area_drift_; }
-  double max_volume_drift_um3() const { return max_volume_drift_; }
+  double max_area_drift_um2() const override { return max_area_drift_; }
+  double max_volume_drift_um3() const override { return max_volume_drift_; }
+  int mobile_vertices() const override;
+  int colour_count() const override { return static_cast<int>(colours_.size()); }
+  McAlgorithm algorithm() const override { return McAlgorithm::metropolis; }
 
-  McChainState state() const;
+  McChainState state() const override;
   /// Restores a state written by state() (same network, same streams); throws
   /// std::invalid_argument if shapes or RNG sizes differ, or if x is infeasible.
-  void restore(const McChainState& s);
+  void restore(const McChainState& s) override;
 
  private:
   struct Proposal {

@@ -85,6 +85,9 @@ std::string check_mc_resume(const McCheckpoint& cp, const McResumeRequest& r,
     throw std::invalid_argument(ck + " was run with penalty scale " +
                                 std::to_string(cp.setup.penalty_scale) + ", not " +
                                 std::to_string(*r.penalty_scale));
+  if (r.algorithm && *r.algorithm != cp.setup.sampler.algorithm)
+    throw std::invalid_argument(ck + " was run with the " + to_string(cp.setup.sampler.algorithm) +
+                                " sampler, not " + to_string(*r.algorithm));
   if (r.adapt_sweeps && *r.adapt_sweeps != cp.setup.sampler.adapt_sweeps)
     throw std::invalid_argument(ck + " adapts the step for " +
                                 std::to_string(cp.setup.sampler.adapt_sweeps) +
@@ -145,12 +148,13 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
           {"force_pN", su.force_pN},
           {"temperature_K", su.sampler.temperature_K},
           {"kT_pNum", units::thermal_energy_pNum(su.sampler.temperature_K)},
+          {"sampler", to_string(su.sampler.algorithm)},
           {"seed", su.sampler.seed},
           {"streams", su.sampler.streams},
           {"threads", to_json(run.sampler().thread_decision())},
           {"bending", to_string(net.bending_model)},
           {"penalty_scale", su.penalty_scale},
-          {"colours", run.sampler().colours().size()},
+          {"colours", run.sampler().colour_count()},
           {"sweeps", run.sampler().sweeps_done()},
           {"adaptive_sweeps", su.sampler.adapt_sweeps},
           {"step_um", run.sampler().step_um()},

@@ -71,6 +71,7 @@ struct McResumeRequest {
   std::optional<long long> adapt_sweeps;  ///< absolute adaptive sweeps
   std::optional<double> adapt_fraction;   ///< fraction of total_sweeps
   std::optional<BendingModel> bending_model;
+  std::optional<McAlgorithm> algorithm;
   long long total_sweeps = 0;  ///< sweeps the resumed run is to reach
 };
 

@@ -24,7 +24,7 @@ class MonteCarlo {
   MonteCarlo(std::shared_ptr<PyNetwork> net, double force_pN, double temperature_K,
              unsigned long seed, int streams, py::object adapt_sweeps, int sample_every,
              double penalty_scale, const std::string& start, double initial_step_um,
-             double target_acceptance, double adapt_gain)
+             double target_acceptance, double adapt_gain, const std::string& sampler)
       : net_(std::move(net)), adapt_sweeps_(std::move(adapt_sweeps)) {
     finite("force_pN", force_pN);
     finite("sampling_temperature_K", temperature_K);
@@ -46,6 +46,7 @@ class MonteCarlo {
     setup_.sampler.initial_step_um = initial_step_um;
     setup_.sampler.target_acceptance = target_acceptance;
     setup_.sampler.adapt_gain = adapt_gain;
+    setup_.sampler.algorithm = mc_algorithm_from_string(sampler);  // ValueError naming choices
     setup_.sample_every = sample_every;
     setup_.penalty_scale = penalty_scale;
     validated("MonteCarlo(force_pN=" + num(force_pN) + ", sampling_temperature_K=" +
@@ -152,18 +153,20 @@ class MonteCarlo {
 void bind_mc(py::module_& m) {
   py::class_<MonteCarlo>(
       m, "MonteCarlo",
-      "Metropolis Monte Carlo of a Network at sampling_temperature_K (the WLC keeps its own "
+      "Monte Carlo of a Network at sampling_temperature_K (sampler='metropolis': single-vertex "
+      "moves, a sweep offers every vertex one; 'hmc': Hamiltonian Monte Carlo of all vertices, a "
+      "sweep is one trajectory) (the WLC keeps its own "
       "wlc_temperature_K), started at the zero-temperature equilibrium at force_pN with its "
       "area/volume multipliers held fixed, penalty stiffnesses scaled by penalty_scale (as "
       "`rbc mc`). adapt_sweeps=None: the first 20 % of the first run() adapt the step.")
       .def(py::init<std::shared_ptr<PyNetwork>, double, double, unsigned long, int, py::object, int,
-                    double, const std::string&, double, double, double>(),
+                    double, const std::string&, double, double, double, const std::string&>(),
            py::arg("network"), py::kw_only(), py::arg("force_pN") = 0.0,
            py::arg("sampling_temperature_K") = 300.0, py::arg("seed") = 1, py::arg("streams") = 1,
            py::arg("adapt_sweeps") = py::none(), py::arg("sample_every") = 1,
            py::arg("penalty_scale") = McRunSetup{}.penalty_scale, py::arg("start") = "equilibrium",
            py::arg("initial_step_um") = 0.0, py::arg("target_acceptance") = 0.4,
-           py::arg("adapt_gain") = 0.5)
+           py::arg("adapt_gain") = 0.5, py::arg("sampler") = "metropolis")
       .def("run", &MonteCarlo::run, py::arg("sweeps"), py::arg("cancel") = py::none(),
            "Run `sweeps` more sweeps (GIL released; Ctrl-C raises KeyboardInterrupt at the end of "
            "the current sweep and leaves the chain there).")

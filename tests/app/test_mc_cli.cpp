@@ -251,3 +251,44 @@ TEST(McCli, ResumeRefusesACheckpointOfOtherPhysics) {
 
 }  // namespace
 }  // namespace rbc
+
+namespace rbc {
+namespace {
+
+// --sampler hmc runs the collective chain through the same front end (JSON names the sampler;
+// a checkpoint resumes it on another thread count bit for bit), and its refusals come before
+// any work: an unknown sampler, a zero sampling temperature, a step outside (0, 4].
+TEST(McCli, HmcSamplerRunsResumesAndRefusesBadInput) {
+  using testing::fresh_output_dir;
+  using testing::run_rbc;
+  const fs::path dir = fresh_output_dir("mc_cli_hmc");
+  const std::string base = "mc -n 150 --force 20 --sampler hmc --adapt-sweeps 4 --seed 2 -q --json";
+  const CliRun whole = run_rbc(base + " --sweeps 20", 2);
+  ASSERT_EQ(whole.exit_code, 0) << whole.all();
+  const json w = json::parse(whole.out);
+  EXPECT_EQ(w.at("sampler"), "hmc");
+  EXPECT_EQ(w.at("sweeps"), 20);
+  const std::string ck = quoted(dir / "chain.h5");
+  ASSERT_EQ(run_rbc(base + " --sweeps 5 --checkpoint " + ck + " --checkpoint-every 5", 2).exit_code,
+            0);
+  const CliRun resumed = run_rbc("mc --resume " + ck + " --sweeps 20 -q --json", 1);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.all();
+  const json r = json::parse(resumed.out);
+  EXPECT_EQ(r.at("sampler"), "hmc");
+  EXPECT_EQ(r.at("energy_pNum").at("mean"), w.at("energy_pNum").at("mean"));
+  EXPECT_EQ(r.at("axial_um").at("mean"), w.at("axial_um").at("mean"));
+  // A resumed checkpoint cannot change its sampler.
+  const CliRun other = run_rbc("mc --resume " + ck + " --sampler metropolis --sweeps 10 -q");
+  EXPECT_EQ(other.exit_code, 2) << other.all();
+  EXPECT_NE(other.err.find("hmc"), std::string::npos) << other.all();
+  for (const std::string bad : {"--sampler gibbs", "--sampler hmc --sampling-temperature 0",
+                                "--sampler hmc --hmc-step 5", "--sampler hmc --hmc-step 0"}) {
+    const CliRun b = run_rbc("mc -n 150 --sweeps 1 -q " + bad);
+    EXPECT_EQ(b.exit_code, 2) << bad << "\n" << b.all();
+    EXPECT_NE(b.err.find("rbc: error:"), std::string::npos) << b.all();
+    EXPECT_EQ(std::count(b.err.begin(), b.err.end(), '\n'), 1) << b.all();
+  }
+}
+
+}  // namespace
+}  // namespace rbc

@@ -1,0 +1,227 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "discrete/hmc_sampler.hpp"
+
+#include <gsl/gsl_randist.h>
+#include <omp.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "core/geometry.hpp"
+#include "core/sparse_cholesky.hpp"
+#include "core/units.hpp"
+#include "discrete/network_energy.hpp"
+#include "discrete/network_hessian.hpp"
+
+namespace rbc {
+
+namespace {
+constexpr int kLowRank = 6;  ///< dA, dV, three translations, the rotation about x
+/// Diagonal shift of K0 relative to its mean diagonal: lifts the zero modes (which the rank-four
+/// term then gives their mass) without changing the stiff modes.
+constexpr double kShiftFraction = 1e-4;
+}  // namespace
+
+/// M = beta (K0 + U C U') with its factor (see the header).
+NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, const Positions& x,
+                                     double beta)
+    : beta_(beta), factor_([] {
+        SparseCholeskyOptions o;
+        o.solve_precision = SolvePrecision::double_precision;
+        o.blas_threads = 1;
+        return o;
+      }()) {
+  const Topology& t = net.topo;
+  const int n = t.num_vertices;
+  Positions ga = Positions::Zero(3, n), gv = Positions::Zero(3, n);
+  double area = 0, volume = 0;
+  for (int f = 0; f < t.num_faces(); ++f) {
+    Eigen::Matrix3d g;
+    const Vec3 a = x.col(t.faces(0, f)), b = x.col(t.faces(1, f)), c = x.col(t.faces(2, f));
+    area += triangle_area(a, b, c, &g);
+    for (int k = 0; k < 3; ++k) ga.col(t.faces(k, f)) += g.col(k);
+    volume += tetra_volume(a, b, c, &g);
+    for (int k = 0; k < 3; ++k) gv.col(t.faces(k, f)) += g.col(k);
+  }
+  const double s = load.stiffness_scale;
+  const double ka = s * net.constraints.area_stiffness_pN_per_um3;
+  const double kv = s * net.constraints.volume_stiffness_pN_per_um5;
+  ConstraintCurvature cc;
+  cc.tension_pN_per_um = load.multipliers.area_pN_per_um + ka * (area - net.area0_um2);
+  cc.pressure_pN_per_um2 = load.multipliers.volume_pN_per_um2 + kv * (volume - net.volume0_um3);
+
+  NetworkHessianOptions ho;
+  ho.shift_fraction = 0.0;
+  NetworkHessian hessian(net, ho);
+  auto with_shift = [&](const Eigen::SparseMatrix<double>& h) {
+    k0_ = h;
+    const double mean_diagonal = k0_.diagonal().sum() / double(3 * n);
+    info_.shift_pN_per_um = kShiftFraction * mean_diagonal;
+    info_.rigid_mass_pN_per_um = mean_diagonal;
+    for (int i = 0; i < 3 * n; ++i) k0_.coeffRef(i, i) += info_.shift_pN_per_um;
+    return factor_.factorize(k0_);
+  };
+  info_.exact = with_shift(hessian.assemble_exact(x, cc));
+  if (!info_.exact && !with_shift(hessian.assemble(x, cc, true)))
+    throw std::runtime_error("HMC mass matrix: the projected network Hessian did not factorise");
+  info_.factor_nonzeros = factor_.factor_nonzeros();
+
+  // Low-rank part: columns of U and the diagonal of C (pN/um).
+  u_.resize(3 * n, kLowRank);
+  c_.resize(kLowRank);
+  u_.col(0) = flat(ga);
+  u_.col(1) = flat(gv);
+  c_(0) = ka;
+  c_(1) = kv;
+  const Eigen::Vector3d centre = x.rowwise().mean();
+  for (int d = 0; d < 3; ++d) {
+    Positions t3 = Positions::Zero(3, n);
+    t3.row(d).setConstant(1.0 / std::sqrt(double(n)));
+    u_.col(2 + d) = flat(t3);
+  }
+  Positions r = Positions::Zero(3, n);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d q = x.col(i) - centre;
+    r(1, i) = -q(2);
+    r(2, i) = q(1);
+  }
+  r /= r.norm();
+  u_.col(5) = flat(r);
+  for (int k = 2; k < kLowRank; ++k) c_(k) = info_.rigid_mass_pN_per_um;
+  w_ = factor_.solve(Eigen::MatrixXd(u_));
+  Eigen::MatrixXd cap = u_.transpose() * w_;
+  for (int k = 0; k < kLowRank; ++k) cap(k, k) += 1.0 / c_(k);
+  capacitance_.compute(cap);
+  if (capacitance_.info() != Eigen::Success)
+    throw std::runtime_error("HMC mass matrix: the Woodbury capacitance is singular");
+}
+
+Eigen::VectorXd NetworkMassMatrix::draw(gsl_rng* rng) const {
+  const Eigen::Index m = k0_.rows();
+  Eigen::VectorXd z(m);
+  for (Eigen::Index i = 0; i < m; ++i) z(i) = gsl_ran_gaussian_ziggurat(rng, 1.0);
+  Eigen::VectorXd z2(kLowRank);
+  for (int k = 0; k < kLowRank; ++k) z2(k) = gsl_ran_gaussian_ziggurat(rng, 1.0);
+  const Eigen::VectorXd w = factor_.solve_factor_transpose(z);  // ~ N(0, K0^-1)
+  Eigen::VectorXd p = k0_.selfadjointView<Eigen::Lower>() * w;  // ~ N(0, K0)
+  p.noalias() += u_ * (c_.cwiseSqrt().cwiseProduct(z2));
+  return std::sqrt(beta_) * p;
+}
+
+Eigen::VectorXd NetworkMassMatrix::inverse_times(const Eigen::VectorXd& p) const {
+  Eigen::VectorXd y = factor_.solve(p);
+  y.noalias() -= w_ * capacitance_.solve(u_.transpose() * y);
+  return y / beta_;
+}
+
+HmcSampler::HmcSampler(const Network& net, const LoadState& load, const Positions& start,
+                       const McOptions& options)
+    : HmcSampler(net, load, start, start, options) {}
+
+HmcSampler::HmcSampler(const Network& net, const LoadState& load, const Positions& start,
+                       const Positions& mass_reference, const McOptions& options)
+    : net_(net), load_(load), opt_(options), rng_(gsl_rng_alloc(gsl_rng_mt19937)) {
+  if (opt_.algorithm != McAlgorithm::hmc)
+    throw std::invalid_argument("HmcSampler needs McOptions::algorithm = hmc");
+  opt_.validate();
+  const int n = net.topo.num_vertices;
+  if (start.cols() != n || mass_reference.cols() != n)
+    throw std::invalid_argument("start positions have " + std::to_string(start.cols()) +
+                                " vertices, the network " + std::to_string(n));
+  beta_ = 1.0 / units::thermal_energy_pNum(opt_.temperature_K);
+  if (!std::isfinite(network_energy(net_, mass_reference, load_)))
+    throw std::invalid_argument(
+        "HMC mass reference is infeasible (a link at Lmax or a collapsed face)");
+  reference_ = mass_reference;
+  mass_ = std::make_unique<NetworkMassMatrix>(net_, load_, reference_, beta_);
+  potential_ = [this](const Eigen::VectorXd& q, Eigen::VectorXd& grad) {
+    const Eigen::Map<const Positions> xq(q.data(), 3, net_.topo.num_vertices);
+    Positions g(3, net_.topo.num_vertices);
+    const double f = network_energy(net_, Positions(xq), load_, &g);
+    grad = beta_ * flat(g);
+    return beta_ * f;
+  };
+  gsl_rng_set(rng_.get(), opt_.seed);
+  step_ = opt_.hmc.step;
+  threads_.threads = threads_.requested = std::max(1, omp_get_max_threads());
+  threads_.reason = std::to_string(threads_.threads) +
+                    ": one chain, energy and gradient on the OpenMP threads (deterministic sums)";
+  set_state(start);
+}
+
+HmcSampler::~HmcSampler() = default;
+
+void HmcSampler::set_state(const Positions& x) {
+  state_ = hmc_state(potential_, flat(x));
+  if (!std::isfinite(state_.potential))
+    throw std::invalid_argument(
+        "Monte Carlo start is infeasible (a link at Lmax or a collapsed face)");
+  x_ = x;
+  const NetworkGeometry geo = network_geometry(x_, net_.topo);
+  area_ = geo.area_um2;
+  volume_ = geo.volume_um3;
+}
+
+const HmcMassInfo& HmcSampler::mass_info() const {
+  return mass_->info();
+}
+
+int HmcSampler::mobile_vertices() const {
+  return net_.topo.num_vertices;
+}
+
+double HmcSampler::energy() const {
+  return state_.potential / beta_;
+}
+
+McSweepStats HmcSampler::sweep() {
+  const int steps = hmc_step_count(opt_.hmc, step_, rng_.get());
+  last_ = hmc_transition(potential_, *mass_, state_, step_, steps, rng_.get());
+  evaluations_ += last_.evaluations;
+  solves_ += last_.solves;
+  if (sweep_ < opt_.adapt_sweeps)
+    step_ = hmc_adapted_step(opt_.hmc, step_, last_.acceptance_probability, sweep_);
+  ++sweep_;
+  if (last_.accepted) {
+    x_ = Eigen::Map<const Positions>(state_.x.data(), 3, net_.topo.num_vertices);
+    const NetworkGeometry geo = network_geometry(x_, net_.topo);
+    area_ = geo.area_um2;
+    volume_ = geo.volume_um3;
+  }
+  McSweepStats st;
+  st.attempted = 1;
+  st.accepted = last_.accepted ? 1 : 0;
+  st.infeasible = last_.diverged ? 1 : 0;
+  return st;
+}
+
+McChainState HmcSampler::state() const {
+  McChainState s;
+  s.x = x_;
+  s.step_um = step_;
+  s.sweep = sweep_;
+  const auto* p = static_cast<const unsigned char*>(gsl_rng_state(rng_.get()));
+  s.rng_state.emplace_back(p, p + gsl_rng_size(rng_.get()));
+  s.mass_reference = reference_;
+  return s;
+}
+
+void HmcSampler::restore(const McChainState& s) {
+  if (s.x.cols() != net_.topo.num_vertices)
+    throw std::invalid_argument("chain state has " + std::to_string(s.x.cols()) +
+                                " vertices, the network " + std::to_string(net_.topo.num_vertices));
+  if (s.rng_state.size() != 1 || s.rng_state[0].size() != gsl_rng_size(rng_.get()))
+    throw std::invalid_argument("chain state does not hold one mt19937 stream (HMC)");
+  if (s.mass_reference.size() && s.mass_reference != reference_)
+    throw std::invalid_argument("chain state's mass reference differs from the sampler's");
+  if (!(s.step_um > 0) || !std::isfinite(s.step_um) || s.sweep < 0)
+    throw std::invalid_argument("chain state has an invalid step or sweep count");
+  set_state(s.x);
+  step_ = s.step_um;
+  sweep_ = s.sweep;
+  std::memcpy(gsl_rng_state(rng_.get()), s.rng_state[0].data(), s.rng_state[0].size());
+}
+
+}  // namespace rbc

@@ -1,0 +1,136 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Hamiltonian Monte Carlo of the whole spectrin network (discrete/hmc_kernel.hpp applied to
+// every vertex at once): the collective sampler of `rbc mc --sampler hmc`. It samples exactly
+// the law of the Metropolis sampler (discrete/mc_sampler.hpp): pi(x) ~ exp(-beta F(x)), F the
+// network's free energy network_energy() with the area and volume multipliers held fixed and
+// the penalties times LoadState::stiffness_scale, beta = 1/(kB T) at the sampling temperature.
+//
+// Mass matrix (pN/um, times beta): built once, at the chain's reference positions (the
+// zero-temperature equilibrium), and never changed, so the transition is exact HMC:
+//   M = beta (K0 + U C U'),
+//   K0 = the network Hessian (discrete/network_hessian.hpp) at the reference: the exact one
+//        plus a shift of shift_fraction times its mean diagonal when that factorises, else the
+//        element-wise projected one (semidefinite, same shift);
+//   U = [dA/dx, dV/dx, t_x, t_y, t_z, r_x], C = diag(s k_A, s k_V, c, c, c, c): the rank-two
+//        part of the area and volume penalties, which the sparse Hessian leaves out (with them
+//        the step would be capped by the stiffest, global, modes), and the four zero modes of
+//        F (unit translations t and the unit rotation r_x about the stretch axis at the
+//        reference), given the mass c = the mean diagonal of K0, so that no momentum along them
+//        turns into a large velocity.
+// M^-1 is applied by Sherman-Morrison-Woodbury on one CHOLMOD factorisation of K0 (double
+// precision: the kinetic energy, the drifts and the momentum draws all use this one factor):
+//   M^-1 p = (K0^-1 p - W S^-1 U' K0^-1 p) / beta,  W = K0^-1 U,  S = C^-1 + U' W;
+// a momentum is p = sqrt(beta) (K0 G'^-1 z1 + U C^1/2 z2), K0 = G G', z1, z2 standard normal,
+// a draw of N(0, M) (the sum of independent draws of N(0, beta K0) and N(0, beta U C U')).
+// Cost per transition: n + 2 solves and n energy + gradient evaluations for n leapfrog steps,
+// plus one factor solve for the draw.
+//
+// The area, volume and energy reported are those of the last evaluation (network_geometry's
+// fixed-order sums): bit-reproducible for any thread count, no running totals, so no drift.
+#include <Eigen/Cholesky>
+#include <Eigen/SparseCore>
+#include <memory>
+
+#include "core/sparse_cholesky.hpp"
+#include "discrete/mc_sampler.hpp"
+
+namespace rbc {
+
+/// How the mass matrix was made (recorded with the run).
+struct HmcMassInfo {
+  bool exact = false;               ///< the exact Hessian (else the projected one)
+  double shift_pN_per_um = 0;       ///< diagonal shift added to K0
+  double rigid_mass_pN_per_um = 0;  ///< c, the mass of the four zero modes
+  double factor_nonzeros = 0;       ///< of the Cholesky factor of K0
+};
+
+/// M = beta (K0 + U C U') at positions x (see above), with its factor. Prepared state: built
+/// once, then read only (draw and inverse_times are not for concurrent calls on one object).
+class NetworkMassMatrix final : public MassMatrix {
+ public:
+  /// Throws std::runtime_error when neither Hessian factorises.
+  NetworkMassMatrix(const Network& net, const LoadState& load, const Positions& x,
+                    double beta_per_pNum);
+  Eigen::VectorXd draw(gsl_rng* rng) const override;
+  Eigen::VectorXd inverse_times(const Eigen::VectorXd& p) const override;
+  const HmcMassInfo& info() const { return info_; }
+  /// K0 (lower triangle, pN/um), U (3N x 6) and diag C (pN/um): M = beta (K0 + U C U').
+  const Eigen::SparseMatrix<double>& sparse_part() const { return k0_; }
+  const Eigen::MatrixXd& low_rank_columns() const { return u_; }
+  const Eigen::VectorXd& low_rank_stiffness() const { return c_; }
+
+ private:
+  double beta_;
+  SparseCholesky factor_;
+  Eigen::SparseMatrix<double> k0_;  ///< lower triangle, pN/um
+  Eigen::MatrixXd u_, w_;           ///< U (3N x 6) and K0^-1 U
+  Eigen::VectorXd c_;               ///< diag C, pN/um
+  Eigen::LDLT<Eigen::MatrixXd> capacitance_;
+  HmcMassInfo info_;
+};
+
+/// The collective sampler. Owns the prepared state (mass matrix factor, RNG stream); the
+/// network must outlive it.
+class HmcSampler final : public McChain {
+ public:
+  /// Starts the chain at `start` (feasible), with the mass matrix built at `start` too.
+  /// options.algorithm must be hmc and options.temperature_K > 0 (std::invalid_argument).
+  HmcSampler(const Network& net, const LoadState& load, const Positions& start,
+             const McOptions& options);
+  /// As above with the mass matrix built at `mass_reference` (a resumed chain's).
+  HmcSampler(const Network& net, const LoadState& load, const Positions& start,
+             const Positions& mass_reference, const McOptions& options);
+  ~HmcSampler() override;
+  HmcSampler(const HmcSampler&) = delete;
+  HmcSampler& operator=(const HmcSampler&) = delete;
+
+  McSweepStats sweep() override;
+  double energy() const override;
+  const Positions& positions() const override { return x_; }
+  double step_um() const override { return step_; }
+  long long sweeps_done() const override { return sweep_; }
+  double area_um2() const override { return area_; }
+  double volume_um3() const override { return volume_; }
+  const McThreadDecision& thread_decision() const override { return threads_; }
+  double max_area_drift_um2() const override { return 0.0; }
+  double max_volume_drift_um3() const override { return 0.0; }
+  int mobile_vertices() const override;
+  int colour_count() const override { return 0; }
+  McAlgorithm algorithm() const override { return McAlgorithm::hmc; }
+  McChainState state() const override;
+  void restore(const McChainState& s) override;
+
+  /// The last transition (energy error, steps, acceptance probability, evaluations, solves).
+  const HmcTransition& last_transition() const { return last_; }
+  /// Totals over all transitions of this object: energy + gradient evaluations, mass-matrix
+  /// solves (the factor's: one per M^-1 application and one per momentum draw).
+  long long evaluations() const { return evaluations_; }
+  long long solves() const { return solves_; }
+  const HmcMassInfo& mass_info() const;
+  double beta_per_pNum() const { return beta_; }
+
+ private:
+  void set_state(const Positions& x);
+
+  const Network& net_;
+  LoadState load_;
+  McOptions opt_;
+  double beta_ = 0;
+  Positions x_, reference_;
+  HmcState state_;
+  double step_ = 0;
+  long long sweep_ = 0;
+  double area_ = 0, volume_ = 0;
+  long long evaluations_ = 0, solves_ = 0;
+  HmcTransition last_;
+  McThreadDecision threads_;
+  std::unique_ptr<NetworkMassMatrix> mass_;
+  HmcPotential potential_;
+  struct RngFree {
+    void operator()(gsl_rng* r) const noexcept { gsl_rng_free(r); }
+  };
+  std::unique_ptr<gsl_rng, RngFree> rng_;
+};
+
+}  // namespace rbc
