@@ -234,6 +234,20 @@ TEST(ContactLoad, FirstMomentIsTheClippedRegionsCentroid) {
     }
 }
 
+TEST(ContactLoad, KeepsEveryMirrorOfTheMesh) {
+  // The caps are bounded by planes x = c+-, which every mirror of the mesh that fixes x keeps,
+  // and x -> -x swaps them (c- = -c+ on an x-symmetric mesh), so the load keeps the mesh's
+  // whole mirror group; the vertex patch cuts mirror pairs apart on some meshes.
+  for (int elements : {500, 1000, 8000}) {
+    const TriMesh m = make_continuum_mesh(elements);
+    const int mesh_order = find_mirror_symmetry(m.x, m.topo).order();
+    const ContactLoad load = exact_contact_load(m.x, m.topo, 0.05);
+    EXPECT_EQ(tweezers_scene_symmetry(m.x, m.topo, load.patch).order(), mesh_order)
+        << elements << " elements";
+    EXPECT_GE(mesh_order, 4);
+  }
+}
+
 TEST(ContactLoad, RefusesBadInput) {
   const TriMesh m = irregular_mesh(3, 1);
   EXPECT_THROW(exact_contact_load(m.x, m.topo, 0.0), InvalidParameter);
