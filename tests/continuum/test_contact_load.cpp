@@ -69,6 +69,13 @@ TEST(ContactLoad, ClippedTriangleMatchesClosedForms) {
   EXPECT_NEAR(tip.shape_integral_um2(0), 1.0 / 12, 1e-15);
   EXPECT_NEAR(tip.shape_integral_um2(1), 1.0 / 48, 1e-15);
   EXPECT_NEAR(tip.shape_integral_um2(2), 1.0 / 48, 1e-15);
+  // Cut at x = 3/4: the tip (A, (3/4,0,0), (3/4,1/4,0)) of area 1/32; N_A takes 1, 3/4, 3/4
+  // (integral 1/32 x 5/6 = 5/192), N_B and N_C 1/4 at one corner (1/384 each).
+  const ClippedTriangle small = clip_triangle(a, b, c, 0.75, 1);
+  EXPECT_NEAR(small.area_um2, 1.0 / 32, 1e-15);
+  EXPECT_NEAR(small.shape_integral_um2(0), 5.0 / 192, 1e-15);
+  EXPECT_NEAR(small.shape_integral_um2(1), 1.0 / 384, 1e-15);
+  EXPECT_NEAR(small.shape_integral_um2(2), 1.0 / 384, 1e-15);
   // The other side is the quadrilateral: the whole triangle's A/3 = 1/6 each, less the tip.
   const ClippedTriangle quad = clip_triangle(a, b, c, 0.5, -1);
   EXPECT_NEAR(quad.area_um2, 0.5 - 1.0 / 8, 1e-15);
