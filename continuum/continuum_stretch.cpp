@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "continuum/contact_load.hpp"
+#include "continuum/surface_extent.hpp"
 #include "core/geometry.hpp"
 #include "core/validation.hpp"
 #include "discrete/augmented_lagrangian.hpp"
@@ -21,6 +23,14 @@ std::string to_string(ContinuumSolver s) {
 
 std::string to_string(SymmetryCheckAt s) {
   return s == SymmetryCheckAt::every_force ? "every-force" : "highest-force";
+}
+
+std::string to_string(ContinuumLoad l) {
+  return l == ContinuumLoad::vertex_patch ? "vertex-patch" : "exact-contact";
+}
+
+std::string to_string(ContinuumMeasure m) {
+  return m == ContinuumMeasure::vertices ? "vertices" : "quadric-fit";
 }
 
 void ContinuumOptions::validate() const {
@@ -37,6 +47,8 @@ void ContinuumOptions::validate() const {
   require_finite_in_range("L-BFGS volume penalty stiffness", "pN/um^5", lbfgs_volume_stiffness, 0.0,
                           kUnbounded);
   lbfgs_schedule.validate();
+  require_finite_in_range("exact contact fraction", "", exact_contact_fraction, 0.0, 0.5,
+                          Ends::open_open);
 }
 
 void ContinuumOptions::validate(const std::vector<double>& forces_pN) const {
@@ -325,7 +337,9 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
     p.elements = model.num_elements();
     p.multipliers = lambda;
     p.x = x;
-    const Diameters d = measure_diameters(x);
+    const Diameters d = options.measure == ContinuumMeasure::vertices
+                            ? measure_diameters(x)
+                            : surface_diameters(x, model.topo);
     p.axial_um = d.axial_um;
     p.transverse_um = d.transverse_um;
     if (options.element_fields) p.fields = element_fields(model, x);
@@ -383,13 +397,27 @@ std::vector<ContinuumStretchPoint> stretch_sweep(const ContinuumModel& model,
   return out;
 }
 
+/// The model the run solves: `model` itself, or with ContinuumLoad::exact_contact a copy
+/// whose patch is the exactly integrated contact load (held in `own`, which must outlive the
+/// run).
+const ContinuumModel& loaded_model(const ContinuumModel& model, const ContinuumOptions& options,
+                                   std::optional<ContinuumModel>& own) {
+  if (options.load == ContinuumLoad::vertex_patch) return model;
+  options.validate();
+  own = model;
+  own->patch = exact_contact_load(model.rest, model.topo, options.exact_contact_fraction).patch;
+  return *own;
+}
+
 }  // namespace
 
 std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
                                                          const std::vector<double>& forces_pN,
                                                          const ContinuumOptions& options,
                                                          const ProgressSink& progress) {
-  return stretch_sweep(model, forces_pN, options, progress, StretchState{}, nullptr);
+  std::optional<ContinuumModel> own;
+  return stretch_sweep(loaded_model(model, options, own), forces_pN, options, progress,
+                       StretchState{}, nullptr);
 }
 
 std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& model,
@@ -397,7 +425,9 @@ std::vector<ContinuumStretchPoint> run_continuum_stretch(const ContinuumModel& m
                                                          const ContinuumOptions& options,
                                                          const ProgressSink& progress,
                                                          const StretchState& warm) {
-  return stretch_sweep(model, forces_pN, options, progress, warm, nullptr);
+  std::optional<ContinuumModel> own;
+  return stretch_sweep(loaded_model(model, options, own), forces_pN, options, progress, warm,
+                       nullptr);
 }
 
 StretchState stretch_state(const std::vector<ContinuumStretchPoint>& points) {
@@ -419,7 +449,11 @@ std::vector<ContinuumStretchPoint> ContinuumSweepSolver::run(const ContinuumMode
   // Kept factorisations serve only Newton steps that start from them.
   const bool keeps =
       options_.solver == ContinuumSolver::newton && options_.newton.reuse_across_solves;
-  return stretch_sweep(model, forces_pN, options_, progress, warm, keeps ? &kept_ : nullptr);
+  // The kept solver holds no reference to a loaded copy between runs (NewtonSolver::same_mesh
+  // compares its own copy of the mesh; each run rebinds it).
+  std::optional<ContinuumModel> own;
+  return stretch_sweep(loaded_model(model, options_, own), forces_pN, options_, progress, warm,
+                       keeps ? &kept_ : nullptr);
 }
 
 }  // namespace rbc

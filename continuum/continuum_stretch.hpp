@@ -44,6 +44,17 @@ enum class SymmetryCheckAt {
 };
 std::string to_string(SymmetryCheckAt s);
 
+/// How the bead force is applied: to the model's vertex patch (ContinuumModel::patch, whole
+/// vertices; default), or as a uniform traction on caps of the prescribed area integrated
+/// exactly over partial elements (continuum/contact_load.hpp; the model's patch is replaced
+/// for the run).
+enum class ContinuumLoad { vertex_patch, exact_contact };
+std::string to_string(ContinuumLoad l);
+/// How D_A and D_T are measured: the extent of the vertices (core/geometry.hpp
+/// measure_diameters; default) or of the quadric-fitted surface (continuum/surface_extent.hpp).
+enum class ContinuumMeasure { vertices, quadric_fit };
+std::string to_string(ContinuumMeasure m);
+
 struct ContinuumOptions {
   ContinuumSolver solver = ContinuumSolver::newton;
   NewtonOptions newton;
@@ -76,13 +87,19 @@ struct ContinuumOptions {
   /// studies of where the model and solver stop working (`rbc stability`). Off: validate(forces)
   /// refuses them, so every front end keeps to the documented range.
   bool beyond_documented_force_range = false;
+  ContinuumLoad load = ContinuumLoad::vertex_patch;
+  /// ContinuumLoad::exact_contact only: each bead's contact cap as a fraction of the rest
+  /// area (TweezersParameters::contact_fraction's meaning; in (0, 0.5)).
+  double exact_contact_fraction = 0.05;
+  ContinuumMeasure measure = ContinuumMeasure::vertices;
   ContinuumOptions() {
     lbfgs.force_tolerance = 1e-3;
     lbfgs.max_iterations = 20000;
     lbfgs.max_step = 0.1;
   }
   /// Throws rbc::InvalidParameter naming the value: newton.validate(), bisections in [0, 30],
-  /// lbfgs.validate(), L-BFGS updates in [1, 10000], penalty stiffnesses finite and > 0.
+  /// lbfgs.validate(), L-BFGS updates in [1, 10000], penalty stiffnesses finite and > 0,
+  /// exact_contact_fraction finite in (0, 0.5).
   void validate() const;
   /// validate() and every force: finite and in [0, kMaxContinuumForce_pN] pN
   /// (validate_continuum_force), or finite and >= 0 with beyond_documented_force_range. Called
