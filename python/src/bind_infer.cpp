@@ -172,6 +172,9 @@ void bind_infer(py::module_& m) {
       "_infer",
       [](std::shared_ptr<InferenceProblem> problem, py::object cancel, py::object progress,
          const std::vector<std::string>& predict, int predict_draws) {
+        if (predict_draws < 0)
+          throw std::invalid_argument("predict_draws must be >= 0 (0: every sample), got " +
+                                      std::to_string(predict_draws));
         // run_inference takes the sampler options (and their cancel hook, polled between
         // stages) from the problem: a copy of it is built with the hook (data, mesh; no solve).
         const auto cb = make_callbacks(std::move(cancel), std::move(progress));

@@ -139,3 +139,6 @@ def test_infer_predict_equals_rbc_infer_predict(small_data, tmp_path):
     with pytest.raises(RuntimeError, match="missing.csv"):
         rbc.infer(predict=[str(tmp_path / "missing.csv")], progress=messages.append, **args)
     assert not any("stage" in m for m in messages), messages
+    with pytest.raises(ValueError, match="predict_draws must be >= 0"):
+        rbc.infer(predict=[held], predict_draws=-1, progress=messages.append, **args)
+    assert not any("stage" in m for m in messages), messages
