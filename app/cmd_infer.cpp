@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <iterator>
@@ -23,6 +24,7 @@
 #include "app/run_config.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
+#include "calibrate/predictive.hpp"
 #include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
 #include "core/io.hpp"
@@ -50,6 +52,9 @@ struct InferCli {
   int repeat = 1;  ///< --forward-check: warm sweeps timed (median reported)
   std::vector<std::string> at;
   ModelCli physics;  ///< the model option group: the values of the parameters not inferred
+  // Held-out prediction (calibrate/predictive.hpp).
+  std::vector<std::string> predict;             ///< --predict FILE, repeatable
+  int predict_draws = kDefaultPredictiveDraws;  ///< --predict-draws (0: every sample)
 };
 
 /// The model option group's values as the forward model's fixed parameters. The forward model
@@ -283,6 +288,69 @@ void remove_stale_checkpoint_temporaries(const std::string& dir) {
       fs::remove(e.path(), ec);
 }
 
+// --- Held-out prediction (--predict) ---------------------------------------------------------
+
+/// The --predict files prepared against the fit's problem, checked before any work: each must
+/// read as stretch data for the fit's method, differ from the fit's data file and from the
+/// other --predict files.
+std::vector<std::unique_ptr<PredictionProblem>> prediction_problems(const InferCli& c,
+                                                                    const InferenceProblem& fit) {
+  namespace fs = std::filesystem;
+  if (c.predict_draws < 0)
+    throw std::invalid_argument("--predict-draws " + std::to_string(c.predict_draws) +
+                                ": expected a number of posterior draws >= 0 (0: every sample)");
+  if (!c.predict.empty() && c.forward_check)
+    throw std::invalid_argument("--predict " + c.predict.front() + ": not with --forward-check");
+  std::vector<std::unique_ptr<PredictionProblem>> out;
+  for (size_t i = 0; i < c.predict.size(); ++i) {
+    const std::string& path = c.predict[i];
+    std::error_code ec;
+    for (size_t j = 0; j < i; ++j)
+      if (path == c.predict[j] || fs::equivalent(path, c.predict[j], ec))
+        throw std::invalid_argument("--predict " + path + ": given twice");
+    try {
+      out.push_back(std::make_unique<PredictionProblem>(fit, path));
+    } catch (const std::exception& e) {
+      const std::string what = e.what();
+      if (what.rfind("--predict", 0) == 0) throw;
+      throw std::invalid_argument("--predict " + path + ": " + what);
+    }
+  }
+  return out;
+}
+
+/// Predicts every --predict file from the fit with the executor `make` gives for each (empty:
+/// OpenMP threads), calling `done` after each, and puts the "predictions" into the result.
+std::vector<HeldOutPrediction> predict_all(
+    const std::vector<std::unique_ptr<PredictionProblem>>& problems, InferenceResult& r, int draws,
+    const ProgressSink& progress,
+    const std::function<Executor(const PredictionProblem&)>& make = {},
+    const std::function<void()>& done = {}) {
+  std::vector<HeldOutPrediction> out;
+  for (const auto& p : problems) {
+    out.push_back(predict_held_out(*p, r, draws, make ? make(*p) : Executor{}, progress));
+    if (done) done();
+  }
+  if (!out.empty()) r.predictions = predictions_json(out);
+  return out;
+}
+
+void print_predictions(const std::vector<HeldOutPrediction>& predictions) {
+  for (const HeldOutPrediction& p : predictions) {
+    const PredictiveCoverage& c = p.coverage;
+    std::cout << "  held out: " << p.data.name << " (" << p.path << "), " << p.draws
+              << " posterior draws\n"
+              << "    inside the 50 % band: " << c.axial_in_50 << "/" << c.axial_points << " D_A, "
+              << c.transverse_in_50 << "/" << c.transverse_points << " D_T, " << std::fixed
+              << std::setprecision(2) << c.fraction_50()
+              << " of all; inside the 90 % band: " << c.axial_in_90 << "/" << c.axial_points
+              << " D_A, " << c.transverse_in_90 << "/" << c.transverse_points << " D_T, "
+              << c.fraction_90() << " of all\n"
+              << std::defaultfloat;
+  }
+}
+// --- end of held-out prediction ----------------------------------------------------------------
+
 void print_summary(const InferenceResult& r) {
   const int tempering = static_cast<int>(r.stages.size()) - 1;
   std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
@@ -380,6 +448,16 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_flag("--force-overwrite", c->overwrite, "allow a non-empty --out");
   cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
   add_verbose_flag(cmd, c->verbose);
+  cmd->add_option("--predict", c->predict,
+                  "held-out stretch-data CSV (the --data-file format) to predict from the "
+                  "posterior: 5-95 % quantiles of D_A, D_T with the file's own error bars, and "
+                  "the fraction of its points inside the 50 % and 90 % bands (summary.json "
+                  "'predictions', predict_STEM.png); repeatable")
+      ->type_name("FILE");
+  cmd->add_option("--predict-draws", c->predict_draws,
+                  "posterior samples drawn for --predict (systematic resampling with --seed; "
+                  "0: every sample); one forward run per distinct sample")
+      ->capture_default_str();
   // The physics every command shares: here the values of the parameters not inferred.
   add_model_options(cmd, c->physics);
   cmd->callback([c, &action, cmd] {
@@ -392,11 +470,14 @@ void add_infer_command(CLI::App& app, Action& action) {
       // any forward run too).
       InferOptions o;
       std::unique_ptr<InferenceProblem> problem;
+      std::vector<std::unique_ptr<PredictionProblem>> held_out;  // --predict
+      std::vector<HeldOutPrediction> predictions;
       std::string out;
       try {
         o = to_options(*c);
         out = checked_output_directory(*c);
         problem = std::make_unique<InferenceProblem>(o);
+        held_out = prediction_problems(*c, *problem);
       } catch (const std::exception&) {
         if (!master) return 2;  // rank 0 names the error
         throw;
@@ -447,6 +528,8 @@ void add_infer_command(CLI::App& app, Action& action) {
         if (session.rank() != 0) {
           try {
             mpi_worker_loop(problem->prior(), problem->likelihood());
+            // --predict: one more round of forward runs per file, each ended by the master.
+            for (const auto& p : held_out) mpi_worker_loop(problem->prior(), p->runner());
           } catch (const std::exception& e) {
             std::cerr << "rbc: error: MPI rank " << session.rank() << ": " << e.what() << "\n";
             session.abort(1);
@@ -477,15 +560,35 @@ void add_infer_command(CLI::App& app, Action& action) {
             t.join();
           }
         } join{finished, watcher};
+        // The workers serve the fit, then one round per --predict file; each round ends with
+        // mpi_stop_workers(), and on an early exit the rounds left are ended here.
         struct Stop {
-          ~Stop() { mpi_stop_workers(); }
-        } stop;
+          size_t rounds;
+          void next() {
+            mpi_stop_workers();
+            --rounds;
+          }
+          ~Stop() {
+            while (rounds > 0) next();
+          }
+        } stop{1 + held_out.size()};
         r = run([](const InferenceProblem& p) {
           return mpi_master_executor(p.prior(), p.likelihood(), p.options().sampler.cancel);
         });
         r.ranks = session.size();
+        stop.next();
+        if (r.status == TmcmcStatus::converged && !held_out.empty())
+          predictions = predict_all(
+              held_out, r, c->predict_draws, progress,
+              [](const PredictionProblem& p) {
+                return mpi_master_executor(p.fit().prior(), p.runner(),
+                                           p.fit().options().sampler.cancel);
+              },
+              [&stop] { stop.next(); });  // the file's round ends once its results are in
       } else {
         r = run({});
+        if (r.status == TmcmcStatus::converged)
+          predictions = predict_all(held_out, r, c->predict_draws, progress);
       }
       if (r.status != TmcmcStatus::converged) {
         std::cerr << "rbc: error: inference stopped (" << to_string(r.status)
@@ -503,6 +606,11 @@ void add_infer_command(CLI::App& app, Action& action) {
         run["status"] = to_string(r.status);
         run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
                           "corner.png",   "predictive.png",        kStageCheckpointName};
+        if (!predictions.empty()) {  // --predict
+          write_predictions(predictions, out, r.data.name, record_comment_lines(r.record));
+          for (const std::string& stem : prediction_file_stems(predictions))
+            run["outputs"].push_back(stem + ".png");
+        }
         write_text_atomic(out + "/run.json", run.dump(2) + "\n");
       }
       // A signal during the writing (which does not poll): the outputs are complete, the exit
@@ -510,13 +618,19 @@ void add_infer_command(CLI::App& app, Action& action) {
       throw_if_cancelled(interrupt_check());
       if (c->json)
         std::cout << inference_json(r) << "\n";
-      else
+      else {
         print_summary(r);
-      if (!out.empty() && !c->json)
+        print_predictions(predictions);
+      }
+      if (!out.empty() && !c->json) {
         std::cout << "outputs: " << out
                   << "/summary.json, run.json, posterior_samples.{csv,h5}, corner.png, "
                      "predictive.png, "
-                  << kStageCheckpointName << "\n";
+                  << kStageCheckpointName;
+        for (const std::string& stem : prediction_file_stems(predictions))  // --predict
+          std::cout << ", " << stem << ".png";
+        std::cout << "\n";
+      }
       return 0;
     };
   });

@@ -385,6 +385,7 @@ std::string inference_json(const InferenceResult& r) {
                     {"added_extra_uncertainty_um", r.data.added_extra_uncertainty_um},
                     {"extra_uncertainty_um", r.data.extra_uncertainty_um()},
                     {"sigma", sigma_text(r.data)}}});
+  if (!r.predictions.is_null()) j["predictions"] = r.predictions;
   j["command"] = r.command;
   if (r.record.is_object())
     for (const auto& [key, value] : r.record.items())

@@ -138,6 +138,9 @@ struct InferenceResult {
   int vertices = 0, elements = 0, samples_per_stage = 0, threads = 0, ranks = 1;
   std::uint64_t seed = 0;
   int resumed_from_stage = -1;  ///< the checkpoint's stage a resumed run started from; -1: none
+  /// Held-out predictions (calibrate/predictive.hpp, predictions_json), set by the caller;
+  /// summary.json's "predictions". Null: none.
+  nlohmann::json predictions;
 };
 
 /// Makes the executor for a problem (e.g. calibrate/mpi_executor.hpp's master); empty =

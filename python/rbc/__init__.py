@@ -556,7 +556,8 @@ def network_hessian_operator(network: Network, positions: np.ndarray, *,
 
 def infer(problem: Optional[InferenceProblem] = None, *,
           cancel: Optional[Callable[[], bool]] = None,
-          progress: Optional[Callable[[str], None]] = None, **options: Any) -> dict:
+          progress: Optional[Callable[[str], None]] = None, predict: Sequence[str] = (),
+          predict_draws: Optional[int] = None, **options: Any) -> dict:
     """Bayesian calibration by TMCMC, as ``rbc infer``: the posterior of the inferred parameters
     given force-diameter data (MODEL.md section 7).
 
@@ -569,12 +570,18 @@ def infer(problem: Optional[InferenceProblem] = None, *,
     'K_samples_uN_per_m' (S,), and 'stage_info' (per TMCMC stage: stage, beta, cov,
     log_mean_weight, acceptance, unique_fraction, forward_runs; all dimensionless). The GIL is
     released; Ctrl-C or cancel() returning True stops between stages with KeyboardInterrupt.
+
+    predict: held-out stretch-data files, as ``rbc infer --predict``: 'predictions' then holds,
+    per file, the 5, 25, 50, 75 and 95 % quantiles of D_A, D_T (um) with the file's own error
+    bars and the fraction of its points inside the 50 % and 90 % bands; predict_draws as
+    ``--predict-draws`` (None: its default; 0: every sample).
     """
     if problem is None:
         problem = InferenceProblem(**options)
     elif options:
         raise ValueError("give either an InferenceProblem or its options, not both")
-    return _rbc._infer(problem, cancel, progress)
+    extra = {} if predict_draws is None else {"predict_draws": predict_draws}
+    return _rbc._infer(problem, cancel, progress, predict=[str(p) for p in predict], **extra)
 
 
 def moduli(*, parameters: Optional[ModelParameters] = None,

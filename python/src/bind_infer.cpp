@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calibrate/infer.hpp"
+#include "calibrate/predictive.hpp"
 #include "common.hpp"
 
 namespace rbc::py_bind {
@@ -169,7 +170,11 @@ void bind_infer(py::module_& m) {
 
   m.def(
       "_infer",
-      [](std::shared_ptr<InferenceProblem> problem, py::object cancel, py::object progress) {
+      [](std::shared_ptr<InferenceProblem> problem, py::object cancel, py::object progress,
+         const std::vector<std::string>& predict, int predict_draws) {
+        if (predict_draws < 0)
+          throw std::invalid_argument("predict_draws must be >= 0 (0: every sample), got " +
+                                      std::to_string(predict_draws));
         // run_inference takes the sampler options (and their cancel hook, polled between
         // stages) from the problem: a copy of it is built with the hook (data, mesh; no solve).
         const auto cb = make_callbacks(std::move(cancel), std::move(progress));
@@ -178,7 +183,16 @@ void bind_infer(py::module_& m) {
         const ProgressSink sink = make_progress_sink(cb);
         const InferenceResult r = run_released(cb, [&] {
           const InferenceProblem p(o);
-          return run_inference(p, sink);
+          // Held-out files (calibrate/predictive.hpp): read and checked before any forward run.
+          std::vector<std::unique_ptr<PredictionProblem>> held_out;
+          for (const std::string& f : predict)
+            held_out.push_back(std::make_unique<PredictionProblem>(p, f));
+          InferenceResult res = run_inference(p, sink);
+          std::vector<HeldOutPrediction> predictions;
+          for (const auto& h : held_out)
+            predictions.push_back(predict_held_out(*h, res, predict_draws, {}, sink));
+          if (!predictions.empty()) res.predictions = predictions_json(predictions);
+          return res;
         });
         py::dict out = py::module_::import("json").attr("loads")(inference_json(r));
         // (S, P) C-contiguous: a view of the transposed (column-major P x S) copy.
@@ -203,7 +217,9 @@ void bind_infer(py::module_& m) {
         out["status_text"] = to_string(r.status);
         return out;
       },
-      py::arg("problem"), py::arg("cancel"), py::arg("progress"));
+      py::arg("problem"), py::arg("cancel"), py::arg("progress"),
+      py::arg("predict") = std::vector<std::string>{},
+      py::arg("predict_draws") = kDefaultPredictiveDraws);
 }
 
 }  // namespace rbc::py_bind

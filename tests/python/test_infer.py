@@ -116,3 +116,29 @@ def test_cancel_stops_the_inference_between_stages(small_data):
         rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=20,
                   cancel=lambda: polls.append(1) or True)
     assert len(polls) == 1  # the first poll (between stages) stopped it
+
+
+def test_infer_predict_equals_rbc_infer_predict(small_data, tmp_path):
+    """rbc.infer(predict=...) gives the predictions of ``rbc infer --predict``; a held-out file
+    that cannot be read is refused before any forward run."""
+    held = emcee_crosscheck.subset_data(
+        str(tmp_path / "mills3.csv"), [16.0, 68.0, 130.5],
+        source=os.path.join(os.path.dirname(emcee_crosscheck.DATA),
+                            "mills2004_fig8_optical_tweezers.csv"))
+    args = dict(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=20,
+                seed=4)
+    cli = run_cli_json("infer", "--params", "sigma-scale", "--method", METHOD, "--data-file",
+                       small_data, "--samples", "20", "--seed", "4", "--predict", held,
+                       "--predict-draws", "8", "--json", "-q")
+    py = rbc.infer(predict=[held], predict_draws=8, **args)
+    assert py["predictions"] == cli["predictions"]
+    (p,) = py["predictions"]
+    assert p["name"] == "Mills et al. 2004, Fig. 8" and p["draws"] == 8
+    assert p["coverage"]["points"] == {"axial": 3, "transverse": 3, "all": 6}
+    messages = []
+    with pytest.raises(RuntimeError, match="missing.csv"):
+        rbc.infer(predict=[str(tmp_path / "missing.csv")], progress=messages.append, **args)
+    assert not any("stage" in m for m in messages), messages
+    with pytest.raises(ValueError, match="predict_draws must be >= 0"):
+        rbc.infer(predict=[held], predict_draws=-1, progress=messages.append, **args)
+    assert not any("stage" in m for m in messages), messages
