@@ -19,5 +19,5 @@ esac
 export OMP_NUM_THREADS="${OMP_NUM_THREADS:-2}"
 # Idle OpenMP threads sleep instead of spinning: ctest runs two suites at once on 2 cores.
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
-# Tests labelled "slow" are left out of the suite (none is today; `ctest -L slow` would run them).
+# Tests labelled "slow" (long reference runs) are left out of the suite; `ctest -L slow` runs them.
 ctest --test-dir build --output-on-failure -j 2 --timeout 1200 --no-tests=error --label-exclude slow

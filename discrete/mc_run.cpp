@@ -77,6 +77,7 @@ LoadState load_of(const McRunSetup& s) {
 
 McRun::McRun(const Network& net, const McRunSetup& setup, const Positions& start)
     : net_(net), setup_(setup) {
+  if (setup_.sampler.algorithm == McAlgorithm::hmc) setup_.sampler.streams = 1;  // one chain
   setup_.validate();
   if (setup_.sampler.algorithm == McAlgorithm::hmc)
     sampler_ = std::make_unique<HmcSampler>(net, load_of(setup_), start, setup_.sampler);
@@ -87,6 +88,7 @@ McRun::McRun(const Network& net, const McRunSetup& setup, const Positions& start
 McRun::McRun(const Network& net, const McRunSetup& setup, const McChainState& state,
              std::vector<McSample> series)
     : net_(net), setup_(setup), series_(std::move(series)) {
+  if (setup_.sampler.algorithm == McAlgorithm::hmc) setup_.sampler.streams = 1;
   setup_.validate();
   if (setup_.sampler.algorithm == McAlgorithm::hmc) {
     if (state.mass_reference.cols() != net.topo.num_vertices)

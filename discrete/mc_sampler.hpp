@@ -76,7 +76,7 @@ struct McOptions {
   double temperature_K = 300.0;  ///< sampling temperature, K; 0 = quench (downhill moves only)
   unsigned long seed = 1;        ///< seed of the GSL mt19937 streams
   /// Independent RNG streams = parallel chunks per colour (the chain depends on it, not on the
-  /// number of threads). Default 1.
+  /// number of threads). Default 1. HMC uses one stream whatever this says (McRun sets 1).
   int streams = 1;
   /// OpenMP threads of the sweeps: 0 = mc_thread_decision() (one thread at the sizes the
   /// sampler runs today); k > 0 = min(k, streams), whatever the size (benchmarks and the
