@@ -14,6 +14,7 @@
 #include <iterator>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <thread>
 
 #include "app/cli_util.hpp"
@@ -23,6 +24,7 @@
 #include "app/run_config.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
+#include "calibrate/sensitivity.hpp"
 #include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
 #include "core/io.hpp"
@@ -50,6 +52,7 @@ struct InferCli {
   int repeat = 1;  ///< --forward-check: warm sweeps timed (median reported)
   std::vector<std::string> at;
   ModelCli physics;  ///< the model option group: the values of the parameters not inferred
+  std::string candidate_forces;  ///< --candidate-forces (pN), empty: none
 };
 
 /// The model option group's values as the forward model's fixed parameters. The forward model
@@ -283,6 +286,45 @@ void remove_stale_checkpoint_temporaries(const std::string& dir) {
       fs::remove(e.path(), ec);
 }
 
+/// --candidate-forces as forces (pN), checked before any work: a list of numbers within the
+/// method's documented force range, with the continuum forward model (the sensitivities').
+std::vector<double> candidate_forces(const InferCli& c, const InferOptions& o) {
+  if (c.candidate_forces.empty()) return {};
+  std::vector<double> f =
+      parse_number_list(c.candidate_forces, "--candidate-forces", "20,250 in pN", false);
+  if (o.method.kind != MethodKind::continuum)
+    throw std::invalid_argument("--candidate-forces " + c.candidate_forces +
+                                ": expected the continuum forward model (--method "
+                                "continuum:ORDER:ELEMENTS); the sensitivities need it");
+  for (double v : f)
+    if (v > max_method_force_pN(o.method.kind)) {
+      std::ostringstream m;
+      m << "--candidate-forces " << c.candidate_forces << ": expected forces in [0, "
+        << max_method_force_pN(o.method.kind) << "] pN (the model's documented range), got " << v;
+      throw std::invalid_argument(m.str());
+    }
+  return f;
+}
+
+/// The identifiability report at the posterior median (calibrate/sensitivity.hpp). A failure
+/// here is reported in the report's status: the posterior stands.
+IdentifiabilityReport median_identifiability(const InferenceProblem& problem,
+                                             const InferenceResult& r,
+                                             const std::vector<double>& candidates,
+                                             const ProgressSink& progress) {
+  std::vector<double> median;
+  for (const auto& s : r.parameters) median.push_back(s.q50);
+  report(progress, "identifiability at the posterior median");
+  try {
+    return identifiability(problem, median, candidates);
+  } catch (const std::exception& e) {
+    IdentifiabilityReport failed;
+    failed.status = std::string("failed: ") + e.what();
+    failed.at = median;
+    return failed;
+  }
+}
+
 void print_summary(const InferenceResult& r) {
   const int tempering = static_cast<int>(r.stages.size()) - 1;
   std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
@@ -367,6 +409,10 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "(repeat the run's other options; threads and MPI ranks may differ)")
       ->type_name("DIR");
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
+  cmd->add_option("--candidate-forces", c->candidate_forces,
+                  "forces (pN, comma-separated) to rank by the expected information gain of one "
+                  "more stretch point there, in DIR/identifiability.json and the summary "
+                  "(continuum forward model)");
   cmd->add_flag("--forward-check", c->forward_check,
                 "no inference: one cold and one warm forward sweep at the --at parameters "
                 "(default the paper's), diameters and times");
@@ -393,8 +439,10 @@ void add_infer_command(CLI::App& app, Action& action) {
       InferOptions o;
       std::unique_ptr<InferenceProblem> problem;
       std::string out;
+      std::vector<double> candidates;  // --candidate-forces (pN)
       try {
         o = to_options(*c);
+        candidates = candidate_forces(*c, o);
         out = checked_output_directory(*c);
         problem = std::make_unique<InferenceProblem>(o);
       } catch (const std::exception&) {
@@ -497,12 +545,17 @@ void add_infer_command(CLI::App& app, Action& action) {
       // What made the run (resolved options and provenance, app/run_config.hpp): in summary.json,
       // --json and DIR/run.json, which `rbc infer --config DIR/run.json` repeats.
       r.record = run_record(*cmd);
+      // Which parameter combinations the data determine (calibrate/sensitivity.hpp).
+      const IdentifiabilityReport identified =
+          median_identifiability(*problem, r, candidates, progress);
       if (!out.empty()) {
         write_inference(r, out);
+        write_identifiability(identified, out);
         nlohmann::json run = r.record;
         run["status"] = to_string(r.status);
         run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
                           "corner.png",   "predictive.png",        kStageCheckpointName};
+        run["outputs"].push_back("identifiability.json");
         write_text_atomic(out + "/run.json", run.dump(2) + "\n");
       }
       // A signal during the writing (which does not poll): the outputs are complete, the exit
@@ -512,11 +565,13 @@ void add_infer_command(CLI::App& app, Action& action) {
         std::cout << inference_json(r) << "\n";
       else
         print_summary(r);
+      if (!c->json)
+        for (const auto& line : identified.lines()) std::cout << line << "\n";
       if (!out.empty() && !c->json)
         std::cout << "outputs: " << out
                   << "/summary.json, run.json, posterior_samples.{csv,h5}, corner.png, "
                      "predictive.png, "
-                  << kStageCheckpointName << "\n";
+                  << kStageCheckpointName << ", identifiability.json\n";
       return 0;
     };
   });
