@@ -7,11 +7,15 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "app/cli_run.hpp"
 #include "calibrate/forward_model.hpp"
 #include "calibrate/infer.hpp"
 #include "calibrate/sensitivity.hpp"
@@ -262,6 +266,44 @@ TEST(Sensitivity, IdentifiabilityFisherIsTheGaussNewtonMatrixOfFiniteDifferences
   EXPECT_GT(r.mu_relative_sd, 0);
   EXPECT_FALSE(r.lines().empty());
   for (const auto& l : r.lines()) std::cout << l << "\n";
+}
+
+// `rbc infer --out DIR` writes the report at the posterior median, prints it, lists it in
+// run.json, and refuses a bad --candidate-forces before any work.
+TEST(Sensitivity, InferWritesTheIdentifiabilityReportAtThePosteriorMedian) {
+  const std::string data = write_data("sensitivity_cli_data");
+  const auto dir = testing::fresh_output_dir("sensitivity_cli");
+  const std::string common =
+      "infer -q --method continuum:2:200 --samples 20 --chain-length 1 --seed 2 "
+      "--params persistence,lmax,sigma-scale --data-file " +
+      data + " --out " + (dir / "run").string();
+  for (const std::string bad : {"10,x", "10,500", "-1"}) {
+    const testing::CliRun r = testing::run_rbc(common + " --candidate-forces " + bad);
+    EXPECT_EQ(r.exit_code, 2) << r.all();
+    EXPECT_NE(r.err.find("rbc: error: --candidate-forces " + bad), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "run" / "summary.json"));
+  }
+  const testing::CliRun r = testing::run_rbc(common + " --candidate-forces 10,200");
+  ASSERT_EQ(r.exit_code, 0) << r.all();
+  EXPECT_NE(r.out.find("identifiability at the posterior median"), std::string::npos) << r.out;
+  const auto read = [&](const char* name) {
+    std::ifstream f(dir / "run" / name);
+    return nlohmann::json::parse(f);
+  };
+  const nlohmann::json id = read("identifiability.json"), summary = read("summary.json");
+  EXPECT_EQ(id["status"], "ok");
+  for (const char* p : {"persistence", "lmax", "sigma-scale"})
+    EXPECT_EQ(id["at"][p].get<double>(), summary["parameters"][p]["q50"].get<double>()) << p;
+  ASSERT_EQ(id["combinations"].size(), 3u);
+  for (size_t e = 1; e < 3; ++e)  // best determined first
+    EXPECT_GE(id["combinations"][e - 1]["eigenvalue"].get<double>(),
+              id["combinations"][e]["eigenvalue"].get<double>());
+  ASSERT_EQ(id["candidate_forces"].size(), 2u);
+  EXPECT_GE(id["candidate_forces"][0]["gain_nats"].get<double>(),
+            id["candidate_forces"][1]["gain_nats"].get<double>());
+  const nlohmann::json run = read("run.json");
+  EXPECT_NE(std::find(run["outputs"].begin(), run["outputs"].end(), "identifiability.json"),
+            run["outputs"].end());
 }
 
 }  // namespace
