@@ -18,8 +18,10 @@
 #include "continuum/block_hessian.hpp"
 #include "continuum/continuum_model.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "continuum/reduced_hessian.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
+#include "core/mirror_symmetry.hpp"
 #include "core/sparse_cholesky.hpp"
 #include "core/units.hpp"
 #include "homogenise/invariant_laws.hpp"
@@ -31,6 +33,11 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
+
+/// Largest distance (um) of an equilibrium from its symmetric part for the reduced solve: the
+/// symmetric solves' equilibria are symmetric to round-off (core/mirror_symmetry.hpp), a
+/// buckled one is off by far more.
+constexpr double kSymmetricStateUm = 1e-8;
 
 /// The forward model's parameter setting (calibrate/forward_model.cpp, ForwardModel::run).
 void set_parameters(ContinuumModel& m, const ForwardParameters& p, WlcExpansion order) {
@@ -150,6 +157,7 @@ struct StretchSensitivity::Impl {
   ForwardOptions options;
   SensitivityOptions sens;
   ContinuumModel model;
+  MeshSymmetry mesh_symmetry;  ///< the rest mesh's mirrors (options.newton.symmetry = mirror)
 };
 
 StretchSensitivity::StretchSensitivity(const ForwardOptions& options, const SensitivityOptions& s)
@@ -169,6 +177,8 @@ StretchSensitivity::StretchSensitivity(const ForwardOptions& options, const Sens
     ~Restore() { omp_set_num_threads(n); }
   } restore{saved_threads};
   const TriMesh mesh = make_continuum_mesh(options.method.resolution);
+  if (options.newton.symmetry == Symmetry::mirror)
+    impl_->mesh_symmetry = find_mirror_symmetry(mesh.x, mesh.topo);
   const NetworkParameters defaults;
   impl_->model = build_continuum_model(
       mesh, make_membrane_law(defaults.wlc, defaults.steric, options.method.order),
@@ -211,10 +221,23 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
     set_parameters(plus[k], pp, impl_->options.method.order);
     set_parameters(minus[k], pm, impl_->options.method.order);
   }
-  BlockHessian h(centre.topo, BlockStorage::lower);
+  // The mirror reduction the forward model solves on (continuum/newton_solver.cpp): the
+  // mirrors of the mesh that keep the bead load, from the centre model's patch.
+  const bool mirror = impl_->options.newton.symmetry == Symmetry::mirror;
+  std::unique_ptr<SymmetryReduction> red;
+  std::unique_ptr<ReducedLagrangianHessian> reduced_hessian;
+  if (mirror) {
+    const MeshSymmetry g = keep_invariant(impl_->mesh_symmetry, centre.patch.vertex,
+                                          centre.patch.share, 0, kTweezersShareTolerance);
+    if (g.order() > 1) {
+      red = std::make_unique<SymmetryReduction>(make_symmetry_reduction(g));
+      reduced_hessian = std::make_unique<ReducedLagrangianHessian>(centre, g, *red);
+    }
+  }
+  std::unique_ptr<BlockHessian> h;  // the full Hessian, made at its first use
   SparseCholeskyOptions co;
   co.ordering = impl_->options.newton.ordering;
-  SparseCholesky chol(co);
+  SparseCholesky chol_full(co), chol_reduced(co);
   for (int f = 0; f < nf; ++f) {
     const double force = forces_pN[f];
     const double* w = state.data() + static_cast<size_t>(f) * per_force;
@@ -238,16 +261,55 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
       b.col(k) = (energy_gradient(plus[k], x, force) - energy_gradient(minus[k], x, force)) /
                  (2 * step[k]);
     out.mixed_s += seconds_since(t0);
+    // On a symmetric equilibrium the system is solved on the symmetric subspace u = P q
+    // (P'HP q + P'C dlambda = -P'b, C'P q = 0: the full system's solution, which is
+    // symmetric there); otherwise (a buckled cell) in full.
+    bool reduced = false;
+    if (red) {
+      const Eigen::VectorXd xs = flat(x);
+      reduced =
+          (expand(*red, symmetric_part(*red, xs)) - xs).cwiseAbs().maxCoeff() <= kSymmetricStateUm;
+    }
+    fs.reduced = reduced;
+    const Eigen::MatrixXd rigid_full = rigid_modes(x);
+    Eigen::MatrixXd cs = c, bs = b, rigid;
+    if (reduced) {
+      cs = reduce(*red, c);
+      bs = reduce(*red, b);
+      // The rigid modes that are symmetric (each lies in one sector of the group).
+      std::vector<Eigen::VectorXd> kept;
+      for (int j = 0; j < 4; ++j) {
+        Eigen::VectorXd q = symmetric_part(*red, Eigen::VectorXd(rigid_full.col(j)));
+        if (expand(*red, q).norm() < 0.5) continue;  // antisymmetric (unit vector: 0 or 1)
+        for (int pass = 0; pass < 2; ++pass)
+          for (const auto& v : kept) q -= v.dot(q) * v;
+        kept.push_back(q.normalized());
+      }
+      rigid.resize(red->reduced_size, static_cast<Eigen::Index>(kept.size()));
+      for (size_t j = 0; j < kept.size(); ++j) rigid.col(static_cast<Eigen::Index>(j)) = kept[j];
+    } else {
+      rigid = rigid_full;
+    }
     // The exact Hessian of the Lagrangian and the shifted factorisation.
     t0 = Clock::now();
-    h.set_zero();
-    add_lagrangian_hessian(centre, x, la, lv, h);
-    const Eigen::SparseMatrix<double>& hm = h.matrix();
+    const Eigen::SparseMatrix<double>* hp = nullptr;
+    if (reduced) {
+      reduced_hessian->rebind(centre);
+      hp = &reduced_hessian->assemble(x, la, lv);
+    } else {
+      if (!h) h = std::make_unique<BlockHessian>(centre.topo, BlockStorage::lower);
+      h->set_zero();
+      add_lagrangian_hessian(centre, x, la, lv, *h);
+      hp = &h->matrix();
+    }
+    const Eigen::SparseMatrix<double>& hm = *hp;
+    SparseCholesky& chol = reduced ? chol_reduced : chol_full;
+    const Eigen::Index dim = hm.rows();
     out.hessian_s += seconds_since(t0);
     t0 = Clock::now();
     double scale = 0;
-    for (int i = 0; i < 3 * n; ++i) scale += std::abs(hm.coeff(i, i));
-    scale /= 3 * n;
+    for (Eigen::Index i = 0; i < dim; ++i) scale += std::abs(hm.coeff(i, i));
+    scale /= static_cast<double>(dim);
     double sigma = 1e-8;
     bool ok = false;
     for (int attempt = 0; attempt < 12 && !ok; ++attempt, sigma *= 10)
@@ -264,13 +326,12 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
       return hm.selfadjointView<Eigen::Lower>() * v;
     };
     const bool bordered = !so.drop_multiplier_rows;
-    const Eigen::MatrixXd y = chol.solve(c);  // K^-1 C
-    const Eigen::Matrix2d s = c.transpose() * y;
+    const Eigen::MatrixXd y = chol.solve(cs);  // K^-1 C
+    const Eigen::Matrix2d s = cs.transpose() * y;
     const Eigen::FullPivLU<Eigen::Matrix2d> slu(s);
     // The constraint preconditioner: z = K^-1 (r - C m), C'z = 0; m returned.
     // The rigid modes are projected out of z (they lie in the tangent space, so C'z = 0 stays):
     // H's null vectors, which round-off would otherwise feed into the search directions.
-    const Eigen::MatrixXd rigid = rigid_modes(x);
     const auto precondition = [&](const Eigen::VectorXd& r, Eigen::Vector2d& m) {
       Eigen::VectorXd z = chol.solve(r);
       if (bordered) {
@@ -279,7 +340,7 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
       } else {
         m.setZero();
       }
-      z -= rigid * (rigid.transpose() * z);
+      if (rigid.cols() > 0) z -= rigid * (rigid.transpose() * z);
       return z;
     };
     const auto [ia, ib] = transverse_pair(x);
@@ -295,11 +356,11 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
     fs.transverse_um = pab.norm();
     for (int k = 0; k < np; ++k) {
       // min 1/2 u'Hu + b'u subject to C'u = 0 by projected PCG.
-      Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * n);
-      Eigen::VectorXd r = b.col(k);
+      Eigen::VectorXd u = Eigen::VectorXd::Zero(dim);
+      Eigen::VectorXd r = bs.col(k);
       Eigen::Vector2d m, mult = Eigen::Vector2d::Zero();
       Eigen::VectorXd z = precondition(r, m);
-      r -= c * m;
+      r -= cs * m;
       mult += m;
       double rz = r.dot(z);
       const double rz0 = rz;
@@ -320,7 +381,7 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
         u += alpha * d;
         r += alpha * hd;
         z = precondition(r, m);
-        r -= c * m;
+        r -= cs * m;
         mult += m;
         const double rz_new = r.dot(z);
         ++it;
@@ -333,12 +394,13 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
       }
       fs.cg_iterations += it;
       fs.cg_converged = fs.cg_converged && converged;
-      u -= rigid * (rigid.transpose() * u);
+      Eigen::VectorXd uf = reduced ? expand(*red, u) : u;
+      uf -= rigid_full * (rigid_full.transpose() * uf);
       // H u + b = C mult at convergence: H u + C dlambda = -b with dlambda = -mult.
       fs.d_area_multiplier.push_back(-mult(0));
       fs.d_volume_multiplier.push_back(-mult(1));
-      fs.d_axial.push_back(u(3 * imax) - u(3 * imin));
-      const Eigen::Vector2d dab(u(3 * ia + 1) - u(3 * ib + 1), u(3 * ia + 2) - u(3 * ib + 2));
+      fs.d_axial.push_back(uf(3 * imax) - uf(3 * imin));
+      const Eigen::Vector2d dab(uf(3 * ia + 1) - uf(3 * ib + 1), uf(3 * ia + 2) - uf(3 * ib + 2));
       fs.d_transverse.push_back(fs.transverse_um > 0 ? pab.dot(dab) / fs.transverse_um : 0.0);
     }
     out.solve_s += seconds_since(t0);

@@ -33,9 +33,14 @@
 // (D_A is the x extent, D_T the largest distance between two vertices projected on the y-z
 // plane), and on the mirror-symmetric equilibria the forward model solves by default the
 // derivative is mirror-symmetric and so orthogonal to the rotation, as the symmetry pins it.
-// The sensitivities use the full problem (3N unknowns) at the equilibrium the forward model
-// found (with or without the mirror reduction: a symmetric equilibrium is one of the full
-// problem too).
+// With the forward model's mirror reduction (NewtonOptions::symmetry = mirror, the default) and
+// an equilibrium symmetric under the mirrors of the mesh that keep the bead load (to 1e-8 um),
+// the system is solved on the symmetric subspace u = P q (core/mirror_symmetry.hpp,
+// continuum/reduced_hessian.hpp): P'HP q + P'C dlambda = -P'b, C'P q = 0, whose solution is
+// the full system's (the parameters keep the symmetry, so the derivative is symmetric), at
+// about 1/|G| of the unknowns; the rigid modes left there (those symmetric under the group)
+// are deflated as above. A buckled (asymmetric) equilibrium, or Symmetry::none, is solved in
+// full (3N unknowns).
 //
 // Maxima over vertices: D_A = max x - min x and D_T = the largest distance between two
 // projected vertices (core/geometry.hpp measure_diameters). Their derivatives here are those
@@ -88,6 +93,7 @@ struct ForceSensitivity {
   double shift = 0;        ///< sigma of the factorised K = H + sigma s I (relative to s)
   int cg_iterations = 0;   ///< summed over the parameters
   bool cg_converged = true;
+  bool reduced = false;  ///< solved on the mirror-symmetric subspace (below)
 };
 
 struct StretchSensitivities {

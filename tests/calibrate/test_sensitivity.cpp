@@ -87,8 +87,12 @@ void expect_second_order(const std::vector<Check>& checks, double noise) {
   }
 }
 
-TEST(Sensitivity, DiametersMatchCentralDifferencesOfTheForwardModelToSecondOrder) {
-  const ForwardOptions o = tight_options({25, 80});
+/// On the mirror-symmetric subspace (the forward model's default) and in full.
+class SensitivityPaths : public ::testing::TestWithParam<Symmetry> {};
+
+TEST_P(SensitivityPaths, DiametersMatchCentralDifferencesOfTheForwardModelToSecondOrder) {
+  ForwardOptions o = tight_options({25, 80});
+  o.newton.symmetry = GetParam();
   const ForwardModel model(o);
   const StretchSensitivity sens(o);
   ForwardParameters p;  // paper values
@@ -104,6 +108,7 @@ TEST(Sensitivity, DiametersMatchCentralDifferencesOfTheForwardModelToSecondOrder
     EXPECT_NEAR(s.forces[k].axial_um, run.diameters.axial_um[k], 1e-12);
     EXPECT_NEAR(s.forces[k].transverse_um, run.diameters.transverse_um[k], 1e-12);
     EXPECT_LT(s.forces[k].residual_pN, 1e-7);
+    EXPECT_EQ(s.forces[k].reduced, GetParam() == Symmetry::mirror);
   }
   std::vector<Check> checks;
   int nontrivial = 0;
@@ -134,6 +139,10 @@ TEST(Sensitivity, DiametersMatchCentralDifferencesOfTheForwardModelToSecondOrder
   EXPECT_GE(nontrivial, 8);  // the parameters do move the diameters
   expect_second_order(checks, 1e-7);
 }
+
+INSTANTIATE_TEST_SUITE_P(Sensitivity, SensitivityPaths,
+                         ::testing::Values(Symmetry::mirror, Symmetry::none),
+                         [](const auto& info) { return to_string(info.param); });
 
 TEST(Sensitivity, RefusesTheDiscreteModelAndAStateThatDoesNotFit) {
   ForwardOptions d = tight_options({10});
