@@ -316,11 +316,14 @@ IdentifiabilityReport median_identifiability(const InferenceProblem& problem,
   for (const auto& s : r.parameters) median.push_back(s.q50);
   report(progress, "identifiability at the posterior median");
   try {
-    return identifiability(problem, median, candidates);
+    IdentifiabilityReport r = identifiability(problem, median, candidates);
+    r.point_label = "the posterior median";
+    return r;
   } catch (const std::exception& e) {
     IdentifiabilityReport failed;
     failed.status = std::string("failed: ") + e.what();
     failed.at = median;
+    failed.point_label = "the posterior median";
     return failed;
   }
 }

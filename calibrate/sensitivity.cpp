@@ -666,8 +666,12 @@ std::vector<std::string> IdentifiabilityReport::lines() const {
     return out;
   }
   std::ostringstream head;
-  head << "identifiability at the posterior median (Gauss-Newton Fisher information in log "
-          "parameters; 1-sigma from the data alone):";
+  head << "identifiability at ";
+  if (!point_label.empty()) head << point_label << " (";
+  for (size_t k = 0; k < names.size() && k < at.size(); ++k)
+    head << (k ? ", " : "") << names[k] << " " << std::setprecision(4) << at[k];
+  if (!point_label.empty()) head << ")";
+  head << "; Gauss-Newton Fisher information in log parameters, 1-sigma from the data alone:";
   out.push_back(head.str());
   for (size_t e = 0; e < combinations.size(); ++e) {
     const IdentifiedCombination& c = combinations[e];
@@ -706,6 +710,7 @@ nlohmann::json IdentifiabilityReport::to_json() const {
   using nlohmann::json;
   json j;
   j["status"] = status;
+  j["point"] = point_label;
   j["parametrisation"] = "log of each parameter (natural units: nm, nm, J, 1, 1)";
   j["fisher_information"] =
       "Gauss-Newton J' J of the whitened residuals (D_model - D_data)/(sigma_scale sigma); "

@@ -175,6 +175,9 @@ struct CandidateGain {
 };
 struct IdentifiabilityReport {
   std::string status = "ok";  ///< or why no report was made (e.g. "forward run failed")
+  /// What the point is, for the heading of lines() (e.g. "the posterior median"); empty: the
+  /// parameter values only.
+  std::string point_label;
   std::vector<std::string> names;
   std::vector<double> at;                           ///< theta (natural units)
   Eigen::MatrixXd fisher_log;                       ///< F in log parameters
