@@ -468,6 +468,12 @@ LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,
     }
     out.gradient[k] = g;
   }
+  // A sensitivity solve that did not converge (an equilibrium that is not a strict minimum on
+  // the constraints' tangent space): no gradient of the physical parameters.
+  if (!out.sensitivities.converged())
+    for (size_t k = 0; k < names.size(); ++k)
+      if (is_forward_parameter(names[k]))
+        out.gradient[k] = std::numeric_limits<double>::quiet_NaN();
   out.sensitivity_s = seconds_since(t0);
   return out;
 }

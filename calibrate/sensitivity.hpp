@@ -131,9 +131,10 @@ class StretchSensitivity {
 
 /// log L (calibrate/likelihood.hpp) at theta (the problem's parameters, natural units) and its
 /// gradient in theta (same units; sigma-scale differentiated in closed form), by the chain
-/// rule through the sensitivities at the forward run's equilibria. `failed` (log L = -inf, no
-/// gradient) for a forward run that did not converge; outside the prior box log L is
-/// evaluated all the same (the caller applies the prior).
+/// rule through the sensitivities at the forward run's equilibria. The physical parameters'
+/// entries are NaN where a sensitivity solve did not converge (sensitivities.converged()). `failed`
+/// (log L = -inf, no gradient) for a forward run that did not converge; outside the prior box log L
+/// is evaluated all the same (the caller applies the prior).
 struct LikelihoodGradient {
   double log_likelihood = 0;
   std::vector<double> gradient;  ///< d log L / d theta_k
