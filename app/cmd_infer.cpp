@@ -316,9 +316,9 @@ IdentifiabilityReport median_identifiability(const InferenceProblem& problem,
   for (const auto& s : r.parameters) median.push_back(s.q50);
   report(progress, "identifiability at the posterior median");
   try {
-    IdentifiabilityReport r = identifiability(problem, median, candidates);
-    r.point_label = "the posterior median";
-    return r;
+    IdentifiabilityReport id = identifiability(problem, median, candidates);
+    id.point_label = "the posterior median";
+    return id;
   } catch (const std::exception& e) {
     IdentifiabilityReport failed;
     failed.status = std::string("failed: ") + e.what();

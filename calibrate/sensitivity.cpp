@@ -409,10 +409,20 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
   return out;
 }
 
-LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,
-                                               const StretchSensitivity& sensitivity,
-                                               std::span<const double> theta,
-                                               const WarmState& warm) {
+namespace {
+/// The error of `what` with its context (the identifiability report's stages).
+template <class F>
+auto in_context(const std::string& what, F&& f) {
+  try {
+    return f();
+  } catch (const std::exception& e) {
+    throw std::runtime_error(what + ": " + e.what());
+  }
+}
+
+LikelihoodGradient likelihood_gradient(const InferenceProblem& problem, const ForwardModel& forward,
+                                       const StretchSensitivity& sensitivity,
+                                       std::span<const double> theta, const WarmState& warm) {
   const std::vector<Parameter>& names = problem.options().parameters;
   if (theta.size() != names.size())
     throw std::invalid_argument("theta of " + std::to_string(theta.size()) + " values for " +
@@ -420,7 +430,7 @@ LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,
   LikelihoodGradient out;
   const ForwardParameters p = problem.physical(theta);
   auto t0 = Clock::now();
-  const ForwardRun run = problem.forward().run(p, warm);
+  const ForwardRun run = in_context("forward run", [&] { return forward.run(p, warm); });
   out.forward_s = seconds_since(t0);
   if (!run.converged) {
     out.failed = true;
@@ -436,8 +446,9 @@ LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,
   std::vector<Parameter> physical;
   for (Parameter q : names)
     if (is_forward_parameter(q)) physical.push_back(q);
-  out.sensitivities =
-      sensitivity.compute(p, problem.forward().options().forces_pN, run.state, physical);
+  out.sensitivities = in_context("sensitivities", [&] {
+    return sensitivity.compute(p, forward.options().forces_pN, run.state, physical);
+  });
   out.gradient.assign(names.size(), 0.0);
   for (size_t k = 0; k < names.size(); ++k) {
     double g = 0;
@@ -476,6 +487,14 @@ LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,
         out.gradient[k] = std::numeric_limits<double>::quiet_NaN();
   out.sensitivity_s = seconds_since(t0);
   return out;
+}
+}  // namespace
+
+LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,
+                                               const StretchSensitivity& sensitivity,
+                                               std::span<const double> theta,
+                                               const WarmState& warm) {
+  return likelihood_gradient(problem, problem.forward(), sensitivity, theta, warm);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -534,8 +553,12 @@ IdentifiabilityReport identifiability(const InferenceProblem& problem,
     return rep;
   }
   for (double f : candidate_forces_pN) validate_method_force(MethodKind::continuum, f);
+  // A forward model of its own (the problem's mesh and options): the result does not depend on
+  // what the problem's pooled workspaces solved before.
   const StretchSensitivity sens(problem.forward().options());
-  const LikelihoodGradient lg = log_likelihood_and_gradient(problem, sens, theta);
+  const ForwardModel forward(problem.forward().options());
+  const LikelihoodGradient lg = in_context(
+      "at the point", [&] { return likelihood_gradient(problem, forward, sens, theta, {}); });
   if (lg.failed) {
     rep.status = "forward run failed at the point";
     return rep;
@@ -627,13 +650,16 @@ IdentifiabilityReport identifiability(const InferenceProblem& problem,
     ForwardOptions fo = problem.forward().options();
     fo.forces_pN = forces;
     const ForwardModel model(fo);
-    const ForwardRun run = model.run(p0);
+    const ForwardRun run =
+        in_context("forward run at the candidate forces", [&] { return model.run(p0); });
     if (!run.converged) {
       rep.status = "forward run at the candidate forces failed";
     } else {
       std::vector<Parameter> physical;
       for (int k : phys) physical.push_back(params[k]);
-      const StretchSensitivities cs = sens.compute(p0, forces, run.state, physical);
+      const StretchSensitivities cs = in_context("sensitivities at the candidate forces", [&] {
+        return sens.compute(p0, forces, run.state, physical);
+      });
       const int q = static_cast<int>(phys.size());
       Eigen::MatrixXd fpost(q, q);
       for (int a = 0; a < q; ++a)
