@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Parameter sensitivities of the continuum stretch (calibrate/sensitivity.hpp) against central
 // differences of the forward model itself, the log-likelihood gradient against central
-// differences of the log-likelihood, and the identifiability report on a case whose answer is
-// known in closed form (a parameter that does not enter the data).
+// differences of the log-likelihood, the identifiability report's Fisher information against
+// J'J from central differences (and sigma-scale's closed form), and `rbc infer`'s report.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
