@@ -15,6 +15,7 @@
 #include <iterator>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <thread>
 
 #include "app/cli_util.hpp"
@@ -25,6 +26,7 @@
 #include "calibrate/infer.hpp"
 #include "calibrate/mpi_executor.hpp"
 #include "calibrate/predictive.hpp"
+#include "calibrate/sensitivity.hpp"
 #include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
 #include "core/io.hpp"
@@ -55,6 +57,7 @@ struct InferCli {
   // Held-out prediction (calibrate/predictive.hpp).
   std::vector<std::string> predict;             ///< --predict FILE, repeatable
   int predict_draws = kDefaultPredictiveDraws;  ///< --predict-draws (0: every sample)
+  std::string candidate_forces;                 ///< --candidate-forces (pN), empty: none
 };
 
 /// The model option group's values as the forward model's fixed parameters. The forward model
@@ -350,6 +353,47 @@ void print_predictions(const std::vector<HeldOutPrediction>& predictions) {
   }
 }
 // --- end of held-out prediction ----------------------------------------------------------------
+/// --candidate-forces as forces (pN), checked before any work: a list of numbers within the
+/// method's documented force range, with the continuum forward model (the sensitivities').
+std::vector<double> candidate_forces(const InferCli& c, const InferOptions& o) {
+  if (c.candidate_forces.empty()) return {};
+  std::vector<double> f =
+      parse_number_list(c.candidate_forces, "--candidate-forces", "20,250 in pN", false);
+  if (o.method.kind != MethodKind::continuum)
+    throw std::invalid_argument("--candidate-forces " + c.candidate_forces +
+                                ": expected the continuum forward model (--method "
+                                "continuum:ORDER:ELEMENTS); the sensitivities need it");
+  for (double v : f)
+    if (v > max_method_force_pN(o.method.kind)) {
+      std::ostringstream m;
+      m << "--candidate-forces " << c.candidate_forces << ": expected forces in [0, "
+        << max_method_force_pN(o.method.kind) << "] pN (the model's documented range), got " << v;
+      throw std::invalid_argument(m.str());
+    }
+  return f;
+}
+
+/// The identifiability report at the posterior median (calibrate/sensitivity.hpp). A failure
+/// here is reported in the report's status: the posterior stands.
+IdentifiabilityReport median_identifiability(const InferenceProblem& problem,
+                                             const InferenceResult& r,
+                                             const std::vector<double>& candidates,
+                                             const ProgressSink& progress) {
+  std::vector<double> median;
+  for (const auto& s : r.parameters) median.push_back(s.q50);
+  report(progress, "identifiability at the posterior median");
+  try {
+    IdentifiabilityReport id = identifiability(problem, median, candidates);
+    id.point_label = "the posterior median";
+    return id;
+  } catch (const std::exception& e) {
+    IdentifiabilityReport failed;
+    failed.status = std::string("failed: ") + e.what();
+    failed.at = median;
+    failed.point_label = "the posterior median";
+    return failed;
+  }
+}
 
 void print_summary(const InferenceResult& r) {
   const int tempering = static_cast<int>(r.stages.size()) - 1;
@@ -435,6 +479,10 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "(repeat the run's other options; threads and MPI ranks may differ)")
       ->type_name("DIR");
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
+  cmd->add_option("--candidate-forces", c->candidate_forces,
+                  "forces (pN, comma-separated) to rank by the expected information gain of one "
+                  "more stretch point there, in DIR/identifiability.json and the summary "
+                  "(continuum forward model)");
   cmd->add_flag("--forward-check", c->forward_check,
                 "no inference: one cold and one warm forward sweep at the --at parameters "
                 "(default the paper's), diameters and times");
@@ -473,8 +521,10 @@ void add_infer_command(CLI::App& app, Action& action) {
       std::vector<std::unique_ptr<PredictionProblem>> held_out;  // --predict
       std::vector<HeldOutPrediction> predictions;
       std::string out;
+      std::vector<double> candidates;  // --candidate-forces (pN)
       try {
         o = to_options(*c);
+        candidates = candidate_forces(*c, o);
         out = checked_output_directory(*c);
         problem = std::make_unique<InferenceProblem>(o);
         held_out = prediction_problems(*c, *problem);
@@ -600,8 +650,12 @@ void add_infer_command(CLI::App& app, Action& action) {
       // What made the run (resolved options and provenance, app/run_config.hpp): in summary.json,
       // --json and DIR/run.json, which `rbc infer --config DIR/run.json` repeats.
       r.record = run_record(*cmd);
+      // Which parameter combinations the data determine (calibrate/sensitivity.hpp).
+      const IdentifiabilityReport identified =
+          median_identifiability(*problem, r, candidates, progress);
       if (!out.empty()) {
         write_inference(r, out);
+        write_identifiability(identified, out);
         nlohmann::json run = r.record;
         run["status"] = to_string(r.status);
         run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
@@ -611,6 +665,7 @@ void add_infer_command(CLI::App& app, Action& action) {
           for (const std::string& stem : prediction_file_stems(predictions))
             run["outputs"].push_back(stem + ".png");
         }
+        run["outputs"].push_back("identifiability.json");
         write_text_atomic(out + "/run.json", run.dump(2) + "\n");
       }
       // A signal during the writing (which does not poll): the outputs are complete, the exit
@@ -621,6 +676,7 @@ void add_infer_command(CLI::App& app, Action& action) {
       else {
         print_summary(r);
         print_predictions(predictions);
+        for (const auto& line : identified.lines()) std::cout << line << "\n";
       }
       if (!out.empty() && !c->json) {
         std::cout << "outputs: " << out
@@ -629,7 +685,7 @@ void add_infer_command(CLI::App& app, Action& action) {
                   << kStageCheckpointName;
         for (const std::string& stem : prediction_file_stems(predictions))  // --predict
           std::cout << ", " << stem << ".png";
-        std::cout << "\n";
+        std::cout << ", identifiability.json\n";
       }
       return 0;
     };

@@ -89,6 +89,7 @@ OptionNames mc_option_names() {
       {"adaptive fraction", "--adapt-fraction"},
       {"HMC leapfrog step", "--hmc-step"},
       {"HMC trajectory time", "--hmc-trajectory-time"},
+      {"HMC mass shift fraction", "--hmc-mass-shift"},
       {"HMC sampling temperature", "--sampling-temperature"},
   });
   return names;
@@ -484,6 +485,16 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_option("--hmc-trajectory-time", o->hmc.trajectory_time,
                   "hmc: trajectory duration (dimensionless time; pi/2 decorrelates every mode of "
                   "the harmonic approximation), jittered by +-20 %, in (0, 100]")
+      ->capture_default_str();
+  cmd->add_option("--hmc-mass", o->hmc.projected_mass,
+                  "hmc: mass matrix from the exact Hessian at the start where it factorises "
+                  "(exact), or from the element-wise projected one (projected)")
+      ->transform(enum_choice<bool>({{"exact", false}, {"projected", true}}))
+      ->type_name("TEXT")
+      ->default_str("exact");
+  cmd->add_option("--hmc-mass-shift", o->hmc.mass_shift_fraction,
+                  "hmc: diagonal shift of the mass matrix as a fraction of its mean diagonal, in "
+                  "[1e-8, 1]")
       ->capture_default_str();
   cmd->add_option("--start", o->start, "equilibrium | rest")
       ->transform(

@@ -44,6 +44,8 @@ void HmcOptions::validate() const {
   require_finite_in_range("HMC step adaptation gain", "", adapt_gain, 0.0, 10.0,
                           Ends::closed_closed);
   require_integer_in_range("HMC leapfrog steps cap", max_steps, 1, 1000000);
+  require_finite_in_range("HMC mass shift fraction", "", mass_shift_fraction, 1e-8, 1.0,
+                          Ends::closed_closed);
 }
 
 HmcState hmc_state(const HmcPotential& potential, const Eigen::VectorXd& x) {

@@ -74,6 +74,12 @@ struct HmcOptions {
   double target_acceptance = 0.65;  ///< adaptation target, in (0, 1)
   double adapt_gain = 0.5;          ///< log-step change per unit acceptance error, in [0, 10]
   int max_steps = 1000;             ///< cap on leapfrog steps per transition (>= 1)
+  /// Network mass matrix (discrete/hmc_sampler.hpp): the exact Hessian at the reference where it
+  /// factorises (false), or always the element-wise projected one (true).
+  bool projected_mass = false;
+  /// Network mass matrix: diagonal shift of K0 as a fraction of its mean diagonal, in
+  /// [1e-8, 1]: the floor of the mass of modes the Hessian makes soft.
+  double mass_shift_fraction = 1e-4;
   /// Throws rbc::InvalidParameter naming the value.
   void validate() const;
 };

@@ -19,14 +19,11 @@ namespace rbc {
 
 namespace {
 constexpr int kLowRank = 6;  ///< dA, dV, three translations, the rotation about x
-/// Diagonal shift of K0 relative to its mean diagonal: lifts the zero modes (which the rank-four
-/// term then gives their mass) without changing the stiff modes.
-constexpr double kShiftFraction = 1e-4;
 }  // namespace
 
 /// M = beta (K0 + U C U') with its factor (see the header).
 NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, const Positions& x,
-                                     double beta)
+                                     double beta, const HmcOptions& options)
     : beta_(beta), factor_([] {
         SparseCholeskyOptions o;
         o.solve_precision = SolvePrecision::double_precision;
@@ -58,12 +55,12 @@ NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, 
   auto with_shift = [&](const Eigen::SparseMatrix<double>& h) {
     k0_ = h;
     const double mean_diagonal = k0_.diagonal().sum() / double(3 * n);
-    info_.shift_pN_per_um = kShiftFraction * mean_diagonal;
+    info_.shift_pN_per_um = options.mass_shift_fraction * mean_diagonal;
     info_.rigid_mass_pN_per_um = mean_diagonal;
     for (int i = 0; i < 3 * n; ++i) k0_.coeffRef(i, i) += info_.shift_pN_per_um;
     return factor_.factorize(k0_);
   };
-  info_.exact = with_shift(hessian.assemble_exact(x, cc));
+  info_.exact = !options.projected_mass && with_shift(hessian.assemble_exact(x, cc));
   if (!info_.exact && !with_shift(hessian.assemble(x, cc, true)))
     throw std::runtime_error("HMC mass matrix: the projected network Hessian did not factorise");
   info_.factor_nonzeros = factor_.factor_nonzeros();
@@ -135,7 +132,7 @@ HmcSampler::HmcSampler(const Network& net, const LoadState& load, const Position
     throw std::invalid_argument(
         "HMC mass reference is infeasible (a link at Lmax or a collapsed face)");
   reference_ = mass_reference;
-  mass_ = std::make_unique<NetworkMassMatrix>(net_, load_, reference_, beta_);
+  mass_ = std::make_unique<NetworkMassMatrix>(net_, load_, reference_, beta_, opt_.hmc);
   potential_ = [this](const Eigen::VectorXd& q, Eigen::VectorXd& grad) {
     const Eigen::Map<const Positions> xq(q.data(), 3, net_.topo.num_vertices);
     Positions g(3, net_.topo.num_vertices);

@@ -51,7 +51,7 @@ class NetworkMassMatrix final : public MassMatrix {
  public:
   /// Throws std::runtime_error when neither Hessian factorises.
   NetworkMassMatrix(const Network& net, const LoadState& load, const Positions& x,
-                    double beta_per_pNum);
+                    double beta_per_pNum, const HmcOptions& options = {});
   Eigen::VectorXd draw(gsl_rng* rng) const override;
   Eigen::VectorXd inverse_times(const Eigen::VectorXd& p) const override;
   const HmcMassInfo& info() const { return info_; }

@@ -144,6 +144,8 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
       h.write_attribute("hmc_target_acceptance", m.target_acceptance);
       h.write_attribute("hmc_adapt_gain", m.adapt_gain);
       h.write_attribute("hmc_max_steps", static_cast<long long>(m.max_steps));
+      h.write_attribute("hmc_projected_mass", static_cast<long long>(m.projected_mass));
+      h.write_attribute("hmc_mass_shift_fraction", m.mass_shift_fraction);
     }
     h.write_attribute(kChecksumAttribute, hex_digits(h.content_checksum(kChecksumAttribute)));
     h.close();
@@ -256,6 +258,8 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
     m.target_acceptance = h.read_attribute_double("hmc_target_acceptance");
     m.adapt_gain = h.read_attribute_double("hmc_adapt_gain");
     m.max_steps = static_cast<int>(h.read_attribute_int("hmc_max_steps"));
+    m.projected_mass = h.read_attribute_int("hmc_projected_mass") != 0;
+    m.mass_shift_fraction = h.read_attribute_double("hmc_mass_shift_fraction");
   }
   try {
     u.validate();

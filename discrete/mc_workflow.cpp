@@ -11,6 +11,7 @@
 #include "core/h5file.hpp"
 #include "core/io.hpp"
 #include "core/units.hpp"
+#include "discrete/hmc_sampler.hpp"
 
 namespace rbc {
 
@@ -143,6 +144,22 @@ nlohmann::json to_json(const McThreadDecision& d) {
 }
 
 nlohmann::json mc_run_json(const Network& net, const McRun& run) {
+  const McRunSetup& su = run.setup();
+  nlohmann::json j = mc_run_keys(net, run);
+  if (const auto* h = dynamic_cast<const HmcSampler*>(&run.sampler())) {
+    const HmcMassInfo& m = h->mass_info();
+    j["hmc"] = {{"trajectory_time", su.sampler.hmc.trajectory_time},
+                {"evaluations", h->evaluations()},
+                {"solves", h->solves()},
+                {"mass_matrix", m.exact ? "exact Hessian" : "projected Hessian"},
+                {"mass_shift_pN_per_um", m.shift_pN_per_um},
+                {"rigid_mass_pN_per_um", m.rigid_mass_pN_per_um},
+                {"factor_nonzeros", m.factor_nonzeros}};
+  }
+  return j;
+}
+
+nlohmann::json mc_run_keys(const Network& net, const McRun& run) {
   const McRunSetup& su = run.setup();
   return {{"vertices", net.topo.num_vertices},
           {"force_pN", su.force_pN},

@@ -102,8 +102,12 @@ nlohmann::json to_json(const McThreadDecision& decision);
 /// The run keys (no timing): vertices, force_pN, temperature_K, kT_pNum, seed, streams,
 /// threads (to_json(McThreadDecision)), bending, penalty_scale, colours, sweeps,
 /// adaptive_sweeps, step_um, reference_axial_um, reference_transverse_um,
-/// running_total_drift_area_um2, running_total_drift_volume_um3.
+/// running_total_drift_area_um2, running_total_drift_volume_um3; for HMC also "hmc":
+/// {trajectory_time, evaluations, solves (totals of this process's run), mass_matrix,
+/// mass_shift_pN_per_um, rigid_mass_pN_per_um, factor_nonzeros}.
 nlohmann::json mc_run_json(const Network& net, const McRun& run);
+/// mc_run_json without the sampler-specific block.
+nlohmann::json mc_run_keys(const Network& net, const McRun& run);
 
 /// Text a caller adds to the files it writes: comment lines of the CSV files, text attributes of
 /// the HDF5 files (e.g. what produced them: the rbc version, command line, configuration).

@@ -5,6 +5,7 @@
 
 #include "calibrate/infer.hpp"
 #include "calibrate/predictive.hpp"
+#include "calibrate/sensitivity.hpp"
 #include "common.hpp"
 
 namespace rbc::py_bind {
@@ -166,7 +167,45 @@ void bind_infer(py::module_& m) {
           },
           py::arg("theta"),
           "The forward model's equilibria at theta (per force: 3N positions and two multipliers), "
-          "a warm start for log_likelihood.");
+          "a warm start for log_likelihood.")
+      .def(
+          "log_likelihood_and_gradient",
+          [](const InferenceProblem& p, const py::handle& theta, const py::object& warm) {
+            const std::vector<double> t = theta_arg(p, theta);
+            WarmState w;
+            if (!warm.is_none()) {
+              w = warm.cast<std::vector<double>>();
+              require_finite("warm", w.data(), w.size());
+            }
+            const LikelihoodGradient g = run_released(nullptr, [&] {
+              // The sensitivities' rest mesh is the forward model's, rebuilt per call.
+              const StretchSensitivity sensitivity(p.forward().options());
+              return log_likelihood_and_gradient(p, sensitivity, t, w);
+            });
+            if (g.failed)
+              return py::make_tuple(-std::numeric_limits<double>::infinity(), py::none());
+            return py::make_tuple(g.log_likelihood, to_array(g.gradient));
+          },
+          py::arg("theta"), py::arg("warm") = py::none(),
+          "(log L, d log L / d theta) at theta (natural units; the gradient in the same units), "
+          "by the implicit function theorem on the forward model's constrained equilibria "
+          "(calibrate/sensitivity.hpp; continuum forward model only). The prior box is not "
+          "applied; (-inf, None) for a failed forward run.")
+      .def(
+          "identifiability",
+          [](const InferenceProblem& p, const py::handle& theta,
+             const std::vector<double>& candidate_forces_pN) {
+            const std::vector<double> t = theta_arg(p, theta);
+            require_finite("candidate_forces_pN", candidate_forces_pN.data(),
+                           candidate_forces_pN.size());
+            const IdentifiabilityReport r =
+                run_released(nullptr, [&] { return identifiability(p, t, candidate_forces_pN); });
+            return py::module_::import("json").attr("loads")(r.to_json().dump());
+          },
+          py::arg("theta"), py::arg("candidate_forces_pN") = std::vector<double>{},
+          "The identifiability report of `rbc infer` (DIR/identifiability.json's fields) at "
+          "theta: the Fisher information's parameter combinations and their precision, and the "
+          "candidate forces ranked by expected information gain.");
 
   m.def(
       "_infer",
