@@ -105,10 +105,12 @@ UNITLESS_KEYS = frozenset({
     "converged", "blocking_converged", "symmetry_broken", "transverse_used", "network", "law",
     "status", "status_text", "method", "data_file", "command", "unit", "library", "core",
     "config", "bending", "contact", "dihedral_mapping", "log_evidence_error_estimate", "reason",
-    "file", "name", "sigma",
+    "file", "name", "sigma", "sampler", "mass_matrix",
+    # HMC: dimensionless trajectory time, counts
+    "trajectory_time", "evaluations", "solves", "factor_nonzeros",
     # groups of other keys (their entries carry the units)
     "parameters", "derived", "timing", "stage_log", "stage_info", "data", "data_sets",
-    "predictive_q05_q50_q95",
+    "predictive_q05_q50_q95", "hmc",
 })
 # "samples" of rbc.infer() is (S, P): each column in the unit of InferenceProblem.units.
 

@@ -104,7 +104,7 @@ TEST(McReliability, CheckpointOfAnOlderFormatIsRefusedNamingTheVersion) {
     } catch (const std::runtime_error& e) {
       const std::string m = e.what();
       EXPECT_NE(m.find("format version 2"), std::string::npos) << m;
-      EXPECT_NE(m.find("reads version 5"), std::string::npos) << m;  // the current format
+      EXPECT_NE(m.find("reads version 6"), std::string::npos) << m;  // the current format
       EXPECT_NE(m.find(old), std::string::npos) << m;
     }
   }

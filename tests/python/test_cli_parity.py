@@ -82,6 +82,21 @@ def test_monte_carlo_equals_rbc_mc():
     assert_same(py, cli, keys)
 
 
+def test_hmc_monte_carlo_equals_rbc_mc_sampler_hmc():
+    # The collective sampler through both front ends: the same chain, bit for bit.
+    cli = run_cli_json("mc", "--vertices", "150", "--force", "20", "--sweeps", "40", "--seed",
+                       "3", "--sampler", "hmc", "--json", "-q")
+    net = rbc.Network(rbc.rest_shape(150))
+    mc = rbc.MonteCarlo(net, force_pN=20, sampling_temperature_K=300, seed=3, sampler="hmc")
+    mc.run(40)
+    py = mc.summary()
+    assert py["sampler"] == cli["sampler"] == "hmc"
+    assert_same(py, cli, {"energy_pNum", "axial_um", "transverse_um", "acceptance", "step_um",
+                          "sweeps"})
+    with pytest.raises(ValueError, match="metropolis, hmc"):
+        rbc.MonteCarlo(net, force_pN=20, sampler="gibbs")
+
+
 def test_psi_equals_rbc_psi_table(tmp_path):
     import csv
     import subprocess

@@ -76,6 +76,8 @@ def returned_dicts(infer_result):
     net = rbc.Network(rbc.rest_shape(150))
     mc = rbc.MonteCarlo(net, force_pN=20.0, seed=1)
     mc.run(20)
+    hmc = rbc.MonteCarlo(net, force_pN=20.0, seed=1, sampler="hmc")
+    hmc.run(20)
     F = np.array([[1.2, 0.1], [0.0, 0.95]])
     discrete = rbc.stretch("discrete", [0, 30], vertices=150, symmetry="mirror")
     continuum = rbc.stretch("continuum", [0, 30], elements=200)
@@ -92,6 +94,7 @@ def returned_dicts(infer_result):
         "StretchResult.to_records(continuum)": continuum.to_records(),
         "StretchPoint.fields": continuum[-1].fields,
         "MonteCarlo.summary": mc.summary(),
+        "MonteCarlo.summary(sampler='hmc')": hmc.summary(),
         "MonteCarlo.series": mc.series,
         "InferenceProblem.data": problem.data,
         "infer": inferred,
