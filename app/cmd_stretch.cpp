@@ -17,6 +17,7 @@
 #include "app/warm_start.hpp"
 #include "compare/accuracy_choice.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "continuum/error_indicator.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
@@ -52,6 +53,9 @@ struct StretchCli {
   Symmetry symmetry = Symmetry::none;
   /// --symmetry-check (continuum, with --symmetry mirror): which equilibria are checked
   SymmetryCheckAt symmetry_check_at = SymmetryCheckAt::every_force;
+  /// --contact-load, --measure (continuum): how the bead force is applied and D_A, D_T measured
+  ContinuumLoad contact_load = ContinuumLoad::vertex_patch;
+  ContinuumMeasure measure = ContinuumMeasure::vertices;
   std::string out;
   std::string warm_start;  ///< --warm-start DIR: a previous --out to re-solve from
   bool json = false, quiet = false, verbose = false, overwrite = false;
@@ -428,6 +432,9 @@ int run_continuum(const StretchCli& o) {
   if (o.tolerance_given) co.newton.force_tolerance_pN = o.tolerance_pN;
   co.newton.symmetry = o.symmetry;
   co.symmetry_check_at = o.symmetry_check_at;
+  co.load = o.contact_load;
+  co.exact_contact_fraction = params.tweezers.contact_fraction;
+  co.measure = o.measure;
   co.validate();
   const bool created_out = prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
@@ -450,7 +457,9 @@ int run_continuum(const StretchCli& o) {
                             {"mesh", mesh_report_json(mesh_report)},
                             {"mesh_orientation", to_string(o.orientation)},
                             {"symmetry", to_string(o.symmetry)},
-                            {"symmetry_check", to_string(o.symmetry_check_at)}},
+                            {"symmetry_check", to_string(o.symmetry_check_at)},
+                            {"contact_load", to_string(o.contact_load)},
+                            {"measure", to_string(o.measure)}},
                            forces);
   // The continuation (with its secant predictor and bisection) runs in the library, so the
   // shapes are written after the last force; an interrupted run records none as complete.
@@ -464,7 +473,8 @@ int run_continuum(const StretchCli& o) {
                           {{"I1", p.fields.i1},
                            {"I2", p.fields.i2},
                            {"tension_max_pN_per_um", p.fields.tension_max_pN_per_um},
-                           {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um}});
+                           {"tension_min_pN_per_um", p.fields.tension_min_pN_per_um},
+                           {"error_indicator_pN", error_indicator(model, p.x)}});
       }
     std::vector<StretchRow> rows;
     for (const auto& p : pts) rows.push_back(to_row(p, p.elements));
@@ -578,6 +588,23 @@ void add_stretch_command(CLI::App& app, Action& action) {
       ->transform(enum_choice<Symmetry>({{"none", Symmetry::none}, {"mirror", Symmetry::mirror}}))
       ->type_name("TEXT")
       ->default_str("none");
+  cmd->add_option(
+         "--contact-load", o->contact_load,
+         "continuum: vertex-patch (the bead force on the nearest vertices, shared by "
+         "vertex area) | exact-contact (a uniform traction on the caps of --contact-fraction of "
+         "the area, integrated exactly over partial elements: the load moves smoothly "
+         "with the mesh)")
+      ->transform(enum_choice<ContinuumLoad>({{"vertex-patch", ContinuumLoad::vertex_patch},
+                                              {"exact-contact", ContinuumLoad::exact_contact}}))
+      ->type_name("TEXT")
+      ->default_str("vertex-patch");
+  cmd->add_option("--measure", o->measure,
+                  "continuum: vertices (D_A, D_T as the extent of the vertices) | quadric-fit "
+                  "(the extent of a local quadric fit of the surface at the extremal vertices)")
+      ->transform(enum_choice<ContinuumMeasure>({{"vertices", ContinuumMeasure::vertices},
+                                                 {"quadric-fit", ContinuumMeasure::quadric_fit}}))
+      ->type_name("TEXT")
+      ->default_str("vertices");
   cmd->add_option("--symmetry-check", o->symmetry_check_at,
                   "continuum with --symmetry mirror: every-force (each symmetric equilibrium "
                   "is checked as it is solved) | highest-force (only the highest force's, "
@@ -643,6 +670,12 @@ void add_stretch_command(CLI::App& app, Action& action) {
             "--symmetry-check applies to --model continuum with --symmetry mirror, got --model " +
             std::string(o->model == StretchModel::continuum ? "continuum" : "discrete") +
             " with --symmetry " + to_string(o->symmetry));
+      // --contact-load and --measure choose how the continuum applies and measures: refused
+      // for the network, whose vertices are the junction complexes (rather than ignored).
+      for (const char* name : {"--contact-load", "--measure"})
+        if (cmd->get_option(name)->count() > 0 && o->model != StretchModel::continuum)
+          throw std::invalid_argument(std::string(name) +
+                                      " applies to --model continuum, got --model discrete");
       o->record = run_record(*cmd);
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(stretch_option_names(), [&]() -> int {

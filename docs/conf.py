@@ -117,6 +117,8 @@ nitpick_ignore_regex = [
     # qualifier of a declaration such as rbc::run_stretch has nothing to link to.
     (r"cpp:identifier", r"(rbc::)?(rbc|units|defaults|detail)"),
     (r"cpp:identifier", r"(std|Eigen|CLI|nlohmann|H5|hid_t|hsize_t|herr_t|cholmod_.*)(::.*)?"),
+    (r"cpp:identifier", r"gsl_.*"),  # GSL's random number generators
+    (r"cpp:identifier", r"Vec3::(Zero|Ones|UnitX|UnitY|UnitZ)"),  # Eigen's, through the alias
     (r"cpp:identifier", r"(size_t|uint64_t|int64_t|uint32_t|int32_t|ptrdiff_t)"),
     (r"py:class", r"(numpy|np|scipy|meshio|collections|typing|enum|os|io)\..*"),
     (r"py:class", r"(numpy\.)?ndarray.*|NDArray.*|ArrayLike|Callable.*|Optional.*|Sequence.*"),
