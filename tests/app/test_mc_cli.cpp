@@ -4,8 +4,9 @@
 // snapshots' displacement fields (displacement_um the same quantity as in the stretch shapes,
 // |x - X|; displacement_x_um its x component), the shared model options (a longer persistence
 // length softens the links: the zero-temperature start agrees with `rbc stretch`), one
-// --temperature for the links and the chain, and --config DIR/run.json repeating a run bit for
-// bit.
+// --temperature for the links and the chain, --config DIR/run.json repeating a run bit for
+// bit, and --sampler hmc through the same front end. Also `rbc stretch`'s continuum contact load
+// and measure options, whose shapes these tests read the same way.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,6 +18,7 @@
 #include <vector>
 
 #include "cli_run.hpp"
+#include "continuum/surface_extent.hpp"
 #include "core/h5file.hpp"
 #include "test_output.hpp"
 
@@ -287,6 +289,55 @@ TEST(McCli, HmcSamplerRunsResumesAndRefusesBadInput) {
     EXPECT_EQ(b.exit_code, 2) << bad << "\n" << b.all();
     EXPECT_NE(b.err.find("rbc: error:"), std::string::npos) << b.all();
     EXPECT_EQ(std::count(b.err.begin(), b.err.end(), '\n'), 1) << b.all();
+  }
+}
+
+}  // namespace
+}  // namespace rbc
+
+namespace rbc {
+namespace {
+
+// The continuum's exact contact load and quadric-fit measure through `rbc stretch`: the
+// diameters printed are those of the quadric fit on the shape written (recomputed here from the
+// file), the run differs from the default vertex patch and vertex measure, the shape carries the
+// error indicator, whose largest values lie near the bead rims (|x| beyond 0.35 D_A), and the
+// options are refused for the network.
+TEST(StretchCli, ExactContactLoadAndQuadricMeasureReachTheContinuumRun) {
+  const fs::path dir = fresh_output_dir("stretch_cli_contact_measure");
+  const std::string base = "stretch --model continuum --elements 500 --force 193 -q --json";
+  const CliRun r = run_rbc(base +
+                               " --contact-load exact-contact --measure quadric-fit "
+                               "--no-picture --out " +
+                               quoted(dir / "s"),
+                           2);
+  ASSERT_EQ(r.exit_code, 0) << r.all();
+  const json p = json::parse(r.out).at("points").at(0);
+  const fs::path shape = dir / "s" / "shape_193.0pN.h5";
+  const std::vector<double> xs = read_dataset(shape, "/mesh/positions_um");
+  std::vector<int> fs_;
+  H5File::open_read(shape.string()).read("/mesh/faces", fs_);
+  const int n = static_cast<int>(xs.size() / 3);
+  const Positions x = Eigen::Map<const Positions>(xs.data(), 3, n);
+  const Faces faces = Eigen::Map<const Faces>(fs_.data(), 3, Eigen::Index(fs_.size() / 3));
+  const Diameters d = surface_diameters(x, build_topology(faces, n));
+  EXPECT_NEAR(p.at("axial_um").get<double>(), d.axial_um, 1e-9);
+  EXPECT_NEAR(p.at("transverse_um").get<double>(), d.transverse_um, 1e-9);
+  const CliRun plain = run_rbc(base, 2);
+  ASSERT_EQ(plain.exit_code, 0) << plain.all();
+  EXPECT_GT(
+      std::abs(json::parse(plain.out).at("points").at(0).at("axial_um").get<double>() - d.axial_um),
+      0.05);
+  const std::vector<double> eta = read_dataset(shape, "/face/error_indicator_pN");
+  ASSERT_EQ(static_cast<Eigen::Index>(eta.size()), faces.cols());
+  const auto worst = std::max_element(eta.begin(), eta.end()) - eta.begin();
+  double centroid_x = 0;
+  for (int k = 0; k < 3; ++k) centroid_x += x(0, faces(k, worst)) / 3.0;
+  EXPECT_GT(std::abs(centroid_x - x.row(0).mean()), 0.35 * d.axial_um);
+  for (const std::string opt : {"--contact-load exact-contact", "--measure quadric-fit"}) {
+    const CliRun bad = run_rbc("stretch --force 10 -q " + opt);
+    EXPECT_EQ(bad.exit_code, 2) << bad.all();
+    EXPECT_NE(bad.err.find("applies to --model continuum"), std::string::npos) << bad.all();
   }
 }
 
