@@ -10,7 +10,8 @@
 // zero-temperature equilibrium), and never changed, so the transition is exact HMC:
 //   M = beta (K0 + U C U'),
 //   K0 = the network Hessian (discrete/network_hessian.hpp) at the reference: the exact one
-//        plus a shift of shift_fraction times its mean diagonal when that factorises, else the
+//        plus a shift of HmcOptions::mass_shift_fraction times its mean diagonal when that
+//        factorises (and HmcOptions::projected_mass is off), else the
 //        element-wise projected one (semidefinite, same shift);
 //   U = [dA/dx, dV/dx, t_x, t_y, t_z, r_x], C = diag(s k_A, s k_V, c, c, c, c): the rank-two
 //        part of the area and volume penalties, which the sparse Hessian leaves out (with them
