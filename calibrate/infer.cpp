@@ -420,7 +420,9 @@ std::string inference_json(const InferenceResult& r) {
         "delta method: sd of the importance weights / (sqrt(samples) x their mean) "
         "(calibrate/laplace_is.hpp)";
     j["ess"] = r.ess;
-    j["laplace"] = {{"mode", r.mode},
+    json mode = json::object();  // natural units, those of "parameters"
+    for (size_t k = 0; k < r.mode.size() && k < r.names.size(); ++k) mode[r.names[k]] = r.mode[k];
+    j["laplace"] = {{"mode", mode},
                     {"newton_steps", r.newton_steps},
                     {"gradient_evaluations", r.gradient_evaluations}};
   } else {
