@@ -18,6 +18,9 @@
 //   (p = 7.5 nm, Lmax = 237.75 nm, kappa = 2e-19 J, contact fraction 0.05, sigma scale 1);
 // - sampler: TMCMC (calibrate/tmcmc.hpp) with 500 samples per stage, target coefficient of
 //   variation 1, proposal scale 0.2, 3 Metropolis steps per sample and stage, 4 islands, seed 1;
+//   or (--sampler laplace-is, continuum forward model only) the Laplace proposal with importance
+//   correction (calibrate/laplace_is.hpp), 1,000 importance samples: at the default calibration
+//   ESS 383, log-evidence error 0.04, 1,023 forward runs against TMCMC's 6,064;
 // - the posterior-predictive band is that of the model curve (median and 5-95 % of
 //   D_A(F), D_T(F) over the posterior samples), without the measurement noise.
 #include <Eigen/Core>

@@ -32,6 +32,15 @@
 //    with chain_length 0), warm-started from the mode's state. Equally weighted samples are
 //    drawn by systematic resampling (one uniform from the seed), so outputs written for TMCMC
 //    samples work unchanged; the summaries use the weights themselves (weighted quantiles).
+//
+// Measured at the default calibration (Suresh 2005 table, continuum:2:2000, persistence, lmax,
+// sigma-scale; 2 threads on a shared 2-core machine): 8 Newton steps, 23 gradient evaluations,
+// then 1,000 importance samples: 1,023 forward runs in 76 s against TMCMC's 6,064 runs;
+// ESS 383 (seed 1) and 156 (seed 2), log evidence -36.15 +- 0.04 and -36.18 +- 0.07 against
+// TMCMC's -36.00 +- 0.11; medians and 90 % intervals of p, Lmax, sigma-scale, mu and K within
+// a few per cent of TMCMC's. The p-Lmax ridge of those data is curved in logit coordinates,
+// so the weights are uneven (ESS 15-40 % of the draws); 300 samples give ESS 121, log evidence
+// -36.23 +- 0.07, in 23 s.
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
