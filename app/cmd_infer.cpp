@@ -46,6 +46,8 @@ struct InferCli {
   double target_cov = 1.0, proposal_scale = 0.2;
   std::uint64_t seed = 1;
   int threads = 0;
+  SamplerKind sampler = SamplerKind::tmcmc;    ///< --sampler
+  int is_samples = InferOptions{}.is_samples;  ///< --is-samples (laplace-is)
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   Symmetry symmetry = ForwardOptions::default_newton().symmetry;
   std::string out, resume;
@@ -243,6 +245,8 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.proposal_scale = c.proposal_scale;
   o.sampler.seed = c.seed;
   o.sampler.cancel = interrupt_check();  // polled between stages and between chains
+  o.sampler_kind = c.sampler;
+  o.is_samples = c.is_samples;
   o.fixed = fixed_parameters(c.physics, o.parameters);
   o.threads = c.threads;
   o.force_tolerance_pN = c.force_tolerance_pN;
@@ -267,6 +271,9 @@ std::string checked_output_directory(const InferCli& c) {
     return c.out;
   }
   if (c.forward_check) throw std::invalid_argument("--resume: not with --forward-check");
+  if (c.sampler != SamplerKind::tmcmc)
+    throw std::invalid_argument("--resume " + c.resume +
+                                ": stage checkpoints are TMCMC's; expected --sampler tmcmc");
   if (!c.out.empty() && fs::weakly_canonical(c.out, ec) != fs::weakly_canonical(c.resume, ec))
     throw std::invalid_argument("--out " + c.out +
                                 ": a resumed run writes into its own "
@@ -397,10 +404,16 @@ IdentifiabilityReport median_identifiability(const InferenceProblem& problem,
 
 void print_summary(const InferenceResult& r) {
   const int tempering = static_cast<int>(r.stages.size()) - 1;
-  std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
-            << "stage 0 (prior) and " << tempering << " tempering stage"
-            << (tempering == 1 ? "" : "s") << ", seed " << r.seed << "):\n"
-            << "  data: " << r.data.name << " (" << r.data_file << ")\n"
+  if (r.sampler == "laplace-is")
+    std::cout << "posterior (" << r.method << ", laplace-is: " << r.newton_steps
+              << " Newton steps from the prior centre, " << r.samples_per_stage
+              << " importance samples, effective " << std::setprecision(4) << r.ess << ", seed "
+              << r.seed << "):\n";
+  else
+    std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
+              << "stage 0 (prior) and " << tempering << " tempering stage"
+              << (tempering == 1 ? "" : "s") << ", seed " << r.seed << "):\n";
+  std::cout << "  data: " << r.data.name << " (" << r.data_file << ")\n"
             << "  sigma: " << sigma_text(r.data) << "\n";
   auto line = [](const Summary& s) {
     std::cout << "  " << std::left << std::setw(18)
@@ -442,6 +455,17 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "uncertainty (um) added in quadrature to every error bar, on top of what the "
                   "data file declares ('# extra_uncertainty_um:'); 0: the file's error bars")
       ->type_name("UM")
+      ->capture_default_str();
+  cmd->add_option("--sampler", c->sampler,
+                  "posterior sampler: tmcmc | laplace-is (Laplace proposal with importance "
+                  "correction from the posterior mode; continuum forward model only)")
+      ->transform(enum_choice<SamplerKind>(
+          {{"tmcmc", SamplerKind::tmcmc}, {"laplace-is", SamplerKind::laplace_is}}))
+      ->type_name("TEXT")
+      ->default_str("tmcmc");
+  cmd->add_option(
+         "--is-samples", c->is_samples,
+         "laplace-is: importance samples (forward runs after the mode search), at least 10")
       ->capture_default_str();
   cmd->add_option(
          "--samples", c->samples,
@@ -659,7 +683,8 @@ void add_infer_command(CLI::App& app, Action& action) {
         nlohmann::json run = r.record;
         run["status"] = to_string(r.status);
         run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
-                          "corner.png",   "predictive.png",        kStageCheckpointName};
+                          "corner.png", "predictive.png"};
+        if (r.sampler == "tmcmc") run["outputs"].push_back(kStageCheckpointName);
         if (!predictions.empty()) {  // --predict
           write_predictions(predictions, out, r.data.name, record_comment_lines(r.record));
           for (const std::string& stem : prediction_file_stems(predictions))
@@ -681,8 +706,8 @@ void add_infer_command(CLI::App& app, Action& action) {
       if (!out.empty() && !c->json) {
         std::cout << "outputs: " << out
                   << "/summary.json, run.json, posterior_samples.{csv,h5}, corner.png, "
-                     "predictive.png, "
-                  << kStageCheckpointName;
+                     "predictive.png"
+                  << (r.sampler == "tmcmc" ? ", " + std::string(kStageCheckpointName) : "");
         for (const std::string& stem : prediction_file_stems(predictions))  // --predict
           std::cout << ", " << stem << ".png";
         std::cout << ", identifiability.json\n";

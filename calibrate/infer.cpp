@@ -58,6 +58,10 @@ double quantile(std::vector<double> v, double q) {
 }
 }  // namespace
 
+std::string to_string(SamplerKind s) {
+  return s == SamplerKind::laplace_is ? "laplace-is" : "tmcmc";
+}
+
 void InferOptions::validate() const {
   if (parameters.empty()) throw std::invalid_argument("--params: at least one parameter");
   for (size_t i = 0; i < parameters.size(); ++i)
@@ -93,6 +97,16 @@ void InferOptions::validate() const {
                                 ": expected at least " + std::to_string(5 * sampler.islands) +
                                 " samples per stage");
   sampler.validate();
+  if (sampler_kind == SamplerKind::laplace_is) {
+    if (method.kind != MethodKind::continuum)
+      throw std::invalid_argument(
+          "--sampler laplace-is: expected the continuum forward model "
+          "(--method continuum:ORDER:ELEMENTS); its gradient needs the "
+          "continuum sensitivities");
+    if (is_samples < 10)
+      throw std::invalid_argument("--is-samples " + std::to_string(is_samples) +
+                                  ": expected at least 10");
+  }
   if (method.resolution <= 0)
     throw std::invalid_argument("--method resolution must be > 0, got " +
                                 std::to_string(method.resolution));
@@ -197,6 +211,19 @@ Summary summarise(const std::string& name, const std::string& unit, const Eigen:
   return s;
 }
 
+Summary summarise_weighted(const std::string& name, const std::string& unit,
+                           const Eigen::VectorXd& v, const Eigen::VectorXd& w) {
+  Summary s;
+  s.name = name;
+  s.unit = unit;
+  s.mean = w.dot(v);
+  s.sd = std::sqrt(std::max(0.0, w.dot((v.array() - s.mean).square().matrix())));
+  s.q05 = weighted_quantile(v, w, 0.05);
+  s.q50 = weighted_quantile(v, w, 0.50);
+  s.q95 = weighted_quantile(v, w, 0.95);
+  return s;
+}
+
 LinearModuli sample_moduli(const ForwardParameters& p) {
   WlcParameters w;
   w.persistence_um = units::nm_to_um(p.persistence_nm);
@@ -242,8 +269,31 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
       << " s";
     report(progress, m.str());
   };
-  const TmcmcResult t =
-      run_tmcmc(problem.likelihood(), problem.prior(), o.sampler, executor, on_stage, continuation);
+  TmcmcResult t;
+  LaplaceIsResult lis;
+  long long mode_runs = 0;
+  const bool is = o.sampler_kind == SamplerKind::laplace_is;
+  if (is) {
+    if (checkpointing.resume)
+      throw std::invalid_argument("--resume: stage checkpoints are TMCMC's (--sampler tmcmc)");
+    lis = run_problem_laplace_is(problem, executor, progress, &mode_runs);
+    t.samples = lis.samples;
+    t.log_likelihood = lis.log_likelihood;
+    t.states = lis.states;
+    t.log_evidence = lis.log_evidence;
+    t.log_evidence_sd = lis.log_evidence_sd;
+    t.counts = lis.counts;
+    t.counts.runs += mode_runs;
+    t.wall_s = lis.wall_s;
+    StageInfo s;  // one "stage": the importance samples at beta = 1
+    s.beta = 1;
+    s.forward_runs = t.counts.runs;
+    s.elapsed_s = lis.wall_s;
+    t.stages.push_back(s);
+  } else {
+    t = run_tmcmc(problem.likelihood(), problem.prior(), o.sampler, executor, on_stage,
+                  continuation);
+  }
   InferenceResult r;
   r.status = t.status;
   for (Parameter p : o.parameters) {
@@ -272,6 +322,27 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
     r.parameters.push_back(summarise(r.names[k], r.units[k], t.samples.col(k)));
   r.mu = summarise("mu", "uN/m", r.mu_uN_per_m);
   r.K = summarise("K", "uN/m", r.K_uN_per_m);
+  if (is) {
+    // The summaries from the weighted draws themselves (resampling only adds noise).
+    const int s = static_cast<int>(lis.draws.rows());
+    Eigen::VectorXd mu(s), kk(s);
+    for (int i = 0; i < s; ++i) {
+      std::vector<double> theta(d);
+      for (int k = 0; k < d; ++k) theta[k] = lis.draws(i, k);
+      const LinearModuli m = sample_moduli(problem.physical(theta));
+      mu(i) = m.mu_pN_per_um * units::uN_per_m_per_pN_per_um;
+      kk(i) = m.K_pN_per_um * units::uN_per_m_per_pN_per_um;
+    }
+    for (int k = 0; k < d; ++k)
+      r.parameters[k] = summarise_weighted(r.names[k], r.units[k], lis.draws.col(k), lis.weights);
+    r.mu = summarise_weighted("mu", "uN/m", mu, lis.weights);
+    r.K = summarise_weighted("K", "uN/m", kk, lis.weights);
+    r.sampler = to_string(SamplerKind::laplace_is);
+    r.ess = lis.ess;
+    r.mode.assign(lis.mode_theta.data(), lis.mode_theta.data() + d);
+    r.newton_steps = lis.newton_steps;
+    r.gradient_evaluations = lis.gradient_evaluations;
+  }
   r.log_evidence = t.log_evidence;
   r.log_evidence_sd = t.log_evidence_sd;
   r.counts = t.counts;
@@ -293,7 +364,7 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   r.data_file = o.data_path();
   r.vertices = problem.forward().vertices();
   r.elements = problem.forward().elements();
-  r.samples_per_stage = o.sampler.samples;
+  r.samples_per_stage = is ? o.is_samples : o.sampler.samples;
   r.seed = o.sampler.seed;
   // The threads the forward runs used (the executor's count; MPI: per rank).
   r.threads = factory ? o.threads : (o.threads > 0 ? o.threads : omp_get_max_threads());
@@ -343,8 +414,21 @@ std::string inference_json(const InferenceResult& r) {
   j["derived"] = {{"mu", summary(r.mu)}, {"K", summary(r.K)}};
   j["log_evidence"] = r.log_evidence;
   j["log_evidence_sd"] = r.log_evidence_sd;
-  j["log_evidence_error_estimate"] =
-      "scatter of the independent islands' log-evidence / sqrt(islands) (calibrate/tmcmc.hpp)";
+  j["sampler"] = r.sampler;
+  if (r.sampler == "laplace-is") {
+    j["log_evidence_error_estimate"] =
+        "delta method: sd of the importance weights / (sqrt(samples) x their mean) "
+        "(calibrate/laplace_is.hpp)";
+    j["ess"] = r.ess;
+    json mode = json::object();  // natural units, those of "parameters"
+    for (size_t k = 0; k < r.mode.size() && k < r.names.size(); ++k) mode[r.names[k]] = r.mode[k];
+    j["laplace"] = {{"mode", mode},
+                    {"newton_steps", r.newton_steps},
+                    {"gradient_evaluations", r.gradient_evaluations}};
+  } else {
+    j["log_evidence_error_estimate"] =
+        "scatter of the independent islands' log-evidence / sqrt(islands) (calibrate/tmcmc.hpp)";
+  }
   j["stages"] = static_cast<int>(r.stages.size()) - 1;
   json stages = json::array();
   for (const auto& s : r.stages)

@@ -143,9 +143,11 @@ void write_inference(const InferenceResult& r, const std::string& dir) {
   ensure_output_directory(dir);
   write_text_atomic((fs::path(dir) / "summary.json").string(), inference_json(r) + "\n");
   CsvTable s;
-  s.comments = {
-      "equally weighted posterior samples (TMCMC, last stage), natural units; mu, K "
-      "in uN/m from the closed forms"};
+  s.comments = {"equally weighted posterior samples (" +
+                std::string(r.sampler == "laplace-is"
+                                ? "laplace-is, systematic resampling of the importance draws"
+                                : "TMCMC, last stage") +
+                "), natural units; mu, K in uN/m from the closed forms"};
   for (size_t k = 0; k < r.names.size(); ++k) s.header.push_back(r.names[k]);
   s.header.insert(s.header.end(), {"mu_uN_per_m", "K_uN_per_m", "log_likelihood"});
   const int n = static_cast<int>(r.samples.rows()), d = static_cast<int>(r.samples.cols());
