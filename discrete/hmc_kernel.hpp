@@ -65,7 +65,9 @@ class DenseMassMatrix final : public MassMatrix {
 };
 
 struct HmcOptions {
-  double step = 0.5;  ///< initial leapfrog step h (dimensionless time), in (0, 4]
+  /// Initial leapfrog step h (dimensionless time), in (0, 4]: the steps the adaptation settles
+  /// on for the cell at 300 K are 0.07 to 0.15 from N = 250 to 8,000.
+  double step = 0.1;
   /// Trajectory duration T (dimensionless time) before the jitter; pi/2 decorrelates every
   /// mode of a harmonic target whose Hessian is beta^-1 M.
   double trajectory_time = 1.5707963267948966;
