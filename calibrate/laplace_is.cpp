@@ -19,29 +19,6 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr int kIsDrawPurpose = 101;      // stream purpose: proposal draw i
 constexpr int kIsResamplePurpose = 102;  // stream purpose: systematic resampling
 
-/// Uniform (0, 1) and Box-Muller normals from a mt19937_64 (portable, as in tmcmc.cpp).
-class IsStream {
- public:
-  explicit IsStream(std::uint64_t s) : gen_(s) {}
-  double uniform() { return (static_cast<double>(gen_() >> 11) + 0.5) * 0x1.0p-53; }
-  double normal() {
-    if (have_) {
-      have_ = false;
-      return spare_;
-    }
-    const double r = std::sqrt(-2.0 * std::log(uniform()));
-    const double t = 2.0 * M_PI * uniform();
-    spare_ = r * std::sin(t);
-    have_ = true;
-    return r * std::cos(t);
-  }
-
- private:
-  std::mt19937_64 gen_;
-  double spare_ = 0;
-  bool have_ = false;
-};
-
 double logistic_of(double z) {
   return 1.0 / (1.0 + std::exp(-z));
 }
@@ -204,7 +181,7 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
   const int nu_int = static_cast<int>(std::lround(options.nu));
   const bool integer_nu = std::abs(options.nu - nu_int) < 1e-12;
   for (int i = 0; i < S; ++i) {
-    IsStream rng(stream_seed(options.seed, 0, i, kIsDrawPurpose));
+    NormalStream rng(stream_seed(options.seed, 0, i, kIsDrawPurpose));
     Eigen::VectorXd y(d);
     for (int k = 0; k < d; ++k) y(k) = rng.normal();
     double chi2 = 0;
@@ -258,7 +235,7 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
   r.ess = 1.0 / r.weights.squaredNorm();
 
   // --- systematic resampling --------------------------------------------------------------
-  IsStream rng(stream_seed(options.seed, 0, 0, kIsResamplePurpose));
+  NormalStream rng(stream_seed(options.seed, 0, 0, kIsResamplePurpose));
   const double u0 = rng.uniform() / S;
   r.samples.resize(S, d);
   r.log_likelihood.resize(S);

@@ -92,34 +92,6 @@ std::uint64_t stream_seed(std::uint64_t seed, int stage, int index, int purpose)
   return (static_cast<std::uint64_t>(out[0]) << 32) | out[1];
 }
 
-namespace {
-/// Standard normal draws by the Box-Muller transform (portable, unlike
-/// std::normal_distribution whose algorithm the standard leaves open).
-class NormalStream {
- public:
-  explicit NormalStream(std::uint64_t s) : gen_(s) {}
-  double uniform() {  // in (0, 1)
-    return (static_cast<double>(gen_() >> 11) + 0.5) * 0x1.0p-53;
-  }
-  double normal() {
-    if (have_) {
-      have_ = false;
-      return spare_;
-    }
-    const double r = std::sqrt(-2.0 * std::log(uniform()));
-    const double t = 2.0 * M_PI * uniform();
-    spare_ = r * std::sin(t);
-    have_ = true;
-    return r * std::cos(t);
-  }
-
- private:
-  std::mt19937_64 gen_;
-  double spare_ = 0;
-  bool have_ = false;
-};
-}  // namespace
-
 void run_chain(const StageSetup& setup, const PriorBox& prior, const Likelihood& likelihood,
                ChainTask& task) {
   if (setup.chain_length == 0) {

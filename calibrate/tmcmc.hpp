@@ -40,8 +40,10 @@
 // runs run_chain() on every task (in any order, anywhere): omp_executor() uses OpenMP
 // threads; calibrate/mpi_executor.hpp adds a master-worker pool over MPI ranks.
 #include <Eigen/Core>
+#include <cmath>
 #include <cstdint>
 #include <functional>
+#include <random>
 #include <span>
 #include <string>
 #include <vector>
@@ -132,6 +134,34 @@ struct TmcmcOptions {
 
 /// The random stream of (seed, stage, index, purpose).
 std::uint64_t stream_seed(std::uint64_t seed, int stage, int index, int purpose);
+
+/// Uniform (0, 1) and Box-Muller normal draws from a mt19937_64 seeded with stream_seed(): the
+/// samplers' random streams (TMCMC, laplace-is). Written out rather than taken from <random>'s
+/// distributions, whose outputs differ between standard libraries, so that a posterior is the
+/// same on every platform.
+class NormalStream {
+ public:
+  explicit NormalStream(std::uint64_t s) : gen_(s) {}
+  double uniform() {  // in (0, 1)
+    return (static_cast<double>(gen_() >> 11) + 0.5) * 0x1.0p-53;
+  }
+  double normal() {
+    if (have_) {
+      have_ = false;
+      return spare_;
+    }
+    const double r = std::sqrt(-2.0 * std::log(uniform()));
+    const double t = 2.0 * M_PI * uniform();
+    spare_ = r * std::sin(t);
+    have_ = true;
+    return r * std::cos(t);
+  }
+
+ private:
+  std::mt19937_64 gen_;
+  double spare_ = 0;
+  bool have_ = false;
+};
 
 /// What a chain needs to know about its stage.
 struct StageSetup {
