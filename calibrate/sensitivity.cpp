@@ -24,6 +24,7 @@
 #include "core/mirror_symmetry.hpp"
 #include "core/sparse_cholesky.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 #include "homogenise/invariant_laws.hpp"
 
 namespace rbc {
@@ -132,15 +133,10 @@ Eigen::MatrixXd rigid_modes(const Positions& x) {
 }  // namespace
 
 void SensitivityOptions::validate() const {
-  if (!(relative_step > 0 && relative_step < 0.1))
-    throw std::invalid_argument("sensitivity relative step must lie in (0, 0.1), got " +
-                                std::to_string(relative_step));
-  if (!(cg_tolerance > 0 && cg_tolerance < 1))
-    throw std::invalid_argument("sensitivity CG tolerance must lie in (0, 1), got " +
-                                std::to_string(cg_tolerance));
-  if (max_cg_iterations < 1)
-    throw std::invalid_argument("sensitivity CG iterations must be >= 1, got " +
-                                std::to_string(max_cg_iterations));
+  require_finite_in_range("sensitivity relative step", "", relative_step, 0.0, 0.1,
+                          Ends::open_open);
+  require_finite_in_range("sensitivity CG tolerance", "", cg_tolerance, 0.0, 1.0, Ends::open_open);
+  require_integer_in_range("sensitivity CG iterations", max_cg_iterations, 1, 1000000);
 }
 
 bool StretchSensitivities::converged() const {
