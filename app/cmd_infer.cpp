@@ -679,7 +679,11 @@ void add_infer_command(CLI::App& app, Action& action) {
           median_identifiability(*problem, r, candidates, progress);
       if (!out.empty()) {
         write_inference(r, out);
-        write_identifiability(identified, out);
+        {  // the report, headed by what made the run (command, config, provenance)
+          nlohmann::json report = r.record.is_object() ? r.record : nlohmann::json::object();
+          report.update(identified.to_json());
+          write_text_atomic(out + "/identifiability.json", report.dump(2) + "\n");
+        }
         nlohmann::json run = r.record;
         run["status"] = to_string(r.status);
         run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
