@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <functional>
 #include <random>
@@ -22,6 +23,14 @@ struct OneOpenMpThread {
   OneOpenMpThread(const OneOpenMpThread&) = delete;
   OneOpenMpThread& operator=(const OneOpenMpThread&) = delete;
 };
+
+/// A seeded uniformly random rotation (a normalised Gaussian quaternion).
+inline Eigen::Matrix3d random_rotation(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  return q.normalized().toRotationMatrix();
+}
 
 /// Positions of an icosphere of the given frequency scaled to radius r (um).
 inline TriMesh sphere_mesh(int frequency, double radius_um) {

@@ -21,12 +21,7 @@ namespace rbc {
 namespace contact_load_test {
 namespace {
 
-Eigen::Matrix3d random_rotation(unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, 1.0);
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
-  return q.normalized().toRotationMatrix();
-}
+using testing::random_rotation;
 
 /// An irregular closed mesh: an icosphere of the given frequency turned at random, every
 /// vertex moved tangentially and radially by up to 0.3 of the mean edge, then stretched into a

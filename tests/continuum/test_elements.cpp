@@ -20,11 +20,7 @@
 namespace rbc {
 namespace {
 
-Eigen::Matrix3d random_rotation(unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, 1.0);
-  return Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
-}
+using testing::random_rotation;
 
 // A generic reference triangle and a stretched, sheared, rotated current triangle.
 struct TrianglePair {

@@ -13,17 +13,13 @@
 #include "continuum/continuum_model.hpp"
 #include "continuum/surface_extent.hpp"
 #include "core/rest_shape.hpp"
+#include "fixtures.hpp"
 
 namespace rbc {
 namespace surface_extent_test {
 namespace {
 
-Eigen::Matrix3d random_rotation(unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, 1.0);
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
-  return q.normalized().toRotationMatrix();
-}
+using testing::random_rotation;
 
 constexpr double kA = 4.0, kB = 3.0, kC = 2.0;  // semi-axes (um): D_A = 8, D_T = 6
 
