@@ -361,15 +361,11 @@ void print_predictions(const std::vector<HeldOutPrediction>& predictions) {
 }
 // --- end of held-out prediction ----------------------------------------------------------------
 /// --candidate-forces as forces (pN), checked before any work: a list of numbers within the
-/// method's documented force range, with the continuum forward model (the sensitivities').
+/// method's documented force range.
 std::vector<double> candidate_forces(const InferCli& c, const InferOptions& o) {
   if (c.candidate_forces.empty()) return {};
   std::vector<double> f =
       parse_number_list(c.candidate_forces, "--candidate-forces", "20,250 in pN", false);
-  if (o.method.kind != MethodKind::continuum)
-    throw std::invalid_argument("--candidate-forces " + c.candidate_forces +
-                                ": expected the continuum forward model (--method "
-                                "continuum:ORDER:ELEMENTS); the sensitivities need it");
   for (double v : f)
     if (v > max_method_force_pN(o.method.kind)) {
       std::ostringstream m;
@@ -505,8 +501,7 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
   cmd->add_option("--candidate-forces", c->candidate_forces,
                   "forces (pN, comma-separated) to rank by the expected information gain of one "
-                  "more stretch point there, in DIR/identifiability.json and the summary "
-                  "(continuum forward model)");
+                  "more stretch point there, in DIR/identifiability.json and the summary");
   cmd->add_flag("--forward-check", c->forward_check,
                 "no inference: one cold and one warm forward sweep at the --at parameters "
                 "(default the paper's), diameters and times");

@@ -100,6 +100,21 @@ WlcParameters wlc_parameters(const ForwardParameters& p) {
 }
 }  // namespace
 
+void apply_forward_parameters(Network& net, const ForwardParameters& p) {
+  const double kappa = units::joule_to_pNum(p.kappa_J);
+  net.wlc = make_wlc_density(wlc_parameters(p), WlcExpansion::full);
+  net.steric_C_pN_per_um = steric_constant(net.wlc, net.steric);
+  net.bending.kappa_pNum = kappa;
+  net.dihedral_kb_pNum = dihedral_stiffness_pNum(kappa, DihedralMapping::sphere_matched);
+  net.patch = smooth_tweezer_patch(net.rest, net.topo, p.contact_fraction);
+}
+
+void apply_forward_parameters(ContinuumModel& m, const ForwardParameters& p, WlcExpansion order) {
+  m.law = make_membrane_law(wlc_parameters(p), StericParameters{}, order);
+  m.bending.kappa_pNum = units::joule_to_pNum(p.kappa_J);
+  m.patch = smooth_tweezer_patch(m.rest, m.topo, p.contact_fraction);
+}
+
 /// Immutable state shared by all workspaces.
 struct ForwardModel::Shared {
   // discrete
@@ -274,27 +289,17 @@ ForwardRun ForwardModel::run(const ForwardParameters& p, const WarmState& warm,
     std::unique_ptr<Workspace>& w;
     ~Return() { m->give_back(std::move(w)); }
   } give{this, ws};
-  const WlcParameters wlc = wlc_parameters(p);
-  const double kappa = units::joule_to_pNum(p.kappa_J);
   const Positions* rest = nullptr;
   if (options_.method.kind == MethodKind::discrete) {
-    Network& net = ws->network;
-    net.wlc = make_wlc_density(wlc, WlcExpansion::full);
-    net.steric_C_pN_per_um = steric_constant(net.wlc, net.steric);
-    net.bending.kappa_pNum = kappa;
-    net.dihedral_kb_pNum = dihedral_stiffness_pNum(kappa, DihedralMapping::sphere_matched);
-    net.patch = smooth_tweezer_patch(net.rest, net.topo, p.contact_fraction);
-    rest = &net.rest;
+    apply_forward_parameters(ws->network, p);
+    rest = &ws->network.rest;
   } else {
     // A factorisation kept from another sample's run would make this run's result depend on
     // which workspace it borrowed: start afresh (reuse across this run's forces only).
     ws->newton->forget_factorisation();
     if (ws->newton_checked) ws->newton_checked->forget_factorisation();
-    ContinuumModel& m = ws->continuum;
-    m.law = make_membrane_law(wlc, StericParameters{}, options_.method.order);
-    m.bending.kappa_pNum = kappa;
-    m.patch = smooth_tweezer_patch(m.rest, m.topo, p.contact_fraction);
-    rest = &m.rest;
+    apply_forward_parameters(ws->continuum, p, options_.method.order);
+    rest = &ws->continuum.rest;
   }
   const int n = static_cast<int>(rest->cols());
   const int per_force = 3 * n + 2;

@@ -38,6 +38,14 @@ struct ForwardParameters {
   void validate() const;  ///< p > 0, Lmax > 75 nm, kappa > 0, fraction in (0, 0.5)
 };
 
+/// Sets a network's parameter-dependent parts to `p` as the forward model's discrete runs do:
+/// the full WLC density and its steric constant, Juelicher's kappa and the matched dihedral
+/// stiffness, and the smooth bead patch of the contact fraction (calibrate/smooth_patch.hpp).
+void apply_forward_parameters(Network& net, const ForwardParameters& p);
+/// The same for a continuum model: the in-plane law of `order` from the WLC parameters, kappa
+/// and the smooth bead patch.
+void apply_forward_parameters(ContinuumModel& m, const ForwardParameters& p, WlcExpansion order);
+
 /// The largest force the model of `kind` is documented to handle (pN): kMaxDiscreteForce_pN or
 /// kMaxContinuumForce_pN.
 double max_method_force_pN(MethodKind kind);

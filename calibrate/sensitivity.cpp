@@ -25,6 +25,8 @@
 #include "core/sparse_cholesky.hpp"
 #include "core/units.hpp"
 #include "core/validation.hpp"
+#include "discrete/network.hpp"
+#include "discrete/network_hessian.hpp"
 #include "homogenise/invariant_laws.hpp"
 
 namespace rbc {
@@ -39,16 +41,6 @@ double seconds_since(Clock::time_point t0) {
 /// symmetric solves' equilibria are symmetric to round-off (core/mirror_symmetry.hpp), a
 /// buckled one is off by far more.
 constexpr double kSymmetricStateUm = 1e-8;
-
-/// The forward model's parameter setting (calibrate/forward_model.cpp, ForwardModel::run).
-void set_parameters(ContinuumModel& m, const ForwardParameters& p, WlcExpansion order) {
-  WlcParameters w;  // Lbar = 75 nm, T = 300 K
-  w.persistence_um = units::nm_to_um(p.persistence_nm);
-  w.lmax_um = units::nm_to_um(p.lmax_nm);
-  m.law = make_membrane_law(w, StericParameters{}, order);
-  m.bending.kappa_pNum = units::joule_to_pNum(p.kappa_J);
-  m.patch = smooth_tweezer_patch(m.rest, m.topo, p.contact_fraction);
-}
 
 double& parameter_ref(ForwardParameters& p, Parameter q) {
   switch (q) {
@@ -112,6 +104,22 @@ Eigen::VectorXd energy_gradient(const ContinuumModel& m, const Positions& x, dou
   return Eigen::Map<const Eigen::VectorXd>(g.data(), g.size());
 }
 
+/// The network's energy gradient without its area/volume term (pN): the terms that depend on
+/// the parameters, and the tweezers. The constraints enter through exact multipliers instead.
+Eigen::VectorXd energy_gradient(const Network& net, const Positions& x, double force_pN) {
+  std::vector<NetworkTerm> terms;
+  for (const NetworkTerm& t : model_terms(net))
+    if (t.kind != TermKind::area_volume) terms.push_back(t);
+  LoadState load;
+  load.force_pN = force_pN;
+  Positions g(3, x.cols());
+  EnergyBreakdown parts;
+  const double e = sum_network_terms(terms, net, x, load, &g, &parts);
+  if (!std::isfinite(e))
+    throw std::runtime_error("sensitivities: the energy is not finite at the equilibrium");
+  return Eigen::Map<const Eigen::VectorXd>(g.data(), g.size());
+}
+
 /// Orthonormal basis (columns) of the rigid modes of x: 3 translations and the rotation about
 /// the x axis through the centroid.
 Eigen::MatrixXd rigid_modes(const Positions& x) {
@@ -152,7 +160,9 @@ bool is_forward_parameter(Parameter p) {
 struct StretchSensitivity::Impl {
   ForwardOptions options;
   SensitivityOptions sens;
-  ContinuumModel model;
+  bool discrete = false;
+  ContinuumModel model;        ///< continuum forward model
+  Network network;             ///< discrete forward model
   MeshSymmetry mesh_symmetry;  ///< the rest mesh's mirrors (options.newton.symmetry = mirror)
 };
 
@@ -160,10 +170,8 @@ StretchSensitivity::StretchSensitivity(const ForwardOptions& options, const Sens
     : impl_(std::make_unique<Impl>()) {
   options.validate();
   s.validate();
-  if (options.method.kind != MethodKind::continuum)
-    throw std::invalid_argument(
-        "sensitivities need the continuum forward model (method continuum:ORDER:ELEMENTS)");
   impl_->options = options;
+  impl_->discrete = options.method.kind == MethodKind::discrete;
   impl_->sens = s;
   // The forward model's rest mesh, built on one thread as there (calibrate/forward_model.cpp).
   const int saved_threads = omp_get_max_threads();
@@ -172,6 +180,14 @@ StretchSensitivity::StretchSensitivity(const ForwardOptions& options, const Sens
     int n;
     ~Restore() { omp_set_num_threads(n); }
   } restore{saved_threads};
+  if (impl_->discrete) {
+    // The forward model's network; its solves run in full (StretchOptions' default symmetry).
+    impl_->network = make_discrete_network(options.method.resolution);
+    const NetworkParameters p;
+    if (p.bending_model != BendingModel::juelicher)
+      throw std::invalid_argument("sensitivities need Juelicher bending for the network");
+    return;
+  }
   const TriMesh mesh = make_continuum_mesh(options.method.resolution);
   if (options.newton.symmetry == Symmetry::mirror)
     impl_->mesh_symmetry = find_mirror_symmetry(mesh.x, mesh.topo);
@@ -184,7 +200,7 @@ StretchSensitivity::StretchSensitivity(const ForwardOptions& options, const Sens
 StretchSensitivity::~StretchSensitivity() = default;
 
 int StretchSensitivity::vertices() const {
-  return impl_->model.topo.num_vertices;
+  return impl_->discrete ? impl_->network.topo.num_vertices : impl_->model.topo.num_vertices;
 }
 
 StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parameters,
@@ -193,7 +209,9 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
                                                  const std::vector<Parameter>& wrt) const {
   parameters.validate();
   const SensitivityOptions& so = impl_->sens;
-  const int n = impl_->model.topo.num_vertices;
+  const bool discrete = impl_->discrete;
+  const int n = vertices();
+  const Topology& topo = discrete ? impl_->network.topo : impl_->model.topo;
   const int per_force = 3 * n + 2;
   const int nf = static_cast<int>(forces_pN.size());
   if (static_cast<long long>(state.size()) != static_cast<long long>(nf) * per_force)
@@ -204,9 +222,18 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
   out.parameters = wrt;
   const int np = static_cast<int>(wrt.size());
   // The models at theta and at theta +- h e_k (only the parameters change; mesh shared).
-  ContinuumModel centre = impl_->model;
-  set_parameters(centre, parameters, impl_->options.method.order);
-  std::vector<ContinuumModel> plus(np, centre), minus(np, centre);
+  const WlcExpansion order = impl_->options.method.order;
+  ContinuumModel centre;
+  Network centre_net;
+  std::vector<ContinuumModel> plus, minus;
+  std::vector<Network> plus_net, minus_net;
+  if (discrete) {
+    centre_net = impl_->network;
+    apply_forward_parameters(centre_net, parameters);
+  } else {
+    centre = impl_->model;
+    apply_forward_parameters(centre, parameters, order);
+  }
   std::vector<double> step(np);
   for (int k = 0; k < np; ++k) {
     ForwardParameters pp = parameters, pm = parameters;
@@ -214,12 +241,27 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
     step[k] = so.relative_step * std::abs(v);
     parameter_ref(pp, wrt[k]) = v + step[k];
     parameter_ref(pm, wrt[k]) = v - step[k];
-    set_parameters(plus[k], pp, impl_->options.method.order);
-    set_parameters(minus[k], pm, impl_->options.method.order);
+    if (discrete) {
+      plus_net.push_back(impl_->network);
+      minus_net.push_back(impl_->network);
+      apply_forward_parameters(plus_net.back(), pp);
+      apply_forward_parameters(minus_net.back(), pm);
+    } else {
+      plus.push_back(impl_->model);
+      minus.push_back(impl_->model);
+      apply_forward_parameters(plus.back(), pp, order);
+      apply_forward_parameters(minus.back(), pm, order);
+    }
   }
+  // grad_x E at x of the centre (k = -1) or of theta +- h e_k (pN).
+  const auto gradient = [&](int k, bool up, const Positions& x, double force) {
+    if (discrete)
+      return energy_gradient(k < 0 ? centre_net : (up ? plus_net : minus_net)[k], x, force);
+    return energy_gradient(k < 0 ? centre : (up ? plus : minus)[k], x, force);
+  };
   // The mirror reduction the forward model solves on (continuum/newton_solver.cpp): the
   // mirrors of the mesh that keep the bead load, from the centre model's patch.
-  const bool mirror = impl_->options.newton.symmetry == Symmetry::mirror;
+  const bool mirror = !discrete && impl_->options.newton.symmetry == Symmetry::mirror;
   std::unique_ptr<SymmetryReduction> red;
   std::unique_ptr<ReducedLagrangianHessian> reduced_hessian;
   if (mirror) {
@@ -231,6 +273,7 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
     }
   }
   std::unique_ptr<BlockHessian> h;  // the full Hessian, made at its first use
+  std::unique_ptr<NetworkHessian> h_net;
   SparseCholeskyOptions co;
   co.ordering = impl_->options.newton.ordering;
   SparseCholesky chol_full(co), chol_reduced(co);
@@ -238,24 +281,32 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
     const double force = forces_pN[f];
     const double* w = state.data() + static_cast<size_t>(f) * per_force;
     const Positions x = Eigen::Map<const Positions>(w, 3, n);
-    const double la = w[3 * n], lv = w[3 * n + 1];
+    double la = w[3 * n], lv = w[3 * n + 1];
     ForceSensitivity fs;
     fs.force_pN = force;
     // Constraint gradients and the residual grad_x L.
-    const ConstraintValues cv = evaluate_constraints(x, centre.topo);
+    const ConstraintValues cv = evaluate_constraints(x, topo);
     Eigen::MatrixXd c(3 * n, 2);
     c.col(0) = Eigen::Map<const Eigen::VectorXd>(cv.grad_area.data(), 3 * n);
     c.col(1) = Eigen::Map<const Eigen::VectorXd>(cv.grad_volume.data(), 3 * n);
     auto t0 = Clock::now();
-    const Eigen::VectorXd r0 = energy_gradient(centre, x, force) + la * c.col(0) + lv * c.col(1);
+    const Eigen::VectorXd g0 = gradient(-1, true, x, force);
+    if (discrete) {
+      // The augmented-Lagrangian state holds multipliers and a penalty whose sum is the
+      // tension and pressure: the exact multipliers are those that best balance grad E,
+      // min |grad E + C lambda| (equal to the constrained problem's at an equilibrium).
+      const Eigen::Vector2d l = (c.transpose() * c).ldlt().solve(-c.transpose() * g0);
+      la = l(0);
+      lv = l(1);
+    }
+    const Eigen::VectorXd r0 = g0 + la * c.col(0) + lv * c.col(1);
     double res = 0;
     for (int i = 0; i < n; ++i) res = std::max(res, r0.segment<3>(3 * i).norm());
     fs.residual_pN = res;
     // Mixed derivatives d(grad_x E)/dtheta_k (the constraint terms do not depend on theta).
     Eigen::MatrixXd b(3 * n, np);
     for (int k = 0; k < np; ++k)
-      b.col(k) = (energy_gradient(plus[k], x, force) - energy_gradient(minus[k], x, force)) /
-                 (2 * step[k]);
+      b.col(k) = (gradient(k, true, x, force) - gradient(k, false, x, force)) / (2 * step[k]);
     out.mixed_s += seconds_since(t0);
     // On a symmetric equilibrium the system is solved on the symmetric subspace u = P q
     // (P'HP q + P'C dlambda = -P'b, C'P q = 0: the full system's solution, which is
@@ -292,6 +343,18 @@ StretchSensitivities StretchSensitivity::compute(const ForwardParameters& parame
     if (reduced) {
       reduced_hessian->rebind(centre);
       hp = &reduced_hessian->assemble(x, la, lv);
+    } else if (discrete) {
+      // The exact Hessian of the network (unprojected, Juelicher's hinge curvature included)
+      // plus the constraint curvature lambda_A d2A + lambda_V d2V.
+      if (!h_net) {
+        NetworkHessianOptions ho;
+        ho.bending_coupling = BendingCoupling::two_ring;
+        ho.shift_fraction = 0;
+        ho.project = false;
+        ho.hinge_curvature = true;
+        h_net = std::make_unique<NetworkHessian>(centre_net, ho);
+      }
+      hp = &h_net->assemble_exact(x, ConstraintCurvature{la, lv});
     } else {
       if (!h) h = std::make_unique<BlockHessian>(centre.topo, BlockStorage::lower);
       h->set_zero();
@@ -544,11 +607,8 @@ IdentifiabilityReport identifiability(const InferenceProblem& problem,
   const int d = static_cast<int>(params.size());
   for (Parameter q : params) rep.names.push_back(to_string(q));
   rep.at.assign(theta.begin(), theta.end());
-  if (problem.forward().options().method.kind != MethodKind::continuum) {
-    rep.status = "not available: sensitivities need the continuum forward model";
-    return rep;
-  }
-  for (double f : candidate_forces_pN) validate_method_force(MethodKind::continuum, f);
+  for (double f : candidate_forces_pN)
+    validate_method_force(problem.forward().options().method.kind, f);
   // A forward model of its own (the problem's mesh and options): the result does not depend on
   // what the problem's pooled workspaces solved before.
   const StretchSensitivity sens(problem.forward().options());
