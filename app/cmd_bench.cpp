@@ -16,6 +16,7 @@
 
 #include <chrono>
 
+#include "app/bench_infer.hpp"
 #include "app/commands.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/dynamics.hpp"
@@ -632,7 +633,8 @@ void add_bench_command(CLI::App& app, Action& action) {
       "Benchmarks: `rbc bench stretch` (discrete energy+gradient, one preconditioner solve in "
       "double and single precision, and time to equilibrium at 88 pN for N = 500, 2000, 8000, "
       "27500), `rbc bench mc` (Monte Carlo vertex moves/s "
-      "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up), `rbc bench sweep` "
+      "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up), `rbc bench infer` "
+      "(the default calibration by TMCMC and by laplace-is, side by side), `rbc bench sweep` "
       "(force sweeps and warm re-solves, each also in energy+gradient "
       "evaluations, and the continuum recovery row); extra arguments go "
       "to Google Benchmark");
@@ -748,9 +750,11 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime()
             ->MinTime(2.0);
+      } else if (suite == "infer") {
+        register_infer_benchmarks(families);
       } else {
-        throw std::invalid_argument("bench " + suite +
-                                    ": unknown benchmark suite (expected stretch, sweep or mc)");
+        throw std::invalid_argument(
+            "bench " + suite + ": unknown benchmark suite (expected stretch, sweep, mc or infer)");
       }
       std::vector<std::string> rest(args->begin() + (args->empty() ? 0 : 1), args->end());
       // Google Benchmark's own flags only (--benchmark_filter=..., ...); anything else is refused
