@@ -22,6 +22,7 @@
 #include "core/validation.hpp"
 #include "discrete/dynamics.hpp"
 #include "homogenise/invariant_laws.hpp"
+#include "homogenise/moduli.hpp"
 
 namespace rbc {
 
@@ -174,6 +175,7 @@ struct Track {
   std::vector<double> t_s, lambda;
   bool converged = false;
   std::string status;
+  int halved_steps = 0;
 };
 
 Track release_trajectory(const ContinuumModel& model, const DynamicsState& start,
@@ -193,6 +195,7 @@ Track release_trajectory(const ContinuumModel& model, const DynamicsState& start
   Track out;
   out.converged = r.converged;
   out.status = r.status;
+  out.halved_steps = r.halved_steps;
   for (const TrajectorySample& s : r.samples) {
     out.t_s.push_back(s.t_s);
     out.lambda.push_back(s.axial_um / s.transverse_um);
@@ -222,6 +225,7 @@ RecoveryCurve RecoveryModel::simulate(const ForwardParameters& p) const {
   WlcParameters wlc;  // Lbar = 75 nm, T = 300 K
   wlc.persistence_um = units::nm_to_um(p.persistence_nm);
   wlc.lmax_um = units::nm_to_um(p.lmax_nm);
+  curve.shear_modulus_pN_per_um = closed_form_moduli(wlc, StericParameters{}).mu_pN_per_um;
   ContinuumParameters cp;
   cp.bending.kappa_pNum = units::joule_to_pNum(p.kappa_J);
   ContinuumModel model =
@@ -248,6 +252,7 @@ RecoveryCurve RecoveryModel::simulate(const ForwardParameters& p) const {
   if (fine.converged && o.richardson) {
     const Track crude = release_trajectory(model, start, o, coarse, duration);
     used.converged = crude.converged;
+    used.halved_steps += crude.halved_steps;
     used.status = crude.status;
     used.t_s.clear();
     used.lambda.clear();
@@ -258,6 +263,7 @@ RecoveryCurve RecoveryModel::simulate(const ForwardParameters& p) const {
       used.lambda.push_back(2 * fine.lambda[2 * k] - crude.lambda[k]);
     }
   }
+  curve.halved_steps = used.halved_steps;
   curve.converged = used.converged && used.t_s.size() >= 3;
   curve.status = curve.converged  ? "converged"
                  : used.converged ? "fewer than 3 samples"

@@ -82,7 +82,7 @@ struct RecoveryModelOptions {
   /// paper's parameters, the amplitude of Hochmuth's cells (the decay's shape depends on it
   /// through the law's nonlinearity).
   double release_force_pN = 100.0;
-  double dt_s = 0.005;       ///< time step at eta_ref (s), in (0, duration_s]
+  double dt_s = 0.0025;      ///< time step at eta_ref (s), in (0, duration_s]
   double duration_s = 0.45;  ///< simulated time at eta_ref (s), > 0
   /// Richardson extrapolation of the first-order backward Euler: the curve is 2 g_dt - g_2dt
   /// on the 2 dt grid (one more run at 2 dt, half the cost of the first), error O(dt^2).
@@ -100,10 +100,16 @@ struct RecoveryCurve {
   std::vector<double> shape;   ///< g at time_s; shape[0] = 1
   std::vector<double> lambda;  ///< the model's D_A/D_T at time_s (Richardson-combined)
   double lambda_inf = 1.0;     ///< D_A/D_T at the zero-force equilibrium
+  /// Shear modulus mu (pN/um = uN/m; closed form of the WLC and steric parameters): the
+  /// Kelvin-Voigt time is eta_m/mu.
+  double shear_modulus_pN_per_um = 0;
   double eta_ref_pN_s_per_um = 0.7;
   bool converged = false;  ///< static solves and trajectory (both, with Richardson) converged
   std::string status;      ///< why not, in words; "converged" otherwise
   double cpu_s = 0;        ///< CPU time of the simulating thread (s)
+  /// Steps of the trajectories that needed halving (a halved step changes the discretisation
+  /// locally, so the curve jumps by ~dt^2 where a parameter change starts or stops one).
+  int halved_steps = 0;
 
   /// g(t) at reference time t >= 0 (s): cubic Hermite interpolation of log g (exact for an
   /// exponential), beyond the last sample the exponential continued at the last interval's
