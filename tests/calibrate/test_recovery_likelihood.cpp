@@ -404,5 +404,35 @@ TEST(RecoveryMeasure, DISABLED_HochmuthCellsAtThePaperParameters) {
   }
 }
 
+// Measurement for docs/validation/recovery_likelihood.md (not run by default): the release
+// force's and each cell's share, at the default 1,000 elements.
+TEST(RecoveryMeasure, DISABLED_ForceAndCells) {
+  const RecoveryData data =
+      read_recovery_data(default_data_directory() + "/hochmuth1979_recovery_cells.csv");
+  for (bool rich : {false, true}) {
+    RecoveryModelOptions o;
+    o.richardson = rich;
+    const RecoveryCurve c = simulate_recovery(ForwardParameters{}, o);
+    std::printf("defaults, extrapolation %d: cpu %.2f s\n", rich, c.cpu_s);
+  }
+  for (double f : {50.0, 100.0, 150.0}) {
+    RecoveryModelOptions o;
+    o.release_force_pN = f;
+    const RecoveryCurve curve = simulate_recovery(ForwardParameters{}, o);
+    const EtaProfile e = eta_profile(curve, data, {});
+    std::printf("F %.0f pN: lambda(0) %.3f, MLE eta_m %.3f [%.3f, %.3f], t_c %.4f s, cpu %.2f s\n",
+                f, curve.lambda[0], e.mle, e.lo, e.hi, curve.recovery_time_s(e.mle), curve.cpu_s);
+    if (f != 100.0) continue;
+    for (const RecoveryCell& c : data.cells) {
+      RecoveryData one = data;
+      one.cells = {c};
+      const EtaProfile ec = eta_profile(curve, one, {});
+      const RecoveryLikelihood r = evaluate_recovery_likelihood(curve, ec.mle, one);
+      std::printf("  cell %d alone: eta_m %.3f [%.3f, %.3f], t_c %.4f s, chi2 %.1f\n", c.id, ec.mle,
+                  ec.lo, ec.hi, curve.recovery_time_s(ec.mle), r.cells[0].chi2);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace rbc
