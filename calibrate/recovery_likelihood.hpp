@@ -72,7 +72,9 @@ RecoveryData read_recovery_data(const std::string& path);
 /// The release scene the likelihood runs (continuum model): the equilibria at F and at 0 by
 /// the static solver, then backward Euler at F = 0 from the loaded equilibrium.
 struct RecoveryModelOptions {
-  /// Continuum triangles, [kMinContinuumElements, kMaxContinuumElements].
+  /// Continuum triangles, [kMinContinuumElements, kMaxContinuumElements]. Measured on the
+  /// Hochmuth cells (docs/validation/recovery_likelihood.md): the eta_m maximum moves 1.5 % from
+  /// 400 to 1,000 elements and 2.4 % from 1,000 to 2,000; 1.4 s CPU per curve at 1,000.
   int elements = 1000;
   WlcExpansion order = WlcExpansion::order2;  ///< in-plane law, as the calibration's default
   /// Reference membrane viscosity eta_ref (pN s/um, > 0) of the one trajectory.
@@ -82,8 +84,14 @@ struct RecoveryModelOptions {
   /// paper's parameters, the amplitude of Hochmuth's cells (the decay's shape depends on it
   /// through the law's nonlinearity).
   double release_force_pN = 100.0;
-  double dt_s = 0.0025;      ///< time step at eta_ref (s), in (0, duration_s]
-  double duration_s = 0.45;  ///< simulated time at eta_ref (s), > 0
+  /// Time step at eta_ref (s), in (0, duration_s]. With the extrapolation g is within 1e-4 of
+  /// the dt -> 0 curve at 2.5 ms; at 5 ms the coarse 10 ms run's solution path changed
+  /// discretely with kappa (a jump of 4e-5 in g), which spoils finite differences in the
+  /// parameters.
+  double dt_s = 0.0025;
+  /// Simulated time at eta_ref (s), > 0: the data's last time t_max reads the tail beyond it
+  /// (RecoveryCurve::at) for eta_m < eta_ref t_max/duration.
+  double duration_s = 0.45;
   /// Richardson extrapolation of the first-order backward Euler: the curve is 2 g_dt - g_2dt
   /// on the 2 dt grid (one more run at 2 dt, half the cost of the first), error O(dt^2).
   bool richardson = true;
@@ -104,16 +112,20 @@ struct RecoveryCurve {
   /// Kelvin-Voigt time is eta_m/mu.
   double shear_modulus_pN_per_um = 0;
   double eta_ref_pN_s_per_um = 0.7;
-  bool converged = false;  ///< static solves and trajectory (both, with Richardson) converged
-  std::string status;      ///< why not, in words; "converged" otherwise
-  double cpu_s = 0;        ///< CPU time of the simulating thread (s)
+  /// Static solves and trajectory (both, with Richardson) converged, with at least 3 samples.
+  bool converged = false;
+  std::string status;  ///< why not, in words; "converged" otherwise
+  double cpu_s = 0;    ///< CPU time of the simulating thread (s)
   /// Steps of the trajectories that needed halving (a halved step changes the discretisation
   /// locally, so the curve jumps by ~dt^2 where a parameter change starts or stops one).
   int halved_steps = 0;
 
-  /// g(t) at reference time t >= 0 (s): cubic Hermite interpolation of log g (exact for an
-  /// exponential), beyond the last sample the exponential continued at the last interval's
-  /// rate. g_prime (1/s): dg/dt there, when given.
+  /// g(t) at reference time t >= 0 (s): cubic Hermite interpolation of log g with the slopes of
+  /// the parabolas through neighbouring samples (exact for an exponential); beyond the last
+  /// sample (the trajectory's end, or the last sample before g < 1e-3, where log g is the
+  /// solver's noise) the exponential continued at the last sample's rate (not increasing).
+  /// g_prime (1/s): dg/dt there, when given. Throws std::invalid_argument for fewer than 3
+  /// samples.
   double at(double t_ref_s, double* g_prime = nullptr) const;
   /// Hochmuth's t_c of the curve at eta_m (s): the least-squares exponential fit of
   /// discrete/dynamics.hpp's fit_recovery (window down to 0.1 r(0)) at eta_ref, times
@@ -123,7 +135,8 @@ struct RecoveryCurve {
 
 /// The release scene for many parameter sets: the mesh is built once (on one thread, as the
 /// forward model's), simulate() may run from several threads at once and depends on its
-/// arguments alone.
+/// arguments alone for a given OpenMP thread count of its inner solvers (run it on one thread
+/// inside a sampler's executor, as the forward model).
 class RecoveryModel {
  public:
   explicit RecoveryModel(const RecoveryModelOptions& options);  ///< validates
