@@ -25,9 +25,10 @@
 // time-stepping error between step dt and dt eta_ref/eta_m (the step tolerance aside). One
 // trajectory per (p, Lmax, kappa, contact fraction) therefore serves every eta_m; the
 // derivative in eta_m is analytic through the rescaling. This does not hold where a drag that
-// is not proportional to eta_m enters (the relax scene's normal drag) or for the discrete
-// model's BDF2 start-up (not used here). Tests: tests/calibrate/test_recovery_likelihood.cpp
-// (a direct run at 2 eta_ref against the rescaled curve); the discrete scene's exact
+// is not proportional to eta_m enters (the relax scene's normal drag, or the fluids were they
+// modelled). Tests: tests/calibrate/test_recovery_likelihood.cpp (a direct run at 2 eta_ref
+// against the rescaled curve; the run at (2 eta_ref, 2 dt) is the eta_ref run to the last
+// bit); the discrete scene's exact
 // (eta_m, dt) -> (2 eta_m, 2 dt) identity is tests/app/test_cli_dynamics.cpp
 // (CliDynamics.RecoveryTimeIsProportionalToTheMembraneViscosity).
 //
