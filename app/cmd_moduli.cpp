@@ -128,20 +128,27 @@ int run_thermal(const ModuliCli& o) {
                      std::to_string(cells) + " columns)")
        << ", " << j.at("vertices").get<int>() << " nodes\n"
        << "zero temperature (Gamma limit, relaxed cell): mu = " << num("mu_gamma_pN_per_um")
-       << " uN/m, K = " << num("K_gamma_pN_per_um") << " uN/m\n"
-       << "at T = " << num("sampling_temperature_K") << " K (Metropolis, "
-       << j.at("sweeps").get<long long>() << " sweeps per chain, strain " << num("strain")
-       << "): mu = " << pm("mu_pN_per_um", "mu_error_pN_per_um") << " uN/m ("
-       << percent("mu_relative_shift", "mu_relative_shift_error")
-       << "), K = " << pm("K_pN_per_um", "K_error_pN_per_um") << " uN/m ("
-       << percent("K_relative_shift", "K_relative_shift_error") << ")\n"
-       << "quasi-harmonic O(T) prediction: mu = " << num("mu_quasi_harmonic_pN_per_um")
-       << " uN/m, K = " << num("K_quasi_harmonic_pN_per_um") << " uN/m\n"
-       << "isotropic tension " << pm("tension_pN_per_um", "tension_error_pN_per_um")
-       << " uN/m (T = 0: " << num("tension_zero_temperature_pN_per_um")
-       << "), energy per degree of freedom / (kB T/2) "
-       << pm("equipartition_ratio", "equipartition_ratio_error") << ", acceptance "
-       << num("acceptance") << "\n";
+       << " uN/m, K = " << num("K_gamma_pN_per_um") << " uN/m\n";
+  if (num("sampling_temperature_K") == 0.0) {
+    text << "at T = 0 K (no sampling: central difference of the relaxed stress, strain "
+         << num("strain") << "): mu = " << num("mu_pN_per_um")
+         << " uN/m, K = " << num("K_pN_per_um") << " uN/m, isotropic tension "
+         << num("tension_pN_per_um") << " uN/m\n";
+  } else {
+    text << "at T = " << num("sampling_temperature_K") << " K (Metropolis, "
+         << j.at("sweeps").get<long long>() << " sweeps per chain, strain " << num("strain")
+         << "): mu = " << pm("mu_pN_per_um", "mu_error_pN_per_um") << " uN/m ("
+         << percent("mu_relative_shift", "mu_relative_shift_error")
+         << "), K = " << pm("K_pN_per_um", "K_error_pN_per_um") << " uN/m ("
+         << percent("K_relative_shift", "K_relative_shift_error") << ")\n"
+         << "quasi-harmonic O(T) prediction: mu = " << num("mu_quasi_harmonic_pN_per_um")
+         << " uN/m, K = " << num("K_quasi_harmonic_pN_per_um") << " uN/m\n"
+         << "isotropic tension " << pm("tension_pN_per_um", "tension_error_pN_per_um")
+         << " uN/m (T = 0: " << num("tension_zero_temperature_pN_per_um")
+         << "), energy per degree of freedom / (kB T/2) "
+         << pm("equipartition_ratio", "equipartition_ratio_error") << ", acceptance "
+         << num("acceptance") << "\n";
+  }
   std::cout << text.str();
   return 0;
 }

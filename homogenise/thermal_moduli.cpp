@@ -359,6 +359,7 @@ ThermalModuliResult thermal_moduli(const PeriodicNetwork& net, const ThermalCell
   r.quasi_harmonic.K_pN_per_um += kT / (2 * area) * qh[2] / 4;
 
   if (o.temperature_K == 0.0) {
+    r.sweeps = r.warmup_sweeps = 0;  // nothing sampled
     r.mu = {r.zero_temperature_cd.mu_pN_per_um, 0.0};
     r.K = {r.zero_temperature_cd.K_pN_per_um, 0.0};
     r.tangent_d1 = {t0[0], 0.0};
