@@ -130,7 +130,6 @@ struct ThermalModuliResult {
   long long sweeps = 0, warmup_sweeps = 0;
   int batches = 0;
   unsigned long seed = 0;
-  double seconds_cpu_estimate = 0.0;  ///< not set by the library (callers time the run)
 };
 
 /// Samples the six strained cells of `net` with `material` at options.temperature_K and
