@@ -20,15 +20,20 @@
 // differences of the mean stress along F = I + s D, s = +-eps, D in {diag(1, -1), [[0, 1], [1,
 // 0]], I}: D : (P(+eps) - P(-eps)) / (2 eps) = D : T : D, then moduli_from_tangent's
 // combinations mu = (T[D1,D1] + T[D2,D2]) / 8, K = T[I,I] / 4. The chains at +eps and -eps use
-// the same random numbers (common random numbers: same seed, same step, one proposal and one
-// uniform per move whatever the outcome), so they stay coupled and most of the sampling noise
-// cancels in the difference. Errors: batch means of the per-sweep difference series.
-// Why not the stress-fluctuation formula (Born term - beta A0 Cov(sigma) + kinetic term): it
-// needs the Born (affine) tangent averaged over the chain and the covariance of the cell stress,
-// a difference of two large numbers whose error grows with the cell (the covariance carries
-// the variance of an extensive sum); the mean-stress difference under common random numbers has
-// no such cancellation, reuses patch_energy's stress unchanged, and its only bias, the O(eps^2)
-// truncation, is measured at T = 0 by the same central difference (zero_temperature_cd).
+// the same random numbers (common random numbers: same seed, same step, three uniforms per move
+// (two for the trial, one for the acceptance) whatever the outcome), so they stay coupled and
+// most of the sampling noise cancels in the difference. Errors: batch means of the per-sweep
+// difference series.
+// Why not the stress-fluctuation formula (Born term - A0/(kB T) Cov(P) + kinetic term): it is a
+// difference of two large terms (the Born term is the affine tangent, well above the relaxed one
+// on a disordered network; the fluctuation term removes the non-affine relaxation), and its
+// covariance converges slowly (fourth moments of the stress). Even as T -> 0 the fluctuation
+// term tends to the finite Schur correction E_Fu E_uu^-1 E_uF / A0, estimated from samples with
+// a relative noise that does not fall with T. The mean-stress difference under common random
+// numbers has neither problem: its noise vanishes with T (the T -> 0 limit is the cell
+// problem's tangent to the truncation), it reuses patch_energy's stress unchanged, and its only
+// bias, the O(eps^2) truncation, is measured at T = 0 by the same central difference
+// (zero_temperature_cd).
 //
 // Sampler: local Metropolis, one node per move (uniform trial in a square of half-width `step`),
 // nodes visited in order, the step adapted towards 40 % acceptance in a warm-up chain at F = I
@@ -38,13 +43,17 @@
 // sweeps), and the measured quantity, the cell stress, is a sum of local terms that decorrelates
 // faster still. The chains of one run (six: three directions, two signs) run in parallel, one
 // RNG stream each (GSL mt19937 seeded from the seed and the direction): results depend on the
-// seed only, never on the thread count.
+// seed only, never on the thread count. discrete/hmc_kernel.hpp's Hamiltonian transition would
+// fit this target too; at these sizes local moves suffice (about 0.3 us per node move: a
+// 256-node row of docs/validation/thermal_moduli.md in ~20 CPU s) and need no gradient or mass
+// matrix.
 //
 // Low-temperature check (quasi-harmonic, independent of the sampler): to first order in T,
 //   f(F) = E_min(F) / A0 + kB T / (2 A0) ln det H_uu(F) + O(T^2)
 // (Laplace's method; H_uu the Hessian of E over the internal positions at the relaxed state,
-// vertex 0 pinned), so mu(T) - mu(0) = kB T / (16 A0) d2/ds2 [ln det H_uu]_{D1 + D2} + O(T^2),
-// reported as the quasi-harmonic prediction.
+// vertex 0 pinned), so with q_D = d2/ds2 ln det H_uu(I + s D) at s = 0 (second differences of
+// the relaxed cells' Hessians, no sampling) mu(T) - mu(0) = kB T / (16 A0) (q_D1 + q_D2) and
+// K(T) - K(0) = kB T / (8 A0) q_I, to O(T^2): the quasi-harmonic prediction.
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <string>
