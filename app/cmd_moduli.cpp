@@ -251,7 +251,10 @@ void add_moduli_command(CLI::App& app, Action& action) {
                 "every key names its unit (mu_closed_pN_per_um, K_closed_pN_per_um, "
                 "mu_numeric_pN_per_um, K_numeric_pN_per_um, young_pN_per_um; pN/um = uN/m) or "
                 "is dimensionless (poisson, *_relative_difference, *_over_lbar, counts); "
-                "young/poisson from the numerical moduli");
+                "young/poisson from the numerical moduli; with --sampling-temperature the thermal "
+                "keys (mu_pN_per_um, mu_error_pN_per_um, mu_gamma_pN_per_um, mu_relative_shift, "
+                "the same for K, mu_quasi_harmonic_pN_per_um, tension_pN_per_um, "
+                "equipartition_ratio, ...)");
   auto* sampling =
       cmd->add_option("--sampling-temperature", o->sampling.temperature_K,
                       "sample the periodic cell at this temperature (K), in [0, 1000], and "
