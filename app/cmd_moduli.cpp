@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc moduli`: closed-form and numerically homogenised moduli of the spectrin network
 // (MODEL.md section 3; Hartmann 2008 Sec. 3.2-3.4, 4.3), for the perfect hexagonal lattice
-// or for disordered periodic networks.
+// or for disordered periodic networks; with --sampling-temperature, the isothermal moduli of the
+// periodic cell sampled at that temperature against the zero-temperature ones
+// (homogenise/thermal_moduli.hpp).
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -21,6 +23,7 @@
 #include "homogenise/moduli.hpp"
 #include "homogenise/moduli_study.hpp"
 #include "homogenise/periodic_network.hpp"
+#include "homogenise/thermal_moduli.hpp"
 
 namespace rbc::app {
 
@@ -64,6 +67,9 @@ struct ModuliCli {
   int cells = 0;  // 0: 4 for hex, 12 for disordered
   int seeds = 4;
   bool json = false, quiet = false;
+  /// --sampling-temperature given: the thermal study (homogenise/thermal_moduli.hpp) runs.
+  bool thermal = false;
+  ThermalModuliOptions sampling;
   /// What produced the run: command, resolved configuration, provenance (app/run_config.hpp);
   /// --json includes it beside the study's keys.
   nlohmann::json record;
@@ -73,7 +79,82 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// The thermal study's quantities -> options (with the membrane ones).
+const OptionNames& thermal_option_names() {
+  static const OptionNames names = [] {
+    OptionNames n = membrane_option_names();
+    n["sampling temperature"] = "--sampling-temperature";
+    n["thermal moduli sweeps"] = "--sweeps";
+    n["thermal moduli warm-up sweeps"] = "--warmup-sweeps";
+    n["thermal moduli strain"] = "--strain";
+    n["thermal moduli batches"] = "--batches";
+    return n;
+  }();
+  return names;
+}
+
+int run_thermal(const ModuliCli& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ThermalStudyOptions so;
+  so.network = o.network;
+  so.cells = o.cells;
+  so.disorder = o.disorder;
+  so.sampling = o.sampling;
+  const WlcParameters wlc = o.membrane.wlc();
+  const StericParameters steric = o.membrane.steric();
+  so.validate();  // every option checked before any work
+  nlohmann::json j = thermal_moduli_study(wlc, steric, so, stderr_progress(o.quiet));
+  j["wall_s"] = seconds_since(t0);
+  if (o.json) {
+    nlohmann::json out = o.record;
+    out.update(j);
+    std::cout << out.dump(2) << "\n";
+    return 0;
+  }
+  const auto num = [&](const char* key) { return j.at(key).get<double>(); };
+  const auto pm = [&](const char* value, const char* error) {
+    return format_with_error(num(value), num(error));
+  };
+  const auto percent = [&](const char* value, const char* error) {
+    return format_with_error(100 * num(value), 100 * num(error)) + " %";
+  };
+  const int cells = j.at("cells").get<int>();
+  std::ostringstream text;
+  text << std::setprecision(6) << "closed form (Sec. 4.3): mu = " << num("mu_closed_pN_per_um")
+       << " uN/m, K = " << num("K_closed_pN_per_um") << " uN/m\n"
+       << (o.network == ModuliNetwork::hexagonal
+               ? "periodic hexagonal patch " + std::to_string(cells) + " x " + std::to_string(cells)
+               : "disordered network (X = " + format_number(num("disorder")) + ", seed 1, " +
+                     std::to_string(cells) + " columns)")
+       << ", " << j.at("vertices").get<int>() << " nodes\n"
+       << "zero temperature (Gamma limit, relaxed cell): mu = " << num("mu_gamma_pN_per_um")
+       << " uN/m, K = " << num("K_gamma_pN_per_um") << " uN/m\n";
+  if (num("sampling_temperature_K") == 0.0) {
+    text << "at T = 0 K (no sampling: central difference of the relaxed stress, strain "
+         << num("strain") << "): mu = " << num("mu_pN_per_um")
+         << " uN/m, K = " << num("K_pN_per_um") << " uN/m, isotropic tension "
+         << num("tension_pN_per_um") << " uN/m\n";
+  } else {
+    text << "at T = " << num("sampling_temperature_K") << " K (Metropolis, "
+         << j.at("sweeps").get<long long>() << " sweeps per chain, strain " << num("strain")
+         << "): mu = " << pm("mu_pN_per_um", "mu_error_pN_per_um") << " uN/m ("
+         << percent("mu_relative_shift", "mu_relative_shift_error")
+         << "), K = " << pm("K_pN_per_um", "K_error_pN_per_um") << " uN/m ("
+         << percent("K_relative_shift", "K_relative_shift_error") << ")\n"
+         << "quasi-harmonic O(T) prediction: mu = " << num("mu_quasi_harmonic_pN_per_um")
+         << " uN/m, K = " << num("K_quasi_harmonic_pN_per_um") << " uN/m\n"
+         << "isotropic tension " << pm("tension_pN_per_um", "tension_error_pN_per_um")
+         << " uN/m (T = 0: " << num("tension_zero_temperature_pN_per_um")
+         << "), energy per degree of freedom / (kB T/2) "
+         << pm("equipartition_ratio", "equipartition_ratio_error") << ", acceptance "
+         << num("acceptance") << "\n";
+  }
+  std::cout << text.str();
+  return 0;
+}
+
 int run_moduli(const ModuliCli& o) {
+  if (o.thermal) return run_thermal(o);
   const auto t0 = std::chrono::steady_clock::now();
   const WlcParameters wlc = o.membrane.wlc();
   const StericParameters steric = o.membrane.steric();
@@ -158,9 +239,11 @@ void add_moduli_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   cmd->add_option("--cells", o->cells,
                   "patch size n, at most 200 (default 4 for hex, 12 for disordered, which needs "
-                  ">= 4)")
+                  ">= 4; with --sampling-temperature 10 for hex, which needs >= 3)")
       ->check(integer_in(0, 200));
-  cmd->add_option("--seeds", o->seeds, "number of random networks (disordered only), 1 to 1000")
+  cmd->add_option("--seeds", o->seeds,
+                  "number of random networks (disordered only, zero-temperature study; the "
+                  "thermal study samples the network of seed 1), 1 to 1000")
       ->check(integer_in(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--json", o->json,
@@ -168,10 +251,50 @@ void add_moduli_command(CLI::App& app, Action& action) {
                 "every key names its unit (mu_closed_pN_per_um, K_closed_pN_per_um, "
                 "mu_numeric_pN_per_um, K_numeric_pN_per_um, young_pN_per_um; pN/um = uN/m) or "
                 "is dimensionless (poisson, *_relative_difference, *_over_lbar, counts); "
-                "young/poisson from the numerical moduli");
+                "young/poisson from the numerical moduli; with --sampling-temperature the thermal "
+                "keys (mu_pN_per_um, mu_error_pN_per_um, mu_gamma_pN_per_um, mu_relative_shift, "
+                "the same for K, mu_quasi_harmonic_pN_per_um, tension_pN_per_um, "
+                "equipartition_ratio, ...)");
+  auto* sampling =
+      cmd->add_option("--sampling-temperature", o->sampling.temperature_K,
+                      "sample the periodic cell at this temperature (K), in [0, 1000], and "
+                      "report the isothermal moduli against the zero-temperature ones (the WLC "
+                      "constants keep --temperature); 0 gives the zero-temperature central "
+                      "difference")
+          ->type_name("FLOAT");
+  cmd->add_option("--sweeps", o->sampling.sweeps,
+                  "with --sampling-temperature: production sweeps per chain (six chains: three "
+                  "strain directions, +-strain), at least --batches")
+      ->check(integer_in(4, 1000000000))
+      ->capture_default_str();
+  cmd->add_option("--warmup-sweeps", o->sampling.warmup_sweeps,
+                  "with --sampling-temperature: step-adaptation sweeps at F = I, then as many "
+                  "burn-in sweeps per chain")
+      ->check(integer_in(0, 1000000000))
+      ->capture_default_str();
+  cmd->add_option("--strain", o->sampling.strain,
+                  "with --sampling-temperature: imposed strain eps of the central differences, in "
+                  "(0, 0.05]")
+      ->capture_default_str();
+  cmd->add_option("--batches", o->sampling.batches,
+                  "with --sampling-temperature: batches of the batch-means errors, 4 to 1000")
+      ->check(integer_in(4, 1000))
+      ->capture_default_str();
+  cmd->add_option("--seed", o->sampling.seed,
+                  "with --sampling-temperature: seed of the chains' mt19937 streams, an integer in "
+                  "[0, 2^64 - 1]")
+      ->check(unsigned_integer())
+      ->capture_default_str();
   cmd->add_flag("--quiet,-q", o->quiet, "no progress lines on stderr");
-  cmd->callback([o, cmd, &action] {
+  cmd->callback([o, cmd, sampling, &action] {
     o->record = run_record(*cmd);
+    o->thermal = sampling->count() > 0;
+    if (o->thermal) {
+      action = [o] {
+        return naming_options(thermal_option_names(), [&] { return run_moduli(*o); });
+      };
+      return;
+    }
     action = [o] {
       return naming_options(membrane_option_names(), [&] { return run_moduli(*o); });
     };

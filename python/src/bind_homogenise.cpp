@@ -11,6 +11,7 @@
 #include "homogenise/moduli.hpp"
 #include "homogenise/moduli_study.hpp"
 #include "homogenise/periodic_network.hpp"
+#include "homogenise/thermal_moduli.hpp"
 
 namespace rbc::py_bind {
 
@@ -44,6 +45,48 @@ void bind_homogenise(py::module_& m) {
       "the paper's explicit formulas, and the numerical cell problem on a periodic hexagonal patch "
       "(network='hex', cells default 4) or disordered networks (network='disordered', cells "
       "default 12, `seeds` seeds, disorder X in [0, 1]). Returns a dict.");
+
+  m.def(
+      "thermal_moduli",
+      [](double sampling_temperature, const py::object& wlc_o, const py::object& steric_o,
+         const std::string& network, int cells, double disorder, long long sweeps,
+         long long warmup_sweeps, double strain, int batches, unsigned long seed, py::object cancel,
+         py::object progress) {
+        const PyWlc pw = wlc_or_default(wlc_o);
+        const PySteric ps = steric_or_default(steric_o);
+        ThermalStudyOptions so;
+        so.network = moduli_network_from_string(network);  // ValueError naming the choices
+        so.cells = cells;
+        so.disorder = finite("disorder", disorder);
+        so.sampling.temperature_K = finite("sampling_temperature", sampling_temperature);
+        so.sampling.sweeps = sweeps;
+        so.sampling.warmup_sweeps = warmup_sweeps;
+        so.sampling.strain = finite("strain", strain);
+        so.sampling.batches = batches;
+        so.sampling.seed = seed;
+        validated("thermal_moduli(sampling_temperature=" + num(sampling_temperature) +
+                      ", network='" + network + "', cells=" + std::to_string(cells) +
+                      ", sweeps=" + std::to_string(sweeps) + ", strain=" + num(strain) + ")",
+                  [&] { so.validate(); });
+        const auto cb = make_callbacks(std::move(cancel), std::move(progress));
+        so.sampling.cancel = make_cancel_check(cb);
+        const ProgressSink sink = make_progress_sink(cb);
+        const nlohmann::json j =
+            run_released(cb, [&] { return thermal_moduli_study(pw.lib, ps.lib, so, sink); });
+        so.sampling.cancel = {};  // holds the callbacks' state, which must be released with the GIL
+        py::dict d = py::module_::import("json").attr("loads")(j.dump());
+        return d;
+      },
+      py::kw_only(), py::arg("sampling_temperature"), py::arg("wlc") = py::none(),
+      py::arg("steric") = py::none(), py::arg("network") = "hex", py::arg("cells") = 0,
+      py::arg("disorder") = 0.5, py::arg("sweeps") = 20000, py::arg("warmup_sweeps") = 2000,
+      py::arg("strain") = 0.005, py::arg("batches") = 20, py::arg("seed") = 1,
+      py::arg("cancel") = py::none(), py::arg("progress") = py::none(),
+      "Isothermal moduli (uN/m = pN/um) of the periodic cell sampled at `sampling_temperature` "
+      "(K) against the zero-temperature Gamma limit, as `rbc moduli --sampling-temperature T "
+      "--json` reports them (the same keys without the run record and wall_s): hexagonal patch "
+      "(cells default 10) or the disordered network of seed 1 (cells default 12). Returns a "
+      "dict.");
 
   m.def(
       "psi",
