@@ -95,9 +95,12 @@ UNITLESS_KEYS = frozenset({
     "volume_scale", "penalty_scale", "acceptance", "beta", "cov", "distinct_parents",
     "unique_fraction", "log_mean_weight", "log_evidence", "log_evidence_sd",
     "log_likelihood_samples", "inefficiency", "q", "eta", "contact_fraction",
+    "strain", "mu_relative_shift", "mu_relative_shift_error", "K_relative_shift",
+    "K_relative_shift_error", "equipartition_ratio", "equipartition_ratio_error",
     # counts, seeds and indices
     "cells", "rows", "vertices", "edges", "faces", "elements", "seeds", "seed", "streams",
     "samples", "samples_per_stage", "discarded_transient", "sweep", "sweeps", "adaptive_sweeps",
+    "warmup_sweeps", "batches",
     "colours", "iterations", "newton_iterations", "phi_iterations", "degree_histogram", "stage",
     "stages", "forward_runs", "made", "retried", "failed", "threads", "ranks",
     "resumed_from_stage", "symmetry_order", "used", "requested",
@@ -613,6 +616,38 @@ def moduli(*, parameters: Optional[ModelParameters] = None,
     wlc, _, steric, _ = _physics(parameters, wlc, None, steric, None)
     return _rbc.moduli(wlc=wlc, steric=steric, network=network, cells=cells, disorder=disorder,
                        seeds=seeds, cancel=cancel, progress=progress)
+
+
+def thermal_moduli(sampling_temperature_K: float, *,
+                   parameters: Optional[ModelParameters] = None,
+                   wlc: Optional[WlcParameters] = None, steric: Optional[StericParameters] = None,
+                   network: str = "hex", cells: int = 0, disorder: float = 0.5,
+                   sweeps: int = 20000, warmup_sweeps: int = 2000, strain: float = 0.005,
+                   batches: int = 20, seed: int = 1,
+                   cancel: Optional[Callable[[], bool]] = None,
+                   progress: Optional[Callable[[str], None]] = None) -> dict:
+    """Isothermal shear and area moduli of the periodic spectrin cell sampled at
+    `sampling_temperature_K` (K) beside the zero-temperature Gamma limit: the keys of
+    ``rbc moduli --sampling-temperature T --json`` without its run record and wall_s.
+
+    The physics as for rbc.moduli (the WLC constants keep their own temperature). network
+    'hex': the hexagonal patch of `cells` x `cells` (0 = 10); 'disordered': the disordered
+    network of seed 1 with `cells` columns (0 = 12) and disorder `disorder`. Local Metropolis,
+    `warmup_sweeps` to adapt the step, then `sweeps` per chain at the strains +-`strain` of the
+    two pure shears and the area stretch; errors from `batches` batch means; `seed` fixes the
+    result whatever the thread count.
+
+    Keys: mu_pN_per_um, K_pN_per_um and their ``*_error_pN_per_um``; the Gamma limit
+    mu_gamma_pN_per_um, K_gamma_pN_per_um; the quasi-harmonic O(T) prediction
+    ``*_quasi_harmonic_pN_per_um``; the relative shifts mu_relative_shift, K_relative_shift
+    (dimensionless, with errors); the isotropic tension at F = I, tension_pN_per_um; the
+    equipartition_ratio (mean energy per degree of freedom over k_B T / 2).
+    """
+    wlc, _, steric, _ = _physics(parameters, wlc, None, steric, None)
+    return _rbc.thermal_moduli(sampling_temperature=sampling_temperature_K, wlc=wlc,
+                               steric=steric, network=network, cells=cells, disorder=disorder,
+                               sweeps=sweeps, warmup_sweeps=warmup_sweeps, strain=strain,
+                               batches=batches, seed=seed, cancel=cancel, progress=progress)
 
 
 def psi(order: "Order | str | int", deformation: "np.ndarray | Sequence", *,

@@ -85,6 +85,7 @@ def returned_dicts(infer_result):
     return {
         "moduli(hex)": rbc.moduli(),
         "moduli(disordered)": rbc.moduli(network="disordered", cells=4, seeds=2),
+        "thermal_moduli": rbc.thermal_moduli(200, cells=4, sweeps=200, warmup_sweeps=50),
         "psi(F)": rbc.psi("full", F),
         "psi(stack)": rbc.psi(2, np.stack([F, np.eye(2)])),
         "blas_info": rbc.blas_info(),
