@@ -57,6 +57,8 @@ struct StretchCli {
   ContinuumMesh mesh = ContinuumMesh::uniform;
   /// --mesh-size-ratio (--mesh adapted): coarse / fine edge length
   double mesh_size_ratio = AdaptedMeshOptions{}.size_ratio;
+  /// --mesh-seed (--mesh adapted): turns the mesher's initial points (another triangulation)
+  unsigned mesh_seed = 0;
   /// --symmetry mirror: solve on the mirror-symmetric configurations (core/mirror_symmetry.hpp)
   Symmetry symmetry = Symmetry::none;
   /// --symmetry-check (continuum, with --symmetry mirror): which equilibria are checked
@@ -451,6 +453,7 @@ int run_continuum(const StretchCli& o) {
   AdaptedMeshOptions ao;
   ao.target_elements = o.elements;
   ao.size_ratio = o.mesh_size_ratio;
+  ao.seed = o.mesh_seed;
   ao.contact_fraction = params.tweezers.contact_fraction;
   ao.validate();
   AdaptedMeshReport adapted_report;
@@ -660,6 +663,12 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--mesh-size-ratio", o->mesh_size_ratio,
                   "continuum with --mesh adapted: coarse / fine edge length, in [1, 10]")
       ->capture_default_str();
+  cmd->add_option("--mesh-seed", o->mesh_seed,
+                  "continuum with --mesh adapted: turns the mesher's initial points by a random "
+                  "rotation drawn from this seed (0: unturned), giving another triangulation of "
+                  "the same size field; same seed, same mesh")
+      ->check(integer_in(0, 1000000))
+      ->capture_default_str();
   cmd->add_option("--out", o->out,
                   "write per-force HDF5/XDMF shapes, stretch.csv and run.json (must be empty "
                   "unless --force-overwrite)")
@@ -716,13 +725,15 @@ void add_stretch_command(CLI::App& app, Action& action) {
       // --contact-load, --measure and --mesh choose how the continuum applies and measures and
       // what it is meshed with: refused for the network, whose vertices are the junction
       // complexes (rather than ignored).
-      for (const char* name : {"--contact-load", "--measure", "--mesh", "--mesh-size-ratio"})
+      for (const char* name :
+           {"--contact-load", "--measure", "--mesh", "--mesh-size-ratio", "--mesh-seed"})
         if (cmd->get_option(name)->count() > 0 && o->model != StretchModel::continuum)
           throw std::invalid_argument(std::string(name) +
                                       " applies to --model continuum, got --model discrete");
-      if (cmd->get_option("--mesh-size-ratio")->count() > 0 && o->mesh != ContinuumMesh::adapted)
-        throw std::invalid_argument(
-            "--mesh-size-ratio applies to --mesh adapted, got --mesh uniform");
+      for (const char* name : {"--mesh-size-ratio", "--mesh-seed"})
+        if (cmd->get_option(name)->count() > 0 && o->mesh != ContinuumMesh::adapted)
+          throw std::invalid_argument(std::string(name) +
+                                      " applies to --mesh adapted, got --mesh uniform");
       if (o->mesh == ContinuumMesh::adapted && cmd->get_option("--mesh-orientation")->count() > 0)
         throw std::invalid_argument(
             "--mesh-orientation applies to --mesh uniform, got --mesh adapted");
