@@ -465,11 +465,11 @@ int run_continuum(const StretchCli& o) {
     mesh_report = assess_mesh(mesh);
     mesh_report.volume_scale = adapted_report.volume_scale;
     const SceneSizeField& f = adapted_report.size;
-    mesh_kind = {{"kind", "adapted"},          {"size_ratio", o.mesh_size_ratio},
-                 {"fine_um", f.fine_um},       {"coarse_um", f.coarse_um},
-                 {"cap_plane_um", f.plane_um}, {"band_um", f.band_um},
-                 {"grading", f.grading},       {"passes", adapted_report.passes}};
-    report(progress, "adapted mesh (CGAL surface mesher): edge " + format_number(f.fine_um) +
+    mesh_kind = {
+        {"kind", "adapted"},        {"size_ratio", o.mesh_size_ratio}, {"fine_um", f.fine_um},
+        {"coarse_um", f.coarse_um}, {"cap_plane_um", f.plane_um},      {"band_um", f.band_um},
+        {"grading", f.grading},     {"passes", adapted_report.passes}, {"seed", o.mesh_seed}};
+    report(progress, "adapted mesh (CGAL surface mesher): edges up to " + format_number(f.fine_um) +
                          " um beyond |x| = " + format_number(f.plane_um - f.band_um) +
                          " um, up to " + format_number(f.coarse_um) + " um elsewhere");
   }
