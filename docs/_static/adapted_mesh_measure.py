@@ -23,5 +23,7 @@ for kind, n, ratio, seed in runs:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
     p = json.loads(out.stdout)["points"][0]
-    print(f"{kind},{ratio or ''},{seed if kind == 'adapted' else ''},{n},{p['elements']},{p['vertices']},{p['axial_um']:.6f},"
-          f"{p['transverse_um']:.6f},{p['iterations']},{p['wall_s']:.3f},{cpu:.1f}", flush=True)
+    seed_text = seed if kind == "adapted" else ""
+    print(f"{kind},{ratio or ''},{seed_text},{n},{p['elements']},{p['vertices']},"
+          f"{p['axial_um']:.6f},{p['transverse_um']:.6f},{p['iterations']},{p['wall_s']:.3f},"
+          f"{cpu:.1f}", flush=True)
