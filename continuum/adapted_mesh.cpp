@@ -21,6 +21,8 @@
 
 namespace rbc {
 
+// Named (as well as file-local) so that its names cannot meet another file's in a unity batch.
+namespace adapted_mesh_internal {
 namespace {
 
 /// A triangulation base (vertex or cell) with a time stamp: CGAL's Compact_container then
@@ -187,49 +189,8 @@ double smallest_size_on_surface(const EvansFungShape& shape, const SizeField& si
   return smallest;
 }
 
-}  // namespace
-
-double evans_fung_level(const EvansFungShape& s, const Vec3& p) {
-  const double r = s.radius_um;
-  const double t = (p.x() * p.x() + p.y() * p.y()) / (r * r);
-  const double tc = std::min(t, 1.0);
-  const double g = s.c0 + s.c1 * tc + s.c2 * tc * tc;
-  const double z = p.z() / r;
-  return z * z - (1.0 - t) * g * g;
-}
-
-Vec3 evans_fung_level_gradient(const EvansFungShape& s, const Vec3& p) {
-  const double r = s.radius_um;
-  const double t = (p.x() * p.x() + p.y() * p.y()) / (r * r);
-  const bool inside = t < 1.0;
-  const double tc = inside ? t : 1.0;
-  const double g = s.c0 + s.c1 * tc + s.c2 * tc * tc;
-  const double dg = inside ? s.c1 + 2.0 * s.c2 * tc : 0.0;
-  // f = z^2/R^2 - (1 - t) g^2: df/dt = g^2 - (1 - t) 2 g g'; dt/dx = 2x/R^2.
-  const double df_dt = g * g - (1.0 - t) * 2.0 * g * dg;
-  return {df_dt * 2.0 * p.x() / (r * r), df_dt * 2.0 * p.y() / (r * r), 2.0 * p.z() / (r * r)};
-}
-
-double SceneSizeField::operator()(const Vec3& x_um) const {
-  const double start = plane_um - band_um;
-  const double d = std::max(0.0, start - std::abs(x_um.x()));
-  return std::min(coarse_um, fine_um + grading * d);
-}
-
-double rest_contact_plane(const EvansFungShape& shape, double contact_fraction) {
-  require_finite_in_range("contact fraction", "", contact_fraction, 0.0, 0.5, Ends::open_open);
-  RestShapeOptions o;
-  o.shape = shape;
-  o.quality = RestMeshQuality::projected;
-  o.match_volume = false;
-  o.target_vertices = 36002;
-  const TriMesh fine = make_rest_shape(o);
-  const double area = total_area(fine.x, fine.topo);
-  return cap_plane_for_area(fine.x, fine.topo, contact_fraction * area, +1);
-}
-
-TriMesh mesh_evans_fung_surface(const EvansFungShape& shape, const SizeField& size_um,
-                                unsigned seed, double min_angle_deg) {
+TriMesh mesh_surface(const EvansFungShape& shape, const SizeField& size_um, unsigned seed,
+                     double min_angle_deg) {
   require_finite_in_range("smallest angle", "degrees", min_angle_deg, 10.0, 30.0,
                           Ends::closed_closed);
   smallest_size_on_surface(shape, size_um);
@@ -284,6 +245,53 @@ TriMesh mesh_evans_fung_surface(const EvansFungShape& shape, const SizeField& si
                              ", expected 2 (a sphere); the size field is too coarse for the "
                              "surface");
   return mesh;
+}
+
+}  // namespace
+}  // namespace adapted_mesh_internal
+
+double evans_fung_level(const EvansFungShape& s, const Vec3& p) {
+  const double r = s.radius_um;
+  const double t = (p.x() * p.x() + p.y() * p.y()) / (r * r);
+  const double tc = std::min(t, 1.0);
+  const double g = s.c0 + s.c1 * tc + s.c2 * tc * tc;
+  const double z = p.z() / r;
+  return z * z - (1.0 - t) * g * g;
+}
+
+Vec3 evans_fung_level_gradient(const EvansFungShape& s, const Vec3& p) {
+  const double r = s.radius_um;
+  const double t = (p.x() * p.x() + p.y() * p.y()) / (r * r);
+  const bool inside = t < 1.0;
+  const double tc = inside ? t : 1.0;
+  const double g = s.c0 + s.c1 * tc + s.c2 * tc * tc;
+  const double dg = inside ? s.c1 + 2.0 * s.c2 * tc : 0.0;
+  // f = z^2/R^2 - (1 - t) g^2: df/dt = g^2 - (1 - t) 2 g g'; dt/dx = 2x/R^2.
+  const double df_dt = g * g - (1.0 - t) * 2.0 * g * dg;
+  return {df_dt * 2.0 * p.x() / (r * r), df_dt * 2.0 * p.y() / (r * r), 2.0 * p.z() / (r * r)};
+}
+
+double SceneSizeField::operator()(const Vec3& x_um) const {
+  const double start = plane_um - band_um;
+  const double d = std::max(0.0, start - std::abs(x_um.x()));
+  return std::min(coarse_um, fine_um + grading * d);
+}
+
+double rest_contact_plane(const EvansFungShape& shape, double contact_fraction) {
+  require_finite_in_range("contact fraction", "", contact_fraction, 0.0, 0.5, Ends::open_open);
+  RestShapeOptions o;
+  o.shape = shape;
+  o.quality = RestMeshQuality::projected;
+  o.match_volume = false;
+  o.target_vertices = 36002;
+  const TriMesh fine = make_rest_shape(o);
+  const double area = total_area(fine.x, fine.topo);
+  return cap_plane_for_area(fine.x, fine.topo, contact_fraction * area, +1);
+}
+
+TriMesh mesh_evans_fung_surface(const EvansFungShape& shape, const SizeField& size_um,
+                                unsigned seed, double min_angle_deg) {
+  return adapted_mesh_internal::mesh_surface(shape, size_um, seed, min_angle_deg);
 }
 
 void AdaptedMeshOptions::validate() const {

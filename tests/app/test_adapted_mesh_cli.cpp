@@ -17,6 +17,7 @@
 #include "test_output.hpp"
 
 namespace rbc {
+namespace adapted_mesh_cli_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -80,4 +81,5 @@ TEST(AdaptedMeshCli, StretchRunsOnTheLibraryMeshAndRefusesMisuse) {
 }
 
 }  // namespace
+}  // namespace adapted_mesh_cli_test
 }  // namespace rbc

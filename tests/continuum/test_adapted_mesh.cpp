@@ -16,6 +16,7 @@
 #include "homogenise/invariant_laws.hpp"
 
 namespace rbc {
+namespace adapted_mesh_test {
 namespace {
 
 /// A uniform-size field (um).
@@ -181,4 +182,5 @@ TEST(AdaptedMesh, StretchHoldsTheConstraints) {
 }
 
 }  // namespace
+}  // namespace adapted_mesh_test
 }  // namespace rbc
