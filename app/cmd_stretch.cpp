@@ -16,6 +16,7 @@
 #include "app/run_config.hpp"
 #include "app/warm_start.hpp"
 #include "compare/accuracy_choice.hpp"
+#include "continuum/adapted_mesh.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/error_indicator.hpp"
 #include "core/geometry.hpp"
@@ -34,6 +35,10 @@ namespace {
 /// Which model `rbc stretch` runs (--model discrete | continuum).
 enum class StretchModel { discrete, continuum };
 
+/// Which continuum mesh (--mesh): the Phi-minimised icosphere or the CGAL mesh graded to the
+/// scene (continuum/adapted_mesh.hpp).
+enum class ContinuumMesh { uniform, adapted };
+
 /// Options in natural units (nm, J, pN), converted once in to_network_parameters().
 struct StretchCli {
   StretchModel model = StretchModel::discrete;
@@ -49,6 +54,11 @@ struct StretchCli {
   int max_iterations = 50000;
   WlcExpansion order = WlcExpansion::order2;
   int elements = 4000;
+  ContinuumMesh mesh = ContinuumMesh::uniform;
+  /// --mesh-size-ratio (--mesh adapted): coarse / fine edge length
+  double mesh_size_ratio = AdaptedMeshOptions{}.size_ratio;
+  /// --mesh-seed (--mesh adapted): turns the mesher's initial points (another triangulation)
+  unsigned mesh_seed = 0;
   /// --symmetry mirror: solve on the mirror-symmetric configurations (core/mirror_symmetry.hpp)
   Symmetry symmetry = Symmetry::none;
   /// --symmetry-check (continuum, with --symmetry mirror): which equilibria are checked
@@ -75,7 +85,8 @@ OptionNames stretch_option_names() {
   names.insert({{"force (discrete model)", "--force"},
                 {"force (continuum model)", "--force"},
                 {"force tolerance", "--tolerance"},
-                {"max iterations", "--max-iterations"}});
+                {"max iterations", "--max-iterations"},
+                {"mesh size ratio", "--mesh-size-ratio"}});
   return names;
 }
 
@@ -439,7 +450,29 @@ int run_continuum(const StretchCli& o) {
   const bool created_out = prepare_stretch_output(o, forces);
   const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   MeshQualityReport mesh_report;
-  const TriMesh mesh = make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
+  AdaptedMeshOptions ao;
+  ao.target_elements = o.elements;
+  ao.size_ratio = o.mesh_size_ratio;
+  ao.seed = o.mesh_seed;
+  ao.contact_fraction = params.tweezers.contact_fraction;
+  ao.validate();
+  AdaptedMeshReport adapted_report;
+  const TriMesh mesh = o.mesh == ContinuumMesh::adapted
+                           ? make_adapted_mesh(ao, &adapted_report)
+                           : make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
+  nlohmann::json mesh_kind = "uniform";
+  if (o.mesh == ContinuumMesh::adapted) {
+    mesh_report = assess_mesh(mesh);
+    mesh_report.volume_scale = adapted_report.volume_scale;
+    const SceneSizeField& f = adapted_report.size;
+    mesh_kind = {
+        {"kind", "adapted"},        {"size_ratio", o.mesh_size_ratio}, {"fine_um", f.fine_um},
+        {"coarse_um", f.coarse_um}, {"cap_plane_um", f.plane_um},      {"band_um", f.band_um},
+        {"grading", f.grading},     {"passes", adapted_report.passes}, {"seed", o.mesh_seed}};
+    report(progress, "adapted mesh (CGAL surface mesher): edges up to " + format_number(f.fine_um) +
+                         " um beyond |x| = " + format_number(f.plane_um - f.band_um) +
+                         " um, up to " + format_number(f.coarse_um) + " um elsewhere");
+  }
   ContinuumParameters cp;
   cp.bending = params.bending;
   cp.tweezers = params.tweezers;
@@ -455,6 +488,7 @@ int run_continuum(const StretchCli& o) {
                            {{"model", "continuum"},
                             {"order", to_string(order)},
                             {"mesh", mesh_report_json(mesh_report)},
+                            {"mesh_kind", mesh_kind},
                             {"mesh_orientation", to_string(o.orientation)},
                             {"symmetry", to_string(o.symmetry)},
                             {"symmetry_check", to_string(o.symmetry_check_at)},
@@ -617,6 +651,24 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--elements", o->elements, "continuum: triangles (200 to 79,996)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();
+  cmd->add_option("--mesh", o->mesh,
+                  "continuum: uniform (Phi-minimised icosphere) | adapted (CGAL surface mesher "
+                  "with a size field: fine at the bead-contact rims and the pulled tips, "
+                  "--mesh-size-ratio times coarser elsewhere, about --elements triangles; no "
+                  "mirror symmetry, so --symmetry mirror solves in full)")
+      ->transform(enum_choice<ContinuumMesh>(
+          {{"uniform", ContinuumMesh::uniform}, {"adapted", ContinuumMesh::adapted}}))
+      ->type_name("TEXT")
+      ->default_str("uniform");
+  cmd->add_option("--mesh-size-ratio", o->mesh_size_ratio,
+                  "continuum with --mesh adapted: coarse / fine edge length, in [1, 10]")
+      ->capture_default_str();
+  cmd->add_option("--mesh-seed", o->mesh_seed,
+                  "continuum with --mesh adapted: turns the mesher's initial points by a random "
+                  "rotation drawn from this seed (0: unturned), giving another triangulation of "
+                  "the same size field; same seed, same mesh")
+      ->check(integer_in(0, 1000000))
+      ->capture_default_str();
   cmd->add_option("--out", o->out,
                   "write per-force HDF5/XDMF shapes, stretch.csv and run.json (must be empty "
                   "unless --force-overwrite)")
@@ -640,7 +692,7 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->callback([o, &action, tolerance, cmd] {
     o->tolerance_given = tolerance->count() > 0;
     std::string explicit_choice;  // the first method option given with --accuracy
-    for (const char* name : {"--model", "--vertices", "--elements", "--order"})
+    for (const char* name : {"--model", "--vertices", "--elements", "--order", "--mesh"})
       if (explicit_choice.empty() && cmd->get_option(name)->count() > 0) explicit_choice = name;
     const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
     const bool symmetry_given = cmd->get_option("--symmetry")->count() > 0;
@@ -670,12 +722,21 @@ void add_stretch_command(CLI::App& app, Action& action) {
             "--symmetry-check applies to --model continuum with --symmetry mirror, got --model " +
             std::string(o->model == StretchModel::continuum ? "continuum" : "discrete") +
             " with --symmetry " + to_string(o->symmetry));
-      // --contact-load and --measure choose how the continuum applies and measures: refused
-      // for the network, whose vertices are the junction complexes (rather than ignored).
-      for (const char* name : {"--contact-load", "--measure"})
+      // --contact-load, --measure and --mesh choose how the continuum applies and measures and
+      // what it is meshed with: refused for the network, whose vertices are the junction
+      // complexes (rather than ignored).
+      for (const char* name :
+           {"--contact-load", "--measure", "--mesh", "--mesh-size-ratio", "--mesh-seed"})
         if (cmd->get_option(name)->count() > 0 && o->model != StretchModel::continuum)
           throw std::invalid_argument(std::string(name) +
                                       " applies to --model continuum, got --model discrete");
+      for (const char* name : {"--mesh-size-ratio", "--mesh-seed"})
+        if (cmd->get_option(name)->count() > 0 && o->mesh != ContinuumMesh::adapted)
+          throw std::invalid_argument(std::string(name) +
+                                      " applies to --mesh adapted, got --mesh uniform");
+      if (o->mesh == ContinuumMesh::adapted && cmd->get_option("--mesh-orientation")->count() > 0)
+        throw std::invalid_argument(
+            "--mesh-orientation applies to --mesh uniform, got --mesh adapted");
       o->record = run_record(*cmd);
       make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
       return naming_options(stretch_option_names(), [&]() -> int {
