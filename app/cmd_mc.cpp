@@ -21,6 +21,7 @@
 #include <iostream>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <sstream>
 
 #include "app/cli_util.hpp"
@@ -53,6 +54,7 @@ struct McCli {
   long long sweeps = 2000;
   unsigned long seed = 1;
   int streams = 2;  // fixed by default, so the chain does not depend on the thread count
+  int chains = McOptions{}.chains;  ///< --chains: independent chains, pooled
   double adapt_fraction = 0.2;
   long long adapt_sweeps = -1;  // -1: adapt_fraction x sweeps
   int sample_every = 1;
@@ -84,6 +86,7 @@ OptionNames mc_option_names() {
       {"force (discrete model)", "--force"},
       {"sampling temperature", "--sampling-temperature"},
       {"RNG streams", "--streams"},
+      {"chains", "--chains"},
       {"penalty scale", "--penalty-scale"},
       {"sample interval (sweeps)", "--sample-every"},
       {"adaptive fraction", "--adapt-fraction"},
@@ -175,7 +178,7 @@ std::string draw_mc_picture(const McCli& o, const Network& net, const McRunSetup
 /// checkpoint, which otherwise supplies them).
 struct GivenOptions {
   bool force = false, temperature = false, seed = false, penalty_scale = false, vertices = false,
-       bending = false, adapt_fraction = false, sampler = false;
+       bending = false, adapt_fraction = false, sampler = false, chains = false;
 };
 
 /// The run's setup from the command line (multipliers and reference filled in later),
@@ -189,12 +192,41 @@ McRunSetup to_setup(const McCli& o) {
   setup.sampler.algorithm = o.algorithm;
   setup.sampler.hmc = o.hmc;
   setup.sampler.streams = o.streams > 0 ? o.streams : omp_get_max_threads();
+  setup.sampler.chains = o.chains;
   setup.sampler.adapt_sweeps = static_cast<int>(std::min<double>(
       std::llround(o.adapt_fraction * double(o.sweeps)), std::numeric_limits<int>::max()));
   setup.sample_every = o.sample_every;
   setup.penalty_scale = o.penalty_scale;
   setup.validate();
   return setup;
+}
+
+/// Sweeps per block of the chains (McRun::advance_blocks): a divisor of the checkpoint and
+/// snapshot intervals (checkpoints and snapshots fall on block ends), at most ~20,000 vertex
+/// moves (Metropolis) or 4 trajectories (HMC) per chain, so progress and checkpoints keep up.
+/// The chains never depend on it.
+long long mc_block_sweeps(const McCli& o, const McRun& run) {
+  long long block = o.checkpoint_every;
+  if (o.snapshot_every > 0) block = std::gcd(block, o.snapshot_every);
+  const long long cap =
+      run.sampler().algorithm() == McAlgorithm::hmc
+          ? 4
+          : std::max(1LL, 20000LL / std::max(1LL, (long long)run.sampler().mobile_vertices()));
+  return std::gcd(block, cap);
+}
+
+/// The progress line of a block: the sweep and, per chain, acceptance and D_A of its last sample.
+std::string mc_progress_line(const McRun& r, long long sweeps) {
+  std::ostringstream m;
+  m << "sweep " << r.sweeps_done() << "/" << sweeps;
+  for (int c = 0; c < r.chain_count(); ++c) {
+    m << (c == 0 ? ": " : "; ") << "chain " << c << " step " << r.chain(c).step_um()
+      << (r.chain(c).algorithm() == McAlgorithm::hmc ? "" : " um");
+    if (!r.series(c).empty())
+      m << ", acceptance " << r.series(c).back().acceptance << ", D_A "
+        << r.series(c).back().axial_um << " um";
+  }
+  return m.str();
 }
 
 int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made) {
@@ -223,6 +255,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   if (given.bending) request.bending_model = o.physics.bending;
   if (given.adapt_fraction) request.adapt_fraction = o.adapt_fraction;
   if (given.sampler) request.algorithm = o.algorithm;
+  if (given.chains) request.chains = o.chains;
   if (o.adapt_sweeps >= 0) request.adapt_sweeps = o.adapt_sweeps;
   request.total_sweeps = o.sweeps;
   if (!o.resume.empty()) {
@@ -249,7 +282,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     if (!resume_note.empty()) report(progress, "note: " + resume_note);
     report(progress, "resuming at sweep " + std::to_string(cp.chain.sweep) + " from " + o.resume);
     cp.setup.cancel = cancel;
-    run = std::make_unique<McRun>(net, cp.setup, cp.chain, cp.series);
+    run = std::make_unique<McRun>(net, cp.setup, cp.chains, cp.chain_series);
   } else {
     McRunSetup setup = to_setup(o);
     if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
@@ -274,23 +307,23 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     run = std::make_unique<McRun>(net, setup, z.start);
   }
 
-  const long long first_sweep = run->sampler().sweeps_done();
+  const long long first_sweep = run->sweeps_done();
   auto write_checkpoint = [&](const McRun& r) {
     if (!o.checkpoint.empty())
-      write_mc_checkpoint(o.checkpoint, net,
-                          McCheckpoint{r.setup(), r.state(), r.series(), schedule});
+      write_mc_checkpoint(o.checkpoint, net, McCheckpoint::of(r, schedule));
   };
   progress_made.sweeps_done = first_sweep;
   progress_made.running = !o.out.empty();
   // The thread decision (discrete/mc_sampler.hpp mc_thread_decision), in every manifest.
-  const nlohmann::json threads = {{"threads", to_json(run->sampler().thread_decision())}};
+  const nlohmann::json threads = {{"threads", to_json(run->thread_decision())},
+                                  {"chains", run->chain_count()}};
   write_mc_manifest(o, false, "running", "the run has not finished", first_sweep, "", threads);
   if (!o.out.empty()) write_mc_snapshot(o.out, net, *run, output_record(o));
   const auto t0 = std::chrono::steady_clock::now();
   auto last_report = t0;
   try {
-    run->advance(o.sweeps, [&](const McRun& r) {
-      const long long s = r.sampler().sweeps_done();
+    run->advance_blocks(o.sweeps, mc_block_sweeps(o, *run), [&](const McRun& r) {
+      const long long s = r.sweeps_done();
       progress_made.sweeps_done = s;
       if (s % o.checkpoint_every == 0) write_checkpoint(r);
       if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
@@ -298,20 +331,14 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
       const auto now = std::chrono::steady_clock::now();
       if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
         last_report = now;
-        std::ostringstream m;
-        m << "sweep " << s << "/" << o.sweeps << ", step " << r.sampler().step_um()
-          << (r.sampler().algorithm() == McAlgorithm::hmc ? "" : " um");
-        if (!r.series().empty())
-          m << ", acceptance " << r.series().back().acceptance << ", D_A "
-            << r.series().back().axial_um << " um";
-        report(progress, m.str());
+        report(progress, mc_progress_line(r, o.sweeps));
       }
       return true;
     });
   } catch (const Cancelled&) {
     // The chain stands at its last completed sweep: a final checkpoint and the series so far
     // are written on the way out (complete files); the manifest says the run is incomplete.
-    const long long s = run->sampler().sweeps_done();
+    const long long s = run->sweeps_done();
     write_checkpoint(*run);
     if (!o.out.empty()) write_mc_series(o.out, *run, output_record(o));
     write_mc_manifest(o, false, "interrupted",
@@ -325,17 +352,18 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   write_checkpoint(*run);
   if (!o.out.empty()) {
     write_mc_series(o.out, *run, output_record(o));
-    if (o.snapshot_every == 0 || run->sampler().sweeps_done() % o.snapshot_every != 0)
+    if (o.snapshot_every == 0 || run->sweeps_done() % o.snapshot_every != 0)
       write_mc_snapshot(o.out, net, *run, output_record(o));
   }
 
-  const long long done = run->sampler().sweeps_done() - first_sweep;
+  const long long done = run->sweeps_done() - first_sweep;
   const long long mobile = run->sampler().mobile_vertices();
   const double sweeps_per_s = wall > 0 ? double(done) / wall : 0.0;
   const McRunSetup& su = run->setup();
   // The run record first (command, config, provenance), then the run and its statistics.
   nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
   j.update(mc_run_json(net, *run));
+  // Sweeps per second of one chain (every chain ran `done` sweeps in `wall`).
   j.update({{"sweeps_this_run", done},
             {"wall_s", wall},
             {"sweeps_per_s", sweeps_per_s},
@@ -359,40 +387,47 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";
   }
   picture.update(threads);
-  write_mc_manifest(o, true, "finished", "", run->sampler().sweeps_done(), o.checkpoint, picture);
+  write_mc_manifest(o, true, "finished", "", run->sweeps_done(), o.checkpoint, picture);
   if (o.json) {
     std::cout << j.dump(2) << "\n";
     return 0;
   }
   std::cout << std::setprecision(6) << "Monte Carlo (" << to_string(su.sampler.algorithm)
             << "): N = " << net.topo.num_vertices << ", F = " << su.force_pN
-            << " pN, T = " << su.sampler.temperature_K << " K, " << run->sampler().sweeps_done()
-            << " sweeps (" << su.sampler.adapt_sweeps << " adaptive), " << su.sampler.streams
-            << " streams, " << run->sampler().colour_count() << " colours\n"
+            << " pN, T = " << su.sampler.temperature_K << " K, " << run->chain_count()
+            << " chains of " << run->sweeps_done() << " sweeps (" << su.sampler.adapt_sweeps
+            << " adaptive), " << su.sampler.streams << " streams, " << run->sampler().colour_count()
+            << " colours\n"
             << "speed: " << sweeps_per_s << " sweeps/s, " << sweeps_per_s * double(mobile)
-            << " moves/s; threads " << run->sampler().thread_decision().reason << "\n";
+            << " moves/s per chain; threads " << run->thread_decision().reason << "\n";
   if (!have_stats) {
     std::cout << "statistics: " << j["statistics"].get<std::string>() << "\n";
     return 0;
   }
-  auto line = [](const char* name, const BlockingResult& b, const char* unit) {
+  auto line = [](const char* name, const BlockingResult& b, const McConvergence& c,
+                 const char* unit) {
     // To the error's significance (two digits); std and inefficiency g to two and three.
     std::ostringstream rest;
     rest << std::setprecision(2) << std::sqrt(b.variance) << ", g " << std::setprecision(3)
          << b.inefficiency;
     std::cout << "  " << std::left << std::setw(8) << name << std::right
               << format_with_error(b.mean, b.error) << " " << unit << "  (std " << rest.str()
-              << (b.converged ? "" : ", error not converged: run longer") << ")\n";
+              << ", R-hat " << std::setprecision(4) << c.rhat
+              << (b.converged ? "" : ", error not converged: run longer")
+              << (c.converged ? "" : ", chains disagree: run longer") << ")\n";
   };
-  std::cout << "production samples " << s.samples << ", transient discarded " << s.discarded
+  std::cout << "production samples " << s.samples << " (" << s.chains
+            << " chains pooled; R-hat: rank-normalised split-R-hat, converged below "
+            << kMcRhatThreshold << (s.converged ? "" : ", NOT converged")
+            << "), transient discarded " << s.discarded << " per chain"
             << ", acceptance " << s.acceptance << ", step " << run->sampler().step_um()
             << (run->sampler().algorithm() == McAlgorithm::hmc ? " (leapfrog, dimensionless)\n"
                                                                : " um\n");
-  line("D_A", s.axial, "um");
-  line("D_T", s.transverse, "um");
-  line("energy", s.energy, "pN um");
-  line("area", s.area, "um^2");
-  line("volume", s.volume, "um^3");
+  line("D_A", s.axial, s.axial_check, "um");
+  line("D_T", s.transverse, s.transverse_check, "um");
+  line("energy", s.energy, s.energy_check, "pN um");
+  line("area", s.area, s.area_check, "um^2");
+  line("volume", s.volume, s.volume_check, "um^3");
   std::cout << "thermal shift vs T = 0: D_A "
             << format_with_error(s.axial.mean - su.reference_axial_um, s.axial.error) << " um, D_T "
             << format_with_error(s.transverse.mean - su.reference_transverse_um, s.transverse.error)
@@ -458,6 +493,14 @@ void add_mc_command(CLI::App& app, Action& action) {
                   "them)")
       ->check(integer_in(0, kMaxMcStreams))
       ->capture_default_str();
+  auto* chains =
+      cmd->add_option("--chains", o->chains,
+                      "independent chains, in [1, " + std::to_string(kMaxMcChains) +
+                          "], each seeded from (--seed, chain), all started at the "
+                          "zero-temperature equilibrium, run one per thread and pooled (means, "
+                          "errors, R-hat); fixed, so results never depend on the threads")
+          ->check(integer_in(1, kMaxMcChains))
+          ->capture_default_str();
   auto* adapt_fraction =
       cmd->add_option("--adapt-fraction", o->adapt_fraction,
                       "fraction of the sweeps with adaptive step (equilibration), in [0, 1)")
@@ -530,24 +573,25 @@ void add_mc_command(CLI::App& app, Action& action) {
                 "statistics}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
-  cmd->callback(
-      [o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, sampler, &action] {
-        const GivenOptions given{
-            force->count() > 0,
-            sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
-            seed->count() > 0,
-            penalty->count() > 0,
-            vertices->count() > 0,
-            cmd->get_option("--bending")->count() > 0,
-            adapt_fraction->count() > 0,
-            sampler->count() > 0};
-        o->sampling_temperature_given = sampling_temp->count() > 0;
-        action = [o, cmd, given] {
-          o->record = run_record(*cmd);
-          make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
-          return naming_options(mc_option_names(), [&] { return run_mc_recorded(*o, given); });
-        };
-      });
+  cmd->callback([o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, sampler,
+                 chains, &action] {
+    const GivenOptions given{
+        force->count() > 0,
+        sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
+        seed->count() > 0,
+        penalty->count() > 0,
+        vertices->count() > 0,
+        cmd->get_option("--bending")->count() > 0,
+        adapt_fraction->count() > 0,
+        sampler->count() > 0,
+        chains->count() > 0};
+    o->sampling_temperature_given = sampling_temp->count() > 0;
+    action = [o, cmd, given] {
+      o->record = run_record(*cmd);
+      make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
+      return naming_options(mc_option_names(), [&] { return run_mc_recorded(*o, given); });
+    };
+  });
 }
 
 }  // namespace rbc::app

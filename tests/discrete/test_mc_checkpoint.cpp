@@ -39,6 +39,8 @@ McRunSetup setup_for_test() {
   s.sampler.temperature_K = 300;
   s.sampler.seed = 99;
   s.sampler.streams = 2;
+  // One chain: these tests edit its state (tests/discrete/test_mc_chains.cpp: several).
+  s.sampler.chains = 1;
   s.sampler.adapt_sweeps = 6;  // the restart falls inside the adaptive phase
   s.sample_every = 2;
   s.reference_axial_um = 7.9;
