@@ -3,9 +3,11 @@
 
 #include <gsl/gsl_rng.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <numeric>
 #include <stdexcept>
 #include <tuple>
 
@@ -131,6 +133,11 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     h.write("/chain_steps", steps.data(), hsize_t(chains.size()), 1);
     h.write_attribute("format", kFormat);
     h.write_attribute("chains", static_cast<long long>(chains.size()));
+    // The run's sweep (the fewest of a chain) and its samples over all chains.
+    h.write_attribute("sweep",
+                      static_cast<long long>(*std::min_element(sweeps.begin(), sweeps.end())));
+    h.write_attribute("series_rows", static_cast<long long>(std::accumulate(
+                                         rows_count.begin(), rows_count.end(), 0ull)));
     h.write_attribute("fingerprint", hex_digits(network_fingerprint(net)));
     h.write_attribute("vertices", static_cast<long long>(net.topo.num_vertices));
     h.write_attribute("bending_model", to_string(net.bending_model));
@@ -219,6 +226,11 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   if (sweeps.size() != std::size_t(chain_count) || rows_count.size() != sweeps.size() ||
       steps.size() != sweeps.size())
     throw corrupt("per-chain counts have the wrong length");
+  if (h.read_attribute_int("sweep") !=
+          static_cast<long long>(*std::min_element(sweeps.begin(), sweeps.end())) ||
+      h.read_attribute_int("series_rows") !=
+          static_cast<long long>(std::accumulate(rows_count.begin(), rows_count.end(), 0ull)))
+    throw corrupt("the run's sweep count or sample count disagrees with its chains'");
   if (h.read_attribute_string("rng_type") != gsl_rng_mt19937->name)
     throw corrupt("RNG type is not " + std::string(gsl_rng_mt19937->name));
   const long long rng_bytes = h.read_attribute_int("rng_bytes");
@@ -246,7 +258,7 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
     try {
       check_mc_checkpoint_arrays(a);
     } catch (const std::runtime_error& e) {
-      throw corrupt("chain " + std::to_string(k) + ": " + e.what());
+      throw corrupt(std::string(e.what()) + " (chain " + std::to_string(k) + ")");
     }
     McChainState chain;
     chain.x = Eigen::Map<const Eigen::Matrix3Xd>(a.positions_um.data(), 3, nv);

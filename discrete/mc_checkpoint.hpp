@@ -9,7 +9,8 @@
 // term and bead patch) refuses a checkpoint written for another network. Written atomically
 // (temporary file + rename).
 //
-// Layout (format 7): root attributes format, chains, fingerprint, vertices, bending_model,
+// Layout (format 7): root attributes format, chains, sweep (the fewest of a chain), series_rows
+// (samples of all chains), fingerprint, vertices, bending_model,
 // faces, rng_type, rng_bytes, temperature_K, force_pN, lambda_area_pN_per_um,
 // lambda_volume_pN_per_um2, seed (the run's; chain c's is mc_chain_seed(seed, c)), streams,
 // adapt_sweeps, sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,

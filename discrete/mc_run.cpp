@@ -231,6 +231,7 @@ void McRun::make_chains(const std::vector<McChainState>* states, const Positions
     }
     chains_.push_back(std::move(chain));
   }
+  if (chains == 1) threads_ = chains_[0]->thread_decision();  // the chain's own decision
 }
 
 std::vector<McChainState> McRun::states() const {
