@@ -41,6 +41,10 @@
 #include "discrete/mc_workflow.hpp"
 #include "discrete/stretch.hpp"
 
+#include <mpi.h>
+
+#include "calibrate/mpi_executor.hpp"
+
 namespace rbc::app {
 
 namespace {
@@ -55,6 +59,7 @@ struct McCli {
   unsigned long seed = 1;
   int streams = 2;  // fixed by default, so the chain does not depend on the thread count
   int chains = McOptions{}.chains;  ///< --chains: independent chains, pooled
+  std::vector<double> forces_pN;    ///< --forces: the force list (empty: one run at --force)
   double adapt_fraction = 0.2;
   long long adapt_sweeps = -1;  // -1: adapt_fraction x sweeps
   int sample_every = 1;
@@ -437,10 +442,233 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   return 0;
 }
 
+/// Largest --forces list.
+constexpr std::size_t kMaxForces = 64;
+
+/// The seed of force k of a --forces list: --seed for the first, else mc_chain_seed of --seed at
+/// index kMaxMcChains + k (a stream of indices no chain of the first force uses); chain c of
+/// force k then has mc_chain_seed(force seed, c). Results depend on (seed, force index, chain)
+/// only, never on the MPI rank that ran the force.
+unsigned long mc_force_seed(unsigned long seed, std::size_t k) {
+  return k == 0 ? seed : mc_chain_seed(seed, kMaxMcChains + static_cast<int>(k));
+}
+
+/// What a force of the list gives the thermal curve (the fields every rank fills for its
+/// forces; the others stay 0, so a sum over the ranks assembles the curve exactly).
+enum ForceField {
+  kForce,
+  kRefAxial,
+  kRefTransverse,
+  kAxial,
+  kAxialError,
+  kTransverse,
+  kTransverseError,
+  kRhatAxial,
+  kRhatTransverse,
+  kConverged,
+  kHaveStats,
+  kForceFields
+};
+
+/// One force of the list with its chains: start, sampling, and DIR/force_KK/ outputs.
+std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_t k,
+                                  const CancelCheck& cancel, const ProgressSink& progress) {
+  McCli one = o;
+  one.force_pN = o.forces_pN[k];
+  McRunSetup setup = to_setup(one);
+  setup.sampler.seed = mc_force_seed(o.seed, k);
+  if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
+  setup.cancel = cancel;
+  McStartOptions so;
+  so.start = o.start;
+  so.cancel = cancel;
+  const McZeroTemperatureStart z = [&] {
+    SerialOpenMpScope serial;
+    return mc_zero_temperature_start(net, setup, so);
+  }();
+  if (!z.converged)
+    throw std::runtime_error("zero-temperature equilibrium at " +
+                             format_number(z.equilibrium.force_pN) +
+                             " pN did not converge: " + to_string(z.equilibrium.status));
+  McRun run(net, setup, z.start);
+  run.advance_blocks(o.sweeps, mc_block_sweeps(o, run));
+  std::vector<double> f(kForceFields, 0.0);
+  f[kForce] = one.force_pN;
+  f[kRefAxial] = setup.reference_axial_um;
+  f[kRefTransverse] = setup.reference_transverse_um;
+  nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
+  j.update(mc_run_json(net, run));
+  j["force_index"] = k;
+  try {
+    const McSummary s = run.summarise();
+    j.update(to_json(s, run.setup()));
+    f[kAxial] = s.axial.mean;
+    f[kAxialError] = s.axial.error;
+    f[kTransverse] = s.transverse.mean;
+    f[kTransverseError] = s.transverse.error;
+    f[kRhatAxial] = s.axial_check.rhat;
+    f[kRhatTransverse] = s.transverse_check.rhat;
+    f[kConverged] = s.converged && s.axial.converged && s.transverse.converged ? 1.0 : 0.0;
+    f[kHaveStats] = 1.0;
+  } catch (const std::invalid_argument& e) {
+    j["statistics"] = e.what();
+  }
+  if (!o.out.empty()) {
+    std::ostringstream name;
+    name << o.out << "/force_" << std::setw(2) << std::setfill('0') << k;
+    std::filesystem::create_directories(name.str());
+    write_mc_series(name.str(), run, output_record(o));
+    write_text_atomic(name.str() + "/mc_summary.json", j.dump(2) + "\n");
+  }
+  report(progress, "force " + format_number(one.force_pN) + " pN done");
+  return f;
+}
+
+/// `rbc mc --forces F1,F2,...`: each force with its chains, the forces spread over the MPI
+/// ranks when started by mpirun (force k on rank k mod ranks), and the thermal curve. The
+/// curve is assembled by a sum over the ranks (MPI_Allreduce) in which every entry has exactly
+/// one nonzero term, so it is exact and independent of the rank count. A small loop here, not
+/// calibrate/mpi_executor's pool: that executor serves TMCMC chains (a prior box and a
+/// likelihood), not Monte Carlo runs; its MpiSession is reused.
+int run_mc_forces(const McCli& o, const GivenOptions& given) {
+  if (given.force)
+    throw std::invalid_argument("--forces: give the forces as --forces F1,F2,... without --force");
+  if (!o.resume.empty() || !o.checkpoint.empty())
+    throw std::invalid_argument(
+        "--forces: no --checkpoint or --resume with a force list (each force runs to the end)");
+  if (o.forces_pN.size() > kMaxForces)
+    throw std::invalid_argument("--forces: at most " + std::to_string(kMaxForces) +
+                                " forces, got " + std::to_string(o.forces_pN.size()));
+  if (o.adapt_sweeps < -1 || o.adapt_sweeps > o.sweeps)
+    throw std::invalid_argument(
+        "--adapt-sweeps " + std::to_string(o.adapt_sweeps) +
+        ": expected an integer in [0, --sweeps = " + std::to_string(o.sweeps) + "]");
+  for (double f : o.forces_pN) {
+    McCli one = o;
+    one.force_pN = f;
+    to_setup(one);  // every force validated before any work
+  }
+  const NetworkParameters model = to_network_parameters(o.physics);
+  const bool mpi = launched_by_mpirun();
+  std::unique_ptr<MpiSession> session;
+  if (mpi) session = std::make_unique<MpiSession>();
+  const int rank = session ? session->rank() : 0, ranks = session ? session->size() : 1;
+  if (!o.out.empty() && rank == 0) prepare_output_directory(o.out, o.overwrite, false);
+  if (session) MPI_Barrier(MPI_COMM_WORLD);  // the directory exists before any rank writes
+  const ProgressSink progress = stderr_progress(o.quiet || rank != 0, o.verbose);
+  const CancelCheck cancel = interrupt_check();
+  RestShapeOptions ro;
+  ro.target_vertices = o.vertices;
+  const Network net = [&] {
+    SerialOpenMpScope serial;
+    return build_network(make_rest_shape(ro), model);
+  }();
+  std::vector<double> mine(o.forces_pN.size() * kForceFields, 0.0), all(mine.size(), 0.0);
+  try {
+    for (std::size_t k = 0; k < o.forces_pN.size(); ++k)
+      if (static_cast<int>(k % std::size_t(ranks)) == rank) {
+        const std::vector<double> f = run_one_force(o, net, k, cancel, progress);
+        std::copy(f.begin(), f.end(), mine.begin() + std::ptrdiff_t(k * kForceFields));
+      }
+  } catch (const Cancelled&) {
+    if (session) session->abort(interrupt_exit_code());
+    throw;
+  } catch (const std::exception& e) {
+    if (!session) throw;
+    std::cerr << "rbc: error: MPI rank " << rank << ": " << e.what() << "\n";
+    session->abort(1);
+  }
+  if (session)
+    MPI_Allreduce(mine.data(), all.data(), static_cast<int>(mine.size()), MPI_DOUBLE, MPI_SUM,
+                  MPI_COMM_WORLD);
+  else
+    all = mine;
+  if (rank != 0) return 0;
+  CsvTable t;
+  t.comments = {"rbc mc --forces: thermal curve, pooled over " + std::to_string(o.chains) +
+                " chains per force; shift = D(T) - D(0 K), its error the pooled error of D(T)"};
+  const OutputRecord rec = output_record(o);
+  t.comments.insert(t.comments.end(), rec.comment_lines.begin(), rec.comment_lines.end());
+  t.header = {"force_pN",
+              "axial_um",
+              "axial_error_um",
+              "transverse_um",
+              "transverse_error_um",
+              "reference_axial_um",
+              "reference_transverse_um",
+              "shift_axial_um",
+              "shift_transverse_um",
+              "rhat_axial",
+              "rhat_transverse",
+              "converged"};
+  nlohmann::json curve = nlohmann::json::array();
+  for (std::size_t k = 0; k < o.forces_pN.size(); ++k) {
+    const double* f = all.data() + k * kForceFields;
+    const bool stats = f[kHaveStats] != 0;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    auto v = [&](double x) { return stats ? x : nan; };
+    t.rows.push_back({f[kForce], v(f[kAxial]), v(f[kAxialError]), v(f[kTransverse]),
+                      v(f[kTransverseError]), f[kRefAxial], f[kRefTransverse],
+                      v(f[kAxial] - f[kRefAxial]), v(f[kTransverse] - f[kRefTransverse]),
+                      v(f[kRhatAxial]), v(f[kRhatTransverse]), f[kConverged]});
+    curve.push_back(
+        {{"force_pN", f[kForce]},
+         {"axial_um", v(f[kAxial])},
+         {"axial_error_um", v(f[kAxialError])},
+         {"transverse_um", v(f[kTransverse])},
+         {"transverse_error_um", v(f[kTransverseError])},
+         {"reference_axial_um", f[kRefAxial]},
+         {"reference_transverse_um", f[kRefTransverse]},
+         {"thermal_shift_axial_um", v(f[kAxial] - f[kRefAxial])},
+         {"thermal_shift_axial_error_um", v(f[kAxialError])},
+         {"thermal_shift_transverse_um", v(f[kTransverse] - f[kRefTransverse])},
+         {"thermal_shift_transverse_error_um", v(f[kTransverseError])},
+         {"rhat_axial", v(f[kRhatAxial])},
+         {"rhat_transverse", v(f[kRhatTransverse])},
+         {"converged", f[kConverged] != 0},
+         {"directory",
+          o.out.empty() ? "" : "force_" + std::string(k < 10 ? "0" : "") + std::to_string(k)}});
+  }
+  nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
+  j.update({{"vertices", net.topo.num_vertices},
+            {"temperature_K", o.sampling_temperature()},
+            {"sampler", to_string(o.algorithm)},
+            {"seed", o.seed},
+            {"chains", o.chains},
+            {"sweeps", o.sweeps},
+            {"mpi_ranks", ranks},
+            {"curve", curve}});
+  if (!o.out.empty()) {
+    write_csv(o.out + "/thermal_curve.csv", t);
+    write_text_atomic(o.out + "/thermal_curve.json", j.dump(2) + "\n");
+  }
+  if (o.json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "thermal curve: " << o.forces_pN.size() << " forces, " << o.chains
+            << " chains each, " << ranks << " MPI rank" << (ranks == 1 ? "" : "s") << "\n";
+  for (const auto& row : curve)
+    std::cout << "  F = " << row["force_pN"].get<double>() << " pN: D_A "
+              << (row["axial_um"].is_number()
+                      ? format_with_error(row["axial_um"].get<double>(),
+                                          row["axial_error_um"].get<double>())
+                      : std::string("(too few samples)"))
+              << " um (0 K " << row["reference_axial_um"].get<double>() << "), D_T "
+              << (row["transverse_um"].is_number()
+                      ? format_with_error(row["transverse_um"].get<double>(),
+                                          row["transverse_error_um"].get<double>())
+                      : std::string("(too few samples)"))
+              << " um (0 K " << row["reference_transverse_um"].get<double>() << ")"
+              << (row["converged"].get<bool>() ? "" : ", not converged") << "\n";
+  return 0;
+}
+
 /// run_mc; when it fails after run.json said "running", the manifest is rewritten as "failed"
 /// with the error line's text (or removed when even that write fails), so it never says
 /// "running" after the process ended.
 int run_mc_recorded(const McCli& o, const GivenOptions& given) {
+  if (!o.forces_pN.empty()) return run_mc_forces(o, given);
   McProgress made;
   try {
     return run_mc(o, given, made);
@@ -501,6 +729,13 @@ void add_mc_command(CLI::App& app, Action& action) {
                           "errors, R-hat); fixed, so results never depend on the threads")
           ->check(integer_in(1, kMaxMcChains))
           ->capture_default_str();
+  cmd->add_option("--forces", o->forces_pN,
+                  "a force list F1,F2,... (pN): each force run with its chains (seeds from "
+                  "(--seed, force index, chain)), spread over the MPI ranks under mpirun; "
+                  "writes DIR/force_KK/ per force and DIR/thermal_curve.csv/.json (no "
+                  "--checkpoint or --resume)")
+      ->delimiter(',')
+      ->type_name("F1,F2,...");
   auto* adapt_fraction =
       cmd->add_option("--adapt-fraction", o->adapt_fraction,
                       "fraction of the sweeps with adaptive step (equilibration), in [0, 1)")
