@@ -546,7 +546,12 @@ int run_mc_forces(const McCli& o, const GivenOptions& given) {
   for (double f : o.forces_pN) {
     McCli one = o;
     one.force_pN = f;
-    to_setup(one);  // every force validated before any work
+    try {
+      to_setup(one);  // every force validated before any work
+    } catch (const std::invalid_argument&) {
+      throw std::invalid_argument("--forces " + format_number(f) + ": expected forces in [0, " +
+                                  format_number(kMaxDiscreteForce_pN) + "] pN");
+    }
   }
   const NetworkParameters model = to_network_parameters(o.physics);
   const bool mpi = launched_by_mpirun();

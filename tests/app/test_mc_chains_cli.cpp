@@ -5,6 +5,10 @@
 // format.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -36,6 +40,21 @@ std::string data_lines(const fs::path& p) {
   for (std::string line; std::getline(in, line);)
     if (line.rfind('#', 0) != 0) text += line + "\n";
   return text;
+}
+
+/// A shell command (rbc or mpirun ...) with OpenMP at one thread; stdout and stderr apart.
+CliRun run_rbc_shell(const std::string& command) {
+  const fs::path err = fresh_output_dir("mc_chains_cli_shell_err") / "stderr.txt";
+  CliRun r;
+  FILE* p = popen(("OMP_NUM_THREADS=1 " + command + " 2> '" + err.string() + "'").c_str(), "r");
+  if (!p) return r;
+  char buffer[4096];
+  for (std::size_t n; (n = fread(buffer, 1, sizeof buffer, p)) > 0;) r.out.append(buffer, n);
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(err);
+  r.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return r;
 }
 
 /// The JSON keys that describe the chains and their statistics (not timings, the thread record,
@@ -127,6 +146,50 @@ TEST(McChainsCli, CheckpointOfTheOneChainFormatIsRefusedWithExit2) {
   EXPECT_NE(r.err.find("format version 6"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("reads version 7"), std::string::npos) << r.err;
   EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+TEST(McChainsCli, ForceListIsValidatedBeforeAnyWork) {
+  for (const char* bad : {"--forces 0,1e9", "--forces 0,20 --force 5",
+                          "--forces 0,20 --resume x.h5", "--forces 0,20 --checkpoint c.h5"}) {
+    const CliRun r = run_rbc(std::string("mc -n 150 --sweeps 10 -q ") + bad);
+    EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.all();
+    EXPECT_EQ(r.err.rfind("rbc: error: --", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+}
+
+// The force list over MPI ranks: 1 and 2 ranks give the same thermal curve, digit for digit,
+// and the same per-force series of both chains; the curve's shift is D(T) - D(0 K).
+TEST(McChainsCli, ForceListGivesTheSameCurveOnOneAndTwoMpiRanks) {
+  const std::string mpirun = RBC_MPIRUN;
+  if (mpirun.empty()) GTEST_SKIP() << "mpirun not found";
+  const fs::path dir = fresh_output_dir("mc_chains_cli_mpi");
+  const std::string args = std::string(RBC_BINARY_DIR) +
+                           "/rbc mc -n 150 --forces 0,20,40 --sweeps 30 --seed 3 -q --no-picture "
+                           "--json --out ";
+  const CliRun one = run_rbc_shell(args + shell_quoted(dir / "one"));
+  const CliRun two = run_rbc_shell(mpirun + " --allow-run-as-root --oversubscribe -np 2 " + args +
+                                   shell_quoted(dir / "two"));
+  ASSERT_EQ(one.exit_code, 0) << one.all();
+  ASSERT_EQ(two.exit_code, 0) << two.all();
+  const json a = json::parse(one.out), b = json::parse(two.out);
+  EXPECT_EQ(a.at("mpi_ranks").get<int>(), 1);
+  EXPECT_EQ(b.at("mpi_ranks").get<int>(), 2);
+  EXPECT_EQ(a.at("curve"), b.at("curve"));
+  ASSERT_EQ(a.at("curve").size(), 3u);
+  for (const json& row : a.at("curve"))
+    EXPECT_EQ(row.at("thermal_shift_axial_um").get<double>(),
+              row.at("axial_um").get<double>() - row.at("reference_axial_um").get<double>());
+  EXPECT_EQ(data_lines(dir / "one" / "thermal_curve.csv"),
+            data_lines(dir / "two" / "thermal_curve.csv"));
+  for (const char* f : {"force_01/mc_series.csv", "force_02/mc_series_chain1.csv"})
+    EXPECT_EQ(data_lines(dir / "one" / f), data_lines(dir / "two" / f)) << f;
+  // Forces differ in their seeds: force 0 and force 1 chains are different chains.
+  const json s0 = json::parse(std::ifstream(dir / "one" / "force_00" / "mc_summary.json")),
+             s1 = json::parse(std::ifstream(dir / "one" / "force_01" / "mc_summary.json"));
+  EXPECT_EQ(s0.at("chain_seeds")[0].get<unsigned long>(), 3u);
+  EXPECT_NE(s1.at("chain_seeds")[0], s0.at("chain_seeds")[0]);
+  EXPECT_NE(s1.at("chain_seeds")[0], s0.at("chain_seeds")[1]);
 }
 
 }  // namespace
