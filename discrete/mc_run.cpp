@@ -378,7 +378,7 @@ McSummary McRun::summarise() const {
     for (const McSample& s : p) e.push_back(s.energy_pNum);
     m.discarded = std::max(m.discarded, detect_equilibration(e).start);
   }
-  m.samples = std::size_t(chains) * (shortest - m.discarded);
+  m.samples = std::size_t(chains) * shortest;
   auto column = [&](double McSample::*field, BlockingResult McChainSummary::*out,
                     McConvergence& check) {
     std::vector<std::vector<double>> all;

@@ -106,7 +106,7 @@ struct McChainSummary {
 
 /// Means with errors over the production samples of all chains (pooled as the header says).
 struct McSummary {
-  std::size_t samples = 0;    ///< recorded production samples, all chains
+  std::size_t samples = 0;    ///< recorded production samples, all chains (equal per chain)
   std::size_t discarded = 0;  ///< of each chain's, discarded as the transient (equilibration)
   /// Pooled: mean of the chain means; error sqrt(sum e_c^2) / C; variance of all samples used;
   /// inefficiency n error^2 / variance (n all samples used); converged when every chain's error

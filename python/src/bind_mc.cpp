@@ -92,10 +92,9 @@ class MonteCarlo {
       ~Clear() { b = false; }
     } clear{busy_};
     const long long target = run_->sweeps_done() + sweeps;
-    // Blocks of a few sweeps: the chains run in parallel between the polls of the cancel hook.
-    const bool finished = run_released(cb, [&] {
-      return run_->advance_blocks(target, kBlockSweeps, [&](const McRun&) { return !poll(); });
-    });
+    // One sweep of every chain (in parallel) between the polls of the cancel hook.
+    const bool finished = run_released(
+        cb, [&] { return run_->advance(target, [&](const McRun&) { return !poll(); }); });
     if (!finished) {
       if (cb->error) {
         py::error_already_set e = std::move(*cb->error);
@@ -144,7 +143,6 @@ class MonteCarlo {
   const std::shared_ptr<PyNetwork>& network() const { return net_; }
 
  private:
-  static constexpr long long kBlockSweeps = 10;
   const McRun& need_run() const {
     if (!run_) throw py::value_error("no sweeps run yet: call run(sweeps) first");
     return *run_;

@@ -145,7 +145,7 @@ TEST(McChains, PooledStatisticsCombineEveryChain) {
     EXPECT_EQ(s.per_chain[std::size_t(c)].seed, mc_chain_seed(setup.sampler.seed, c));
     mean += b.mean / 3;
     err2 += b.error * b.error;
-    samples += d.size();
+    samples += d.size() + s.discarded;
   }
   EXPECT_NEAR(s.axial.mean, mean, 1e-12 * std::abs(mean));
   EXPECT_NEAR(s.axial.error, std::sqrt(err2) / 3, 1e-12 * s.axial.error);
