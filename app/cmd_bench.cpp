@@ -23,6 +23,7 @@
 #include "core/blas_threads.hpp"
 #include "core/rest_shape.hpp"
 #include "discrete/hmc_sampler.hpp"
+#include "discrete/mc_run.hpp"
 #include "discrete/mc_sampler.hpp"
 #include "discrete/network.hpp"
 #include "discrete/newton_preconditioner.hpp"
@@ -559,20 +560,58 @@ void BM_HmcTrajectory(benchmark::State& state) {
   state.counters["mass_build_s"] = build_s;
 }
 
-/// The console reporter plus a closing table of the Monte Carlo parallel speed-up: moves/s on
-/// 2 threads over moves/s on 1 thread, per network size (from the mc/sweep runs).
+/// A block of the two-chain Monte Carlo run (McRun, discrete/mc_run.hpp) of `rbc mc --sampler
+/// hmc`: state.range(1) threads (1: the chains one after the other; 2: one chain per thread),
+/// 300 K, zero force, from the rest shape; each iteration advances both chains by 4 trajectories
+/// (one block). Both thread counts run the SAME chains, so the ratio of their rates is the
+/// speed-up of the chains in parallel. 20 adaptive trajectories per chain first.
+void BM_McChains(benchmark::State& state) {
+  const Network& net = cached_network(static_cast<int>(state.range(0)));
+  const int threads = static_cast<int>(state.range(1));
+  McRunSetup setup;
+  setup.sampler.algorithm = McAlgorithm::hmc;
+  setup.sampler.temperature_K = 300.0;
+  setup.sampler.seed = 1;
+  setup.sampler.chains = 2;
+  setup.sampler.threads = threads;  // the chains' threads
+  setup.sampler.adapt_sweeps = 20;
+  const int saved_threads = omp_get_max_threads();
+  omp_set_num_threads(threads);
+  McRun run(net, setup, net.rest);
+  run.advance_blocks(setup.sampler.adapt_sweeps, setup.sampler.adapt_sweeps);
+  constexpr long long kBlock = 4;
+  long long chain_sweeps = 0;
+  for (auto _ : state) {
+    run.advance_blocks(run.sweeps_done() + kBlock, kBlock);
+    chain_sweeps += kBlock * run.chain_count();
+  }
+  omp_set_num_threads(saved_threads);
+  state.counters["vertices"] = net.topo.num_vertices;
+  state.counters["threads"] = threads;
+  state.counters["chains"] = run.chain_count();
+  state.counters["chain_sweeps_per_s"] =
+      benchmark::Counter(double(chain_sweeps), benchmark::Counter::kIsRate);
+}
+
+/// The console reporter plus closing tables of the Monte Carlo parallel speed-up: moves/s on
+/// 2 threads over moves/s on 1 thread, per network size (from the mc/sweep runs), and the same
+/// for the chain trajectories/s of the two-chain runs (mc/chains).
 class SpeedupReporter : public benchmark::ConsoleReporter {
  public:
   void ReportRuns(const std::vector<Run>& runs) override {
     ConsoleReporter::ReportRuns(runs);
     for (const Run& r : runs) {
       const auto n = r.counters.find("vertices"), t = r.counters.find("threads"),
-                 rate = r.counters.find("moves_per_s");
-      if (r.run_type != Run::RT_Iteration || n == r.counters.end() || t == r.counters.end() ||
-          rate == r.counters.end())
+                 rate = r.counters.find("moves_per_s"),
+                 chain_rate = r.counters.find("chain_sweeps_per_s");
+      if (r.run_type != Run::RT_Iteration || n == r.counters.end() || t == r.counters.end())
         continue;
-      rates_[static_cast<int>(n->second.value)][static_cast<int>(t->second.value)] =
-          rate->second.value;
+      if (rate != r.counters.end())
+        rates_[static_cast<int>(n->second.value)][static_cast<int>(t->second.value)] =
+            rate->second.value;
+      if (chain_rate != r.counters.end())
+        chain_rates_[static_cast<int>(n->second.value)][static_cast<int>(t->second.value)] =
+            chain_rate->second.value;
     }
   }
   void Finalize() override {
@@ -585,10 +624,18 @@ class SpeedupReporter : public benchmark::ConsoleReporter {
                 << " on 2, parallel speed-up " << std::setprecision(2) << two->second / one->second
                 << "x\n";
     }
+    for (const auto& [n, by_threads] : chain_rates_) {
+      const auto one = by_threads.find(1), two = by_threads.find(2);
+      if (one == by_threads.end() || two == by_threads.end() || one->second <= 0) continue;
+      std::cout << "Two HMC chains N = " << n << ": " << std::fixed << std::setprecision(2)
+                << one->second << " trajectories/s on 1 thread, " << two->second
+                << " on 2, speed-up " << two->second / one->second << "x\n";
+    }
   }
 
  private:
-  std::map<int, std::map<int, double>> rates_;  // vertices -> threads -> moves/s
+  std::map<int, std::map<int, double>> rates_;        // vertices -> threads -> moves/s
+  std::map<int, std::map<int, double>> chain_rates_;  // vertices -> threads -> trajectories/s
 };
 
 /// Throws std::invalid_argument if the parsed --benchmark_filter is no valid regular expression
@@ -747,6 +794,12 @@ void add_bench_command(CLI::App& app, Action& action) {
         reg("mc/hmc_trajectory", BM_HmcTrajectory)
             ->ArgNames({"N", "threads"})
             ->ArgsProduct({{500, 2000, 8000, 27500}, {1, 2}})
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime()
+            ->MinTime(2.0);
+        reg("mc/chains", BM_McChains)
+            ->ArgNames({"N", "threads"})
+            ->ArgsProduct({{8000}, {1, 2}})
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime()
             ->MinTime(2.0);

@@ -21,6 +21,7 @@
 #include <iostream>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <sstream>
 
 #include "app/cli_util.hpp"
@@ -40,6 +41,10 @@
 #include "discrete/mc_workflow.hpp"
 #include "discrete/stretch.hpp"
 
+#include <mpi.h>
+
+#include "calibrate/mpi_executor.hpp"
+
 namespace rbc::app {
 
 namespace {
@@ -53,6 +58,8 @@ struct McCli {
   long long sweeps = 2000;
   unsigned long seed = 1;
   int streams = 2;  // fixed by default, so the chain does not depend on the thread count
+  int chains = McOptions{}.chains;  ///< --chains: independent chains, pooled
+  std::vector<double> forces_pN;    ///< --forces: the force list (empty: one run at --force)
   double adapt_fraction = 0.2;
   long long adapt_sweeps = -1;  // -1: adapt_fraction x sweeps
   int sample_every = 1;
@@ -84,6 +91,7 @@ OptionNames mc_option_names() {
       {"force (discrete model)", "--force"},
       {"sampling temperature", "--sampling-temperature"},
       {"RNG streams", "--streams"},
+      {"chains", "--chains"},
       {"penalty scale", "--penalty-scale"},
       {"sample interval (sweeps)", "--sample-every"},
       {"adaptive fraction", "--adapt-fraction"},
@@ -175,7 +183,7 @@ std::string draw_mc_picture(const McCli& o, const Network& net, const McRunSetup
 /// checkpoint, which otherwise supplies them).
 struct GivenOptions {
   bool force = false, temperature = false, seed = false, penalty_scale = false, vertices = false,
-       bending = false, adapt_fraction = false, sampler = false;
+       bending = false, adapt_fraction = false, sampler = false, chains = false;
 };
 
 /// The run's setup from the command line (multipliers and reference filled in later),
@@ -189,12 +197,41 @@ McRunSetup to_setup(const McCli& o) {
   setup.sampler.algorithm = o.algorithm;
   setup.sampler.hmc = o.hmc;
   setup.sampler.streams = o.streams > 0 ? o.streams : omp_get_max_threads();
+  setup.sampler.chains = o.chains;
   setup.sampler.adapt_sweeps = static_cast<int>(std::min<double>(
       std::llround(o.adapt_fraction * double(o.sweeps)), std::numeric_limits<int>::max()));
   setup.sample_every = o.sample_every;
   setup.penalty_scale = o.penalty_scale;
   setup.validate();
   return setup;
+}
+
+/// Sweeps per block of the chains (McRun::advance_blocks): a divisor of the checkpoint and
+/// snapshot intervals (checkpoints and snapshots fall on block ends), at most ~20,000 vertex
+/// moves (Metropolis) or 4 trajectories (HMC) per chain, so progress and checkpoints keep up.
+/// The chains never depend on it.
+long long mc_block_sweeps(const McCli& o, const McRun& run) {
+  long long block = o.checkpoint_every;
+  if (o.snapshot_every > 0) block = std::gcd(block, o.snapshot_every);
+  const long long cap =
+      run.sampler().algorithm() == McAlgorithm::hmc
+          ? 4
+          : std::max(1LL, 20000LL / std::max(1LL, (long long)run.sampler().mobile_vertices()));
+  return std::gcd(block, cap);
+}
+
+/// The progress line of a block: the sweep and, per chain, acceptance and D_A of its last sample.
+std::string mc_progress_line(const McRun& r, long long sweeps) {
+  std::ostringstream m;
+  m << "sweep " << r.sweeps_done() << "/" << sweeps;
+  for (int c = 0; c < r.chain_count(); ++c) {
+    m << (c == 0 ? ": " : "; ") << "chain " << c << " step " << r.chain(c).step_um()
+      << (r.chain(c).algorithm() == McAlgorithm::hmc ? "" : " um");
+    if (!r.series(c).empty())
+      m << ", acceptance " << r.series(c).back().acceptance << ", D_A "
+        << r.series(c).back().axial_um << " um";
+  }
+  return m.str();
 }
 
 int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made) {
@@ -223,6 +260,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   if (given.bending) request.bending_model = o.physics.bending;
   if (given.adapt_fraction) request.adapt_fraction = o.adapt_fraction;
   if (given.sampler) request.algorithm = o.algorithm;
+  if (given.chains) request.chains = o.chains;
   if (o.adapt_sweeps >= 0) request.adapt_sweeps = o.adapt_sweeps;
   request.total_sweeps = o.sweeps;
   if (!o.resume.empty()) {
@@ -249,7 +287,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     if (!resume_note.empty()) report(progress, "note: " + resume_note);
     report(progress, "resuming at sweep " + std::to_string(cp.chain.sweep) + " from " + o.resume);
     cp.setup.cancel = cancel;
-    run = std::make_unique<McRun>(net, cp.setup, cp.chain, cp.series);
+    run = std::make_unique<McRun>(net, cp.setup, cp.chains, cp.chain_series);
   } else {
     McRunSetup setup = to_setup(o);
     if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
@@ -274,23 +312,23 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     run = std::make_unique<McRun>(net, setup, z.start);
   }
 
-  const long long first_sweep = run->sampler().sweeps_done();
+  const long long first_sweep = run->sweeps_done();
   auto write_checkpoint = [&](const McRun& r) {
     if (!o.checkpoint.empty())
-      write_mc_checkpoint(o.checkpoint, net,
-                          McCheckpoint{r.setup(), r.state(), r.series(), schedule});
+      write_mc_checkpoint(o.checkpoint, net, McCheckpoint::of(r, schedule));
   };
   progress_made.sweeps_done = first_sweep;
   progress_made.running = !o.out.empty();
   // The thread decision (discrete/mc_sampler.hpp mc_thread_decision), in every manifest.
-  const nlohmann::json threads = {{"threads", to_json(run->sampler().thread_decision())}};
+  const nlohmann::json threads = {{"threads", to_json(run->thread_decision())},
+                                  {"chains", run->chain_count()}};
   write_mc_manifest(o, false, "running", "the run has not finished", first_sweep, "", threads);
   if (!o.out.empty()) write_mc_snapshot(o.out, net, *run, output_record(o));
   const auto t0 = std::chrono::steady_clock::now();
   auto last_report = t0;
   try {
-    run->advance(o.sweeps, [&](const McRun& r) {
-      const long long s = r.sampler().sweeps_done();
+    run->advance_blocks(o.sweeps, mc_block_sweeps(o, *run), [&](const McRun& r) {
+      const long long s = r.sweeps_done();
       progress_made.sweeps_done = s;
       if (s % o.checkpoint_every == 0) write_checkpoint(r);
       if (!o.out.empty() && o.snapshot_every > 0 && s % o.snapshot_every == 0)
@@ -298,20 +336,14 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
       const auto now = std::chrono::steady_clock::now();
       if (std::chrono::duration<double>(now - last_report).count() > 5.0) {
         last_report = now;
-        std::ostringstream m;
-        m << "sweep " << s << "/" << o.sweeps << ", step " << r.sampler().step_um()
-          << (r.sampler().algorithm() == McAlgorithm::hmc ? "" : " um");
-        if (!r.series().empty())
-          m << ", acceptance " << r.series().back().acceptance << ", D_A "
-            << r.series().back().axial_um << " um";
-        report(progress, m.str());
+        report(progress, mc_progress_line(r, o.sweeps));
       }
       return true;
     });
   } catch (const Cancelled&) {
     // The chain stands at its last completed sweep: a final checkpoint and the series so far
     // are written on the way out (complete files); the manifest says the run is incomplete.
-    const long long s = run->sampler().sweeps_done();
+    const long long s = run->sweeps_done();
     write_checkpoint(*run);
     if (!o.out.empty()) write_mc_series(o.out, *run, output_record(o));
     write_mc_manifest(o, false, "interrupted",
@@ -325,17 +357,18 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   write_checkpoint(*run);
   if (!o.out.empty()) {
     write_mc_series(o.out, *run, output_record(o));
-    if (o.snapshot_every == 0 || run->sampler().sweeps_done() % o.snapshot_every != 0)
+    if (o.snapshot_every == 0 || run->sweeps_done() % o.snapshot_every != 0)
       write_mc_snapshot(o.out, net, *run, output_record(o));
   }
 
-  const long long done = run->sampler().sweeps_done() - first_sweep;
+  const long long done = run->sweeps_done() - first_sweep;
   const long long mobile = run->sampler().mobile_vertices();
   const double sweeps_per_s = wall > 0 ? double(done) / wall : 0.0;
   const McRunSetup& su = run->setup();
   // The run record first (command, config, provenance), then the run and its statistics.
   nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
   j.update(mc_run_json(net, *run));
+  // Sweeps per second of one chain (every chain ran `done` sweeps in `wall`).
   j.update({{"sweeps_this_run", done},
             {"wall_s", wall},
             {"sweeps_per_s", sweeps_per_s},
@@ -359,40 +392,47 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     if (!why_not.empty() && !o.quiet) std::cerr << "rbc: note: no cells.png: " << why_not << "\n";
   }
   picture.update(threads);
-  write_mc_manifest(o, true, "finished", "", run->sampler().sweeps_done(), o.checkpoint, picture);
+  write_mc_manifest(o, true, "finished", "", run->sweeps_done(), o.checkpoint, picture);
   if (o.json) {
     std::cout << j.dump(2) << "\n";
     return 0;
   }
   std::cout << std::setprecision(6) << "Monte Carlo (" << to_string(su.sampler.algorithm)
             << "): N = " << net.topo.num_vertices << ", F = " << su.force_pN
-            << " pN, T = " << su.sampler.temperature_K << " K, " << run->sampler().sweeps_done()
-            << " sweeps (" << su.sampler.adapt_sweeps << " adaptive), " << su.sampler.streams
-            << " streams, " << run->sampler().colour_count() << " colours\n"
+            << " pN, T = " << su.sampler.temperature_K << " K, " << run->chain_count()
+            << " chains of " << run->sweeps_done() << " sweeps (" << su.sampler.adapt_sweeps
+            << " adaptive), " << su.sampler.streams << " streams, " << run->sampler().colour_count()
+            << " colours\n"
             << "speed: " << sweeps_per_s << " sweeps/s, " << sweeps_per_s * double(mobile)
-            << " moves/s; threads " << run->sampler().thread_decision().reason << "\n";
+            << " moves/s per chain; threads " << run->thread_decision().reason << "\n";
   if (!have_stats) {
     std::cout << "statistics: " << j["statistics"].get<std::string>() << "\n";
     return 0;
   }
-  auto line = [](const char* name, const BlockingResult& b, const char* unit) {
+  auto line = [](const char* name, const BlockingResult& b, const McConvergence& c,
+                 const char* unit) {
     // To the error's significance (two digits); std and inefficiency g to two and three.
     std::ostringstream rest;
     rest << std::setprecision(2) << std::sqrt(b.variance) << ", g " << std::setprecision(3)
          << b.inefficiency;
     std::cout << "  " << std::left << std::setw(8) << name << std::right
               << format_with_error(b.mean, b.error) << " " << unit << "  (std " << rest.str()
-              << (b.converged ? "" : ", error not converged: run longer") << ")\n";
+              << ", R-hat " << std::setprecision(4) << c.rhat
+              << (b.converged ? "" : ", error not converged: run longer")
+              << (c.converged ? "" : ", chains disagree: run longer") << ")\n";
   };
-  std::cout << "production samples " << s.samples << ", transient discarded " << s.discarded
+  std::cout << "production samples " << s.samples << " (" << s.chains
+            << " chains pooled; R-hat: rank-normalised split-R-hat, converged below "
+            << kMcRhatThreshold << (s.converged ? "" : ", NOT converged")
+            << "), transient discarded " << s.discarded << " per chain"
             << ", acceptance " << s.acceptance << ", step " << run->sampler().step_um()
             << (run->sampler().algorithm() == McAlgorithm::hmc ? " (leapfrog, dimensionless)\n"
                                                                : " um\n");
-  line("D_A", s.axial, "um");
-  line("D_T", s.transverse, "um");
-  line("energy", s.energy, "pN um");
-  line("area", s.area, "um^2");
-  line("volume", s.volume, "um^3");
+  line("D_A", s.axial, s.axial_check, "um");
+  line("D_T", s.transverse, s.transverse_check, "um");
+  line("energy", s.energy, s.energy_check, "pN um");
+  line("area", s.area, s.area_check, "um^2");
+  line("volume", s.volume, s.volume_check, "um^3");
   std::cout << "thermal shift vs T = 0: D_A "
             << format_with_error(s.axial.mean - su.reference_axial_um, s.axial.error) << " um, D_T "
             << format_with_error(s.transverse.mean - su.reference_transverse_um, s.transverse.error)
@@ -402,10 +442,238 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   return 0;
 }
 
+/// Largest --forces list.
+constexpr std::size_t kMaxForces = 64;
+
+/// The seed of force k of a --forces list: --seed for the first, else mc_chain_seed of --seed at
+/// index kMaxMcChains + k (a stream of indices no chain of the first force uses); chain c of
+/// force k then has mc_chain_seed(force seed, c). Results depend on (seed, force index, chain)
+/// only, never on the MPI rank that ran the force.
+unsigned long mc_force_seed(unsigned long seed, std::size_t k) {
+  return k == 0 ? seed : mc_chain_seed(seed, kMaxMcChains + static_cast<int>(k));
+}
+
+/// What a force of the list gives the thermal curve (the fields every rank fills for its
+/// forces; the others stay 0, so a sum over the ranks assembles the curve exactly).
+enum ForceField {
+  kForce,
+  kRefAxial,
+  kRefTransverse,
+  kAxial,
+  kAxialError,
+  kTransverse,
+  kTransverseError,
+  kRhatAxial,
+  kRhatTransverse,
+  kConverged,
+  kHaveStats,
+  kForceFields
+};
+
+/// One force of the list with its chains: start, sampling, and DIR/force_KK/ outputs.
+std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_t k,
+                                  const CancelCheck& cancel, const ProgressSink& progress) {
+  McCli one = o;
+  one.force_pN = o.forces_pN[k];
+  McRunSetup setup = to_setup(one);
+  setup.sampler.seed = mc_force_seed(o.seed, k);
+  if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
+  setup.cancel = cancel;
+  McStartOptions so;
+  so.start = o.start;
+  so.cancel = cancel;
+  const McZeroTemperatureStart z = [&] {
+    SerialOpenMpScope serial;
+    return mc_zero_temperature_start(net, setup, so);
+  }();
+  if (!z.converged)
+    throw std::runtime_error("zero-temperature equilibrium at " +
+                             format_number(z.equilibrium.force_pN) +
+                             " pN did not converge: " + to_string(z.equilibrium.status));
+  McRun run(net, setup, z.start);
+  run.advance_blocks(o.sweeps, mc_block_sweeps(o, run));
+  std::vector<double> f(kForceFields, 0.0);
+  f[kForce] = one.force_pN;
+  f[kRefAxial] = setup.reference_axial_um;
+  f[kRefTransverse] = setup.reference_transverse_um;
+  nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
+  j.update(mc_run_json(net, run));
+  j["force_index"] = k;
+  try {
+    const McSummary s = run.summarise();
+    j.update(to_json(s, run.setup()));
+    f[kAxial] = s.axial.mean;
+    f[kAxialError] = s.axial.error;
+    f[kTransverse] = s.transverse.mean;
+    f[kTransverseError] = s.transverse.error;
+    f[kRhatAxial] = s.axial_check.rhat;
+    f[kRhatTransverse] = s.transverse_check.rhat;
+    f[kConverged] = s.converged && s.axial.converged && s.transverse.converged ? 1.0 : 0.0;
+    f[kHaveStats] = 1.0;
+  } catch (const std::invalid_argument& e) {
+    j["statistics"] = e.what();
+  }
+  if (!o.out.empty()) {
+    std::ostringstream name;
+    name << o.out << "/force_" << std::setw(2) << std::setfill('0') << k;
+    std::filesystem::create_directories(name.str());
+    write_mc_series(name.str(), run, output_record(o));
+    write_text_atomic(name.str() + "/mc_summary.json", j.dump(2) + "\n");
+  }
+  report(progress, "force " + format_number(one.force_pN) + " pN done");
+  return f;
+}
+
+/// `rbc mc --forces F1,F2,...`: each force with its chains, the forces spread over the MPI
+/// ranks when started by mpirun (force k on rank k mod ranks), and the thermal curve. The
+/// curve is assembled by a sum over the ranks (MPI_Allreduce) in which every entry has exactly
+/// one nonzero term, so it is exact and independent of the rank count. A small loop here, not
+/// calibrate/mpi_executor's pool: that executor serves TMCMC chains (a prior box and a
+/// likelihood), not Monte Carlo runs; its MpiSession is reused.
+int run_mc_forces(const McCli& o, const GivenOptions& given) {
+  if (given.force)
+    throw std::invalid_argument("--forces: give the forces as --forces F1,F2,... without --force");
+  if (!o.resume.empty() || !o.checkpoint.empty())
+    throw std::invalid_argument(
+        "--forces: no --checkpoint or --resume with a force list (each force runs to the end)");
+  if (o.forces_pN.size() > kMaxForces)
+    throw std::invalid_argument("--forces: at most " + std::to_string(kMaxForces) +
+                                " forces, got " + std::to_string(o.forces_pN.size()));
+  if (o.adapt_sweeps < -1 || o.adapt_sweeps > o.sweeps)
+    throw std::invalid_argument(
+        "--adapt-sweeps " + std::to_string(o.adapt_sweeps) +
+        ": expected an integer in [0, --sweeps = " + std::to_string(o.sweeps) + "]");
+  for (double f : o.forces_pN) {
+    McCli one = o;
+    one.force_pN = f;
+    try {
+      to_setup(one);  // every force validated before any work
+    } catch (const std::invalid_argument&) {
+      throw std::invalid_argument("--forces " + format_number(f) + ": expected forces in [0, " +
+                                  format_number(kMaxDiscreteForce_pN) + "] pN");
+    }
+  }
+  const NetworkParameters model = to_network_parameters(o.physics);
+  const bool mpi = launched_by_mpirun();
+  std::unique_ptr<MpiSession> session;
+  if (mpi) session = std::make_unique<MpiSession>();
+  const int rank = session ? session->rank() : 0, ranks = session ? session->size() : 1;
+  if (!o.out.empty() && rank == 0) prepare_output_directory(o.out, o.overwrite, false);
+  if (session) MPI_Barrier(MPI_COMM_WORLD);  // the directory exists before any rank writes
+  const ProgressSink progress = stderr_progress(o.quiet || rank != 0, o.verbose);
+  const CancelCheck cancel = interrupt_check();
+  RestShapeOptions ro;
+  ro.target_vertices = o.vertices;
+  const Network net = [&] {
+    SerialOpenMpScope serial;
+    return build_network(make_rest_shape(ro), model);
+  }();
+  std::vector<double> mine(o.forces_pN.size() * kForceFields, 0.0), all(mine.size(), 0.0);
+  try {
+    for (std::size_t k = 0; k < o.forces_pN.size(); ++k)
+      if (static_cast<int>(k % std::size_t(ranks)) == rank) {
+        const std::vector<double> f = run_one_force(o, net, k, cancel, progress);
+        std::copy(f.begin(), f.end(), mine.begin() + std::ptrdiff_t(k * kForceFields));
+      }
+  } catch (const Cancelled&) {
+    if (session) session->abort(interrupt_exit_code());
+    throw;
+  } catch (const std::exception& e) {
+    if (!session) throw;
+    std::cerr << "rbc: error: MPI rank " << rank << ": " << e.what() << "\n";
+    session->abort(1);
+  }
+  if (session)
+    MPI_Allreduce(mine.data(), all.data(), static_cast<int>(mine.size()), MPI_DOUBLE, MPI_SUM,
+                  MPI_COMM_WORLD);
+  else
+    all = mine;
+  if (rank != 0) return 0;
+  CsvTable t;
+  t.comments = {"rbc mc --forces: thermal curve, pooled over " + std::to_string(o.chains) +
+                " chains per force; shift = D(T) - D(0 K), its error the pooled error of D(T)"};
+  const OutputRecord rec = output_record(o);
+  t.comments.insert(t.comments.end(), rec.comment_lines.begin(), rec.comment_lines.end());
+  t.header = {"force_pN",
+              "axial_um",
+              "axial_error_um",
+              "transverse_um",
+              "transverse_error_um",
+              "reference_axial_um",
+              "reference_transverse_um",
+              "shift_axial_um",
+              "shift_transverse_um",
+              "rhat_axial",
+              "rhat_transverse",
+              "converged"};
+  nlohmann::json curve = nlohmann::json::array();
+  for (std::size_t k = 0; k < o.forces_pN.size(); ++k) {
+    const double* f = all.data() + k * kForceFields;
+    const bool stats = f[kHaveStats] != 0;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    auto v = [&](double x) { return stats ? x : nan; };
+    t.rows.push_back({f[kForce], v(f[kAxial]), v(f[kAxialError]), v(f[kTransverse]),
+                      v(f[kTransverseError]), f[kRefAxial], f[kRefTransverse],
+                      v(f[kAxial] - f[kRefAxial]), v(f[kTransverse] - f[kRefTransverse]),
+                      v(f[kRhatAxial]), v(f[kRhatTransverse]), f[kConverged]});
+    curve.push_back(
+        {{"force_pN", f[kForce]},
+         {"axial_um", v(f[kAxial])},
+         {"axial_error_um", v(f[kAxialError])},
+         {"transverse_um", v(f[kTransverse])},
+         {"transverse_error_um", v(f[kTransverseError])},
+         {"reference_axial_um", f[kRefAxial]},
+         {"reference_transverse_um", f[kRefTransverse]},
+         {"thermal_shift_axial_um", v(f[kAxial] - f[kRefAxial])},
+         {"thermal_shift_axial_error_um", v(f[kAxialError])},
+         {"thermal_shift_transverse_um", v(f[kTransverse] - f[kRefTransverse])},
+         {"thermal_shift_transverse_error_um", v(f[kTransverseError])},
+         {"rhat_axial", v(f[kRhatAxial])},
+         {"rhat_transverse", v(f[kRhatTransverse])},
+         {"converged", f[kConverged] != 0},
+         {"directory",
+          o.out.empty() ? "" : "force_" + std::string(k < 10 ? "0" : "") + std::to_string(k)}});
+  }
+  nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
+  j.update({{"vertices", net.topo.num_vertices},
+            {"temperature_K", o.sampling_temperature()},
+            {"sampler", to_string(o.algorithm)},
+            {"seed", o.seed},
+            {"chains", o.chains},
+            {"sweeps", o.sweeps},
+            {"mpi_ranks", ranks},
+            {"curve", curve}});
+  if (!o.out.empty()) {
+    write_csv(o.out + "/thermal_curve.csv", t);
+    write_text_atomic(o.out + "/thermal_curve.json", j.dump(2) + "\n");
+  }
+  if (o.json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "thermal curve: " << o.forces_pN.size() << " forces, " << o.chains
+            << " chains each, " << ranks << " MPI rank" << (ranks == 1 ? "" : "s") << "\n";
+  for (const auto& row : curve)
+    std::cout << "  F = " << row["force_pN"].get<double>() << " pN: D_A "
+              << (row["axial_um"].is_number()
+                      ? format_with_error(row["axial_um"].get<double>(),
+                                          row["axial_error_um"].get<double>())
+                      : std::string("(too few samples)"))
+              << " um (0 K " << row["reference_axial_um"].get<double>() << "), D_T "
+              << (row["transverse_um"].is_number()
+                      ? format_with_error(row["transverse_um"].get<double>(),
+                                          row["transverse_error_um"].get<double>())
+                      : std::string("(too few samples)"))
+              << " um (0 K " << row["reference_transverse_um"].get<double>() << ")"
+              << (row["converged"].get<bool>() ? "" : ", not converged") << "\n";
+  return 0;
+}
+
 /// run_mc; when it fails after run.json said "running", the manifest is rewritten as "failed"
 /// with the error line's text (or removed when even that write fails), so it never says
 /// "running" after the process ended.
 int run_mc_recorded(const McCli& o, const GivenOptions& given) {
+  if (!o.forces_pN.empty()) return run_mc_forces(o, given);
   McProgress made;
   try {
     return run_mc(o, given, made);
@@ -458,6 +726,21 @@ void add_mc_command(CLI::App& app, Action& action) {
                   "them)")
       ->check(integer_in(0, kMaxMcStreams))
       ->capture_default_str();
+  auto* chains =
+      cmd->add_option("--chains", o->chains,
+                      "independent chains, in [1, " + std::to_string(kMaxMcChains) +
+                          "], each seeded from (--seed, chain), all started at the "
+                          "zero-temperature equilibrium, run one per thread and pooled (means, "
+                          "errors, R-hat); fixed, so results never depend on the threads")
+          ->check(integer_in(1, kMaxMcChains))
+          ->capture_default_str();
+  cmd->add_option("--forces", o->forces_pN,
+                  "a force list F1,F2,... (pN): each force run with its chains (seeds from "
+                  "(--seed, force index, chain)), spread over the MPI ranks under mpirun; "
+                  "writes DIR/force_KK/ per force and DIR/thermal_curve.csv/.json (no "
+                  "--checkpoint or --resume)")
+      ->delimiter(',')
+      ->type_name("F1,F2,...");
   auto* adapt_fraction =
       cmd->add_option("--adapt-fraction", o->adapt_fraction,
                       "fraction of the sweeps with adaptive step (equilibration), in [0, 1)")
@@ -530,24 +813,25 @@ void add_mc_command(CLI::App& app, Action& action) {
                 "statistics}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
-  cmd->callback(
-      [o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, sampler, &action] {
-        const GivenOptions given{
-            force->count() > 0,
-            sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
-            seed->count() > 0,
-            penalty->count() > 0,
-            vertices->count() > 0,
-            cmd->get_option("--bending")->count() > 0,
-            adapt_fraction->count() > 0,
-            sampler->count() > 0};
-        o->sampling_temperature_given = sampling_temp->count() > 0;
-        action = [o, cmd, given] {
-          o->record = run_record(*cmd);
-          make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
-          return naming_options(mc_option_names(), [&] { return run_mc_recorded(*o, given); });
-        };
-      });
+  cmd->callback([o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, sampler,
+                 chains, &action] {
+    const GivenOptions given{
+        force->count() > 0,
+        sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
+        seed->count() > 0,
+        penalty->count() > 0,
+        vertices->count() > 0,
+        cmd->get_option("--bending")->count() > 0,
+        adapt_fraction->count() > 0,
+        sampler->count() > 0,
+        chains->count() > 0};
+    o->sampling_temperature_given = sampling_temp->count() > 0;
+    action = [o, cmd, given] {
+      o->record = run_record(*cmd);
+      make_cancellable();  // polls interrupt_check(): see app/interrupt.hpp
+      return naming_options(mc_option_names(), [&] { return run_mc_recorded(*o, given); });
+    };
+  });
 }
 
 }  // namespace rbc::app

@@ -3,9 +3,11 @@
 
 #include <gsl/gsl_rng.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <numeric>
 #include <stdexcept>
 #include <tuple>
 
@@ -24,8 +26,9 @@ static_assert(kMcCheckpointSeriesColumns == kMcSampleColumns);
 // (planned_sweeps, adapt_fraction) next to its absolute length adapt_sweeps. 4: a checksum of
 // every dataset and attribute (content_checksum), so a changed byte is refused, never resumed.
 // 5: the links (rest lengths, WLC density), the steric term and the bead patch in the
-// fingerprint, so a chain resumes only on the energy it sampled.
-constexpr long long kFormat = 6;
+// fingerprint, so a chain resumes only on the energy it sampled. 6: the HMC sampler's state and
+// options. 7: independent chains (McOptions::chains), each in its own group.
+constexpr long long kFormat = 7;
 /// Where the checksum of everything else in the file is kept.
 constexpr const char* kChecksumAttribute = "content_checksum";
 
@@ -80,36 +83,65 @@ std::uint64_t network_fingerprint(const Network& net) {
 }
 
 void write_mc_checkpoint(const std::string& path, const Network& net, const McCheckpoint& cp) {
+  const std::vector<McChainState> one_chain{cp.chain};
+  const std::vector<std::vector<McSample>> one_series{cp.series};
+  const auto& chains = cp.chains.empty() ? one_chain : cp.chains;
+  const auto& series = cp.chains.empty() ? one_series : cp.chain_series;
+  if (chains.size() != std::size_t(cp.setup.sampler.chains) || series.size() != chains.size())
+    throw std::invalid_argument("checkpoint of " + std::to_string(chains.size()) +
+                                " chain states and " + std::to_string(series.size()) +
+                                " series for a run of " + std::to_string(cp.setup.sampler.chains) +
+                                " chains");
   TempFile tmp(path);  // removed on every path that does not commit it
   {
     H5File h = H5File::create(tmp.path(), path);
-    const McChainState& c = cp.chain;
-    h.write("/positions_um", c.x.data(), hsize_t(c.x.cols()), 3);
-    const std::size_t bytes = c.rng_state.empty() ? 0 : c.rng_state[0].size();
+    const std::size_t bytes = chains[0].rng_state.empty() ? 0 : chains[0].rng_state[0].size();
     const std::size_t words = (bytes + 7) / 8;
-    std::vector<unsigned long long> packed(c.rng_state.size() * words, 0ull);
-    for (std::size_t s = 0; s < c.rng_state.size(); ++s) {
-      if (c.rng_state[s].size() != bytes)
-        throw std::invalid_argument("RNG streams of unequal state size");
-      std::memcpy(packed.data() + s * words, c.rng_state[s].data(), bytes);
+    std::vector<unsigned long long> sweeps, rows_count;
+    std::vector<double> steps;
+    for (std::size_t k = 0; k < chains.size(); ++k) {
+      const McChainState& c = chains[k];
+      const std::string group = "/chain_" + std::to_string(k);
+      h.write(group + "/positions_um", c.x.data(), hsize_t(c.x.cols()), 3);
+      std::vector<unsigned long long> packed(c.rng_state.size() * words, 0ull);
+      for (std::size_t s = 0; s < c.rng_state.size(); ++s) {
+        if (c.rng_state[s].size() != bytes)
+          throw std::invalid_argument("RNG streams of unequal state size");
+        std::memcpy(packed.data() + s * words, c.rng_state[s].data(), bytes);
+      }
+      h.write(group + "/rng_state", packed.data(), hsize_t(c.rng_state.size()), hsize_t(words));
+      std::vector<double> rows;
+      for (const McSample& s : series[k]) {
+        const std::vector<double> r = to_row(s);
+        rows.insert(rows.end(), r.begin(), r.end());
+      }
+      if (series[k].empty()) rows.assign(kMcSampleColumns, 0.0);  // HDF5 has no empty dataset
+      h.write(group + "/series", rows.data(), hsize_t(series[k].empty() ? 1 : series[k].size()),
+              kMcSampleColumns);
+      if (cp.setup.sampler.algorithm == McAlgorithm::hmc) {
+        if (c.mass_reference.cols() != c.x.cols())
+          throw std::invalid_argument("HMC chain state without its mass reference");
+        h.write(group + "/mass_reference_um", c.mass_reference.data(),
+                hsize_t(c.mass_reference.cols()), 3);
+      }
+      sweeps.push_back(static_cast<unsigned long long>(c.sweep));
+      rows_count.push_back(series[k].size());
+      steps.push_back(c.step_um);
     }
-    h.write("/rng_state", packed.data(), hsize_t(c.rng_state.size()), hsize_t(words));
-    std::vector<double> rows;
-    for (const McSample& s : cp.series) {
-      const std::vector<double> r = to_row(s);
-      rows.insert(rows.end(), r.begin(), r.end());
-    }
-    if (cp.series.empty()) rows.assign(kMcSampleColumns, 0.0);  // HDF5 has no empty dataset here
-    h.write("/series", rows.data(), hsize_t(cp.series.empty() ? 1 : cp.series.size()),
-            kMcSampleColumns);
-    h.write_attribute("series_rows", static_cast<long long>(cp.series.size()));
+    h.write("/chain_sweeps", sweeps.data(), hsize_t(chains.size()), 1);
+    h.write("/chain_series_rows", rows_count.data(), hsize_t(chains.size()), 1);
+    h.write("/chain_steps", steps.data(), hsize_t(chains.size()), 1);
     h.write_attribute("format", kFormat);
+    h.write_attribute("chains", static_cast<long long>(chains.size()));
+    // The run's sweep (the fewest of a chain) and its samples over all chains.
+    h.write_attribute("sweep",
+                      static_cast<long long>(*std::min_element(sweeps.begin(), sweeps.end())));
+    h.write_attribute("series_rows", static_cast<long long>(std::accumulate(
+                                         rows_count.begin(), rows_count.end(), 0ull)));
     h.write_attribute("fingerprint", hex_digits(network_fingerprint(net)));
     h.write_attribute("vertices", static_cast<long long>(net.topo.num_vertices));
     h.write_attribute("bending_model", to_string(net.bending_model));
     h.write_attribute("faces", static_cast<long long>(net.topo.num_faces()));
-    h.write_attribute("sweep", c.sweep);
-    h.write_attribute("step_um", c.step_um);
     h.write_attribute("rng_type", std::string(gsl_rng_mt19937->name));
     h.write_attribute("rng_bytes", static_cast<long long>(bytes));
     const McRunSetup& u = cp.setup;
@@ -134,9 +166,6 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
     h.write("/mobile", mobile.data(), hsize_t(mobile.size()), 1);
     h.write_attribute("sampler", to_string(u.sampler.algorithm));
     if (u.sampler.algorithm == McAlgorithm::hmc) {
-      if (c.mass_reference.cols() != c.x.cols())
-        throw std::invalid_argument("HMC chain state without its mass reference");
-      h.write("/mass_reference_um", c.mass_reference.data(), hsize_t(c.mass_reference.cols()), 3);
       const HmcOptions& m = u.sampler.hmc;
       h.write_attribute("hmc_step", m.step);
       h.write_attribute("hmc_trajectory_time", m.trajectory_time);
@@ -182,36 +211,73 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
                                 std::to_string(net.topo.num_vertices) + " vertices, " +
                                 std::to_string(net.topo.num_faces()) + " faces, fingerprint " +
                                 hex_digits(network_fingerprint(net)) + ")");
-  // Every array is read, then checked as a whole (discrete/mc_checkpoint_arrays.hpp), then used.
-  McCheckpointArrays a;
-  a.vertices = nv;
-  std::tie(a.positions_rows, a.positions_cols) = h.read("/positions_um", a.positions_um);
-  std::tie(a.rng_rows, a.rng_cols) = h.read("/rng_state", a.rng_state);
-  a.rng_bytes = h.read_attribute_int("rng_bytes");
-  a.streams = h.read_attribute_int("streams");
-  std::tie(a.series_rows, a.series_cols) = h.read("/series", a.series);
-  a.series_count = h.read_attribute_int("series_rows");
-  a.sweep = h.read_attribute_int("sweep");
-  a.sample_every = h.read_attribute_int("sample_every");
-  h.read("/mobile", a.mobile);
+  const long long chain_count = h.read_attribute_int("chains");
+  if (chain_count < 1 || chain_count > kMaxMcChains)
+    throw corrupt("chain count " + std::to_string(chain_count) + " is not in [1, " +
+                  std::to_string(kMaxMcChains) + "]");
+  std::vector<unsigned long long> sweeps, rows_count;
+  std::vector<double> steps;
+  const auto sweeps_shape = h.read("/chain_sweeps", sweeps);
+  const auto rows_shape = h.read("/chain_series_rows", rows_count);
+  const auto steps_shape = h.read("/chain_steps", steps);
+  for (const auto& shape : {sweeps_shape, rows_shape, steps_shape})
+    if (shape.first != hsize_t(chain_count) || shape.second != 1)
+      throw corrupt("per-chain counts are not " + std::to_string(chain_count) + " x 1");
+  if (sweeps.size() != std::size_t(chain_count) || rows_count.size() != sweeps.size() ||
+      steps.size() != sweeps.size())
+    throw corrupt("per-chain counts have the wrong length");
+  if (h.read_attribute_int("sweep") !=
+          static_cast<long long>(*std::min_element(sweeps.begin(), sweeps.end())) ||
+      h.read_attribute_int("series_rows") !=
+          static_cast<long long>(std::accumulate(rows_count.begin(), rows_count.end(), 0ull)))
+    throw corrupt("the run's sweep count or sample count disagrees with its chains'");
   if (h.read_attribute_string("rng_type") != gsl_rng_mt19937->name)
     throw corrupt("RNG type is not " + std::string(gsl_rng_mt19937->name));
-  if (a.rng_bytes != static_cast<long long>(gsl_rng_mt19937->size))
-    throw corrupt("RNG state has " + std::to_string(a.rng_bytes) + " bytes, mt19937 needs " +
+  const long long rng_bytes = h.read_attribute_int("rng_bytes");
+  if (rng_bytes != static_cast<long long>(gsl_rng_mt19937->size))
+    throw corrupt("RNG state has " + std::to_string(rng_bytes) + " bytes, mt19937 needs " +
                   std::to_string(gsl_rng_mt19937->size));
-  try {
-    check_mc_checkpoint_arrays(a);
-  } catch (const std::runtime_error& e) {
-    throw corrupt(e.what());
-  }
   McCheckpoint cp;
-  cp.chain.x = Eigen::Map<const Eigen::Matrix3Xd>(a.positions_um.data(), 3, nv);
-  for (std::size_t s = 0; s < a.rng_rows; ++s) {
-    const auto* first = reinterpret_cast<const unsigned char*>(a.rng_state.data() + s * a.rng_cols);
-    cp.chain.rng_state.emplace_back(first, first + a.rng_bytes);
+  for (long long k = 0; k < chain_count; ++k) {
+    // Every array is read, then checked as a whole (discrete/mc_checkpoint_arrays.hpp), then
+    // used.
+    const std::string group = "/chain_" + std::to_string(k);
+    McCheckpointArrays a;
+    a.vertices = nv;
+    std::tie(a.positions_rows, a.positions_cols) = h.read(group + "/positions_um", a.positions_um);
+    std::tie(a.rng_rows, a.rng_cols) = h.read(group + "/rng_state", a.rng_state);
+    a.rng_bytes = rng_bytes;
+    a.streams = h.read_attribute_int("streams");
+    std::tie(a.series_rows, a.series_cols) = h.read(group + "/series", a.series);
+    if (sweeps[std::size_t(k)] > (1ull << 62) || rows_count[std::size_t(k)] > (1ull << 62))
+      throw corrupt("chain " + std::to_string(k) + ": sweep or sample count out of range");
+    a.series_count = static_cast<long long>(rows_count[std::size_t(k)]);
+    a.sweep = static_cast<long long>(sweeps[std::size_t(k)]);
+    a.sample_every = h.read_attribute_int("sample_every");
+    h.read("/mobile", a.mobile);
+    try {
+      check_mc_checkpoint_arrays(a);
+    } catch (const std::runtime_error& e) {
+      throw corrupt(std::string(e.what()) + " (chain " + std::to_string(k) + ")");
+    }
+    McChainState chain;
+    chain.x = Eigen::Map<const Eigen::Matrix3Xd>(a.positions_um.data(), 3, nv);
+    for (std::size_t s = 0; s < a.rng_rows; ++s) {
+      const auto* first =
+          reinterpret_cast<const unsigned char*>(a.rng_state.data() + s * a.rng_cols);
+      chain.rng_state.emplace_back(first, first + a.rng_bytes);
+    }
+    chain.sweep = a.sweep;
+    chain.step_um = steps[std::size_t(k)];
+    if (!(chain.step_um > 0) || !std::isfinite(chain.step_um))
+      throw corrupt("chain " + std::to_string(k) + ": step out of range");
+    std::vector<McSample> series;
+    for (long long i = 0; i < a.series_count; ++i)
+      series.push_back(sample_from_row(a.series.data() + i * kMcSampleColumns));
+    if (k == 0 && !(a.mobile.size() == 1 && a.mobile[0] == -1)) cp.setup.sampler.mobile = a.mobile;
+    cp.chains.push_back(std::move(chain));
+    cp.chain_series.push_back(std::move(series));
   }
-  cp.chain.sweep = a.sweep;
-  cp.chain.step_um = h.read_attribute_double("step_um");
   McRunSetup& u = cp.setup;
   u.sampler.temperature_K = h.read_attribute_double("temperature_K");
   u.force_pN = h.read_attribute_double("force_pN");
@@ -237,20 +303,25 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
       !(cp.schedule.adapt_fraction == -1.0 ||
         (cp.schedule.adapt_fraction >= 0 && cp.schedule.adapt_fraction < 1)))
     throw corrupt("adaptation schedule out of range");
-  if (!(a.mobile.size() == 1 && a.mobile[0] == -1)) u.sampler.mobile = a.mobile;
+  u.sampler.chains = static_cast<int>(chain_count);
   try {
     u.sampler.algorithm = mc_algorithm_from_string(h.read_attribute_string("sampler"));
   } catch (const std::invalid_argument& e) {
     throw corrupt(e.what());
   }
   if (u.sampler.algorithm == McAlgorithm::hmc) {
-    std::vector<double> reference;
-    const auto [rows, cols] = h.read("/mass_reference_um", reference);
-    if (static_cast<long long>(rows) != nv || cols != 3 ||
-        !Eigen::Map<const Eigen::VectorXd>(reference.data(), Eigen::Index(reference.size()))
-             .allFinite())
-      throw corrupt("HMC mass reference is not " + std::to_string(nv) + " x 3 finite positions");
-    cp.chain.mass_reference = Eigen::Map<const Eigen::Matrix3Xd>(reference.data(), 3, nv);
+    for (long long k = 0; k < chain_count; ++k) {
+      std::vector<double> reference;
+      const auto [rows, cols] =
+          h.read("/chain_" + std::to_string(k) + "/mass_reference_um", reference);
+      if (static_cast<long long>(rows) != nv || cols != 3 ||
+          !Eigen::Map<const Eigen::VectorXd>(reference.data(), Eigen::Index(reference.size()))
+               .allFinite())
+        throw corrupt("HMC mass reference of chain " + std::to_string(k) + " is not " +
+                      std::to_string(nv) + " x 3 finite positions");
+      cp.chains[std::size_t(k)].mass_reference =
+          Eigen::Map<const Eigen::Matrix3Xd>(reference.data(), 3, nv);
+    }
     HmcOptions& m = u.sampler.hmc;
     m.step = h.read_attribute_double("hmc_step");
     m.trajectory_time = h.read_attribute_double("hmc_trajectory_time");
@@ -266,10 +337,8 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
   } catch (const std::invalid_argument& e) {
     throw corrupt(e.what());
   }
-  if (!(cp.chain.step_um > 0) || !std::isfinite(cp.chain.step_um) || cp.chain.sweep < 0)
-    throw corrupt("step or sweep count out of range");
-  for (long long i = 0; i < a.series_count; ++i)
-    cp.series.push_back(sample_from_row(a.series.data() + i * kMcSampleColumns));
+  cp.chain = cp.chains[0];
+  cp.series = cp.chain_series[0];
   return cp;
 }
 

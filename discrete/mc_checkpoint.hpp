@@ -9,16 +9,20 @@
 // term and bead patch) refuses a checkpoint written for another network. Written atomically
 // (temporary file + rename).
 //
-// Layout: /positions_um (N x 3), /rng_state (streams x words, uint64, little-endian packing of
-// the state bytes), /series (samples x 8, see mc_sample_columns()); root attributes
-// format, fingerprint, vertices, bending_model, faces, sweep, step_um, rng_type, rng_bytes,
-// temperature_K, force_pN, lambda_area_pN_per_um, lambda_volume_pN_per_um2, seed, streams,
+// Layout (format 7): root attributes format, chains, sweep (the fewest of a chain), series_rows
+// (samples of all chains), fingerprint, vertices, bending_model,
+// faces, rng_type, rng_bytes, temperature_K, force_pN, lambda_area_pN_per_um,
+// lambda_volume_pN_per_um2, seed (the run's; chain c's is mc_chain_seed(seed, c)), streams,
 // adapt_sweeps, sample_every, penalty_scale, target_acceptance, adapt_gain, reference_axial_um,
 // reference_transverse_um, planned_sweeps, adapt_fraction, sampler (metropolis or hmc),
-// content_checksum; an HMC chain adds /mass_reference_um (N x 3, the positions its mass matrix
-// was built at) and hmc_step, hmc_trajectory_time, hmc_jitter, hmc_target_acceptance,
-// hmc_adapt_gain, hmc_max_steps (format 6; older formats are refused with a message naming the
-// version).
+// content_checksum; /mobile; /chain_sweeps and /chain_series_rows (chains x 1, uint64) and
+// /chain_steps (chains x 1; Metropolis: trial half-width in um, HMC: leapfrog step); and per
+// chain c the group /chain_c with positions_um (N x 3), rng_state (streams x words, uint64,
+// little-endian packing of the gsl_rng_state bytes), series (samples x 8, see
+// mc_sample_columns()) and, for HMC, mass_reference_um (N x 3, the positions its mass matrix was
+// built at). HMC runs add the attributes hmc_step, hmc_trajectory_time, hmc_jitter,
+// hmc_target_acceptance, hmc_adapt_gain, hmc_max_steps, hmc_projected_mass,
+// hmc_mass_shift_fraction. Other format versions are refused with a message naming the version.
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -38,18 +42,38 @@ struct McSchedule {
   double adapt_fraction = -1.0;  ///< adapt_sweeps = round(fraction x planned); -1: given absolute
 };
 
+/// A run at a sweep boundary. `chains` and `chain_series` hold every chain (chain order);
+/// `chain` and `series` are chain 0's (what a one-chain run needs). write_mc_checkpoint() writes
+/// `chains` when it is not empty, else the one chain {chain}; read_mc_checkpoint() fills all.
 struct McCheckpoint {
   McRunSetup setup;
   McChainState chain;
   std::vector<McSample> series;
   McSchedule schedule;
+  std::vector<McChainState> chains;
+  std::vector<std::vector<McSample>> chain_series;
   McCheckpoint() = default;
+  /// One chain.
   McCheckpoint(McRunSetup s, McChainState c, std::vector<McSample> t, McSchedule sch = {})
       : setup(std::move(s)), chain(std::move(c)), series(std::move(t)), schedule(sch) {}
+  /// Every chain of a run (c and t non-empty, equally long).
+  McCheckpoint(McRunSetup s, std::vector<McChainState> c, std::vector<std::vector<McSample>> t,
+               McSchedule sch = {})
+      : setup(std::move(s)),
+        chain(c.at(0)),
+        series(t.at(0)),
+        schedule(sch),
+        chains(std::move(c)),
+        chain_series(std::move(t)) {}
+  /// The checkpoint of every chain of `run`.
+  static McCheckpoint of(const McRun& run, McSchedule sch = {}) {
+    return McCheckpoint(run.setup(), run.states(), run.all_series(), sch);
+  }
 };
 
 /// Writes the checkpoint atomically; throws std::runtime_error naming the path on failure
-/// (no partial file is left at `path`).
+/// (no partial file is left at `path`), std::invalid_argument when the chains do not match
+/// setup.sampler.chains.
 void write_mc_checkpoint(const std::string& path, const Network& net, const McCheckpoint& cp);
 
 /// What a checkpoint says about its network, so a resumed run can rebuild the same one.

@@ -91,6 +91,12 @@ struct McOptions {
       0.5;  ///< log-step change per unit acceptance error, per sweep of >> 200 moves
   /// Vertices that move (empty = all). Others stay fixed (used by the detailed-balance test).
   std::vector<int> mobile;
+  /// Independent chains of a run (McRun, discrete/mc_run.hpp), in [1, kMaxMcChains]: chain c
+  /// is its own McSampler or HmcSampler seeded with mc_chain_seed(seed, c), all started at the
+  /// same state. Fixed (two by default, whatever the thread count), so a run's results never
+  /// depend on the threads. A single McSampler or HmcSampler ignores it; McRunSetup::validate()
+  /// checks it.
+  int chains = 2;
   /// Throws std::invalid_argument (rbc::InvalidParameter) naming the value, every number finite:
   /// T in [0, kMaxSamplingTemperature_K] K, streams in [1, kMaxMcStreams], step in [0, 1] um,
   /// adapt_sweeps >= 0, target in (0, 1), gain in [0, 10], threads in [0, kMaxMcStreams].
@@ -124,6 +130,9 @@ inline constexpr double kMaxSamplingTemperature_K = 1e5;
 
 /// Largest number of RNG streams (parallel chunks per colour).
 inline constexpr int kMaxMcStreams = 1024;
+
+/// Largest number of independent chains of a run (McOptions::chains).
+inline constexpr int kMaxMcChains = 16;
 
 /// Everything that defines the chain at a sweep boundary (what a checkpoint holds).
 struct McChainState {

@@ -3,6 +3,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -89,6 +90,9 @@ std::string check_mc_resume(const McCheckpoint& cp, const McResumeRequest& r,
   if (r.algorithm && *r.algorithm != cp.setup.sampler.algorithm)
     throw std::invalid_argument(ck + " was run with the " + to_string(cp.setup.sampler.algorithm) +
                                 " sampler, not " + to_string(*r.algorithm));
+  if (r.chains && *r.chains != cp.setup.sampler.chains)
+    throw std::invalid_argument(ck + " holds " + std::to_string(cp.setup.sampler.chains) +
+                                " chains, not --chains " + std::to_string(*r.chains));
   if (r.adapt_sweeps && *r.adapt_sweeps != cp.setup.sampler.adapt_sweeps)
     throw std::invalid_argument(ck + " adapts the step for " +
                                 std::to_string(cp.setup.sampler.adapt_sweeps) +
@@ -122,21 +126,56 @@ nlohmann::json stat_json(const BlockingResult& b) {
           {"blocking_converged", b.converged}};
 }
 
+nlohmann::json pooled_json(const BlockingResult& b, const McConvergence& c) {
+  nlohmann::json j = stat_json(b);
+  j.update({{"rhat", c.rhat},
+            {"rhat_converged", c.converged},
+            {"between_chain_error", c.between_chain_error},
+            {"chain_chi2", c.chain_chi2},
+            {"chain_p_value", c.chain_p_value}});
+  return j;
+}
+
+nlohmann::json chain_json(const BlockingResult& b) {
+  return {{"mean", b.mean},
+          {"error", b.error},
+          {"inefficiency", b.inefficiency},
+          {"blocking_converged", b.converged}};
+}
+
 }  // namespace
 
 nlohmann::json to_json(const McSummary& s, const McRunSetup& su) {
-  return {{"samples", s.samples},
-          {"discarded_transient", s.discarded},
-          {"acceptance", s.acceptance},
-          {"energy_pNum", stat_json(s.energy)},
-          {"axial_um", stat_json(s.axial)},
-          {"transverse_um", stat_json(s.transverse)},
-          {"area_um2", stat_json(s.area)},
-          {"volume_um3", stat_json(s.volume)},
-          {"thermal_shift_axial_um", s.axial.mean - su.reference_axial_um},
-          {"thermal_shift_transverse_um", s.transverse.mean - su.reference_transverse_um},
-          {"max_area_drift", s.max_area_drift},
-          {"max_volume_drift", s.max_volume_drift}};
+  nlohmann::json per_chain = nlohmann::json::array();
+  for (const McChainSummary& c : s.per_chain)
+    per_chain.push_back({{"seed", c.seed},
+                         {"acceptance", c.acceptance},
+                         {"energy_pNum", chain_json(c.energy)},
+                         {"axial_um", chain_json(c.axial)},
+                         {"transverse_um", chain_json(c.transverse)},
+                         {"area_um2", chain_json(c.area)},
+                         {"volume_um3", chain_json(c.volume)}});
+  return {
+      {"samples", s.samples},
+      {"samples_per_chain", s.chains > 0 ? s.samples / std::size_t(s.chains) : 0},
+      {"discarded_transient", s.discarded},
+      {"acceptance", s.acceptance},
+      {"chains", s.chains},
+      {"energy_pNum", pooled_json(s.energy, s.energy_check)},
+      {"axial_um", pooled_json(s.axial, s.axial_check)},
+      {"transverse_um", pooled_json(s.transverse, s.transverse_check)},
+      {"area_um2", pooled_json(s.area, s.area_check)},
+      {"volume_um3", pooled_json(s.volume, s.volume_check)},
+      {"rhat_method", "rank-normalised split-R-hat, max of bulk and tail (Vehtari et al. 2021)"},
+      {"rhat_threshold", kMcRhatThreshold},
+      {"converged", s.converged},
+      {"thermal_shift_axial_um", s.axial.mean - su.reference_axial_um},
+      {"thermal_shift_axial_error_um", s.axial.error},
+      {"thermal_shift_transverse_um", s.transverse.mean - su.reference_transverse_um},
+      {"thermal_shift_transverse_error_um", s.transverse.error},
+      {"max_area_drift", s.max_area_drift},
+      {"max_volume_drift", s.max_volume_drift},
+      {"per_chain", per_chain}};
 }
 
 nlohmann::json to_json(const McThreadDecision& d) {
@@ -148,9 +187,15 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
   nlohmann::json j = mc_run_keys(net, run);
   if (const auto* h = dynamic_cast<const HmcSampler*>(&run.sampler())) {
     const HmcMassInfo& m = h->mass_info();
+    long long evaluations = 0, solves = 0;
+    for (int c = 0; c < run.chain_count(); ++c) {
+      const auto& chain = dynamic_cast<const HmcSampler&>(run.chain(c));
+      evaluations += chain.evaluations();
+      solves += chain.solves();
+    }
     j["hmc"] = {{"trajectory_time", su.sampler.hmc.trajectory_time},
-                {"evaluations", h->evaluations()},
-                {"solves", h->solves()},
+                {"evaluations", evaluations},
+                {"solves", solves},
                 {"mass_matrix", m.exact ? "exact Hessian" : "projected Hessian"},
                 {"mass_shift_pN_per_um", m.shift_pN_per_um},
                 {"rigid_mass_pN_per_um", m.rigid_mass_pN_per_um},
@@ -161,29 +206,50 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
 
 nlohmann::json mc_run_keys(const Network& net, const McRun& run) {
   const McRunSetup& su = run.setup();
+  nlohmann::json seeds = nlohmann::json::array(), sweeps = nlohmann::json::array(),
+                 steps = nlohmann::json::array();
+  double area_drift = 0, volume_drift = 0;
+  for (int c = 0; c < run.chain_count(); ++c) {
+    seeds.push_back(mc_chain_seed(su.sampler.seed, c));
+    sweeps.push_back(run.chain(c).sweeps_done());
+    steps.push_back(run.chain(c).step_um());
+    area_drift = std::max(area_drift, run.chain(c).max_area_drift_um2());
+    volume_drift = std::max(volume_drift, run.chain(c).max_volume_drift_um3());
+  }
   return {{"vertices", net.topo.num_vertices},
           {"force_pN", su.force_pN},
           {"temperature_K", su.sampler.temperature_K},
           {"kT_pNum", units::thermal_energy_pNum(su.sampler.temperature_K)},
           {"sampler", to_string(su.sampler.algorithm)},
           {"seed", su.sampler.seed},
+          {"chains", run.chain_count()},
+          {"chain_seeds", seeds},
           {"streams", su.sampler.streams},
-          {"threads", to_json(run.sampler().thread_decision())},
+          {"threads", to_json(run.thread_decision())},
           {"bending", to_string(net.bending_model)},
           {"penalty_scale", su.penalty_scale},
           {"colours", run.sampler().colour_count()},
-          {"sweeps", run.sampler().sweeps_done()},
+          {"sweeps", run.sweeps_done()},
+          {"chain_sweeps", sweeps},
           {"adaptive_sweeps", su.sampler.adapt_sweeps},
           {"step_um", run.sampler().step_um()},
+          {"chain_steps", steps},
           {"reference_axial_um", su.reference_axial_um},
           {"reference_transverse_um", su.reference_transverse_um},
-          {"running_total_drift_area_um2", run.sampler().max_area_drift_um2()},
-          {"running_total_drift_volume_um3", run.sampler().max_volume_drift_um3()}};
+          {"running_total_drift_area_um2", area_drift},
+          {"running_total_drift_volume_um3", volume_drift}};
 }
 
-void write_mc_series(const std::string& dir, const McRun& run, const OutputRecord& record) {
+namespace {
+
+/// DIR/NAME.csv and DIR/NAME.h5 of one chain's series.
+void write_chain_series(const std::string& dir, const std::string& name, const McRun& run,
+                        int chain, const OutputRecord& record) {
+  const unsigned long seed = mc_chain_seed(run.setup().sampler.seed, chain);
   CsvTable t;
-  t.comments = {"rbc mc time series: one row per recorded sweep",
+  t.comments = {"rbc mc time series: one row per recorded sweep of chain " + std::to_string(chain) +
+                    " of " + std::to_string(run.chain_count()) + " (seed " + std::to_string(seed) +
+                    ")",
                 "force_pN " + std::to_string(run.setup().force_pN) + ", temperature_K " +
                     std::to_string(run.setup().sampler.temperature_K) + ", adaptive sweeps " +
                     std::to_string(run.setup().sampler.adapt_sweeps) +
@@ -191,26 +257,38 @@ void write_mc_series(const std::string& dir, const McRun& run, const OutputRecor
   t.comments.insert(t.comments.end(), record.comment_lines.begin(), record.comment_lines.end());
   t.header = mc_sample_columns();
   std::vector<double> flat_rows;
-  for (const McSample& s : run.series()) {
+  const std::vector<McSample>& series = run.series(chain);
+  for (const McSample& s : series) {
     t.rows.push_back(to_row(s));
     flat_rows.insert(flat_rows.end(), t.rows.back().begin(), t.rows.back().end());
   }
-  write_csv(dir + "/mc_series.csv", t);
-  const std::string path = dir + "/mc_series.h5";
+  write_csv(dir + "/" + name + ".csv", t);
+  const std::string path = dir + "/" + name + ".h5";
   TempFile tmp(path);
   {
     H5File h = H5File::create(tmp.path(), path);
     if (!flat_rows.empty())
-      h.write("/series", flat_rows.data(), hsize_t(run.series().size()), kMcSampleColumns);
+      h.write("/series", flat_rows.data(), hsize_t(series.size()), kMcSampleColumns);
     std::string cols;
     for (const auto& c : mc_sample_columns()) cols += (cols.empty() ? "" : ",") + c;
     h.write_attribute("columns", cols);
     h.write_attribute("force_pN", run.setup().force_pN);
     h.write_attribute("temperature_K", run.setup().sampler.temperature_K);
-    for (const auto& [name, text] : record.attributes) h.write_attribute(name, text);
+    h.write_attribute("chain", static_cast<long long>(chain));
+    h.write_attribute("chains", static_cast<long long>(run.chain_count()));
+    h.write_attribute("seed", std::to_string(seed));
+    for (const auto& [key, text] : record.attributes) h.write_attribute(key, text);
     h.close();
   }
   tmp.commit();
+}
+
+}  // namespace
+
+void write_mc_series(const std::string& dir, const McRun& run, const OutputRecord& record) {
+  for (int c = 0; c < run.chain_count(); ++c)
+    write_chain_series(dir, c == 0 ? "mc_series" : "mc_series_chain" + std::to_string(c), run, c,
+                       record);
 }
 
 void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run,

@@ -72,6 +72,7 @@ struct McResumeRequest {
   std::optional<double> adapt_fraction;   ///< fraction of total_sweeps
   std::optional<BendingModel> bending_model;
   std::optional<McAlgorithm> algorithm;
+  std::optional<int> chains;   ///< independent chains (McOptions::chains)
   long long total_sweeps = 0;  ///< sweeps the resumed run is to reach
 };
 
@@ -89,22 +90,28 @@ void check_mc_resume_network(const McCheckpointNetwork& network, const McResumeR
 std::string check_mc_resume(const McCheckpoint& checkpoint, const McResumeRequest& request,
                             const std::string& checkpoint_name);
 
-/// The statistics keys of `rbc mc --json` and Python's MonteCarlo.summary(): samples,
-/// discarded_transient, acceptance, energy_pNum / axial_um / transverse_um / area_um2 /
-/// volume_um3 ({mean, error, std, inefficiency, blocking_converged}: correlated_mean's error,
-/// inefficiency 2 tau_int and converged flag, the key name kept), thermal_shift_axial_um,
-/// thermal_shift_transverse_um, max_area_drift, max_volume_drift.
+/// The statistics keys of `rbc mc --json` and Python's MonteCarlo.summary(): samples (all
+/// chains), samples_per_chain, discarded_transient (per chain), acceptance, chains,
+/// energy_pNum / axial_um / transverse_um / area_um2 / volume_um3 ({mean, error, std,
+/// inefficiency, blocking_converged, rhat, rhat_converged, between_chain_error, chain_chi2,
+/// chain_p_value}: the pooled mean, error and inefficiency 2 tau_int of McSummary, the chains'
+/// error convergence under the key name kept, and McConvergence), rhat_method, rhat_threshold,
+/// converged (every R-hat below the threshold), thermal_shift_axial_um (and _error),
+/// thermal_shift_transverse_um (and _error), max_area_drift, max_volume_drift, per_chain (per
+/// chain: seed, acceptance, and {mean, error, inefficiency, blocking_converged} of each
+/// observable).
 nlohmann::json to_json(const McSummary& summary, const McRunSetup& setup);
 
 /// The thread decision as JSON: {"used": threads, "requested": requested, "reason": reason}.
 nlohmann::json to_json(const McThreadDecision& decision);
 
-/// The run keys (no timing): vertices, force_pN, temperature_K, kT_pNum, seed, streams,
-/// threads (to_json(McThreadDecision)), bending, penalty_scale, colours, sweeps,
-/// adaptive_sweeps, step_um, reference_axial_um, reference_transverse_um,
-/// running_total_drift_area_um2, running_total_drift_volume_um3; for HMC also "hmc":
-/// {trajectory_time, evaluations, solves (totals of this process's run), mass_matrix,
-/// mass_shift_pN_per_um, rigid_mass_pN_per_um, factor_nonzeros}.
+/// The run keys (no timing): vertices, force_pN, temperature_K, kT_pNum, seed, chains,
+/// chain_seeds, streams, threads (to_json(McRun::thread_decision())), bending, penalty_scale,
+/// colours, sweeps (the fewest of a chain), chain_sweeps, adaptive_sweeps, step_um (chain 0's),
+/// chain_steps, reference_axial_um, reference_transverse_um, running_total_drift_area_um2,
+/// running_total_drift_volume_um3 (largest over the chains); for HMC also "hmc":
+/// {trajectory_time, evaluations, solves (totals over the chains of this process's run),
+/// mass_matrix, mass_shift_pN_per_um, rigid_mass_pN_per_um, factor_nonzeros}.
 nlohmann::json mc_run_json(const Network& net, const McRun& run);
 /// mc_run_json without the sampler-specific block.
 nlohmann::json mc_run_keys(const Network& net, const McRun& run);
@@ -116,11 +123,12 @@ struct OutputRecord {
   std::vector<std::pair<std::string, std::string>> attributes;
 };
 
-/// DIR/mc_series.csv and DIR/mc_series.h5 (/series, samples x 8, columns attribute), atomic.
+/// DIR/mc_series.csv and DIR/mc_series.h5 (/series, samples x 8, columns attribute) of chain 0,
+/// and DIR/mc_series_chain<c>.csv / .h5 of each further chain c (same columns), atomic.
 void write_mc_series(const std::string& dir, const McRun& run, const OutputRecord& record = {});
 
-/// DIR/mc_snapshot_SSSSSSSS.h5/.xdmf: positions, displacement_um (|x - X|, as the stretch shapes),
-/// displacement_x_um (its x component), force, temperature, sweep.
+/// DIR/mc_snapshot_SSSSSSSS.h5/.xdmf of chain 0: positions, displacement_um (|x - X|, as the
+/// stretch shapes), displacement_x_um (its x component), force, temperature, sweep.
 void write_mc_snapshot(const std::string& dir, const Network& net, const McRun& run,
                        const OutputRecord& record = {});
 

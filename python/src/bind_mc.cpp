@@ -24,7 +24,7 @@ class MonteCarlo {
   MonteCarlo(std::shared_ptr<PyNetwork> net, double force_pN, double temperature_K,
              unsigned long seed, int streams, py::object adapt_sweeps, int sample_every,
              double penalty_scale, const std::string& start, double initial_step_um,
-             double target_acceptance, double adapt_gain, const std::string& sampler)
+             double target_acceptance, double adapt_gain, const std::string& sampler, int chains)
       : net_(std::move(net)), adapt_sweeps_(std::move(adapt_sweeps)) {
     finite("force_pN", force_pN);
     finite("sampling_temperature_K", temperature_K);
@@ -43,15 +43,18 @@ class MonteCarlo {
     setup_.sampler.temperature_K = temperature_K;
     setup_.sampler.seed = seed;
     setup_.sampler.streams = streams;
+    setup_.sampler.chains = chains;
     setup_.sampler.initial_step_um = initial_step_um;
     setup_.sampler.target_acceptance = target_acceptance;
     setup_.sampler.adapt_gain = adapt_gain;
     setup_.sampler.algorithm = mc_algorithm_from_string(sampler);  // ValueError naming choices
     setup_.sample_every = sample_every;
     setup_.penalty_scale = penalty_scale;
-    validated("MonteCarlo(force_pN=" + num(force_pN) + ", sampling_temperature_K=" +
-                  num(temperature_K) + ", streams=" + std::to_string(streams) + ", sample_every=" +
-                  std::to_string(sample_every) + ", penalty_scale=" + num(penalty_scale) + ")",
+    validated("MonteCarlo(force_pN=" + num(force_pN) +
+                  ", sampling_temperature_K=" + num(temperature_K) +
+                  ", streams=" + std::to_string(streams) + ", chains=" + std::to_string(chains) +
+                  ", sample_every=" + std::to_string(sample_every) +
+                  ", penalty_scale=" + num(penalty_scale) + ")",
               [&] { setup_.validate(); });
     const Network& nw = *net_->net;
     McZeroTemperatureStart z;
@@ -88,7 +91,8 @@ class MonteCarlo {
       bool& b;
       ~Clear() { b = false; }
     } clear{busy_};
-    const long long target = run_->sampler().sweeps_done() + sweeps;
+    const long long target = run_->sweeps_done() + sweeps;
+    // One sweep of every chain (in parallel) between the polls of the cancel hook.
     const bool finished = run_released(
         cb, [&] { return run_->advance(target, [&](const McRun&) { return !poll(); }); });
     if (!finished) {
@@ -111,11 +115,14 @@ class MonteCarlo {
     return py::module_::import("json").attr("loads")(j.dump());
   }
 
-  py::dict series() const {
+  py::dict series(int chain) const {
     py::dict d;
     const auto& cols = mc_sample_columns();
     const std::vector<McSample> empty;
-    const auto& rows = run_ ? run_->series() : empty;
+    if (chain < 0 || chain >= setup_.sampler.chains)
+      throw py::value_error("chain must be in [0, " + std::to_string(setup_.sampler.chains) +
+                            "), got " + std::to_string(chain));
+    const auto& rows = run_ ? run_->series(chain) : empty;
     for (std::size_t c = 0; c < cols.size(); ++c) {
       py::array_t<double> a(static_cast<py::ssize_t>(rows.size()));
       auto v = a.mutable_unchecked<1>();
@@ -129,7 +136,7 @@ class MonteCarlo {
     Positions x = run_ ? run_->sampler().positions() : start_;
     return owning_rows(std::move(x));  // a copy: the chain keeps moving
   }
-  long long sweeps_done() const { return run_ ? run_->sampler().sweeps_done() : 0; }
+  long long sweeps_done() const { return run_ ? run_->sweeps_done() : 0; }
   double energy() const { return need_run().sampler().energy(); }
   double step() const { return need_run().sampler().step_um(); }
   const McRunSetup& setup() const { return setup_; }
@@ -158,15 +165,19 @@ void bind_mc(py::module_& m) {
       "sweep is one trajectory) (the WLC keeps its own "
       "wlc_temperature_K), started at the zero-temperature equilibrium at force_pN with its "
       "area/volume multipliers held fixed, penalty stiffnesses scaled by penalty_scale (as "
-      "`rbc mc`). adapt_sweeps=None: the first 20 % of the first run() adapt the step.")
+      "`rbc mc`). adapt_sweeps=None: the first 20 % of the first run() adapt the step. chains "
+      "independent chains (seeded from (seed, chain), run one per OpenMP thread, results "
+      "independent of the threads) are pooled: summary() gives their pooled means and errors, "
+      "R-hat per quantity and per-chain statistics; positions, energy and step are chain 0's.")
       .def(py::init<std::shared_ptr<PyNetwork>, double, double, unsigned long, int, py::object, int,
-                    double, const std::string&, double, double, double, const std::string&>(),
+                    double, const std::string&, double, double, double, const std::string&, int>(),
            py::arg("network"), py::kw_only(), py::arg("force_pN") = 0.0,
            py::arg("sampling_temperature_K") = 300.0, py::arg("seed") = 1, py::arg("streams") = 1,
            py::arg("adapt_sweeps") = py::none(), py::arg("sample_every") = 1,
            py::arg("penalty_scale") = McRunSetup{}.penalty_scale, py::arg("start") = "equilibrium",
            py::arg("initial_step_um") = 0.0, py::arg("target_acceptance") = 0.4,
-           py::arg("adapt_gain") = 0.5, py::arg("sampler") = "metropolis")
+           py::arg("adapt_gain") = 0.5, py::arg("sampler") = "metropolis",
+           py::arg("chains") = McOptions{}.chains)
       .def("run", &MonteCarlo::run, py::arg("sweeps"), py::arg("cancel") = py::none(),
            "Run `sweeps` more sweeps (GIL released; Ctrl-C raises KeyboardInterrupt at the end of "
            "the current sweep and leaves the chain there).")
@@ -175,9 +186,12 @@ void bind_mc(py::module_& m) {
            "`rbc mc --json`; each quantity's statistics (mean, error, std, inefficiency) are "
            "in its key's unit (energy_pNum, axial_um, ...); acceptance and drifts are "
            "dimensionless")
-      .def_property_readonly("series", &MonteCarlo::series,
-                             "time series: dict of arrays (sweep, energy_pNum, axial_um, "
-                             "transverse_um, area_um2, volume_um3, acceptance, step_um)")
+      .def_property_readonly(
+          "series", [](const MonteCarlo& mc) { return mc.series(0); },
+          "time series of chain 0: dict of arrays (sweep, energy_pNum, axial_um, "
+          "transverse_um, area_um2, volume_um3, acceptance, step_um)")
+      .def("chain_series", &MonteCarlo::series, py::arg("chain"),
+           "time series of chain `chain` (0-based), as `series`")
       .def_property_readonly("positions", &MonteCarlo::positions,
                              "(N, 3) current positions in um (copy)")
       .def_property_readonly("sweeps_done", &MonteCarlo::sweeps_done, "sweeps run so far")

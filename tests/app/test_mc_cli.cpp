@@ -53,8 +53,9 @@ TEST(McCli, ThreadDecisionIsRecordedInJsonAndRunJson) {
   // Two threads available, N = 150: the sweeps run on one (a second does not pay at this size),
   // and both outputs say so with the reason.
   const fs::path dir = fresh_output_dir("mc_cli_threads");
-  const CliRun r =
-      run_rbc("mc -n 150 --force 20 --sweeps 40 -q --json --no-picture --out " + quoted(dir), 2);
+  // One chain: its sweeps' own decision (several chains: tests/app/test_mc_chains_cli.cpp).
+  const CliRun r = run_rbc(
+      "mc -n 150 --force 20 --sweeps 40 --chains 1 -q --json --no-picture --out " + quoted(dir), 2);
   ASSERT_EQ(r.exit_code, 0) << r.all();
   const json printed = json::parse(r.out);
   const json manifest = read_json(dir / "run.json");
@@ -68,7 +69,7 @@ TEST(McCli, ThreadDecisionIsRecordedInJsonAndRunJson) {
         << t.dump();
   }
   // One thread available: that is the reason.
-  const CliRun one = run_rbc("mc -n 150 --force 20 --sweeps 10 -q --json", 1);
+  const CliRun one = run_rbc("mc -n 150 --force 20 --sweeps 10 --chains 1 -q --json", 1);
   ASSERT_EQ(one.exit_code, 0) << one.all();
   EXPECT_EQ(json::parse(one.out).at("threads").at("reason"),
             "1: one thread requested (OMP_NUM_THREADS)");
@@ -230,7 +231,7 @@ TEST(McCli, ConfigOfARunRepeatsItBitForBit) {
   ec.erase("out");
   EXPECT_EQ(dc, ec);
   EXPECT_EQ(d.at("threads"), e.at("threads"));
-  EXPECT_EQ(e.at("threads").at("used").get<int>(), 1);
+  EXPECT_EQ(e.at("threads").at("used").get<int>(), 2);  // two chains, one per thread
   EXPECT_TRUE(e.at("provenance").contains("command_line"));
   const json ds = read_json(dir / "D" / "mc_summary.json"),
              es = read_json(dir / "E" / "mc_summary.json");

@@ -321,6 +321,7 @@ TEST(HmcSampler, CheckpointedRunResumesBitForBit) {
   setup.sampler.seed = 8;
   setup.sampler.adapt_sweeps = 6;
   setup.sampler.hmc.trajectory_time = 1.2;
+  setup.sampler.chains = 1;  // one chain (tests/discrete/test_mc_chains.cpp: several)
   setup.penalty_scale = 1.0;
   McRun whole(c.net, setup, c.x);
   whole.advance(12);

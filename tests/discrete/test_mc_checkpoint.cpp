@@ -39,6 +39,8 @@ McRunSetup setup_for_test() {
   s.sampler.temperature_K = 300;
   s.sampler.seed = 99;
   s.sampler.streams = 2;
+  // One chain: these tests edit its state (tests/discrete/test_mc_chains.cpp: several).
+  s.sampler.chains = 1;
   s.sampler.adapt_sweeps = 6;  // the restart falls inside the adaptive phase
   s.sample_every = 2;
   s.reference_axial_um = 7.9;
@@ -168,7 +170,7 @@ TEST(McCheckpoint, EditedSweepCountWithAValidChecksumIsRefused) {
   ASSERT_EQ(cp.chain.sweep, 7);
   ASSERT_EQ(cp.series.size(), 3u);
   for (long long sweep : {1'000'000'000'000'000LL, 8LL, 5LL}) {
-    cp.chain.sweep = sweep;
+    cp.chains[0].sweep = sweep;
     const std::string edited = (dir.path / "edited.h5").string();
     write_mc_checkpoint(edited, net, cp);
     {
@@ -189,7 +191,7 @@ TEST(McCheckpoint, EditedSweepCountWithAValidChecksumIsRefused) {
           << what;
     }
   }
-  cp.chain.sweep = 6;  // consistent: 3 samples every 2 sweeps
+  cp.chains[0].sweep = 6;  // consistent: 3 samples every 2 sweeps
   const std::string six = (dir.path / "six.h5").string();
   write_mc_checkpoint(six, net, cp);
   EXPECT_EQ(read_mc_checkpoint(six, net).chain.sweep, 6);

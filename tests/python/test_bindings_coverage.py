@@ -117,15 +117,23 @@ def test_series_production_means_are_the_summary(chain):
     s, su = chain.series, chain.summary()
     production = s["sweep"] > su["adaptive_sweeps"]
     assert su["adaptive_sweeps"] == 40  # 20 % of the first run's sweeps
-    assert su["samples"] == int(production.sum()) == 80
+    assert su["samples_per_chain"] == int(production.sum()) == 80
+    assert su["samples"] == su["chains"] * 80
     kept = slice(su["discarded_transient"], None)
+    # Every chain drops the same transient; the pooled mean is the mean of the chain means.
+    series = [chain.chain_series(c) for c in range(su["chains"])]
+    used = [{k: v[c["sweep"] > su["adaptive_sweeps"]][kept] for k, v in c.items()}
+            for c in series]
     for k in ("energy_pNum", "axial_um", "transverse_um", "area_um2", "volume_um3"):
-        v = s[k][production][kept]
-        assert su[k]["mean"] == pytest.approx(v.mean(), rel=1e-13), k
-        assert su[k]["std"] == pytest.approx(v.std(ddof=1), rel=1e-10), k
-    assert su["acceptance"] == pytest.approx(s["acceptance"][production][kept].mean(), rel=1e-13)
+        means = [u[k].mean() for u in used]
+        assert su["per_chain"][0][k]["mean"] == pytest.approx(means[0], rel=1e-13), k
+        assert su[k]["mean"] == pytest.approx(np.mean(means), rel=1e-13), k
+        assert su[k]["std"] == pytest.approx(
+            np.concatenate([u[k] for u in used]).std(ddof=1), rel=1e-10), k
+    assert su["acceptance"] == pytest.approx(
+        np.mean([u["acceptance"].mean() for u in used]), rel=1e-13)
     assert su["thermal_shift_axial_um"] == pytest.approx(
-        s["axial_um"][production][kept].mean() - chain.reference_axial_um, rel=1e-10)
+        su["axial_um"]["mean"] - chain.reference_axial_um, rel=1e-10)
 
 
 def test_series_is_empty_before_the_first_run(small_network):

@@ -5,8 +5,9 @@ recomputed (so the checksum alone cannot tell) is refused by `rbc mc --resume`, 
 sweep count disagrees with the stored time series.
 
 The checksum is recomputed here from its definition (core/h5file.hpp, H5File::content_checksum:
-FNV-1a 64 over every dataset's path, shape, datatype encoding and bytes, then every root
-attribute's name, datatype encoding and bytes except the checksum's own, each in name order);
+FNV-1a 64 over every dataset's path (datasets in groups too, depth first in name order),
+shape, datatype encoding and bytes, then every root attribute's name, datatype encoding and
+bytes except the checksum's own, each in name order);
 the test first checks that definition against the checksum rbc wrote."""
 import os
 import shutil
@@ -52,7 +53,10 @@ def stored_bytes(obj_id, shape, dtype):
 def content_checksum(path):
     items_sets, items_attrs = [], []
     with h5py.File(path, "r") as f:
-        for name in sorted(f.keys()):
+        names = []
+        f.visititems(lambda name, obj: names.append(name)
+                     if isinstance(obj, h5py.Dataset) else None)
+        for name in names:
             d = f[name]
             record = struct.pack(f"<{len(d.shape)}Q", *d.shape)
             record += stored_bytes(d.id, d.shape, d.dtype)
@@ -95,7 +99,8 @@ def rbc(*args, cwd):
 @pytest.fixture(scope="module")
 def checkpoint(tmp_path_factory):
     d = tmp_path_factory.mktemp("mc_checkpoint")
-    out = rbc("mc", "--vertices", "100", "--sweeps", "12", "--sample-every", "2",
+    # One chain: the edits below change its sweep count (every chain's is in /chain_sweeps).
+    out = rbc("mc", "--vertices", "100", "--sweeps", "12", "--sample-every", "2", "--chains", "1",
               "--checkpoint", "c.h5", "-q", cwd=d)
     assert out.returncode == 0, out.stderr
     return d / "c.h5"
@@ -117,6 +122,7 @@ def test_an_edited_sweep_count_with_a_recomputed_checksum_is_refused(checkpoint,
     shutil.copy(checkpoint, edited)
     with h5py.File(edited, "r+") as f:
         f.attrs.modify("sweep", np.int64(10**15))
+        f["chain_sweeps"][0, 0] = 10**15
     set_checksum(edited)
     assert stored_checksum(edited) == content_checksum(edited)  # the checksum alone passes
     out = resume(edited, tmp_path)
@@ -129,6 +135,7 @@ def test_an_edited_sweep_count_with_a_recomputed_checksum_is_refused(checkpoint,
     # A sweep edited by one sample interval: also inconsistent with the 6 stored samples.
     with h5py.File(edited, "r+") as f:
         f.attrs.modify("sweep", np.int64(14))
+        f["chain_sweeps"][0, 0] = 14
     set_checksum(edited)
     out = resume(edited, tmp_path)
     assert out.returncode == 2 and "disagrees" in out.stderr, out.stderr

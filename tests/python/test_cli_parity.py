@@ -78,8 +78,22 @@ def test_monte_carlo_equals_rbc_mc():
             "transverse_um", "area_um2", "volume_um3", "thermal_shift_axial_um",
             "thermal_shift_transverse_um", "max_area_drift", "max_volume_drift", "sweeps",
             "adaptive_sweeps", "step_um", "reference_axial_um", "reference_transverse_um",
-            "running_total_drift_area_um2", "running_total_drift_volume_um3", "colours"}
+            "running_total_drift_area_um2", "running_total_drift_volume_um3", "colours",
+            "chains", "chain_seeds", "per_chain", "converged"}
     assert_same(py, cli, keys)
+    # Three chains through both front ends: the same pooled numbers and per-chain series.
+    cli3 = run_cli_json("mc", "--vertices", "150", "--force", "20", "--sweeps", "30", "--seed",
+                        "3", "--streams", "1", "--chains", "3", "--json", "-q")
+    mc3 = rbc.MonteCarlo(net, force_pN=20, sampling_temperature_K=300, seed=3, chains=3)
+    mc3.run(30)
+    py3 = mc3.summary()
+    assert py3["chains"] == cli3["chains"] == 3
+    assert_same(py3, cli3, {"axial_um", "energy_pNum", "per_chain", "chain_seeds"})
+    assert len(mc3.chain_series(2)["sweep"]) == 30
+    with pytest.raises(ValueError, match="chain must be in"):
+        mc3.chain_series(3)
+    with pytest.raises(ValueError, match="chains"):
+        rbc.MonteCarlo(net, force_pN=20, chains=0)
 
 
 def test_hmc_monte_carlo_equals_rbc_mc_sampler_hmc():
