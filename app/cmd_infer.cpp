@@ -246,7 +246,8 @@ void apply_extra_uncertainty(const std::vector<std::string>& values, InferOption
     const size_t eq = text.find('=');
     const std::string number = eq == std::string::npos ? text : text.substr(eq + 1);
     const std::optional<double> v = parse_finite_number(number);
-    if (!v || *v < 0)
+    // A bare negative value reaches InferOptions::validate, which names it.
+    if (!v || (*v < 0 && eq != std::string::npos))
       throw std::invalid_argument("--extra-uncertainty " + text +
                                   ": expected UM or FILE_STEM=UM, an uncertainty >= 0 um");
     if (eq == std::string::npos) {

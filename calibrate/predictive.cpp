@@ -182,8 +182,10 @@ PredictionProblem::PredictionProblem(const InferenceProblem& fit, const std::str
   for (const std::string& fitted : o.data_paths())
     if (fs::equivalent(path, fitted, ec))
       throw std::invalid_argument("--predict " + path +
-                                  ": a data file of the fit itself; expected a data set the fit "
-                                  "did not use");
+                                  (o.data_paths().size() > 1
+                                       ? ": one of the fit's data files"
+                                       : ": the data file of the fit itself") +
+                                  "; expected a data set the fit did not use");
   data_ = load_diameter_data(path, o.extra_uncertainty_um, o.method.kind);
   ForwardOptions fo = fit.forward().options();
   fo.forces_pN = data_.force_pN;
