@@ -459,7 +459,9 @@ void print_summary(const InferenceResult& r) {
               << (tempering == 1 ? "" : "s") << ", seed " << r.seed << "):\n";
   if (r.experiments.size() > 1)
     for (const auto& e : r.experiments)
-      std::cout << "  data: " << e.data.name << " (" << e.path << "), sigma: " << sigma_text(e.data)
+      std::cout << "  data: " << (e.kind == "recovery" ? "recovery curves" : e.data.name) << " ("
+                << e.path << ")"
+                << (e.kind == "recovery" ? std::string() : ", sigma: " + sigma_text(e.data))
                 << "\n";
   else
     std::cout << "  data: " << r.data.name << " (" << r.data_file << ")\n"

@@ -54,6 +54,17 @@ class DiameterLikelihood final : public Likelihood {
       if (state_out) state.insert(state.end(), run.state.begin(), run.state.end());
     }
     v.log_likelihood = problem_.log_likelihood(theta, diameters);
+    // Recovery experiments: one release-scene trajectory each, rescaled to eta_m.
+    for (size_t e = 0; e < problem_.experiments().size(); ++e) {
+      if (problem_.experiments()[e].kind != DataKind::recovery) continue;
+      const double l = problem_.recovery_log_likelihood(theta, static_cast<int>(e));
+      if (!std::isfinite(l)) {
+        v.failed = true;
+        v.log_likelihood = -kInf;
+        return v;
+      }
+      v.log_likelihood += l;
+    }
     if (state_out) *state_out = std::move(state);
     return v;
   }
@@ -204,24 +215,43 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
     e.path = path;
     e.stem = data_file_stem(path);
     if (std::filesystem::exists(path)) e.kind = detect_data_kind(path);
-    // The recovery kind's seam: its likelihood (a release-scene trajectory per sample) plugs
-    // in here; until then such a file is refused before any work.
-    if (e.kind == DataKind::recovery)
-      throw std::invalid_argument("--data-file " + path +
-                                  ": recovery data (cell,time_s,length_over_width) are not "
-                                  "fitted by rbc infer yet; expected stretch data "
-                                  "(force_pN,axial_um,axial_err_um,transverse_um,"
-                                  "transverse_err_um)");
-    e.data = load_diameter_data(path, options_.extra_uncertainty_for(e.stem), options_.method.kind);
+    if (e.kind == DataKind::recovery) {
+      if (experiments_.empty())
+        throw std::invalid_argument("--data-file " + path +
+                                    ": recovery data; expected stretch data as the first data "
+                                    "file (recovery data may follow)");
+      e.recovery = std::make_shared<const RecoveryData>(read_recovery_data(path));
+      e.group = -1;
+    } else {
+      e.data =
+          load_diameter_data(path, options_.extra_uncertainty_for(e.stem), options_.method.kind);
+    }
     experiments_.push_back(std::move(e));
   }
   const auto inferred = [&](Parameter q) {
     return std::find(options_.parameters.begin(), options_.parameters.end(), q) !=
            options_.parameters.end();
   };
+  bool recovery = false;
+  for (const auto& e : experiments_) recovery = recovery || e.kind == DataKind::recovery;
+  if (recovery) {
+    if (!inferred(Parameter::eta_m))
+      throw std::invalid_argument(
+          "--data-file: recovery data need the membrane viscosity inferred; expected eta-m in "
+          "--params");
+    if (options_.sampler_kind != SamplerKind::tmcmc)
+      throw std::invalid_argument(
+          "--sampler " + to_string(options_.sampler_kind) +
+          ": recovery data have no sensitivities here; expected --sampler tmcmc");
+    if (options_.method.kind != MethodKind::continuum)
+      throw std::invalid_argument("--method " + options_.method.name() +
+                                  ": recovery data run the continuum release scene; expected "
+                                  "--method continuum:ORDER:ELEMENTS");
+    options_.recovery_model.validate();
+    options_.recovery_likelihood.validate();
+    recovery_model_ = std::make_unique<RecoveryModel>(options_.recovery_model);
+  }
   if (inferred(Parameter::eta_m)) {
-    bool recovery = false;
-    for (const auto& e : experiments_) recovery = recovery || e.kind == DataKind::recovery;
     if (!recovery)
       throw std::invalid_argument(
           "--params eta-m: no recovery data file; the membrane viscosity enters only the "
@@ -257,9 +287,12 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
   fo.newton.symmetry = options_.symmetry;
   const bool per_group = !options_.per_experiment.empty();
   std::vector<std::vector<double>> group_forces;
+  int stretch = 0;
   for (size_t e = 0; e < experiments_.size(); ++e) {
     Experiment& x = experiments_[e];
-    x.group = per_group ? static_cast<int>(e) : 0;
+    if (x.kind == DataKind::recovery) continue;
+    x.group = per_group ? stretch : 0;
+    ++stretch;
     if (static_cast<int>(group_forces.size()) <= x.group) group_forces.resize(x.group + 1);
     auto& f = group_forces[x.group];
     f.insert(f.end(), x.data.force_pN.begin(), x.data.force_pN.end());
@@ -269,6 +302,7 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
     f.erase(std::unique(f.begin(), f.end()), f.end());
   }
   for (Experiment& x : experiments_) {
+    if (x.kind == DataKind::recovery) continue;
     const auto& f = group_forces[x.group];
     for (double force : x.data.force_pN)
       x.force_index.push_back(
@@ -354,6 +388,25 @@ double InferenceProblem::tau(std::span<const double> theta) const {
   return 0.0;
 }
 
+double InferenceProblem::eta_m(std::span<const double> theta) const {
+  for (size_t k = 0; k < slots_.size(); ++k)
+    if (slots_[k].parameter == Parameter::eta_m) return theta[k];
+  return 0.0;
+}
+
+double InferenceProblem::recovery_log_likelihood(std::span<const double> theta,
+                                                 int experiment) const {
+  const Experiment& e = experiments_[experiment];
+  if (e.kind != DataKind::recovery || !recovery_model_)
+    throw std::invalid_argument("recovery_log_likelihood: experiment " +
+                                std::to_string(experiment) + " holds no recovery data");
+  const RecoveryCurve curve = recovery_model_->simulate(physical(theta, experiment));
+  if (!curve.converged) return -kInf;
+  const double l =
+      rbc::recovery_log_likelihood(curve, eta_m(theta), *e.recovery, options_.recovery_likelihood);
+  return std::isfinite(l) ? l : -kInf;
+}
+
 ModelDiameters InferenceProblem::diameters_from_state(const WarmState& state) const {
   if (state.empty()) return {};
   const int nf = static_cast<int>(forwards_.front()->options().forces_pN.size());
@@ -373,6 +426,7 @@ ModelDiameters InferenceProblem::experiment_diameters(const WarmState& state,
                                                       int experiment) const {
   if (state.size() != state_size()) return {};
   const Experiment& e = experiments_[experiment];
+  if (e.kind == DataKind::recovery) return {};
   size_t offset = 0;
   for (int g = 0; g < e.group; ++g) offset += group_state_size(g);
   const int n = forwards_[e.group]->vertices();
@@ -390,6 +444,7 @@ ModelDiameters InferenceProblem::experiment_diameters(const WarmState& state,
 ModelDiameters InferenceProblem::experiment_diameters(
     const std::vector<ModelDiameters>& group_diameters, int experiment) const {
   const Experiment& e = experiments_[experiment];
+  if (e.kind == DataKind::recovery) return {};
   const ModelDiameters& g = group_diameters.at(static_cast<size_t>(e.group));
   ModelDiameters d;
   for (int k : e.force_index) {
@@ -409,6 +464,7 @@ double InferenceProblem::log_likelihood(std::span<const double> theta,
                                         const std::vector<ModelDiameters>& group_diameters) const {
   double l = 0;
   for (size_t e = 0; e < experiments_.size(); ++e) {
+    if (experiments_[e].kind == DataKind::recovery) continue;
     const int ei = static_cast<int>(e);
     l += experiment_log_likelihood(theta, ei, experiment_diameters(group_diameters, ei));
   }

@@ -35,6 +35,7 @@
 #include "calibrate/laplace_is.hpp"
 #include "calibrate/likelihood.hpp"
 #include "calibrate/prior_spec.hpp"
+#include "calibrate/recovery_likelihood.hpp"
 #include "calibrate/tmcmc.hpp"
 #include "compare/methods.hpp"
 #include "homogenise/moduli.hpp"
@@ -66,6 +67,11 @@ struct InferOptions {
   /// contact-fraction: the slot of experiment e is named "contact-fraction[STEM]" and has the
   /// parameter's prior box; the forward run of experiment e uses its own value.
   std::vector<Parameter> per_experiment;
+  /// Recovery-curve data files (DataKind::recovery, e.g. data/hochmuth1979_recovery_cells.csv):
+  /// the release scene and the likelihood's nuisance handling (calibrate/recovery_likelihood.hpp).
+  /// Such a file needs eta-m in `parameters` and the TMCMC sampler.
+  RecoveryModelOptions recovery_model;
+  RecoveryLikelihoodOptions recovery_likelihood;
   Method method{MethodKind::continuum, 2000, WlcExpansion::order2};
   std::vector<Parameter> parameters = {Parameter::persistence, Parameter::lmax,
                                        Parameter::sigma_scale};
@@ -113,11 +119,12 @@ struct InferOptions {
 /// One experiment (data file) of an inference.
 struct Experiment {
   DataKind kind = DataKind::stretch;
-  std::string path;  ///< as given
-  std::string stem;  ///< file name without directory and extension
-  DiameterData data;
-  /// Its forward-run group (InferenceProblem::forward(group)) and the index of each of its
-  /// forces among the group's forces.
+  std::string path;                              ///< as given
+  std::string stem;                              ///< file name without directory and extension
+  DiameterData data;                             ///< stretch data (empty for recovery data)
+  std::shared_ptr<const RecoveryData> recovery;  ///< recovery data (null for stretch data)
+  /// Its forward-run group (InferenceProblem::forward(group); -1 for recovery data, which runs
+  /// the release scene instead) and the index of each of its forces among the group's forces.
   int group = 0;
   std::vector<int> force_index;
 };
@@ -173,6 +180,14 @@ class InferenceProblem {
   double sigma_scale(std::span<const double> theta) const;
   /// The between-experiment sd tau (um) of the hierarchical layer; 0 when not inferred.
   double tau(std::span<const double> theta) const;
+  /// The membrane viscosity eta_m (pN s/um) of recovery data; 0 when not inferred.
+  double eta_m(std::span<const double> theta) const;
+  /// The release scene of the recovery experiments; null without recovery data.
+  const RecoveryModel* recovery_model() const { return recovery_model_.get(); }
+  bool has_recovery() const { return recovery_model_ != nullptr; }
+  /// log L of recovery experiment e at theta (a release-scene trajectory, rescaled in time to
+  /// eta_m); -inf when the trajectory or the nuisance fit fails.
+  double recovery_log_likelihood(std::span<const double> theta, int experiment) const;
   /// Model diameters at the first group's forces from a sample's warm state.
   ModelDiameters diameters_from_state(const WarmState& state) const;
   /// Model diameters at experiment e's forces from a sample's (whole) warm state.
@@ -180,8 +195,8 @@ class InferenceProblem {
   /// Experiment e's model diameters picked from its group's diameters.
   ModelDiameters experiment_diameters(const std::vector<ModelDiameters>& group_diameters,
                                       int experiment) const;
-  /// log L at theta from the groups' model diameters: the sum over the experiments of
-  /// gaussian_log_likelihood(data, model, sigma scale, tau).
+  /// log L of the stretch experiments at theta from the groups' model diameters: the sum over
+  /// them of gaussian_log_likelihood(data, model, sigma scale, tau).
   double log_likelihood(std::span<const double> theta,
                         const std::vector<ModelDiameters>& group_diameters) const;
   /// log L of experiment e alone from its model diameters.
@@ -195,6 +210,7 @@ class InferenceProblem {
   std::vector<ParameterSlot> slots_;
   PriorBox prior_;
   std::vector<std::unique_ptr<ForwardModel>> forwards_;
+  std::unique_ptr<RecoveryModel> recovery_model_;
   std::unique_ptr<Likelihood> likelihood_;
 };
 

@@ -428,6 +428,9 @@ LikelihoodGradient likelihood_gradient(const InferenceProblem& problem,
   if (static_cast<int>(theta.size()) != d)
     throw std::invalid_argument("theta of " + std::to_string(theta.size()) + " values for " +
                                 std::to_string(d) + " parameters");
+  if (problem.has_recovery())
+    throw std::invalid_argument(
+        "the likelihood gradient covers stretch data only; this problem holds recovery data");
   LikelihoodGradient out;
   // The physical parameters differentiated (each once, in slot order of first appearance).
   std::vector<Parameter> physical;

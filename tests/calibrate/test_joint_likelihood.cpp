@@ -250,5 +250,40 @@ TEST(JointLikelihood, BadOptionsAreRefusedNamingTheValue) {
   EXPECT_THROW(InferenceProblem{o}, std::invalid_argument);
 }
 
+TEST(JointLikelihood, RecoveryDataAddTheirReleaseSceneLikelihoodToTheStretchOnes) {
+  const Files f = two_tables("joint_likelihood_recovery");
+  const std::string cells = default_data_directory() + "/hochmuth1979_recovery_cells.csv";
+  InferOptions joint = small_options(), stretch = small_options();
+  joint.parameters =
+      stretch.parameters = {Parameter::persistence, Parameter::lmax, Parameter::eta_m};
+  joint.data_files = {f.a, cells};
+  joint.recovery_model.elements = 200;  // small and cheap: the identity, not the physics
+  stretch.data_file = f.a;
+  stretch.parameters = {Parameter::persistence, Parameter::lmax};
+  const InferenceProblem pj(joint), ps(stretch);
+  ASSERT_EQ(pj.experiments().size(), 2u);
+  EXPECT_EQ(pj.experiments()[1].kind, DataKind::recovery);
+  EXPECT_EQ(pj.groups(), 1);  // the recovery file runs the release scene, not the stretch
+  const std::vector<double> theta = {9.0, 200.0, 0.8};
+  ForwardParameters p;
+  p.persistence_nm = 9.0;
+  p.lmax_nm = 200.0;
+  const RecoveryCurve curve = simulate_recovery(p, joint.recovery_model);
+  ASSERT_TRUE(curve.converged) << curve.status;
+  const double lr = recovery_log_likelihood(curve, 0.8, read_recovery_data(cells));
+  const double ls = evaluate(ps, {9.0, 200.0});
+  EXPECT_NEAR(evaluate(pj, theta), ls + lr, 1e-9 * std::abs(ls + lr));
+  // Without eta-m, or with the gradient sampler, recovery data are refused before any work.
+  InferOptions bad = joint;
+  bad.parameters = {Parameter::persistence, Parameter::lmax};
+  EXPECT_THROW(InferenceProblem{bad}, std::invalid_argument);
+  bad = joint;
+  bad.sampler_kind = SamplerKind::laplace_is;
+  EXPECT_THROW(InferenceProblem{bad}, std::invalid_argument);
+  bad = joint;
+  bad.data_files = {cells, f.a};  // stretch data first
+  EXPECT_THROW(InferenceProblem{bad}, std::invalid_argument);
+}
+
 }  // namespace joint_likelihood_test
 }  // namespace rbc
