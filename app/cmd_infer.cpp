@@ -38,9 +38,12 @@ void check_output_directory(const std::string& dir, bool overwrite);  // cmd_fig
 
 namespace {
 struct InferCli {
-  std::string data_file, method = "continuum:2:2000", params = "persistence,lmax,sigma-scale";
+  std::vector<std::string> data_files;  ///< --data-file, repeatable: one experiment each
+  std::string method = "continuum:2:2000", params = "persistence,lmax,sigma-scale";
   std::vector<std::string> priors;
-  double extra_uncertainty_um = 0;
+  /// --extra-uncertainty UM (every file) or STEM=UM (the file of that stem), repeatable.
+  std::vector<std::string> extra_uncertainty;
+  std::string per_experiment;  ///< --per-experiment NAME[,NAME...]
   int samples = InferOptions::default_sampler().samples;
   int chain_length = InferOptions::default_sampler().chain_length;
   double target_cov = 1.0, proposal_scale = 0.2;
@@ -177,7 +180,10 @@ void apply_at(const std::string& text, ForwardParameters& p) {
       p.contact_fraction = v[0];
       break;
     case Parameter::sigma_scale:
-      throw std::invalid_argument("--at sigma-scale: not a forward-model parameter");
+    case Parameter::eta_m:
+    case Parameter::tau:
+      throw std::invalid_argument("--at " + to_string(which) +
+                                  ": not a stretch forward-model parameter");
   }
   p.validate();
 }
@@ -232,13 +238,51 @@ int forward_check(const InferenceProblem& problem, const ForwardParameters& at, 
   return 0;
 }
 
+/// --extra-uncertainty's values: "UM" sets every file's, "STEM=UM" one file's (the file whose
+/// name without directory and extension is STEM); a bare value at most once.
+void apply_extra_uncertainty(const std::vector<std::string>& values, InferOptions& o) {
+  bool bare = false;
+  for (const std::string& text : values) {
+    const size_t eq = text.find('=');
+    const std::string number = eq == std::string::npos ? text : text.substr(eq + 1);
+    const std::optional<double> v = parse_finite_number(number);
+    // A bare negative value reaches InferOptions::validate, which names it.
+    if (!v || (*v < 0 && eq != std::string::npos))
+      throw std::invalid_argument("--extra-uncertainty " + text +
+                                  ": expected UM or FILE_STEM=UM, an uncertainty >= 0 um");
+    if (eq == std::string::npos) {
+      if (bare)
+        throw std::invalid_argument("--extra-uncertainty " + text +
+                                    ": a value for every file is given twice; name a file as "
+                                    "FILE_STEM=UM");
+      bare = true;
+      o.extra_uncertainty_um = *v;
+    } else {
+      if (eq == 0)
+        throw std::invalid_argument("--extra-uncertainty " + text +
+                                    ": expected FILE_STEM=UM with a file stem before '='");
+      o.extra_uncertainty_by_file.push_back({text.substr(0, eq), *v});
+    }
+  }
+}
+
 InferOptions to_options(const InferCli& c) {
   InferOptions o;
-  o.data_file = c.data_file;
+  if (c.data_files.size() == 1)
+    o.data_file = c.data_files.front();
+  else
+    o.data_files = c.data_files;
   o.method = parse_method(c.method);
   o.parameters = parse_parameter_list(c.params);
   for (const auto& p : c.priors) o.priors.push_back(parse_prior(p));
-  o.extra_uncertainty_um = c.extra_uncertainty_um;
+  apply_extra_uncertainty(c.extra_uncertainty, o);
+  if (!c.per_experiment.empty()) {
+    try {
+      o.per_experiment = parse_parameter_list(c.per_experiment);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("--per-experiment " + c.per_experiment + ": " + e.what());
+    }
+  }
   o.sampler.samples = c.samples;
   o.sampler.chain_length = c.chain_length;
   o.sampler.target_cov = c.target_cov;
@@ -409,8 +453,15 @@ void print_summary(const InferenceResult& r) {
     std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
               << "stage 0 (prior) and " << tempering << " tempering stage"
               << (tempering == 1 ? "" : "s") << ", seed " << r.seed << "):\n";
-  std::cout << "  data: " << r.data.name << " (" << r.data_file << ")\n"
-            << "  sigma: " << sigma_text(r.data) << "\n";
+  if (r.experiments.size() > 1)
+    for (const auto& e : r.experiments)
+      std::cout << "  data: " << (e.kind == "recovery" ? "recovery curves" : e.data.name) << " ("
+                << e.path << ")"
+                << (e.kind == "recovery" ? std::string() : ", sigma: " + sigma_text(e.data))
+                << "\n";
+  else
+    std::cout << "  data: " << r.data.name << " (" << r.data_file << ")\n"
+              << "  sigma: " << sigma_text(r.data) << "\n";
   auto line = [](const Summary& s) {
     std::cout << "  " << std::left << std::setw(18)
               << s.name + (s.unit == "1" ? "" : " (" + s.unit + ")") << std::right
@@ -433,25 +484,36 @@ void add_infer_command(CLI::App& app, Action& action) {
   auto* cmd = app.add_subcommand(
       "infer", "Bayesian calibration (TMCMC) of the spectrin parameters from force-diameter data");
   add_config_option(cmd);
-  cmd->add_option("--data-file", c->data_file,
+  cmd->add_option("--data-file", c->data_files,
                   "stretch-data CSV: force_pN,axial_um,axial_err_um,transverse_um,"
                   "transverse_err_um, optional '# name:' and '# extra_uncertainty_um:' "
-                  "comment lines (default: data/suresh2005_healthy_optical_tweezers.csv)");
+                  "comment lines (default: data/suresh2005_healthy_optical_tweezers.csv); "
+                  "repeatable: several experiments in one posterior, the likelihood the sum of "
+                  "theirs, each with its own error bars (file names must differ)")
+      ->type_name("FILE");
   cmd->add_option("--method", c->method, "forward model: discrete:N or continuum:ORDER:ELEMENTS")
       ->capture_default_str();
   cmd->add_option("--params", c->params,
                   "inferred parameters from persistence (nm), lmax (nm), kappa (J), "
-                  "contact-fraction, sigma-scale")
+                  "contact-fraction, sigma-scale, tau (um: the between-experiment sd of a "
+                  "per-experiment offset of D_A and of D_T, marginalised; prior 0:1), eta-m "
+                  "(pN s/um, recovery data only)")
       ->capture_default_str();
   cmd->add_option("--prior", c->priors,
                   "uniform prior NAME=LOWER:UPPER, repeatable (defaults: persistence=2:40, "
                   "lmax=150:300, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
-                  "sigma-scale=0.2:3)");
-  cmd->add_option("--extra-uncertainty", c->extra_uncertainty_um,
+                  "sigma-scale=0.2:3, tau=0:1, eta-m=0.2:2)");
+  cmd->add_option("--extra-uncertainty", c->extra_uncertainty,
                   "uncertainty (um) added in quadrature to every error bar, on top of what the "
-                  "data file declares ('# extra_uncertainty_um:'); 0: the file's error bars")
-      ->type_name("UM")
-      ->capture_default_str();
+                  "data file declares ('# extra_uncertainty_um:'); UM for every data file or "
+                  "FILE_STEM=UM for the data file of that name (without directory and "
+                  "extension), repeatable; default 0: the files' error bars")
+      ->type_name("[FILE_STEM=]UM");
+  cmd->add_option("--per-experiment", c->per_experiment,
+                  "inferred forward-model parameters (of --params) given one value per data "
+                  "file, e.g. contact-fraction: parameters contact-fraction[FILE_STEM], each "
+                  "with the parameter's prior; comma-separated")
+      ->type_name("NAMES");
   cmd->add_option("--sampler", c->sampler,
                   "posterior sampler: tmcmc | laplace-is (Laplace proposal with importance "
                   "correction from the posterior mode; continuum forward model only)")
@@ -546,6 +608,9 @@ void add_infer_command(CLI::App& app, Action& action) {
         candidates = candidate_forces(*c, o);
         out = checked_output_directory(*c);
         problem = std::make_unique<InferenceProblem>(o);
+        if (c->forward_check && problem->experiments().size() > 1)
+          throw std::invalid_argument("--forward-check: expected one --data-file, got " +
+                                      std::to_string(problem->experiments().size()));
         held_out = prediction_problems(*c, *problem);
       } catch (const std::exception&) {
         if (!master) return 2;  // rank 0 names the error
@@ -683,6 +748,9 @@ void add_infer_command(CLI::App& app, Action& action) {
         run["status"] = to_string(r.status);
         run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
                           "corner.png", "predictive.png"};
+        if (r.experiments.size() > 1)
+          for (const auto& e : r.experiments)
+            run["outputs"].push_back("predictive_" + e.stem + ".png");
         if (r.sampler == "tmcmc") run["outputs"].push_back(kStageCheckpointName);
         if (!predictions.empty()) {  // --predict
           write_predictions(predictions, out, r.data.name, record_comment_lines(r.record));
@@ -707,6 +775,8 @@ void add_infer_command(CLI::App& app, Action& action) {
                   << "/summary.json, run.json, posterior_samples.{csv,h5}, corner.png, "
                      "predictive.png"
                   << (r.sampler == "tmcmc" ? ", " + std::string(kStageCheckpointName) : "");
+        if (r.experiments.size() > 1)
+          for (const auto& e : r.experiments) std::cout << ", predictive_" << e.stem << ".png";
         for (const std::string& stem : prediction_file_stems(predictions))  // --predict
           std::cout << ", " << stem << ".png";
         std::cout << ", identifiability.json\n";

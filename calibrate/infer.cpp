@@ -23,25 +23,49 @@ namespace rbc {
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-/// The likelihood of the data under the forward model at a sample.
+/// The likelihood of the data under the forward model at a sample: one forward run per group
+/// (InferenceProblem), the groups' warm states one after the other.
 class DiameterLikelihood final : public Likelihood {
  public:
   DiameterLikelihood(const InferenceProblem& problem) : problem_(problem) {}
-  int dimension() const override { return static_cast<int>(problem_.options().parameters.size()); }
+  int dimension() const override { return static_cast<int>(problem_.slots().size()); }
   LikelihoodValue evaluate(std::span<const double> theta, const WarmState& warm,
                            WarmState* state_out) const override {
-    const ForwardRun run = problem_.forward().run(problem_.physical(theta), warm);
     LikelihoodValue v;
-    v.retried = run.retried;
-    v.symmetry_broken = run.symmetry_broken;
-    if (!run.converged) {
-      v.failed = true;
-      v.log_likelihood = -kInf;
-      return v;
+    std::vector<ModelDiameters> diameters;
+    WarmState state;
+    size_t offset = 0;
+    for (int g = 0; g < problem_.groups(); ++g) {
+      const size_t size = problem_.group_state_size(g);
+      WarmState slice;
+      if (warm.size() == problem_.state_size())
+        slice.assign(warm.begin() + static_cast<std::ptrdiff_t>(offset),
+                     warm.begin() + static_cast<std::ptrdiff_t>(offset + size));
+      offset += size;
+      ForwardRun run = problem_.forward(g).run(problem_.group_physical(theta, g), slice);
+      v.retried = v.retried || run.retried;
+      v.symmetry_broken = v.symmetry_broken || run.symmetry_broken;
+      if (!run.converged) {
+        v.failed = true;
+        v.log_likelihood = -kInf;
+        return v;
+      }
+      diameters.push_back(std::move(run.diameters));
+      if (state_out) state.insert(state.end(), run.state.begin(), run.state.end());
     }
-    v.log_likelihood =
-        gaussian_log_likelihood(problem_.data(), run.diameters, problem_.sigma_scale(theta));
-    if (state_out) *state_out = run.state;
+    v.log_likelihood = problem_.log_likelihood(theta, diameters);
+    // Recovery experiments: one release-scene trajectory each, rescaled to eta_m.
+    for (size_t e = 0; e < problem_.experiments().size(); ++e) {
+      if (problem_.experiments()[e].kind != DataKind::recovery) continue;
+      const double l = problem_.recovery_log_likelihood(theta, static_cast<int>(e));
+      if (!std::isfinite(l)) {
+        v.failed = true;
+        v.log_likelihood = -kInf;
+        return v;
+      }
+      v.log_likelihood += l;
+    }
+    if (state_out) *state_out = std::move(state);
     return v;
   }
 
@@ -98,11 +122,6 @@ void InferOptions::validate() const {
                                 " samples per stage");
   sampler.validate();
   if (sampler_kind == SamplerKind::laplace_is) {
-    if (method.kind != MethodKind::continuum)
-      throw std::invalid_argument(
-          "--sampler laplace-is: expected the continuum forward model "
-          "(--method continuum:ORDER:ELEMENTS); its gradient needs the "
-          "continuum sensitivities");
     if (is_samples < 10)
       throw std::invalid_argument("--is-samples " + std::to_string(is_samples) +
                                   ": expected at least 10");
@@ -110,6 +129,43 @@ void InferOptions::validate() const {
   if (method.resolution <= 0)
     throw std::invalid_argument("--method resolution must be > 0, got " +
                                 std::to_string(method.resolution));
+  const std::vector<std::string> paths = data_paths();
+  for (size_t i = 0; i < paths.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (data_file_stem(paths[i]) == data_file_stem(paths[j]))
+        throw std::invalid_argument("--data-file " + paths[i] +
+                                    ": another data file has the same name '" +
+                                    data_file_stem(paths[i]) +
+                                    "'; expected data files whose names (without directory and "
+                                    "extension) differ");
+  for (size_t i = 0; i < extra_uncertainty_by_file.size(); ++i) {
+    const FileExtraUncertainty& e = extra_uncertainty_by_file[i];
+    const std::string text = "--extra-uncertainty " + e.stem + "=" + std::to_string(e.um);
+    if (!(e.um >= 0) || !std::isfinite(e.um))
+      throw std::invalid_argument(text + ": expected a finite uncertainty >= 0 um");
+    bool known = false;
+    for (const auto& path : paths) known = known || data_file_stem(path) == e.stem;
+    if (!known)
+      throw std::invalid_argument("--extra-uncertainty " + e.stem +
+                                  "=...: no --data-file is named '" + e.stem +
+                                  "' (expected the file name without directory and extension)");
+    for (size_t j = 0; j < i; ++j)
+      if (extra_uncertainty_by_file[j].stem == e.stem)
+        throw std::invalid_argument("--extra-uncertainty " + e.stem + "=...: given twice");
+  }
+  for (size_t i = 0; i < per_experiment.size(); ++i) {
+    const Parameter q = per_experiment[i];
+    const std::string text = "--per-experiment " + to_string(q);
+    if (q != Parameter::persistence && q != Parameter::lmax && q != Parameter::kappa &&
+        q != Parameter::contact_fraction)
+      throw std::invalid_argument(text +
+                                  ": expected a stretch forward-model parameter (persistence, "
+                                  "lmax, kappa, contact-fraction)");
+    if (std::find(parameters.begin(), parameters.end(), q) == parameters.end())
+      throw std::invalid_argument(text + ": the parameter is not inferred (add it to --params)");
+    for (size_t j = 0; j < i; ++j)
+      if (per_experiment[j] == q) throw std::invalid_argument(text + ": given twice");
+  }
 }
 
 std::string InferOptions::default_data_file() {
@@ -117,7 +173,22 @@ std::string InferOptions::default_data_file() {
 }
 
 std::string InferOptions::data_path() const {
-  return data_file.empty() ? default_data_file() : data_file;
+  return data_paths().front();
+}
+
+std::vector<std::string> InferOptions::data_paths() const {
+  if (!data_files.empty()) return data_files;
+  return {data_file.empty() ? default_data_file() : data_file};
+}
+
+double InferOptions::extra_uncertainty_for(const std::string& stem) const {
+  for (const auto& e : extra_uncertainty_by_file)
+    if (e.stem == stem) return e.um;
+  return extra_uncertainty_um;
+}
+
+std::string data_file_stem(const std::string& path) {
+  return std::filesystem::path(path).stem().string();
 }
 
 std::vector<PriorRange> InferOptions::prior_ranges() const {
@@ -133,30 +204,146 @@ std::vector<PriorRange> InferOptions::prior_ranges() const {
 
 InferenceProblem::InferenceProblem(const InferOptions& options) : options_(options) {
   options_.validate();
-  data_ =
-      load_diameter_data(options_.data_path(), options_.extra_uncertainty_um, options_.method.kind);
+  const std::vector<std::string> paths = options_.data_paths();
+  for (const std::string& path : paths) {
+    Experiment e;
+    e.path = path;
+    e.stem = data_file_stem(path);
+    if (std::filesystem::exists(path)) e.kind = detect_data_kind(path);
+    if (e.kind == DataKind::recovery) {
+      if (experiments_.empty())
+        throw std::invalid_argument("--data-file " + path +
+                                    ": recovery data; expected stretch data as the first data "
+                                    "file (recovery data may follow)");
+      e.recovery = std::make_shared<const RecoveryData>(read_recovery_data(path));
+      e.group = -1;
+    } else {
+      e.data =
+          load_diameter_data(path, options_.extra_uncertainty_for(e.stem), options_.method.kind);
+    }
+    experiments_.push_back(std::move(e));
+  }
+  const auto inferred = [&](Parameter q) {
+    return std::find(options_.parameters.begin(), options_.parameters.end(), q) !=
+           options_.parameters.end();
+  };
+  bool recovery = false;
+  for (const auto& e : experiments_) recovery = recovery || e.kind == DataKind::recovery;
+  if (recovery) {
+    if (!inferred(Parameter::eta_m))
+      throw std::invalid_argument(
+          "--data-file: recovery data need the membrane viscosity inferred; expected eta-m in "
+          "--params");
+    if (options_.sampler_kind != SamplerKind::tmcmc)
+      throw std::invalid_argument(
+          "--sampler " + to_string(options_.sampler_kind) +
+          ": recovery data have no sensitivities here; expected --sampler tmcmc");
+    if (options_.method.kind != MethodKind::continuum)
+      throw std::invalid_argument("--method " + options_.method.name() +
+                                  ": recovery data run the continuum release scene; expected "
+                                  "--method continuum:ORDER:ELEMENTS");
+    options_.recovery_model.validate();
+    options_.recovery_likelihood.validate();
+    recovery_model_ = std::make_unique<RecoveryModel>(options_.recovery_model);
+  }
+  if (inferred(Parameter::eta_m)) {
+    if (!recovery)
+      throw std::invalid_argument(
+          "--params eta-m: no recovery data file; the membrane viscosity enters only the "
+          "recovery likelihood (expected a --data-file with columns cell,time_s,"
+          "length_over_width)");
+  }
+  data_ = experiments_.front().data;
+  // theta's slots, in the parameters' order, a per-experiment one expanded.
+  const std::vector<PriorRange> ranges = options_.prior_ranges();
   std::vector<std::string> names;
-  for (const auto& r : options_.prior_ranges()) {
-    prior_.lower.push_back(r.lower);
-    prior_.upper.push_back(r.upper);
-    names.push_back(to_string(r.parameter));
+  for (size_t k = 0; k < options_.parameters.size(); ++k) {
+    const Parameter q = options_.parameters[k];
+    const bool own = std::find(options_.per_experiment.begin(), options_.per_experiment.end(), q) !=
+                     options_.per_experiment.end();
+    const int copies = own ? static_cast<int>(experiments_.size()) : 1;
+    for (int e = 0; e < copies; ++e) {
+      ParameterSlot slot;
+      slot.parameter = q;
+      slot.experiment = own ? e : -1;
+      slot.name = own ? to_string(q) + "[" + experiments_[e].stem + "]" : to_string(q);
+      slots_.push_back(slot);
+      prior_.lower.push_back(ranges[k].lower);
+      prior_.upper.push_back(ranges[k].upper);
+      names.push_back(slot.name);
+    }
   }
   prior_.validate(names);
+  // Forward-run groups: one over the union of the forces, or one per experiment when some
+  // forward parameter is an experiment's own.
   ForwardOptions fo;
   fo.method = options_.method;
   fo.newton.force_tolerance_pN = options_.force_tolerance_pN;
   fo.newton.symmetry = options_.symmetry;
-  fo.forces_pN = data_.force_pN;
-  forward_ = std::make_unique<ForwardModel>(fo);
+  const bool per_group = !options_.per_experiment.empty();
+  std::vector<std::vector<double>> group_forces;
+  int stretch = 0;
+  for (size_t e = 0; e < experiments_.size(); ++e) {
+    Experiment& x = experiments_[e];
+    if (x.kind == DataKind::recovery) continue;
+    x.group = per_group ? stretch : 0;
+    ++stretch;
+    if (static_cast<int>(group_forces.size()) <= x.group) group_forces.resize(x.group + 1);
+    auto& f = group_forces[x.group];
+    f.insert(f.end(), x.data.force_pN.begin(), x.data.force_pN.end());
+  }
+  for (auto& f : group_forces) {
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+  }
+  for (Experiment& x : experiments_) {
+    if (x.kind == DataKind::recovery) continue;
+    const auto& f = group_forces[x.group];
+    for (double force : x.data.force_pN)
+      x.force_index.push_back(
+          static_cast<int>(std::lower_bound(f.begin(), f.end(), force) - f.begin()));
+  }
+  for (const auto& f : group_forces) {
+    fo.forces_pN = f;
+    forwards_.push_back(std::make_unique<ForwardModel>(fo));
+  }
   likelihood_ = std::make_unique<DiameterLikelihood>(*this);
 }
 
 InferenceProblem::~InferenceProblem() = default;
 
+std::vector<std::string> InferenceProblem::names() const {
+  std::vector<std::string> out;
+  for (const auto& s : slots_) out.push_back(s.name);
+  return out;
+}
+
+std::vector<std::string> InferenceProblem::units() const {
+  std::vector<std::string> out;
+  for (const auto& s : slots_) out.push_back(unit_of(s.parameter));
+  return out;
+}
+
+size_t InferenceProblem::group_state_size(int group) const {
+  return forwards_[group]->options().forces_pN.size() *
+         (3 * static_cast<size_t>(forwards_[group]->vertices()) + 2);
+}
+
+size_t InferenceProblem::state_size() const {
+  size_t n = 0;
+  for (int g = 0; g < groups(); ++g) n += group_state_size(g);
+  return n;
+}
+
 ForwardParameters InferenceProblem::physical(std::span<const double> theta) const {
+  return physical(theta, 0);
+}
+
+ForwardParameters InferenceProblem::physical(std::span<const double> theta, int experiment) const {
   ForwardParameters p = options_.fixed;
-  for (size_t k = 0; k < options_.parameters.size(); ++k) {
-    switch (options_.parameters[k]) {
+  for (size_t k = 0; k < slots_.size(); ++k) {
+    if (slots_[k].experiment >= 0 && slots_[k].experiment != experiment) continue;
+    switch (slots_[k].parameter) {
       case Parameter::persistence:
         p.persistence_nm = theta[k];
         break;
@@ -170,32 +357,113 @@ ForwardParameters InferenceProblem::physical(std::span<const double> theta) cons
         p.contact_fraction = theta[k];
         break;
       case Parameter::sigma_scale:
+      case Parameter::eta_m:
+      case Parameter::tau:
         break;
     }
   }
   return p;
 }
 
+ForwardParameters InferenceProblem::group_physical(std::span<const double> theta, int group) const {
+  for (size_t e = 0; e < experiments_.size(); ++e)
+    if (experiments_[e].group == group) return physical(theta, static_cast<int>(e));
+  return physical(theta, 0);
+}
+
 double InferenceProblem::sigma_scale(std::span<const double> theta) const {
-  for (size_t k = 0; k < options_.parameters.size(); ++k)
-    if (options_.parameters[k] == Parameter::sigma_scale) return theta[k];
+  for (size_t k = 0; k < slots_.size(); ++k)
+    if (slots_[k].parameter == Parameter::sigma_scale) return theta[k];
   return options_.fixed_sigma_scale;
 }
 
+double InferenceProblem::tau(std::span<const double> theta) const {
+  for (size_t k = 0; k < slots_.size(); ++k)
+    if (slots_[k].parameter == Parameter::tau) return theta[k];
+  return 0.0;
+}
+
+double InferenceProblem::eta_m(std::span<const double> theta) const {
+  for (size_t k = 0; k < slots_.size(); ++k)
+    if (slots_[k].parameter == Parameter::eta_m) return theta[k];
+  return 0.0;
+}
+
+double InferenceProblem::recovery_log_likelihood(std::span<const double> theta,
+                                                 int experiment) const {
+  const Experiment& e = experiments_[experiment];
+  if (e.kind != DataKind::recovery || !recovery_model_)
+    throw std::invalid_argument("recovery_log_likelihood: experiment " +
+                                std::to_string(experiment) + " holds no recovery data");
+  const RecoveryCurve curve = recovery_model_->simulate(physical(theta, experiment));
+  if (!curve.converged) return -kInf;
+  const double l =
+      rbc::recovery_log_likelihood(curve, eta_m(theta), *e.recovery, options_.recovery_likelihood);
+  return std::isfinite(l) ? l : -kInf;
+}
+
 ModelDiameters InferenceProblem::diameters_from_state(const WarmState& state) const {
-  const int nf = data_.size();
+  if (state.empty()) return {};
+  const int nf = static_cast<int>(forwards_.front()->options().forces_pN.size());
+  const int n = forwards_.front()->vertices();
+  const size_t per_force = 3 * static_cast<size_t>(n) + 2;
   ModelDiameters d;
-  if (state.empty()) return d;
-  const int per_force = static_cast<int>(state.size()) / nf;
-  const int n = (per_force - 2) / 3;
   for (int k = 0; k < nf; ++k) {
-    const Positions x =
-        Eigen::Map<const Positions>(state.data() + static_cast<size_t>(k) * per_force, 3, n);
+    const Positions x = Eigen::Map<const Positions>(state.data() + k * per_force, 3, n);
     const Diameters m = measure_diameters(x);
     d.axial_um.push_back(m.axial_um);
     d.transverse_um.push_back(m.transverse_um);
   }
   return d;
+}
+
+ModelDiameters InferenceProblem::experiment_diameters(const WarmState& state,
+                                                      int experiment) const {
+  if (state.size() != state_size()) return {};
+  const Experiment& e = experiments_[experiment];
+  if (e.kind == DataKind::recovery) return {};
+  size_t offset = 0;
+  for (int g = 0; g < e.group; ++g) offset += group_state_size(g);
+  const int n = forwards_[e.group]->vertices();
+  const size_t per_force = 3 * static_cast<size_t>(n) + 2;
+  ModelDiameters d;
+  for (int k : e.force_index) {
+    const Positions x = Eigen::Map<const Positions>(state.data() + offset + k * per_force, 3, n);
+    const Diameters m = measure_diameters(x);
+    d.axial_um.push_back(m.axial_um);
+    d.transverse_um.push_back(m.transverse_um);
+  }
+  return d;
+}
+
+ModelDiameters InferenceProblem::experiment_diameters(
+    const std::vector<ModelDiameters>& group_diameters, int experiment) const {
+  const Experiment& e = experiments_[experiment];
+  if (e.kind == DataKind::recovery) return {};
+  const ModelDiameters& g = group_diameters.at(static_cast<size_t>(e.group));
+  ModelDiameters d;
+  for (int k : e.force_index) {
+    d.axial_um.push_back(g.axial_um.at(static_cast<size_t>(k)));
+    d.transverse_um.push_back(g.transverse_um.at(static_cast<size_t>(k)));
+  }
+  return d;
+}
+
+double InferenceProblem::experiment_log_likelihood(std::span<const double> theta, int experiment,
+                                                   const ModelDiameters& model) const {
+  return gaussian_log_likelihood(experiments_[experiment].data, model, sigma_scale(theta),
+                                 tau(theta));
+}
+
+double InferenceProblem::log_likelihood(std::span<const double> theta,
+                                        const std::vector<ModelDiameters>& group_diameters) const {
+  double l = 0;
+  for (size_t e = 0; e < experiments_.size(); ++e) {
+    if (experiments_[e].kind == DataKind::recovery) continue;
+    const int ei = static_cast<int>(e);
+    l += experiment_log_likelihood(theta, ei, experiment_diameters(group_diameters, ei));
+  }
+  return l;
 }
 
 Summary summarise(const std::string& name, const std::string& unit, const Eigen::VectorXd& v) {
@@ -296,26 +564,32 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   }
   InferenceResult r;
   r.status = t.status;
-  for (Parameter p : o.parameters) {
-    r.names.push_back(to_string(p));
-    r.units.push_back(unit_of(p));
-  }
+  r.names = problem.names();
+  r.units = problem.units();
   r.samples = t.samples;
   r.log_likelihood = t.log_likelihood;
   const int n = static_cast<int>(t.samples.rows()), d = static_cast<int>(t.samples.cols());
   r.mu_uN_per_m.resize(n);
   r.K_uN_per_m.resize(n);
-  std::vector<std::vector<double>> da(problem.data().size()), dt(problem.data().size());
+  const int experiments = static_cast<int>(problem.experiments().size());
+  // Per experiment and force: the samples' model diameters.
+  std::vector<std::vector<std::vector<double>>> da(experiments), dt(experiments);
+  for (int e = 0; e < experiments; ++e) {
+    da[e].resize(problem.experiments()[e].data.size());
+    dt[e].resize(problem.experiments()[e].data.size());
+  }
   for (int i = 0; i < n; ++i) {
     std::vector<double> theta(d);
     for (int k = 0; k < d; ++k) theta[k] = t.samples(i, k);
     const LinearModuli m = sample_moduli(problem.physical(theta));
     r.mu_uN_per_m(i) = m.mu_pN_per_um * units::uN_per_m_per_pN_per_um;
     r.K_uN_per_m(i) = m.K_pN_per_um * units::uN_per_m_per_pN_per_um;
-    const ModelDiameters md = problem.diameters_from_state(t.states[i]);
-    for (int k = 0; k < static_cast<int>(md.axial_um.size()); ++k) {
-      da[k].push_back(md.axial_um[k]);
-      dt[k].push_back(md.transverse_um[k]);
+    for (int e = 0; e < experiments; ++e) {
+      const ModelDiameters md = problem.experiment_diameters(t.states[i], e);
+      for (int k = 0; k < static_cast<int>(md.axial_um.size()); ++k) {
+        da[e][k].push_back(md.axial_um[k]);
+        dt[e][k].push_back(md.transverse_um[k]);
+      }
     }
   }
   for (int k = 0; k < d; ++k)
@@ -349,14 +623,33 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   r.stages = t.stages;
   r.wall_s = t.wall_s;
   r.data = problem.data();
-  for (int k = 0; k < problem.data().size(); ++k) {
-    if (da[k].empty()) continue;
-    r.axial_q05.push_back(quantile(da[k], 0.05));
-    r.axial_q50.push_back(quantile(da[k], 0.50));
-    r.axial_q95.push_back(quantile(da[k], 0.95));
-    r.transverse_q05.push_back(quantile(dt[k], 0.05));
-    r.transverse_q50.push_back(quantile(dt[k], 0.50));
-    r.transverse_q95.push_back(quantile(dt[k], 0.95));
+  for (int e = 0; e < experiments; ++e) {
+    const Experiment& x = problem.experiments()[e];
+    InferenceResult::ExperimentFit f;
+    f.path = x.path;
+    f.stem = x.stem;
+    f.kind = to_string(x.kind);
+    f.digest = data_file_digest(x.path);
+    f.data = x.data;
+    for (int k = 0; k < x.data.size(); ++k) {
+      if (da[e][k].empty()) continue;
+      f.axial_q05.push_back(quantile(da[e][k], 0.05));
+      f.axial_q50.push_back(quantile(da[e][k], 0.50));
+      f.axial_q95.push_back(quantile(da[e][k], 0.95));
+      f.transverse_q05.push_back(quantile(dt[e][k], 0.05));
+      f.transverse_q50.push_back(quantile(dt[e][k], 0.50));
+      f.transverse_q95.push_back(quantile(dt[e][k], 0.95));
+    }
+    r.experiments.push_back(std::move(f));
+  }
+  {
+    const auto& f = r.experiments.front();
+    r.axial_q05 = f.axial_q05;
+    r.axial_q50 = f.axial_q50;
+    r.axial_q95 = f.axial_q95;
+    r.transverse_q05 = f.transverse_q05;
+    r.transverse_q50 = f.transverse_q50;
+    r.transverse_q95 = f.transverse_q95;
   }
   r.prior_lower = problem.prior().lower;
   r.prior_upper = problem.prior().upper;
@@ -462,13 +755,47 @@ std::string inference_json(const InferenceResult& r) {
                     {"transverse_sigma_um", r.data.transverse_sigma_um[k]},
                     {"transverse_used", r.data.transverse_used[k] != 0}});
   j["data"] = data;
-  j["data_sets"] =
-      json::array({{{"file", r.data_file},
+  // Every experiment: file, content digest, sigma, and (several files) its own data and
+  // predictive band.
+  json sets = json::array();
+  if (r.experiments.empty())
+    sets.push_back({{"file", r.data_file},
                     {"name", r.data.name},
                     {"declared_extra_uncertainty_um", r.data.declared_extra_uncertainty_um},
                     {"added_extra_uncertainty_um", r.data.added_extra_uncertainty_um},
                     {"extra_uncertainty_um", r.data.extra_uncertainty_um()},
-                    {"sigma", sigma_text(r.data)}}});
+                    {"sigma", sigma_text(r.data)}});
+  for (const auto& e : r.experiments) {
+    json set = {{"file", e.path},
+                {"stem", e.stem},
+                {"kind", e.kind},
+                {"contents", e.digest},
+                {"name", e.data.name},
+                {"declared_extra_uncertainty_um", e.data.declared_extra_uncertainty_um},
+                {"added_extra_uncertainty_um", e.data.added_extra_uncertainty_um},
+                {"extra_uncertainty_um", e.data.extra_uncertainty_um()},
+                {"sigma", sigma_text(e.data)}};
+    if (r.experiments.size() > 1) {
+      json points = json::array();
+      for (int k = 0; k < e.data.size(); ++k) {
+        json pt = {{"force_pN", e.data.force_pN[k]},
+                   {"axial_um", e.data.axial_um[k]},
+                   {"axial_sigma_um", e.data.axial_sigma_um[k]},
+                   {"transverse_um", e.data.transverse_um[k]},
+                   {"transverse_sigma_um", e.data.transverse_sigma_um[k]},
+                   {"transverse_used", e.data.transverse_used[k] != 0}};
+        if (static_cast<size_t>(k) < e.axial_q50.size()) {
+          pt["predictive_axial_um"] = {e.axial_q05[k], e.axial_q50[k], e.axial_q95[k]};
+          pt["predictive_transverse_um"] = {e.transverse_q05[k], e.transverse_q50[k],
+                                            e.transverse_q95[k]};
+        }
+        points.push_back(pt);
+      }
+      set["points"] = points;
+    }
+    sets.push_back(set);
+  }
+  j["data_sets"] = sets;
   if (!r.predictions.is_null()) j["predictions"] = r.predictions;
   j["command"] = r.command;
   if (r.record.is_object())

@@ -35,6 +35,7 @@
 #include "calibrate/laplace_is.hpp"
 #include "calibrate/likelihood.hpp"
 #include "calibrate/prior_spec.hpp"
+#include "calibrate/recovery_likelihood.hpp"
 #include "calibrate/tmcmc.hpp"
 #include "compare/methods.hpp"
 #include "homogenise/moduli.hpp"
@@ -47,8 +48,30 @@ enum class SamplerKind { tmcmc, laplace_is };
 /// "tmcmc", "laplace-is".
 std::string to_string(SamplerKind s);
 
+/// The extra uncertainty (um) the user adds to one data file's error bars, the file named by
+/// its stem (file name without directory and extension): `--extra-uncertainty STEM=UM`.
+struct FileExtraUncertainty {
+  std::string stem;
+  double um = 0;
+};
+
 struct InferOptions {
   std::string data_file;  ///< stretch-data CSV; empty = default_data_file()
+  /// Several data files, one experiment each, in one posterior (the likelihood is the sum of
+  /// theirs; `rbc infer --data-file F1 --data-file F2`). Non-empty: used instead of data_file.
+  /// Their stems must differ (they name the per-experiment parameters and outputs).
+  std::vector<std::string> data_files;
+  /// Per-file extra uncertainties; a file not named gets extra_uncertainty_um.
+  std::vector<FileExtraUncertainty> extra_uncertainty_by_file;
+  /// Forward-model parameters inferred once per experiment (each also in `parameters`), e.g.
+  /// contact-fraction: the slot of experiment e is named "contact-fraction[STEM]" and has the
+  /// parameter's prior box; the forward run of experiment e uses its own value.
+  std::vector<Parameter> per_experiment;
+  /// Recovery-curve data files (DataKind::recovery, e.g. data/hochmuth1979_recovery_cells.csv):
+  /// the release scene and the likelihood's nuisance handling (calibrate/recovery_likelihood.hpp).
+  /// Such a file needs eta-m in `parameters` and the TMCMC sampler.
+  RecoveryModelOptions recovery_model;
+  RecoveryLikelihoodOptions recovery_likelihood;
   Method method{MethodKind::continuum, 2000, WlcExpansion::order2};
   std::vector<Parameter> parameters = {Parameter::persistence, Parameter::lmax,
                                        Parameter::sigma_scale};
@@ -83,14 +106,47 @@ struct InferOptions {
   static int minimum_samples() { return 5 * default_sampler().islands; }
   /// default_data_directory()/suresh2005_healthy_optical_tweezers.csv.
   static std::string default_data_file();
-  /// The data file actually used.
+  /// The data file actually used (the first of data_paths()).
   std::string data_path() const;
+  /// Every data file, in the order given (data_files, else {data_path of data_file}).
+  std::vector<std::string> data_paths() const;
+  /// The added extra uncertainty (um) of the data file with this stem.
+  double extra_uncertainty_for(const std::string& stem) const;
   /// The prior box of each inferred parameter (overrides applied), in parameter order.
   std::vector<PriorRange> prior_ranges() const;
 };
 
+/// One experiment (data file) of an inference.
+struct Experiment {
+  DataKind kind = DataKind::stretch;
+  std::string path;                              ///< as given
+  std::string stem;                              ///< file name without directory and extension
+  DiameterData data;                             ///< stretch data (empty for recovery data)
+  std::shared_ptr<const RecoveryData> recovery;  ///< recovery data (null for stretch data)
+  /// Its forward-run group (InferenceProblem::forward(group); -1 for recovery data, which runs
+  /// the release scene instead) and the index of each of its forces among the group's forces.
+  int group = 0;
+  std::vector<int> force_index;
+};
+
+/// One coordinate of theta: a parameter, shared (experiment -1) or one experiment's own.
+struct ParameterSlot {
+  Parameter parameter = Parameter::persistence;
+  int experiment = -1;
+  std::string name;  ///< to_string(parameter), or "NAME[STEM]" for an experiment's own
+};
+
+/// The stem of a data file's path: its file name without directory and extension.
+std::string data_file_stem(const std::string& path);
+
 /// A prepared problem: data loaded and checked, forward model built, prior box. Every MPI
 /// rank builds the same one from the same options.
+///
+/// Several experiments: the forward runs are grouped so that one run serves every experiment
+/// whose forward parameters coincide. Without per-experiment parameters there is one group,
+/// over the union of the experiments' forces (a force two files share is solved once per
+/// theta); with them, one group per experiment. A warm state is the groups' states one after
+/// the other.
 class InferenceProblem {
  public:
   /// Throws std::invalid_argument / std::runtime_error naming the value for bad options or
@@ -98,21 +154,63 @@ class InferenceProblem {
   explicit InferenceProblem(const InferOptions& options);
   ~InferenceProblem();
   const InferOptions& options() const { return options_; }
+  /// The first experiment's data (the only one's, for one data file).
   const DiameterData& data() const { return data_; }
+  const std::vector<Experiment>& experiments() const { return experiments_; }
+  /// theta's coordinates (the parameters in options' order, a per-experiment one expanded
+  /// into one slot per experiment).
+  const std::vector<ParameterSlot>& slots() const { return slots_; }
+  std::vector<std::string> names() const;
+  std::vector<std::string> units() const;
   const PriorBox& prior() const { return prior_; }
   const Likelihood& likelihood() const { return *likelihood_; }
-  const ForwardModel& forward() const { return *forward_; }
-  /// Parameters of a sample theta (natural units; parameter order of the options).
+  /// The first group's forward model (the only one for one data file).
+  const ForwardModel& forward() const { return *forwards_.front(); }
+  int groups() const { return static_cast<int>(forwards_.size()); }
+  const ForwardModel& forward(int group) const { return *forwards_[group]; }
+  /// Values of a warm state per group: forces x (3N + 2); their sum is a whole state's size.
+  size_t group_state_size(int group) const;
+  size_t state_size() const;
+  /// Parameters of a sample theta (natural units) for the first experiment.
   ForwardParameters physical(std::span<const double> theta) const;
+  /// The same for experiment e (its own slots where it has them).
+  ForwardParameters physical(std::span<const double> theta, int experiment) const;
+  /// For forward-run group g (its first experiment's).
+  ForwardParameters group_physical(std::span<const double> theta, int group) const;
   double sigma_scale(std::span<const double> theta) const;
-  /// Model diameters from a sample's warm state (the forward run's equilibria).
+  /// The between-experiment sd tau (um) of the hierarchical layer; 0 when not inferred.
+  double tau(std::span<const double> theta) const;
+  /// The membrane viscosity eta_m (pN s/um) of recovery data; 0 when not inferred.
+  double eta_m(std::span<const double> theta) const;
+  /// The release scene of the recovery experiments; null without recovery data.
+  const RecoveryModel* recovery_model() const { return recovery_model_.get(); }
+  bool has_recovery() const { return recovery_model_ != nullptr; }
+  /// log L of recovery experiment e at theta (a release-scene trajectory, rescaled in time to
+  /// eta_m); -inf when the trajectory or the nuisance fit fails.
+  double recovery_log_likelihood(std::span<const double> theta, int experiment) const;
+  /// Model diameters at the first group's forces from a sample's warm state.
   ModelDiameters diameters_from_state(const WarmState& state) const;
+  /// Model diameters at experiment e's forces from a sample's (whole) warm state.
+  ModelDiameters experiment_diameters(const WarmState& state, int experiment) const;
+  /// Experiment e's model diameters picked from its group's diameters.
+  ModelDiameters experiment_diameters(const std::vector<ModelDiameters>& group_diameters,
+                                      int experiment) const;
+  /// log L of the stretch experiments at theta from the groups' model diameters: the sum over
+  /// them of gaussian_log_likelihood(data, model, sigma scale, tau).
+  double log_likelihood(std::span<const double> theta,
+                        const std::vector<ModelDiameters>& group_diameters) const;
+  /// log L of experiment e alone from its model diameters.
+  double experiment_log_likelihood(std::span<const double> theta, int experiment,
+                                   const ModelDiameters& model) const;
 
  private:
   InferOptions options_;
   DiameterData data_;
+  std::vector<Experiment> experiments_;
+  std::vector<ParameterSlot> slots_;
   PriorBox prior_;
-  std::unique_ptr<ForwardModel> forward_;
+  std::vector<std::unique_ptr<ForwardModel>> forwards_;
+  std::unique_ptr<RecoveryModel> recovery_model_;
   std::unique_ptr<Likelihood> likelihood_;
 };
 
@@ -166,6 +264,15 @@ struct InferenceResult {
   /// Held-out predictions (calibrate/predictive.hpp, predictions_json), set by the caller;
   /// summary.json's "predictions". Null: none.
   nlohmann::json predictions;
+  /// Per experiment (every data file, in order): its data, file, content digest and the
+  /// posterior-predictive model band at its forces (the first is `data` and the fields above).
+  struct ExperimentFit {
+    std::string path, stem, kind, digest;
+    DiameterData data;
+    std::vector<double> axial_q05, axial_q50, axial_q95, transverse_q05, transverse_q50,
+        transverse_q95;
+  };
+  std::vector<ExperimentFit> experiments;
 };
 
 /// Makes the executor for a problem (e.g. calibrate/mpi_executor.hpp's master); empty =

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// Files of `rbc infer --out DIR`: summary, posterior samples, corner plot, predictive Fig. 7.
+// Files of `rbc infer --out DIR`: summary, posterior samples, corner plot, predictive Fig. 7
+// (the first data file's; with several, one per data file as well).
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -93,13 +94,15 @@ void write_corner(const InferenceResult& r, const std::string& dir) {
   run_gnuplot_to_png(dir, "corner.gp", (fs::path(dir) / "corner.png").string());
 }
 
-void write_predictive(const InferenceResult& r, const std::string& dir) {
+/// predictive.{csv,png} (`name` "predictive") or predictive_STEM.{csv,png} of one experiment.
+void write_predictive(const InferenceResult& r, const InferenceResult::ExperimentFit& e,
+                      const std::string& dir, const std::string& name) {
   CsvTable t;
   t.comments = {
       "posterior predictive of the model curve (no measurement noise) at the data's "
       "forces, and the data with the sigmas the likelihood used (before sigma-scale)",
-      "method " + r.method + ", data " + r.data_file + " (" + r.data.name + ")",
-      "sigma: " + sigma_text(r.data)};
+      "method " + r.method + ", data " + e.path + " (" + e.data.name + ")",
+      "sigma: " + sigma_text(e.data)};
   t.header = {"force_pN",
               "axial_q05_um",
               "axial_q50_um",
@@ -111,12 +114,13 @@ void write_predictive(const InferenceResult& r, const std::string& dir) {
               "data_axial_sigma_um",
               "data_transverse_um",
               "data_transverse_sigma_um"};
-  for (size_t k = 0; k < r.axial_q50.size(); ++k)
-    t.rows.push_back({r.data.force_pN[k], r.axial_q05[k], r.axial_q50[k], r.axial_q95[k],
-                      r.transverse_q05[k], r.transverse_q50[k], r.transverse_q95[k],
-                      r.data.axial_um[k], r.data.axial_sigma_um[k], r.data.transverse_um[k],
-                      r.data.transverse_sigma_um[k]});
-  write_csv((fs::path(dir) / "predictive.csv").string(), t);
+  for (size_t k = 0; k < e.axial_q50.size(); ++k)
+    t.rows.push_back({e.data.force_pN[k], e.axial_q05[k], e.axial_q50[k], e.axial_q95[k],
+                      e.transverse_q05[k], e.transverse_q50[k], e.transverse_q95[k],
+                      e.data.axial_um[k], e.data.axial_sigma_um[k], e.data.transverse_um[k],
+                      e.data.transverse_sigma_um[k]});
+  const std::string csv = name + ".csv";
+  write_csv((fs::path(dir) / csv).string(), t);
   PlotSpec p;
   p.title = "Posterior predictive (" + plain(r.method) + "): median and 90 % band of the model";
   p.xlabel = "force (pN)";
@@ -125,17 +129,30 @@ void write_predictive(const InferenceResult& r, const std::string& dir) {
   const std::string band = "filledcurves fs transparent solid 0.25 noborder";
   // The data by their declared name (else file name), with the sigma the likelihood used.
   std::ostringstream extra;
-  extra << std::setprecision(3) << r.data.extra_uncertainty_um();
+  extra << std::setprecision(3) << e.data.extra_uncertainty_um();
   const std::string sigma =
-      r.data.extra_uncertainty_um() > 0 ? " (error bar ⊕ " + extra.str() + " µm)" : " (error bar)";
-  const std::string data = experiment_plot_label(r.data.name) + sigma;
-  p.series = {{"D_{A} 90 % band", "predictive.csv", "1:2:4", band, "#1f77b4"},
-              {"D_{A} median", "predictive.csv", "1:3", "lines", "#1f77b4"},
-              {"D_{A} " + data, "predictive.csv", "1:8:9", "yerrorbars", "#000000"},
-              {"D_{T} 90 % band", "predictive.csv", "1:5:7", band, "#d62728"},
-              {"D_{T} median", "predictive.csv", "1:6", "lines", "#d62728"},
-              {"D_{T} " + data, "predictive.csv", "1:10:11", "yerrorbars", "#555555", 5}};
-  render_plot(p, dir, "predictive");
+      e.data.extra_uncertainty_um() > 0 ? " (error bar ⊕ " + extra.str() + " µm)" : " (error bar)";
+  const std::string data = experiment_plot_label(e.data.name) + sigma;
+  p.series = {{"D_{A} 90 % band", csv, "1:2:4", band, "#1f77b4"},
+              {"D_{A} median", csv, "1:3", "lines", "#1f77b4"},
+              {"D_{A} " + data, csv, "1:8:9", "yerrorbars", "#000000"},
+              {"D_{T} 90 % band", csv, "1:5:7", band, "#d62728"},
+              {"D_{T} median", csv, "1:6", "lines", "#d62728"},
+              {"D_{T} " + data, csv, "1:10:11", "yerrorbars", "#555555", 5}};
+  render_plot(p, dir, name);
+}
+
+void write_predictive(const InferenceResult& r, const std::string& dir) {
+  InferenceResult::ExperimentFit e;
+  e.path = r.data_file;
+  e.data = r.data;
+  e.axial_q05 = r.axial_q05;
+  e.axial_q50 = r.axial_q50;
+  e.axial_q95 = r.axial_q95;
+  e.transverse_q05 = r.transverse_q05;
+  e.transverse_q50 = r.transverse_q50;
+  e.transverse_q95 = r.transverse_q95;
+  write_predictive(r, e, dir, "predictive");
 }
 }  // namespace
 
@@ -179,6 +196,10 @@ void write_inference(const InferenceResult& r, const std::string& dir) {
   }
   write_corner(r, dir);
   if (!r.axial_q50.empty()) write_predictive(r, dir);
+  // Several experiments: each one's fit as well (predictive_STEM.{csv,png}).
+  if (r.experiments.size() > 1)
+    for (const auto& e : r.experiments)
+      if (!e.axial_q50.empty()) write_predictive(r, e, dir, "predictive_" + e.stem);
 }
 
 }  // namespace rbc

@@ -18,41 +18,22 @@ LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Ex
                                        long long* sensitivity_solves_out) {
   const InferOptions& o = problem.options();
   const StretchSensitivity sensitivity(problem.forward().options());
-  const DiameterData& data = problem.data();
-  const int d = static_cast<int>(o.parameters.size());
+  const int d = static_cast<int>(problem.slots().size());
   long long forward_runs = 0, sensitivity_solves = 0;
   const GradientTarget target = [&](const Eigen::VectorXd& theta, const WarmState& warm) {
     GradientPoint p;
     const std::vector<double> t(theta.data(), theta.data() + d);
     const LikelihoodGradient g = log_likelihood_and_gradient(problem, sensitivity, t, warm);
-    ++forward_runs;
+    forward_runs += problem.groups();  // one run per forward-run group
     if (g.failed) return p;
     ++sensitivity_solves;
     p.log_likelihood = g.log_likelihood;
     p.gradient = Eigen::Map<const Eigen::VectorXd>(g.gradient.data(), d);
     if (!p.gradient.allFinite()) return p;
-    // Gauss-Newton information of the whitened residuals: sum over the Gaussian terms of
-    // (dD/dtheta_k)(dD/dtheta_l) / (c sigma)^2; the sigma scale c adds 2 / c^2 per term on its
-    // own diagonal (the expected information of a scale), uncoupled from the rest.
-    const double c = problem.sigma_scale(t);
-    std::vector<int> column(d, -1);
-    for (int k = 0; k < d; ++k)
-      for (size_t j = 0; j < g.sensitivities.parameters.size(); ++j)
-        if (g.sensitivities.parameters[j] == o.parameters[k]) column[k] = static_cast<int>(j);
-    Eigen::MatrixXd info = Eigen::MatrixXd::Zero(d, d);
-    for (int f = 0; f < data.size(); ++f) {
-      const ForceSensitivity& s = g.sensitivities.forces[f];
-      Eigen::VectorXd ja = Eigen::VectorXd::Zero(d), jt = Eigen::VectorXd::Zero(d);
-      for (int k = 0; k < d; ++k)
-        if (column[k] >= 0) {
-          ja(k) = s.d_axial[column[k]] / (c * data.axial_sigma_um[f]);
-          jt(k) = s.d_transverse[column[k]] / (c * data.transverse_sigma_um[f]);
-        }
-      info += ja * ja.transpose();
-      if (data.transverse_used[f]) info += jt * jt.transpose();
-    }
-    for (int k = 0; k < d; ++k)
-      if (o.parameters[k] == Parameter::sigma_scale) info(k, k) += 2.0 * data.terms() / (c * c);
+    // Gauss-Newton information of every experiment's Gaussian blocks (J' Sigma^-1 J for the
+    // physical slots; the expected information of the sigma scale and tau, uncoupled from them:
+    // calibrate/sensitivity.hpp, LikelihoodGradient::information).
+    const Eigen::MatrixXd& info = g.information;
     p.information = info;
     p.state = g.state;
     p.ok = info.allFinite();

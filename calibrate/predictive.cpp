@@ -179,10 +179,13 @@ PredictionProblem::PredictionProblem(const InferenceProblem& fit, const std::str
     : fit_(fit), path_(path) {
   const InferOptions& o = fit.options();
   std::error_code ec;
-  if (fs::equivalent(path, o.data_path(), ec))
-    throw std::invalid_argument("--predict " + path +
-                                ": the data file of the fit itself; expected a data set the fit "
-                                "did not use");
+  for (const std::string& fitted : o.data_paths())
+    if (fs::equivalent(path, fitted, ec))
+      throw std::invalid_argument("--predict " + path +
+                                  (o.data_paths().size() > 1
+                                       ? ": one of the fit's data files"
+                                       : ": the data file of the fit itself") +
+                                  "; expected a data set the fit did not use");
   data_ = load_diameter_data(path, o.extra_uncertainty_um, o.method.kind);
   ForwardOptions fo = fit.forward().options();
   fo.forces_pN = data_.force_pN;

@@ -11,9 +11,9 @@
 namespace rbc {
 
 namespace {
-constexpr Parameter kAll[kParameterCount] = {Parameter::persistence, Parameter::lmax,
-                                             Parameter::kappa, Parameter::contact_fraction,
-                                             Parameter::sigma_scale};
+constexpr Parameter kAll[kParameterCount] = {
+    Parameter::persistence, Parameter::lmax,  Parameter::kappa, Parameter::contact_fraction,
+    Parameter::sigma_scale, Parameter::eta_m, Parameter::tau};
 /// Spectrin rest link length (nm) the discrete and continuum models keep fixed.
 constexpr double kLbarNm = 75.0;
 
@@ -48,6 +48,10 @@ std::string to_string(Parameter p) {
       return "contact-fraction";
     case Parameter::sigma_scale:
       return "sigma-scale";
+    case Parameter::eta_m:
+      return "eta-m";
+    case Parameter::tau:
+      return "tau";
   }
   return "unknown";
 }
@@ -59,6 +63,10 @@ std::string unit_of(Parameter p) {
       return "nm";
     case Parameter::kappa:
       return "J";
+    case Parameter::eta_m:
+      return "pN s/um";
+    case Parameter::tau:
+      return "um";
     default:
       return "1";
   }
@@ -110,6 +118,12 @@ void PriorRange::validate() const {
     case Parameter::sigma_scale:
       need(lower > 0, "sigma scale must be > 0");
       break;
+    case Parameter::eta_m:
+      need(lower > 0, "membrane viscosity must be > 0 pN s/um");
+      break;
+    case Parameter::tau:
+      need(lower >= 0, "between-experiment sd tau must be >= 0 um");
+      break;
   }
 }
 
@@ -125,6 +139,10 @@ PriorRange default_prior(Parameter p) {
       return {p, 0.02, 0.15};
     case Parameter::sigma_scale:
       return {p, 0.2, 3.0};
+    case Parameter::eta_m:
+      return {p, 0.2, 2.0};
+    case Parameter::tau:
+      return {p, 0.0, 1.0};
   }
   return {p, 0, 1};
 }

@@ -15,12 +15,14 @@ enum class Parameter {
   kappa,             ///< bending rigidity (J)
   contact_fraction,  ///< bead contact area per bead / total area (smooth patch weights)
   sigma_scale,       ///< factor on every error bar (dimensionless)
+  eta_m,             ///< membrane viscosity (pN s/um = Pa s um); enters recovery data only
+  tau,               ///< between-experiment sd of a per-experiment diameter offset (um)
 };
-inline constexpr int kParameterCount = 5;
+inline constexpr int kParameterCount = 7;
 
-/// CLI name: "persistence", "lmax", "kappa", "contact-fraction", "sigma-scale".
+/// CLI name: "persistence", "lmax", "kappa", "contact-fraction", "sigma-scale", "eta-m", "tau".
 std::string to_string(Parameter p);
-/// Unit at the CLI: "nm", "nm", "J", "1", "1".
+/// Unit at the CLI: "nm", "nm", "J", "1", "1", "pN s/um", "um".
 std::string unit_of(Parameter p);
 /// Parses a CLI name; throws std::invalid_argument naming it and listing the known ones.
 Parameter parameter_from_string(const std::string& name);
@@ -34,7 +36,7 @@ struct PriorRange {
   double lower = 0, upper = 0;
   /// Throws std::invalid_argument naming the parameter and the box unless both bounds are
   /// finite, lower < upper and the box is physical (p > 0, Lmax > 75 nm, kappa > 0,
-  /// contact fraction in (0, 0.5), sigma scale > 0).
+  /// contact fraction in (0, 0.5), sigma scale > 0, eta_m > 0, tau >= 0).
   void validate() const;
 };
 
@@ -46,7 +48,11 @@ struct PriorRange {
 ///   elements, p = 40 nm with Lmax = 350 nm fails, p = 40 nm with 300 nm converges; the
 ///   equal-stiffness ridge of the Mills data reaches Lmax = 150 nm at p ~ 25 nm, inside the box),
 ///   kappa 5e-20:1e-18 J (paper 2e-19),
-///   contact-fraction 0.02:0.15 (paper 0.05), sigma-scale 0.2:3.
+///   contact-fraction 0.02:0.15 (paper 0.05), sigma-scale 0.2:3,
+///   eta-m 0.2:2 pN s/um (membrane viscosity; Hochmuth et al. 1979 report 0.6-1 pN s/um,
+///   i.e. (0.6-1) x 1e-3 dyn s/cm),
+///   tau 0:1 um (the between-experiment sd of calibrate/likelihood.hpp's hierarchical layer:
+///   uniform from no offset to 1 um, twice the smallest error bar of the bundled stretch data).
 PriorRange default_prior(Parameter p);
 
 /// Parses "NAME=LOWER:UPPER", e.g. "persistence=3:20" or "kappa=1e-19:5e-19"; throws

@@ -53,6 +53,8 @@ double& parameter_ref(ForwardParameters& p, Parameter q) {
     case Parameter::contact_fraction:
       return p.contact_fraction;
     case Parameter::sigma_scale:
+    case Parameter::eta_m:
+    case Parameter::tau:
       break;
   }
   throw std::invalid_argument("sensitivities: '" + to_string(q) +
@@ -154,7 +156,8 @@ bool StretchSensitivities::converged() const {
 }
 
 bool is_forward_parameter(Parameter p) {
-  return p != Parameter::sigma_scale;
+  return p == Parameter::persistence || p == Parameter::lmax || p == Parameter::kappa ||
+         p == Parameter::contact_fraction;
 }
 
 struct StretchSensitivity::Impl {
@@ -479,72 +482,126 @@ auto in_context(const std::string& what, F&& f) {
   }
 }
 
-LikelihoodGradient likelihood_gradient(const InferenceProblem& problem, const ForwardModel& forward,
+LikelihoodGradient likelihood_gradient(const InferenceProblem& problem,
+                                       const std::vector<const ForwardModel*>& forwards,
                                        const StretchSensitivity& sensitivity,
                                        std::span<const double> theta, const WarmState& warm) {
-  const std::vector<Parameter>& names = problem.options().parameters;
-  if (theta.size() != names.size())
+  const std::vector<ParameterSlot>& slots = problem.slots();
+  const int d = static_cast<int>(slots.size());
+  if (static_cast<int>(theta.size()) != d)
     throw std::invalid_argument("theta of " + std::to_string(theta.size()) + " values for " +
-                                std::to_string(names.size()) + " parameters");
+                                std::to_string(d) + " parameters");
+  if (problem.has_recovery())
+    throw std::invalid_argument(
+        "the likelihood gradient covers stretch data only; this problem holds recovery data");
   LikelihoodGradient out;
-  const ForwardParameters p = problem.physical(theta);
-  auto t0 = Clock::now();
-  const ForwardRun run = in_context("forward run", [&] { return forward.run(p, warm); });
-  out.forward_s = seconds_since(t0);
-  if (!run.converged) {
-    out.failed = true;
-    out.log_likelihood = -std::numeric_limits<double>::infinity();
-    return out;
-  }
-  t0 = Clock::now();
-  const DiameterData& data = problem.data();
-  const double scale = problem.sigma_scale(theta);
-  out.log_likelihood = gaussian_log_likelihood(data, run.diameters, scale);
-  out.diameters = run.diameters;
-  out.state = run.state;
+  // The physical parameters differentiated (each once, in slot order of first appearance).
   std::vector<Parameter> physical;
-  for (Parameter q : names)
-    if (is_forward_parameter(q)) physical.push_back(q);
-  out.sensitivities = in_context("sensitivities", [&] {
-    return sensitivity.compute(p, forward.options().forces_pN, run.state, physical);
-  });
-  out.gradient.assign(names.size(), 0.0);
-  for (size_t k = 0; k < names.size(); ++k) {
-    double g = 0;
-    if (names[k] == Parameter::sigma_scale) {
-      // d/dc of -1/2 (r/c)^2 - log c per term: r^2/c^3 - 1/c.
-      const auto term = [&](double model, double value, double sigma) {
-        const double r = (model - value) / sigma;
-        g += r * r / (scale * scale * scale) - 1 / scale;
-      };
+  for (const ParameterSlot& q : slots)
+    if (is_forward_parameter(q.parameter) &&
+        std::find(physical.begin(), physical.end(), q.parameter) == physical.end())
+      physical.push_back(q.parameter);
+  // One forward run and its sensitivities per group.
+  std::vector<ModelDiameters> diameters;
+  std::vector<StretchSensitivities> sens;
+  auto t0 = Clock::now();
+  size_t offset = 0;
+  bool converged = true;
+  for (int g = 0; g < problem.groups(); ++g) {
+    const size_t size = problem.group_state_size(g);
+    WarmState slice;
+    if (warm.size() == problem.state_size())
+      slice.assign(warm.begin() + static_cast<std::ptrdiff_t>(offset),
+                   warm.begin() + static_cast<std::ptrdiff_t>(offset + size));
+    offset += size;
+    const ForwardParameters p = problem.group_physical(theta, g);
+    const ForwardRun run = in_context("forward run", [&] { return forwards[g]->run(p, slice); });
+    if (!run.converged) {
+      out.failed = true;
+      out.log_likelihood = -std::numeric_limits<double>::infinity();
+      out.forward_s = seconds_since(t0);
+      return out;
+    }
+    const auto t1 = Clock::now();
+    sens.push_back(in_context("sensitivities", [&] {
+      return sensitivity.compute(p, forwards[g]->options().forces_pN, run.state, physical);
+    }));
+    out.sensitivity_s += seconds_since(t1);
+    converged = converged && sens.back().converged();
+    diameters.push_back(run.diameters);
+    out.state.insert(out.state.end(), run.state.begin(), run.state.end());
+  }
+  out.forward_s = seconds_since(t0) - out.sensitivity_s;
+  t0 = Clock::now();
+  out.diameters = diameters.front();
+  out.sensitivities = sens.front();
+  const double scale = problem.sigma_scale(theta), tau = problem.tau(theta);
+  out.log_likelihood = 0;
+  out.gradient.assign(d, 0.0);
+  out.information = Eigen::MatrixXd::Zero(d, d);
+  int scale_slot = -1, tau_slot = -1;
+  for (int k = 0; k < d; ++k) {
+    if (slots[k].parameter == Parameter::sigma_scale) scale_slot = k;
+    if (slots[k].parameter == Parameter::tau) tau_slot = k;
+  }
+  // Per experiment and column (D_A, D_T): residuals, error bars and their Jacobian in the slots
+  // that move this experiment's model, then the Gaussian block (calibrate/likelihood.hpp).
+  for (size_t ei = 0; ei < problem.experiments().size(); ++ei) {
+    const Experiment& e = problem.experiments()[ei];
+    const DiameterData& data = e.data;
+    const ModelDiameters& model = diameters[e.group];
+    const StretchSensitivities& gs = sens[e.group];
+    for (int column = 0; column < 2; ++column) {
+      std::vector<double> r, sigma;
+      std::vector<std::vector<double>> rows;
       for (int i = 0; i < data.size(); ++i) {
-        term(run.diameters.axial_um[i], data.axial_um[i], data.axial_sigma_um[i]);
-        if (data.transverse_used[i])
-          term(run.diameters.transverse_um[i], data.transverse_um[i], data.transverse_sigma_um[i]);
-      }
-    } else {
-      const size_t j = static_cast<size_t>(std::find(physical.begin(), physical.end(), names[k]) -
-                                           physical.begin());
-      for (int i = 0; i < data.size(); ++i) {
-        const ForceSensitivity& fs = out.sensitivities.forces[i];
-        const double sa = scale * data.axial_sigma_um[i];
-        g -= (run.diameters.axial_um[i] - data.axial_um[i]) / (sa * sa) * fs.d_axial[j];
-        if (data.transverse_used[i]) {
-          const double st = scale * data.transverse_sigma_um[i];
-          g -= (run.diameters.transverse_um[i] - data.transverse_um[i]) / (st * st) *
-               fs.d_transverse[j];
+        const int f = e.force_index[i];
+        if (column == 1 && !data.transverse_used[i]) continue;
+        r.push_back(column == 0 ? model.axial_um[f] - data.axial_um[i]
+                                : model.transverse_um[f] - data.transverse_um[i]);
+        sigma.push_back(column == 0 ? data.axial_sigma_um[i] : data.transverse_sigma_um[i]);
+        std::vector<double> row(d, 0.0);
+        for (int k = 0; k < d; ++k) {
+          if (!is_forward_parameter(slots[k].parameter)) continue;
+          if (slots[k].experiment >= 0 && slots[k].experiment != static_cast<int>(ei)) continue;
+          const size_t j = static_cast<size_t>(
+              std::find(physical.begin(), physical.end(), slots[k].parameter) - physical.begin());
+          const ForceSensitivity& fs = gs.forces[f];
+          row[k] = column == 0 ? fs.d_axial[j] : fs.d_transverse[j];
         }
+        rows.push_back(std::move(row));
+      }
+      const int n = static_cast<int>(r.size());
+      std::vector<double> jac(static_cast<size_t>(n) * d);
+      for (int i = 0; i < n; ++i)
+        for (int k = 0; k < d; ++k) jac[static_cast<size_t>(k) * n + i] = rows[i][k];
+      const GaussianBlockGradient b = gaussian_block_gradient(r, sigma, jac, d, scale, tau);
+      out.log_likelihood += b.log_density;
+      for (int k = 0; k < d; ++k) {
+        out.gradient[k] += b.gradient[k];
+        for (int l = 0; l < d; ++l) out.information(k, l) += b.information[l * d + k];
+      }
+      if (scale_slot >= 0) {
+        out.gradient[scale_slot] += b.d_scale;
+        out.information(scale_slot, scale_slot) += b.info_scale;
+      }
+      if (tau_slot >= 0) {
+        out.gradient[tau_slot] += b.d_tau;
+        out.information(tau_slot, tau_slot) += b.info_tau;
+      }
+      if (scale_slot >= 0 && tau_slot >= 0) {
+        out.information(scale_slot, tau_slot) += b.info_scale_tau;
+        out.information(tau_slot, scale_slot) += b.info_scale_tau;
       }
     }
-    out.gradient[k] = g;
   }
   // A sensitivity solve that did not converge (an equilibrium that is not a strict minimum on
   // the constraints' tangent space): no gradient of the physical parameters.
-  if (!out.sensitivities.converged())
-    for (size_t k = 0; k < names.size(); ++k)
-      if (is_forward_parameter(names[k]))
+  if (!converged)
+    for (int k = 0; k < d; ++k)
+      if (is_forward_parameter(slots[k].parameter))
         out.gradient[k] = std::numeric_limits<double>::quiet_NaN();
-  out.sensitivity_s = seconds_since(t0);
+  out.sensitivity_s += seconds_since(t0);
   return out;
 }
 }  // namespace
@@ -553,7 +610,9 @@ LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,
                                                const StretchSensitivity& sensitivity,
                                                std::span<const double> theta,
                                                const WarmState& warm) {
-  return likelihood_gradient(problem, problem.forward(), sensitivity, theta, warm);
+  std::vector<const ForwardModel*> forwards;
+  for (int g = 0; g < problem.groups(); ++g) forwards.push_back(&problem.forward(g));
+  return likelihood_gradient(problem, forwards, sensitivity, theta, warm);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -603,51 +662,45 @@ IdentifiabilityReport identifiability(const InferenceProblem& problem,
                                       const std::vector<double>& candidate_forces_pN) {
   const auto t0 = Clock::now();
   IdentifiabilityReport rep;
-  const std::vector<Parameter>& params = problem.options().parameters;
+  std::vector<Parameter> params;  // per slot of theta
+  for (const ParameterSlot& q : problem.slots()) params.push_back(q.parameter);
   const int d = static_cast<int>(params.size());
-  for (Parameter q : params) rep.names.push_back(to_string(q));
+  rep.names = problem.names();
   rep.at.assign(theta.begin(), theta.end());
   for (double f : candidate_forces_pN)
     validate_method_force(problem.forward().options().method.kind, f);
-  // A forward model of its own (the problem's mesh and options): the result does not depend on
-  // what the problem's pooled workspaces solved before.
+  // Forward models of its own (the problem's meshes and options): the result does not depend
+  // on what the problem's pooled workspaces solved before.
   const StretchSensitivity sens(problem.forward().options());
-  const ForwardModel forward(problem.forward().options());
+  std::vector<std::unique_ptr<ForwardModel>> own;
+  std::vector<const ForwardModel*> forwards;
+  for (int g = 0; g < problem.groups(); ++g) {
+    own.push_back(std::make_unique<ForwardModel>(problem.forward(g).options()));
+    forwards.push_back(own.back().get());
+  }
   const LikelihoodGradient lg = in_context(
-      "at the point", [&] { return likelihood_gradient(problem, forward, sens, theta, {}); });
+      "at the point", [&] { return likelihood_gradient(problem, forwards, sens, theta, {}); });
   if (lg.failed) {
     rep.status = "forward run failed at the point";
     return rep;
   }
-  if (!lg.sensitivities.converged()) {
-    rep.status = "sensitivity solve did not converge at the point";
-    return rep;
-  }
+  for (double g : lg.gradient)
+    if (std::isnan(g)) {
+      rep.status = "sensitivity solve did not converge at the point";
+      return rep;
+    }
+  // The first experiment's error bars for the candidate forces (one more point in it).
   const DiameterData& data = problem.data();
   const double scale = problem.sigma_scale(theta);
-  std::vector<int> phys;  // index in params of each physical parameter, in sensitivity order
+  // Index in theta of each physical parameter of the first experiment, in sensitivity order.
+  std::vector<int> phys;
   for (int k = 0; k < d; ++k)
-    if (is_forward_parameter(params[k])) phys.push_back(k);
-  // Whitened Jacobian in log parameters: J_ik = theta_k dD_i/dtheta_k / (c sigma_i).
-  const auto rows = [&](const ForceSensitivity& fs, double sa, double st, bool transverse) {
-    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(transverse ? 2 : 1, d);
-    for (size_t q = 0; q < phys.size(); ++q) {
-      const double th = theta[phys[q]];
-      j(0, phys[q]) = th * fs.d_axial[q] / (scale * sa);
-      if (transverse) j(1, phys[q]) = th * fs.d_transverse[q] / (scale * st);
-    }
-    return j;
-  };
-  Eigen::MatrixXd fisher = Eigen::MatrixXd::Zero(d, d);
-  int terms = 0;
-  for (int i = 0; i < data.size(); ++i) {
-    const Eigen::MatrixXd j = rows(lg.sensitivities.forces[i], data.axial_sigma_um[i],
-                                   data.transverse_sigma_um[i], data.transverse_used[i] != 0);
-    fisher += j.transpose() * j;
-    terms += static_cast<int>(j.rows());
-  }
+    if (is_forward_parameter(params[k]) && problem.slots()[k].experiment <= 0) phys.push_back(k);
+  // Gauss-Newton information in log parameters: diag(theta) F diag(theta), F that of the
+  // whitened residuals of every experiment (likelihood_gradient).
+  Eigen::MatrixXd fisher = lg.information;
   for (int k = 0; k < d; ++k)
-    if (params[k] == Parameter::sigma_scale) fisher(k, k) += 2.0 * terms;
+    for (int l = 0; l < d; ++l) fisher(k, l) *= theta[k] * theta[l];
   rep.fisher_log = fisher;
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(fisher);
   for (int e = d - 1; e >= 0; --e) {
@@ -682,6 +735,7 @@ IdentifiabilityReport identifiability(const InferenceProblem& problem,
   bool moduli = false;
   for (int k = 0; k < d; ++k) {
     if (params[k] != Parameter::persistence && params[k] != Parameter::lmax) continue;
+    if (problem.slots()[k].experiment > 0) continue;  // the first experiment's moduli
     moduli = true;
     ForwardParameters pp = p0, pm = p0;
     const double h = 1e-5;

@@ -124,7 +124,8 @@ struct StretchSensitivities {
   bool converged() const;                                           ///< every force's CG converged
 };
 
-/// Whether a parameter enters the forward model (all but sigma-scale).
+/// Whether a parameter enters the stretch forward model (persistence, lmax, kappa,
+/// contact-fraction; not sigma-scale, eta-m or tau).
 bool is_forward_parameter(Parameter p);
 
 /// The sensitivities of a forward model (same mesh or network as ForwardModel(options)).
@@ -150,9 +151,10 @@ class StretchSensitivity {
   std::unique_ptr<Impl> impl_;
 };
 
-/// log L (calibrate/likelihood.hpp) at theta (the problem's parameters, natural units) and its
-/// gradient in theta (same units; sigma-scale differentiated in closed form), by the chain
-/// rule through the sensitivities at the forward run's equilibria. The physical parameters'
+/// log L (calibrate/likelihood.hpp) at theta (the problem's parameter slots, natural units) and
+/// its gradient in theta (same units; sigma-scale and tau differentiated in closed form), by
+/// the chain rule through the sensitivities at the forward runs' equilibria: one run per
+/// forward-run group, each experiment's slots moving its own model only. The physical parameters'
 /// entries are NaN where a sensitivity solve did not converge (sensitivities.converged()). `failed`
 /// (log L = -inf, no gradient) for a forward run that did not converge; outside the prior box log L
 /// is evaluated all the same (the caller applies the prior).
@@ -160,9 +162,13 @@ struct LikelihoodGradient {
   double log_likelihood = 0;
   std::vector<double> gradient;  ///< d log L / d theta_k
   bool failed = false;
-  ModelDiameters diameters;
-  StretchSensitivities sensitivities;
-  WarmState state;                          ///< the forward run's equilibria
+  ModelDiameters diameters;            ///< the first forward-run group's (InferenceProblem)
+  StretchSensitivities sensitivities;  ///< the first group's
+  WarmState state;                     ///< the forward runs' equilibria (every group's)
+  /// Gauss-Newton (expected Fisher) information of log L in theta (natural units): J' Sigma^-1 J
+  /// of each experiment's Gaussian blocks for the physical parameters; for sigma-scale and tau
+  /// 1/2 tr(Sigma^-1 dSigma_a Sigma^-1 dSigma_b), uncoupled from the physical ones.
+  Eigen::MatrixXd information;
   double forward_s = 0, sensitivity_s = 0;  ///< wall time of the forward run and of the rest
 };
 /// `sensitivity` must be built from problem.forward().options().

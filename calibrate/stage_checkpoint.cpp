@@ -45,15 +45,6 @@ std::vector<std::string> split_lines(const std::string& s) {
   return out;
 }
 
-std::string data_file_digest(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("data file '" + path + "' cannot be read");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  Fnv1a f;
-  f.add(bytes.data(), bytes.size());
-  return "fnv1a-64 " + hex_digits(f.h) + ", " + std::to_string(bytes.size()) + " bytes";
-}
-
 template <class T>
 CheckpointTable<T> read_table(const H5File& h, const std::string& name) {
   CheckpointTable<T> t;
@@ -72,6 +63,15 @@ std::vector<double> stage_row(const StageInfo& s) {
 
 }  // namespace
 
+std::string data_file_digest(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("data file '" + path + "' cannot be read");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  Fnv1a f;
+  f.add(bytes.data(), bytes.size());
+  return "fnv1a-64 " + hex_digits(f.h) + ", " + std::to_string(bytes.size()) + " bytes";
+}
+
 std::vector<PosteriorInput> posterior_inputs(const InferenceProblem& problem) {
   const InferOptions& o = problem.options();
   std::vector<std::string> params, priors;
@@ -80,8 +80,31 @@ std::vector<PosteriorInput> posterior_inputs(const InferenceProblem& problem) {
     priors.push_back(to_string(r.parameter) + "=" + exact(r.lower) + ":" + exact(r.upper));
   const ForwardParameters& f = o.fixed;
   const TmcmcOptions& s = o.sampler;
-  return {
-      {"--data-file contents", data_file_digest(o.data_path())},
+  std::vector<PosteriorInput> inputs;
+  const std::vector<std::string> paths = o.data_paths();
+  if (paths.size() == 1) {
+    inputs.push_back({"--data-file contents", data_file_digest(paths.front())});
+    const std::string stem = data_file_stem(paths.front());
+    if (o.extra_uncertainty_for(stem) != o.extra_uncertainty_um)
+      inputs.push_back({"--extra-uncertainty " + stem, exact(o.extra_uncertainty_for(stem))});
+  } else {
+    // Several files: the list (stems, in order) and each file's contents and added extra
+    // uncertainty, so a resume with other files, in another order or changed, is refused.
+    std::vector<std::string> stems;
+    for (const auto& p : paths) stems.push_back(data_file_stem(p));
+    inputs.push_back({"--data-file list", join(stems, ",")});
+    for (const auto& p : paths) {
+      const std::string stem = data_file_stem(p);
+      inputs.push_back({"--data-file " + stem + " contents", data_file_digest(p)});
+      inputs.push_back({"--extra-uncertainty " + stem, exact(o.extra_uncertainty_for(stem))});
+    }
+  }
+  if (!o.per_experiment.empty()) {
+    std::vector<std::string> per;
+    for (Parameter p : o.per_experiment) per.push_back(to_string(p));
+    inputs.push_back({"--per-experiment", join(per, ",")});
+  }
+  std::vector<PosteriorInput> rest = {
       {"--extra-uncertainty", exact(o.extra_uncertainty_um)},
       {"--method", o.method.name()},
       {"--force-tolerance", exact(o.force_tolerance_pN)},
@@ -101,6 +124,8 @@ std::vector<PosteriorInput> posterior_inputs(const InferenceProblem& problem) {
       {"max failure fraction", exact(s.max_failure_fraction)},
       {"--seed", std::to_string(s.seed)},
   };
+  inputs.insert(inputs.end(), rest.begin(), rest.end());
+  return inputs;
 }
 
 std::uint64_t posterior_fingerprint(const std::vector<PosteriorInput>& inputs) {
@@ -317,8 +342,7 @@ SamplerState load_stage_checkpoint(const std::string& path, const InferenceProbl
   if (static_cast<int>(s.accumulator("log_evidence_island").size()) !=
       problem.options().sampler.islands)
     throw corrupt("accumulators of another island count");
-  const size_t state_size =
-      static_cast<size_t>(problem.data().size()) * (3 * size_t(problem.forward().vertices()) + 2);
+  const size_t state_size = problem.state_size();
   std::vector<double> theta(size_t(d), 0.0);
   for (int i = 0; i < n; ++i) {
     for (int k = 0; k < d; ++k) theta[size_t(k)] = s.theta(i, k);

@@ -40,11 +40,17 @@ struct PosteriorInput {
   bool operator==(const PosteriorInput&) const = default;
 };
 
-/// The inputs of an inference that determine its posterior: the data file's contents (FNV-1a
-/// of its bytes, its declarations included), the added extra uncertainty, the method and
+/// The inputs of an inference that determine its posterior: the data files' contents (FNV-1a
+/// of their bytes, declarations included; several files: every file, in order, with its stem
+/// and its added extra uncertainty), the added extra uncertainty, the per-experiment
+/// parameters, the method and
 /// forward-solver options, the parameters, their prior boxes and the fixed parameters, the sampler
 /// options and the seed. Never the threads or ranks, the data file's path or the output directory.
 std::vector<PosteriorInput> posterior_inputs(const InferenceProblem& problem);
+
+/// "fnv1a-64 HEX, N bytes": the FNV-1a hash of a data file's bytes and its size. Throws
+/// std::runtime_error naming the file when it cannot be read.
+std::string data_file_digest(const std::string& path);
 
 /// FNV-1a of the inputs' names and values.
 std::uint64_t posterior_fingerprint(const std::vector<PosteriorInput>& inputs);

@@ -108,18 +108,8 @@ void bind_infer(py::module_& m) {
            py::arg("seed") = 1, py::arg("threads") = 0,
            "priors: {name: (lower, upper)} overriding the defaults; fixed: values of the physical "
            "parameters not inferred ({'kappa_J': 3e-19, ...}).")
-      .def_property_readonly("names",
-                             [](const InferenceProblem& p) {
-                               std::vector<std::string> n;
-                               for (auto q : p.options().parameters) n.push_back(to_string(q));
-                               return n;
-                             })
-      .def_property_readonly("units",
-                             [](const InferenceProblem& p) {
-                               std::vector<std::string> n;
-                               for (auto q : p.options().parameters) n.push_back(unit_of(q));
-                               return n;
-                             })
+      .def_property_readonly("names", [](const InferenceProblem& p) { return p.names(); })
+      .def_property_readonly("units", [](const InferenceProblem& p) { return p.units(); })
       .def_property_readonly("prior_lower",
                              [](const InferenceProblem& p) { return to_array(p.prior().lower); })
       .def_property_readonly("prior_upper",

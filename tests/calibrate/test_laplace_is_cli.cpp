@@ -93,8 +93,6 @@ TEST(LaplaceIsCli, RefusesWhatItCannotTakeBeforeAnyWork) {
     std::string args, expect;
   };
   for (const Case& c : std::vector<Case>{
-           {"--sampler laplace-is --method discrete:300",
-            "rbc: error: --sampler laplace-is: expected the continuum forward model"},
            {"--sampler laplace-is --is-samples 5",
             "rbc: error: --is-samples 5: expected at least 10"},
            {"--sampler hmc", "--sampler"},

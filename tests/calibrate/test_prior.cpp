@@ -48,7 +48,8 @@ TEST(Prior, ParameterListsRefuseUnknownAndRepeatedNames) {
 }
 
 TEST(Prior, DefaultBoxesAreValidAndHoldThePaperValues) {
-  const double paper[kParameterCount] = {7.5, 237.75, 2e-19, 0.05, 1.0};
+  // eta-m: Hochmuth et al. 1979's 0.6 pN s/um; tau: a 0.1 um offset (its box starts at 0).
+  const double paper[kParameterCount] = {7.5, 237.75, 2e-19, 0.05, 1.0, 0.6, 0.1};
   for (int k = 0; k < kParameterCount; ++k) {
     const PriorRange r = default_prior(static_cast<Parameter>(k));
     EXPECT_NO_THROW(r.validate());
