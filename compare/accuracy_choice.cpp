@@ -37,6 +37,12 @@ std::string cost_text(double cost) {
 
 std::string method_spec(const Method& m) {
   if (m.kind == MethodKind::discrete) return "discrete:" + std::to_string(m.resolution);
+  if (m.adapted) {
+    std::ostringstream ratio;
+    ratio << m.size_ratio;
+    return "continuum-adapted:" + to_string(m.order) + ":" + std::to_string(m.resolution) + ":" +
+           ratio.str();
+  }
   return "continuum:" + to_string(m.order) + ":" + std::to_string(m.resolution);
 }
 

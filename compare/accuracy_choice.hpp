@@ -73,7 +73,8 @@ struct AccuracyChoice {
 AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<double>& forces_pN,
                                   double percent, std::optional<Symmetry> only = std::nullopt);
 
-/// "discrete:N" or "continuum:ORDER:ELEMENTS" (the text parse_method reads).
+/// "discrete:N", "continuum:ORDER:ELEMENTS" or "continuum-adapted:ORDER:ELEMENTS:RATIO" (the
+/// text parse_method reads).
 std::string method_spec(const Method& method);
 /// method_spec with " mirror" appended for Symmetry::mirror (messages and verdicts).
 std::string method_spec(const Method& method, Symmetry symmetry);
