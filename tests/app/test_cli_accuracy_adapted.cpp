@@ -126,6 +126,88 @@ TEST(AccuracyTableAdapted, RowsAreTheStretchRunsWorstOverTheMeshSeeds) {
   }
 }
 
+// `rbc stretch --accuracy P%` chooses among the committed table's rows and the adapted rows
+// beside it: the cheapest entry whose error at the force plus the reference's standard error
+// meets P, computed here from the two CSV files; an adapted choice runs on the adapted mesh
+// with the exact contact load and the quadric fit (the diameters of the table's sweep).
+TEST(AccuracyTableAdapted, StretchAccuracyChoosesAmongTheAdaptedRows) {
+  const std::string data = std::string(RBC_SOURCE_DIR) + "/data/tradeoff/";
+  struct Entry {
+    std::string spec;
+    double cost = 0, error = 0;
+    int resolution = 0;
+    bool adapted = false;
+  };
+  std::vector<Entry> entries;
+  double se = 0;
+  for (const bool adapted : {false, true}) {
+    const CsvTable t =
+        read_csv(data + (adapted ? "accuracy_by_force_adapted.csv" : "accuracy_by_force.csv"));
+    for (const auto& q : t.rows) {
+      if (q[column(t, "force_pN")] != 193 || q[column(t, "converged")] != 1) continue;
+      se = q[column(t, "reference_se")];
+      Entry e;
+      e.adapted = adapted;
+      e.resolution = static_cast<int>(q[column(t, "resolution")]);
+      e.cost = q[column(t, "cost_eg")];
+      e.error = q[column(t, "error")];
+      const double order = q[column(t, "order")];
+      const std::string law = order == 0 ? "full" : std::to_string(static_cast<int>(order));
+      if (q[column(t, "kind")] == 0)
+        e.spec = "discrete:" + std::to_string(e.resolution);
+      else if (!adapted)
+        e.spec = "continuum:" + law + ":" + std::to_string(e.resolution);
+      else
+        e.spec = "continuum-adapted:" + law + ":" + std::to_string(e.resolution) + ":" +
+                 std::to_string(static_cast<int>(q[column(t, "size_ratio")]));
+      entries.push_back(e);
+    }
+  }
+  auto cheapest = [&](double percent, bool with_adapted) {
+    const Entry* best = nullptr;
+    for (const Entry& e : entries)
+      if ((with_adapted || !e.adapted) && e.error + se <= percent / 100 &&
+          (!best || e.cost < best->cost))
+        best = &e;
+    return best;
+  };
+  const Entry* expected = cheapest(0.3, true);
+  ASSERT_NE(expected, nullptr);
+  ASSERT_TRUE(expected->adapted) << "the committed table no longer chooses an adapted row at "
+                                    "193 pN and 0.3 %: "
+                                 << expected->spec;
+
+  const CliRun r = run_rbc("stretch --accuracy 0.3% --force 193 -q --json --no-picture", 1);
+  ASSERT_EQ(r.exit_code, 0) << r.all();
+  const json point = json::parse(r.out).at("points").at(0);
+  EXPECT_EQ(point.at("accuracy_choice").at("chosen").at("method"), expected->spec);
+  // The run is the table's seed-0 sweep at 193 pN (its mesh and its diameters).
+  const CsvTable conv = read_csv(data + "convergence_adapted.csv");
+  bool found = false;
+  for (const auto& c : conv.rows)
+    if (c[column(conv, "resolution")] == expected->resolution && c[column(conv, "seed")] == 0 &&
+        c[column(conv, "size_ratio")] == 2 && c[column(conv, "force_pN")] == 193) {
+      found = true;
+      EXPECT_EQ(point.at("elements").get<double>(), c[column(conv, "elements")]);
+      EXPECT_NEAR(point.at("axial_um").get<double>(), c[column(conv, "axial_um")], 1e-5);
+      EXPECT_NEAR(point.at("transverse_um").get<double>(), c[column(conv, "transverse_um")], 1e-5);
+    }
+  EXPECT_TRUE(found);
+
+  // With --contact-load given, the adapted rows (measured with the exact contact load) are left
+  // out of the choice.
+  const CliRun uniform = run_rbc(
+      "stretch --accuracy 0.3% --force 193 -q --json --no-picture --contact-load vertex-patch", 1);
+  ASSERT_EQ(uniform.exit_code, 0) << uniform.all();
+  EXPECT_EQ(
+      json::parse(uniform.out).at("points").at(0).at("accuracy_choice").at("chosen").at("method"),
+      cheapest(0.3, false)->spec);
+  // The table chooses the size ratio.
+  const CliRun refused = run_rbc("stretch --accuracy 0.3% --force 193 -q --mesh-size-ratio 3");
+  EXPECT_EQ(refused.exit_code, 2) << refused.all();
+  EXPECT_EQ(refused.err.rfind("rbc: error: ", 0), 0u) << refused.all();
+}
+
 }  // namespace
 }  // namespace cli_accuracy_adapted_test
 }  // namespace rbc

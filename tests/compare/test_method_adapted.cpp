@@ -5,11 +5,14 @@
 // with a message naming the text outside its ranges.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 
 #include "compare/accuracy_choice.hpp"
 #include "compare/methods.hpp"
+#include "core/io.hpp"
+#include "test_output.hpp"
 
 namespace rbc {
 namespace method_adapted_test {
@@ -55,6 +58,49 @@ TEST(MethodAdapted, RefusesValuesOutOfRange) {
       EXPECT_NE(std::string(e.what()).find(bad.substr(0, 17)), std::string::npos) << e.what();
     }
   }
+}
+
+// accuracy_by_force_adapted.csv beside the table: its rows become adapted entries with their size
+// ratio, a choice can fall on them, and a file of another table (another reference_se) is
+// refused; without it the table is read alone.
+TEST(MethodAdapted, TableWithAdaptedRowsLoadsAndChooses) {
+  const std::filesystem::path dir = testing::fresh_output_dir("MethodAdapted_TableWithAdapted");
+  CsvTable t;
+  t.header = {"kind",     "order", "resolution",   "converged", "cost_eg",
+              "force_pN", "error", "reference_se", "symmetry"};
+  t.rows = {{0, 0, 1000, 1, 2000, 0, 0.004, 0.0005, 1},
+            {0, 0, 1000, 1, 2000, 100, 0.006, 0.0005, 1},
+            {1, 0, 2000, 1, 3000, 0, 0.003, 0.0005, 0},
+            {1, 0, 2000, 1, 3000, 100, 0.005, 0.0005, 0}};
+  const std::string path = (dir / "accuracy_by_force.csv").string();
+  write_csv(path, t);
+  EXPECT_EQ(load_accuracy_table_with_adapted(path).entries.size(), 2u);
+
+  CsvTable a = t;
+  a.header.push_back("size_ratio");
+  a.rows = {{1, 0, 1000, 1, 1500, 0, 0.002, 0.0005, 0, 3},
+            {1, 0, 1000, 1, 1500, 100, 0.004, 0.0005, 0, 3}};
+  write_csv((dir / "accuracy_by_force_adapted.csv").string(), a);
+  const AccuracyTable both = load_accuracy_table_with_adapted(path);
+  ASSERT_EQ(both.entries.size(), 3u);
+  const Method& m = both.entries[2].method;
+  EXPECT_TRUE(m.adapted);
+  EXPECT_EQ(m.size_ratio, 3.0);
+  EXPECT_EQ(m.resolution, 1000);
+  EXPECT_EQ(both.reference_relative_se, 0.0005);
+  // 0.5 %: the adapted row (error 0.4 % + 0.05 %) is the cheapest that qualifies.
+  const AccuracyChoice ch = choose_by_accuracy(both, {100}, 0.5);
+  EXPECT_EQ(method_spec(ch.chosen.method), "continuum-adapted:full:1000:3");
+  // load_accuracy_table reads the table alone.
+  EXPECT_EQ(load_accuracy_table(path).entries.size(), 2u);
+
+  for (auto& q : a.rows) q[7] = 0.001;  // another table's reference
+  write_csv((dir / "accuracy_by_force_adapted.csv").string(), a);
+  EXPECT_THROW(load_accuracy_table_with_adapted(path), std::runtime_error);
+  a.rows[0][7] = a.rows[1][7] = 0.0005;
+  a.rows[0][9] = a.rows[1][9] = 12;  // size ratio out of range
+  write_csv((dir / "accuracy_by_force_adapted.csv").string(), a);
+  EXPECT_THROW(load_accuracy_table_with_adapted(path), std::runtime_error);
 }
 
 }  // namespace
