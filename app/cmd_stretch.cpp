@@ -700,8 +700,10 @@ void add_stretch_command(CLI::App& app, Action& action) {
   add_verbose_flag(cmd, o->verbose);
   cmd->add_option("--accuracy", o->accuracy,
                   "choose the cheapest model and resolution whose accuracy over the forces "
-                  "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv; "
-                  "excludes --model, --vertices, --elements, --order; also chooses --symmetry "
+                  "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv "
+                  "and the adapted-mesh rows beside it (accuracy_by_force_adapted.csv; left out "
+                  "when --contact-load or --measure is given); excludes --model, --vertices, "
+                  "--elements, --order, --mesh, --mesh-size-ratio; also chooses --symmetry "
                   "unless it is given");
   cmd->callback([o, &action, tolerance, cmd] {
     o->tolerance_given = tolerance->count() > 0;
