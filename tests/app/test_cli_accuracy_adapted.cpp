@@ -173,7 +173,7 @@ TEST(AccuracyTableAdapted, StretchAccuracyChoosesAmongTheAdaptedRows) {
   };
   const Entry* expected = cheapest(0.3, true);
   ASSERT_NE(expected, nullptr);
-  ASSERT_TRUE(expected->adapted) << "the committed table no longer chooses an adapted row at "
+  ASSERT_TRUE(expected->adapted) << "the committed table does not choose an adapted row at "
                                     "193 pN and 0.3 %: "
                                  << expected->spec;
 
