@@ -525,7 +525,13 @@ int run_continuum(const StretchCli& o) {
 /// --accuracy P%: sets model, resolution, order and (unless --symmetry was given, which then
 /// restricts the choice to its rows) the solver path from the trade-off table, before any
 /// work; refusals (std::invalid_argument -> exit 2) name the reason in one line.
-void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bool symmetry_given) {
+/// The table includes the continuum rows on the adapted mesh (accuracy_by_force_adapted.csv),
+/// measured with the exact contact load and the quadric-fit diameters: a choice of one sets
+/// --mesh adapted, its --mesh-size-ratio, --contact-load exact-contact and --measure
+/// quadric-fit; with --contact-load or --measure given (`load_or_measure_given`) they are left
+/// out of the choice.
+void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bool symmetry_given,
+                           bool load_or_measure_given) {
   const double percent = parse_accuracy_percent(o.accuracy);
   if (!explicit_choice.empty())
     throw std::invalid_argument("--accuracy " + o.accuracy + " cannot be combined with " +
@@ -533,11 +539,13 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bo
   const std::vector<double> forces = parse_force_list(o.forces);
   AccuracyTable table;
   try {
-    table = load_accuracy_table(default_accuracy_table_path());
+    table = load_accuracy_table_with_adapted(default_accuracy_table_path());
   } catch (const std::runtime_error& e) {
     throw std::invalid_argument(std::string("--accuracy: cannot read the trade-off table: ") +
                                 e.what());
   }
+  if (load_or_measure_given)
+    std::erase_if(table.entries, [](const AccuracyEntry& e) { return e.method.adapted; });
   const AccuracyChoice ch = choose_by_accuracy(
       table, forces, percent, symmetry_given ? std::optional<Symmetry>(o.symmetry) : std::nullopt);
   const Method& m = ch.chosen.method;
@@ -547,6 +555,12 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bo
     o.vertices = m.resolution;
   else
     o.elements = m.resolution, o.order = m.order;
+  if (m.adapted) {
+    o.mesh = ContinuumMesh::adapted;
+    o.mesh_size_ratio = m.size_ratio;
+    o.contact_load = ContinuumLoad::exact_contact;
+    o.measure = ContinuumMeasure::quadric_fit;
+  }
   auto pick_json = [](const AccuracyPick& p) {
     return nlohmann::json{{"method", method_spec(p.method)},
                           {"symmetry", to_string(p.symmetry)},
@@ -686,13 +700,16 @@ void add_stretch_command(CLI::App& app, Action& action) {
   add_verbose_flag(cmd, o->verbose);
   cmd->add_option("--accuracy", o->accuracy,
                   "choose the cheapest model and resolution whose accuracy over the forces "
-                  "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv; "
-                  "excludes --model, --vertices, --elements, --order; also chooses --symmetry "
+                  "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv "
+                  "and the adapted-mesh rows beside it (accuracy_by_force_adapted.csv; left out "
+                  "when --contact-load or --measure is given); excludes --model, --vertices, "
+                  "--elements, --order, --mesh, --mesh-size-ratio; also chooses --symmetry "
                   "unless it is given");
   cmd->callback([o, &action, tolerance, cmd] {
     o->tolerance_given = tolerance->count() > 0;
     std::string explicit_choice;  // the first method option given with --accuracy
-    for (const char* name : {"--model", "--vertices", "--elements", "--order", "--mesh"})
+    for (const char* name :
+         {"--model", "--vertices", "--elements", "--order", "--mesh", "--mesh-size-ratio"})
       if (explicit_choice.empty() && cmd->get_option(name)->count() > 0) explicit_choice = name;
     const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
     const bool symmetry_given = cmd->get_option("--symmetry")->count() > 0;
@@ -707,7 +724,9 @@ void add_stretch_command(CLI::App& app, Action& action) {
     action = [o, cmd, explicit_choice, accuracy_given, symmetry_given, check_given,
               changed_physics]() -> int {
       if (accuracy_given) {
-        choose_stretch_method(*o, explicit_choice, symmetry_given);
+        choose_stretch_method(*o, explicit_choice, symmetry_given,
+                              cmd->get_option("--contact-load")->count() > 0 ||
+                                  cmd->get_option("--measure")->count() > 0);
         if (!changed_physics.empty()) {
           std::cerr << "rbc: warning: --accuracy: the table was measured with the default "
                        "parameters and tolerances; "

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "app/cli_util.hpp"
@@ -72,6 +73,11 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     int spread_max = AccuracyStudyOptions{}.spread_max_resolution;
     std::vector<Symmetry> symmetries = AccuracyStudyOptions{}.symmetries;
     std::string cache;
+    // The adapted-mesh rows of the table (accuracy_cost_adapted.csv).
+    std::vector<int> adapted_elements = {500, 1000, 2000, 4000, 8000};
+    std::vector<double> adapted_ratios = {2.0, 3.0};
+    int adapted_seeds = AccuracyStudyOptions{}.adapted_seeds;
+    bool no_adapted = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("tradeoff", "Accuracy against wall time, with the Pareto front");
@@ -146,6 +152,28 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   cmd->add_option("--cache", o->cache,
                   "--accuracy-table: directory of per-sweep CSV files, reused when present "
                   "(default OUT/runs)");
+  cmd->add_option("--adapted-elements", o->adapted_elements,
+                  "--accuracy-table: element counts of the continuum rows on the adapted mesh "
+                  "(full law, exact contact load, quadric-fit diameters; written to "
+                  "accuracy_cost_adapted.csv), 200 to 79,996 (default 500,1000,2000,4000,8000)")
+      ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
+      ->delimiter(',');
+  cmd->add_option("--adapted-ratios", o->adapted_ratios,
+                  "--accuracy-table: coarse / fine size ratios of the adapted rows, each in [1, "
+                  "10] (default 2,3)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            const std::optional<double> r = parse_finite_number(text);
+            return r && *r >= 1 && *r <= 10 ? "" : text + ": expected a number in [1, 10]";
+          },
+          "RATIO"))
+      ->delimiter(',');
+  cmd->add_option("--adapted-seeds", o->adapted_seeds,
+                  "--accuracy-table: mesh seeds 0 .. K-1 of each adapted row, its errors the "
+                  "worst over them (the analogue of the icosphere's rotations), 1 to 64")
+      ->check(integer_in(1, 64))
+      ->capture_default_str();
+  cmd->add_flag("--no-adapted", o->no_adapted, "--accuracy-table: no adapted-mesh rows");
   cmd->add_flag("--runs-only", o->runs_only,
                 "--accuracy-table: only run (and cache) the sweeps, write no table");
   auto physics = std::make_shared<ModelCli>();
@@ -171,7 +199,11 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
           for (const auto& s : o->orders)
             ao.continuum_orders.push_back(wlc_expansion_from_string(s));
         }
+        ao.adapted_elements = o->adapted_elements;
+        ao.adapted_size_ratios = o->adapted_ratios;
+        ao.adapted_seeds = o->adapted_seeds;
         if (o->no_continuum) ao.continuum_elements.clear();
+        if (o->no_continuum || o->no_adapted) ao.adapted_elements.clear();
         ao.reference_seeds = o->reference_seeds;
         ao.spread_seeds = o->spread_seeds;
         ao.spread_max_resolution = o->spread_max;
@@ -204,7 +236,12 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         std::cout << "outputs: " << o->out
                   << "/accuracy_cost.csv, accuracy_by_force.csv, reference.csv, "
                      "richardson.csv, convergence.csv, accuracy_cost.png, "
-                     "accuracy_resolution.png\n";
+                     "accuracy_resolution.png"
+                  << (ao.adapted_elements.empty()
+                          ? ""
+                          : ", accuracy_cost_adapted.csv, accuracy_by_force_adapted.csv, "
+                            "convergence_adapted.csv, orders_adapted.csv, richardson_adapted.csv")
+                  << "\n";
         return 0;
       }
       TradeoffOptions to;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
@@ -37,6 +38,12 @@ std::string cost_text(double cost) {
 
 std::string method_spec(const Method& m) {
   if (m.kind == MethodKind::discrete) return "discrete:" + std::to_string(m.resolution);
+  if (m.adapted) {
+    std::ostringstream ratio;
+    ratio << m.size_ratio;
+    return "continuum-adapted:" + to_string(m.order) + ":" + std::to_string(m.resolution) + ":" +
+           ratio.str();
+  }
   return "continuum:" + to_string(m.order) + ":" + std::to_string(m.resolution);
 }
 
@@ -48,18 +55,26 @@ std::string default_accuracy_table_path() {
   return default_data_directory() + "/tradeoff/accuracy_by_force.csv";
 }
 
-AccuracyTable load_accuracy_table(const std::string& path) {
+namespace {
+
+/// Reads the rows of accuracy_by_force.csv (adapted = false) or accuracy_by_force_adapted.csv
+/// (adapted = true: the columns symmetry and size_ratio required) into `table`.
+void read_accuracy_rows(const std::string& path, bool adapted, AccuracyTable& table) {
   const CsvTable t = read_csv(path);
   // The symmetry column came with the mirror rows; a table without it is all Symmetry::none.
   std::vector<std::string> expected = {"kind",    "order",    "resolution", "converged",
                                        "cost_eg", "force_pN", "error",      "reference_se"};
-  if (t.header.size() == expected.size() + 1) expected.push_back("symmetry");
+  if (adapted) {
+    expected.push_back("symmetry");
+    expected.push_back("size_ratio");
+  } else if (t.header.size() == expected.size() + 1) {
+    expected.push_back("symmetry");
+  }
   if (t.header != expected)
-    throw std::runtime_error(path +
-                             ": expected the header kind,order,resolution,converged,cost_eg,"
-                             "force_pN,error,reference_se[,symmetry]");
-  AccuracyTable table;
-  table.source = path;
+    throw std::runtime_error(
+        path + ": expected the header kind,order,resolution,converged,cost_eg," +
+        "force_pN,error,reference_se" + (adapted ? ",symmetry,size_ratio" : "[,symmetry]"));
+  const size_t first = table.entries.size();
   for (size_t k = 0; k < t.rows.size(); ++k) {
     const auto& r = t.rows[k];
     const std::string where = path + " row " + std::to_string(k + 1);
@@ -77,14 +92,23 @@ AccuracyTable load_accuracy_table(const std::string& path) {
     m.kind = r[0] == 0 ? MethodKind::discrete : MethodKind::continuum;
     m.order = m.kind == MethodKind::discrete ? WlcExpansion::full : order_from_code(r[1], where);
     m.resolution = static_cast<int>(r[2]);
+    if (adapted) {
+      if (m.kind != MethodKind::continuum || !(r[9] >= 1 && r[9] <= 10))
+        throw std::runtime_error(where +
+                                 ": adapted rows are continuum (kind 1) with size_ratio in "
+                                 "[1, 10]");
+      m.adapted = true;
+      m.size_ratio = r[9];
+    }
     table.reference_relative_se = std::max(table.reference_relative_se, r[7]);
     auto is_this = [&](const AccuracyEntry& e) {
       return e.method.kind == m.kind && e.method.order == m.order &&
-             e.method.resolution == m.resolution && e.symmetry == symmetry;
+             e.method.resolution == m.resolution && e.symmetry == symmetry &&
+             e.method.adapted == m.adapted && e.method.size_ratio == m.size_ratio;
     };
-    if (table.entries.empty() || !is_this(table.entries.back())) {
-      for (const auto& e : table.entries)
-        if (is_this(e))
+    if (table.entries.size() == first || !is_this(table.entries.back())) {
+      for (size_t j = first; j < table.entries.size(); ++j)
+        if (is_this(table.entries[j]))
           throw std::runtime_error(where + ": rows of " + method_spec(m, symmetry) +
                                    " are not contiguous");
       table.entries.push_back({m, symmetry, r[3] != 0, r[4], {}, {}});
@@ -96,7 +120,31 @@ AccuracyTable load_accuracy_table(const std::string& path) {
     e.forces_pN.push_back(r[5]);
     e.error.push_back(r[6]);
   }
-  if (table.entries.empty()) throw std::runtime_error(path + ": the table has no rows");
+  if (table.entries.size() == first) throw std::runtime_error(path + ": the table has no rows");
+}
+
+}  // namespace
+
+AccuracyTable load_accuracy_table(const std::string& path) {
+  AccuracyTable table;
+  table.source = path;
+  read_accuracy_rows(path, false, table);
+  return table;
+}
+
+AccuracyTable load_accuracy_table_with_adapted(const std::string& path) {
+  AccuracyTable table = load_accuracy_table(path);
+  const std::string adapted =
+      (std::filesystem::path(path).parent_path() / "accuracy_by_force_adapted.csv").string();
+  if (!std::filesystem::exists(adapted)) return table;
+  const double se = table.reference_relative_se;
+  table.reference_relative_se = 0;
+  read_accuracy_rows(adapted, true, table);
+  if (std::abs(table.reference_relative_se - se) > 1e-9 * std::max(se, 1e-12))
+    throw std::runtime_error(adapted + ": its reference_se differs from " + path +
+                             "'s: the two files are not of the same table");
+  table.reference_relative_se = se;
+  table.source = path + " and " + adapted;
   return table;
 }
 
@@ -183,7 +231,8 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
   // has the same error and is no alternative to report.
   auto same_method = [&](const Candidate& c) {
     const Method &a = c.entry->method, &b = ok[0].entry->method;
-    return a.kind == b.kind && a.order == b.order && a.resolution == b.resolution;
+    return a.kind == b.kind && a.order == b.order && a.resolution == b.resolution &&
+           a.adapted == b.adapted && a.size_ratio == b.size_ratio;
   };
   size_t runner = 0;
   for (size_t k = 1; k < ok.size() && !runner; ++k)

@@ -34,6 +34,12 @@ struct AccuracyTable {
 /// missing, malformed, or its rows are not grouped by method with increasing forces.
 AccuracyTable load_accuracy_table(const std::string& path);
 
+/// load_accuracy_table and, when accuracy_by_force_adapted.csv lies beside `path` (the rows of
+/// the continuum model on the adapted mesh, AccuracyStudyOptions::adapted_elements: the same
+/// columns and size_ratio), its entries too (Method::adapted). Throws std::runtime_error as
+/// load_accuracy_table, or if the two files' reference_se differ.
+AccuracyTable load_accuracy_table_with_adapted(const std::string& path);
+
 /// Default table: <data directory>/tradeoff/accuracy_by_force.csv.
 std::string default_accuracy_table_path();
 
@@ -73,7 +79,8 @@ struct AccuracyChoice {
 AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<double>& forces_pN,
                                   double percent, std::optional<Symmetry> only = std::nullopt);
 
-/// "discrete:N" or "continuum:ORDER:ELEMENTS" (the text parse_method reads).
+/// "discrete:N", "continuum:ORDER:ELEMENTS" or "continuum-adapted:ORDER:ELEMENTS:RATIO" (the
+/// text parse_method reads).
 std::string method_spec(const Method& method);
 /// method_spec with " mirror" appended for Symmetry::mirror (messages and verdicts).
 std::string method_spec(const Method& method, Symmetry symmetry);

@@ -12,6 +12,7 @@
 
 #include "compare/accuracy_choice.hpp"
 #include "compare/plot.hpp"
+#include "continuum/continuum_model.hpp"
 #include "core/io.hpp"
 
 namespace rbc {
@@ -53,6 +54,24 @@ void AccuracyStudyOptions::validate() const {
     throw std::invalid_argument(
         "accuracy study: the solver paths must include none (the convergence study reads the "
         "full sweeps); got only mirror");
+  for (int e : adapted_elements)
+    if (e < kMinContinuumElements || e > kMaxContinuumElements)
+      throw std::invalid_argument(
+          "adapted-mesh elements must be in [" + std::to_string(kMinContinuumElements) + ", " +
+          std::to_string(kMaxContinuumElements) + "], got " + std::to_string(e));
+  if (!adapted_elements.empty()) {
+    if (adapted_orders.empty() || adapted_size_ratios.empty())
+      throw std::invalid_argument("accuracy study: adapted-mesh rows need a law and a size ratio");
+    for (double r : adapted_size_ratios)
+      if (!(r >= 1 && r <= 10)) {
+        std::ostringstream m;
+        m << "adapted-mesh size ratio must be in [1, 10], got " << r;
+        throw std::invalid_argument(m.str());
+      }
+    if (adapted_seeds < 1 || adapted_seeds > 64)
+      throw std::invalid_argument("adapted-mesh seeds must be in [1, 64], got " +
+                                  std::to_string(adapted_seeds));
+  }
   if (cost_unit_vertices < 100 || cost_unit_vertices > 40000)
     throw std::invalid_argument("cost-unit vertices must be in [100, 40000], got " +
                                 std::to_string(cost_unit_vertices));
@@ -66,6 +85,17 @@ Richardson richardson_chain(double v1, double v2, double v3) {
   r.order = std::log2(d12 / d23);
   r.clean = r.order >= 0.5 && r.order <= 4.0;
   if (r.clean) r.limit = v3 + (v3 - v2) / (std::pow(2.0, r.order) - 1.0);
+  return r;
+}
+
+Richardson richardson_chain(double v1, double v2, double v3, double h_ratio) {
+  Richardson r;
+  const double d12 = v1 - v2, d23 = v2 - v3;
+  r.limit = v3;
+  if (!(h_ratio > 1) || d12 == 0 || d23 == 0 || (d12 > 0) != (d23 > 0)) return r;
+  r.order = std::log(d12 / d23) / std::log(h_ratio);
+  r.clean = r.order >= 0.5 && r.order <= 4.0;
+  if (r.clean) r.limit = v3 + (v3 - v2) / (std::pow(h_ratio, r.order) - 1.0);
   return r;
 }
 
@@ -119,7 +149,8 @@ const std::vector<std::string>& accuracy_cost_header() {
 /// Same method and resolution (any rotation).
 bool same_family(const Method& a, const Method& b) {
   return a.kind == b.kind && a.resolution == b.resolution &&
-         (a.kind == MethodKind::discrete || a.order == b.order);
+         (a.kind == MethodKind::discrete || (a.order == b.order && a.adapted == b.adapted &&
+                                             (!a.adapted || a.size_ratio == b.size_ratio)));
 }
 
 /// One sweep of the study: a discretisation and the solver path it is run with.
@@ -252,6 +283,16 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
       if (order == WlcExpansion::order2 && e <= o.spread_max_resolution)
         for (unsigned s : o.spread_seeds) add(MethodKind::continuum, e, order, s);
     }
+  // The adapted mesh: every seed in full (no mirror to use).
+  for (double ratio : o.adapted_size_ratios)
+    for (WlcExpansion order : o.adapted_orders)
+      for (int e : o.adapted_elements)
+        for (int seed = 0; seed < o.adapted_seeds; ++seed) {
+          Method m{MethodKind::continuum, e, order, static_cast<unsigned>(seed)};
+          m.adapted = true;
+          m.size_ratio = ratio;
+          add_one(m, Symmetry::none);
+        }
   // The reference size is also a table entry (default mesh, default tolerance), then the
   // reference sweeps at their own tolerance.
   add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, 0);
@@ -358,6 +399,9 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
   }
   std::sort(st.rows.begin(), st.rows.end(), [](const AccuracyRow& a, const AccuracyRow& b) {
     if (a.method.kind != b.method.kind) return a.method.kind < b.method.kind;
+    if (a.method.adapted != b.method.adapted) return b.method.adapted;
+    if (a.method.size_ratio != b.method.size_ratio)
+      return a.method.size_ratio < b.method.size_ratio;
     if (a.method.order != b.method.order)
       return order_code(a.method.order) > order_code(b.method.order);
     if (a.symmetry != b.symmetry) return a.symmetry < b.symmetry;
@@ -367,9 +411,10 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
   for (WlcExpansion order : o.continuum_orders) {
     auto find = [&](int e) -> const MethodRun* {
       for (const auto& s : st.runs)
-        if (s.run.method.kind == MethodKind::continuum && s.run.method.order == order &&
-            s.run.method.resolution == e && s.run.method.rotation_seed == 0 &&
-            s.run.symmetry == Symmetry::none && s.run.points.size() == nf && s.run.all_converged())
+        if (s.run.method.kind == MethodKind::continuum && !s.run.method.adapted &&
+            s.run.method.order == order && s.run.method.resolution == e &&
+            s.run.method.rotation_seed == 0 && s.run.symmetry == Symmetry::none &&
+            s.run.points.size() == nf && s.run.all_converged())
           return &s.run;
       return nullptr;
     };
@@ -389,6 +434,37 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
       }
     }
   }
+  // Richardson on the adapted chains e, 2e, 4e (h ratio sqrt 2), per seed.
+  for (double ratio : o.adapted_size_ratios)
+    for (WlcExpansion order : o.adapted_orders)
+      for (int seed = 0; seed < o.adapted_seeds; ++seed) {
+        auto find = [&](int e) -> const MethodRun* {
+          for (const auto& s : st.runs)
+            if (s.run.method.adapted && s.run.method.size_ratio == ratio &&
+                s.run.method.order == order && s.run.method.resolution == e &&
+                s.run.method.rotation_seed == static_cast<unsigned>(seed) &&
+                s.run.points.size() == nf && s.run.all_converged())
+              return &s.run;
+          return nullptr;
+        };
+        for (int e1 : o.adapted_elements) {
+          const MethodRun *a = find(e1), *b = find(2 * e1), *c = find(4 * e1);
+          if (!a || !b || !c) continue;
+          for (size_t k = 0; k < nf; ++k) {
+            AdaptedChainExtrapolation ch;
+            ch.order = order;
+            ch.size_ratio = ratio;
+            ch.seed = static_cast<unsigned>(seed);
+            ch.elements[0] = e1, ch.elements[1] = 2 * e1, ch.elements[2] = 4 * e1;
+            ch.force_pN = o.forces_pN[k];
+            ch.axial = richardson_chain(a->points[k].axial_um, b->points[k].axial_um,
+                                        c->points[k].axial_um, std::sqrt(2.0));
+            ch.transverse = richardson_chain(a->points[k].transverse_um, b->points[k].transverse_um,
+                                             c->points[k].transverse_um, std::sqrt(2.0));
+            st.adapted_chains.push_back(ch);
+          }
+        }
+      }
   return st;
 }
 
@@ -449,9 +525,145 @@ std::string series_title(const Method& m, Symmetry symmetry) {
 
 }  // namespace
 
+namespace {
+
+/// The adapted mesh's rows and sweeps (AccuracyStudyOptions::adapted_elements), beside the
+/// table: the same columns as accuracy_cost.csv, accuracy_by_force.csv and convergence.csv
+/// with the size ratio appended, their observed orders and their Richardson chains.
+void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>& rows,
+                        const std::vector<const StudyRun*>& runs, const std::string& dir,
+                        const std::string& refline) {
+  const auto& o = st.options;
+  const std::string mesh_line =
+      "continuum model on the adapted mesh (rbc stretch --mesh adapted --contact-load "
+      "exact-contact --measure quadric-fit; continuum/adapted_mesh.hpp): resolution = "
+      "requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = mesh seeds "
+      "0 .. rotations-1 (--mesh-seed: another triangulation of the same size field, the "
+      "analogue of the icosphere's rotations); full problem only (symmetry 0)";
+  CsvTable t;
+  t.comments = {
+      "accuracy against cost over the forces of the study (pN), adapted-mesh rows; the "
+      "columns of accuracy_cost.csv and size_ratio",
+      mesh_line, refline,
+      "error = largest relative error of D_A and D_T against the reference (fraction, not %), "
+      "worst over the mesh seeds; error_default = seed 0's alone, all forces",
+      "cost_eg = process CPU of the whole sweep (mesh generation excluded, as the table's "
+      "set-up) / CPU of one energy+gradient evaluation of the discrete network with " +
+          std::to_string(o.cost_unit_vertices) + " requested vertices, in the same process"};
+  t.header = accuracy_cost_header();
+  t.header.push_back("size_ratio");
+  CsvTable bf;
+  bf.comments = {"per-force relative errors of accuracy_cost_adapted.csv's rows (same order)",
+                 mesh_line, refline};
+  bf.header = {"kind",     "order", "resolution",   "converged", "cost_eg",
+               "force_pN", "error", "reference_se", "symmetry",  "size_ratio"};
+  for (const auto& r : rows) {
+    const double order = static_cast<double>(order_code(r.method.order));
+    t.rows.push_back({1.0,
+                      order,
+                      static_cast<double>(r.method.resolution),
+                      static_cast<double>(r.vertices),
+                      static_cast<double>(r.elements),
+                      r.converged ? 1.0 : 0.0,
+                      r.error_all,
+                      r.error_low,
+                      r.error_mid,
+                      r.error_high,
+                      r.cost_eg,
+                      r.own_eg,
+                      r.cpu_s,
+                      r.wall_s,
+                      r.spread,
+                      static_cast<double>(r.rotations),
+                      r.error_default,
+                      st.reference_relative_sd,
+                      static_cast<double>(o.cost_unit_vertices),
+                      symmetry_code(r.symmetry),
+                      r.method.size_ratio});
+    for (size_t k = 0; k < r.error_by_force.size(); ++k)
+      bf.rows.push_back({1.0, order, static_cast<double>(r.method.resolution),
+                         r.converged ? 1.0 : 0.0, r.cost_eg, o.forces_pN[k], r.error_by_force[k],
+                         st.reference_relative_se, symmetry_code(r.symmetry), r.method.size_ratio});
+  }
+  write_csv(dir + "/accuracy_cost_adapted.csv", t);
+  write_csv(dir + "/accuracy_by_force_adapted.csv", bf);
+  CsvTable cv;
+  cv.comments = {"every adapted-mesh sweep: diameters (um) per force, rest surface area (um^2)",
+                 mesh_line,
+                 "order: 0 full law, 2, 3, 4; seed: --mesh-seed; setup_s: mesh generation and "
+                 "model set-up (s, wall)"};
+  cv.header = {"order",    "size_ratio", "resolution",    "seed",      "vertices",    "elements",
+               "force_pN", "axial_um",   "transverse_um", "converged", "surface_um2", "setup_s"};
+  for (const StudyRun* s : runs) {
+    const MethodRun& r = s->run;
+    for (const auto& p : r.points)
+      cv.rows.push_back(
+          {static_cast<double>(order_code(r.method.order)), r.method.size_ratio,
+           static_cast<double>(r.method.resolution), static_cast<double>(r.method.rotation_seed),
+           static_cast<double>(r.vertices), static_cast<double>(r.elements), p.force_pN, p.axial_um,
+           p.transverse_um, p.converged ? 1.0 : 0.0, r.surface_um2, r.setup_s});
+  }
+  write_csv(dir + "/convergence_adapted.csv", cv);
+  // Observed order per law and size ratio, as orders.csv (errors above twice the reference sd).
+  CsvTable oc;
+  oc.comments = {
+      "observed order p of error ~ h^p (h ~ N^-1/2, N vertices) of the adapted rows, "
+      "least squares over the rows with error_all > 2 x reference sd; order 0 full, "
+      "2, 3, 4"};
+  oc.header = {"order",         "size_ratio", "points", "smallest_vertices", "largest_vertices",
+               "observed_order"};
+  std::map<std::pair<int, double>, std::pair<std::vector<double>, std::vector<double>>> fits;
+  for (const auto& r : rows)
+    if (r.converged && r.error_all > 2 * st.reference_relative_sd) {
+      auto& f = fits[{order_code(r.method.order), r.method.size_ratio}];
+      f.first.push_back(r.vertices);
+      f.second.push_back(r.error_all);
+    }
+  for (const auto& [key, f] : fits)
+    oc.rows.push_back(
+        {static_cast<double>(key.first), key.second, static_cast<double>(f.first.size()),
+         *std::min_element(f.first.begin(), f.first.end()),
+         *std::max_element(f.first.begin(), f.first.end()), observed_order(f.first, f.second)});
+  write_csv(dir + "/orders_adapted.csv", oc);
+  CsvTable rc;
+  rc.comments = {
+      "Richardson extrapolation of the adapted chains (requested elements e, 2e, 4e: "
+      "h ratio sqrt 2), per mesh seed and force",
+      "order: 0 full law, 2, 3, 4; clean = same-sign differences and observed order "
+      "in [0.5, 4]; limit = finest value when not clean"};
+  rc.header = {"order",
+               "size_ratio",
+               "seed",
+               "e1",
+               "e2",
+               "e3",
+               "force_pN",
+               "axial_limit_um",
+               "axial_order",
+               "axial_clean",
+               "transverse_limit_um",
+               "transverse_order",
+               "transverse_clean"};
+  for (const auto& c : st.adapted_chains)
+    rc.rows.push_back({static_cast<double>(order_code(c.order)), c.size_ratio,
+                       static_cast<double>(c.seed), static_cast<double>(c.elements[0]),
+                       static_cast<double>(c.elements[1]), static_cast<double>(c.elements[2]),
+                       c.force_pN, c.axial.limit, c.axial.order, c.axial.clean ? 1.0 : 0.0,
+                       c.transverse.limit, c.transverse.order, c.transverse.clean ? 1.0 : 0.0});
+  write_csv(dir + "/richardson_adapted.csv", rc);
+}
+
+}  // namespace
+
 void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   ensure_output_directory(dir);
   const auto& o = st.options;
+  // The table's own files hold the uniform meshes' rows and sweeps; the adapted ones go to
+  // the *_adapted files (write_adapted_rows).
+  std::vector<AccuracyRow> table_rows, adapted_rows;
+  for (const auto& r : st.rows) (r.method.adapted ? adapted_rows : table_rows).push_back(r);
+  std::vector<const StudyRun*> table_runs, adapted_runs;
+  for (const auto& s : st.runs) (s.run.method.adapted ? adapted_runs : table_runs).push_back(&s);
   std::ostringstream refline;
   refline << "reference: discrete network at the full spectrin level (" << o.reference_vertices
           << " requested vertices), mean over " << o.reference_seeds.size()
@@ -478,7 +690,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       "symmetry: the solver path of cost_eg, 0 full problem, 1 --symmetry mirror (same mesh: "
       "the errors are those of the full problem's row to the solver tolerance)"};
   t.header = accuracy_cost_header();
-  for (const auto& r : st.rows)
+  for (const auto& r : table_rows)
     t.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
                       r.method.kind == MethodKind::discrete
                           ? 0.0
@@ -512,7 +724,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
                  "symmetry: solver path of cost_eg, 0 full problem, 1 --symmetry mirror"};
   bf.header = {"kind",     "order", "resolution",   "converged", "cost_eg",
                "force_pN", "error", "reference_se", "symmetry"};
-  for (const auto& r : st.rows)
+  for (const auto& r : table_rows)
     for (size_t k = 0; k < r.error_by_force.size(); ++k)
       bf.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
                          r.method.kind == MethodKind::discrete
@@ -540,7 +752,8 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   cv.header = {"kind",        "order",          "resolution",      "seed",          "vertices",
                "elements",    "force_pN",       "axial_um",        "transverse_um", "converged",
                "surface_um2", "patch_plus_um2", "patch_minus_um2", "symmetry",      "reference"};
-  for (const auto& s : st.runs) {
+  for (const StudyRun* sp : table_runs) {
+    const StudyRun& s = *sp;
     const MethodRun& r = s.run;
     for (const auto& p : r.points)
       cv.rows.push_back(
@@ -588,7 +801,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   oc.header = {"kind",          "order", "points", "smallest_vertices", "largest_vertices",
                "observed_order"};
   std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> fits;
-  for (const auto& r : st.rows)
+  for (const auto& r : table_rows)
     if (r.converged && r.symmetry == Symmetry::none && r.error_all > 2 * st.reference_relative_sd &&
         !(r.method.kind == MethodKind::discrete && r.method.resolution == o.reference_vertices)) {
       auto& f = fits[{r.method.kind == MethodKind::discrete ? 0 : 1,
@@ -606,7 +819,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   // Series by model and solver path; the resolution plot shows the full problem's rows only
   // (a mirror row has the same errors).
   std::map<std::string, std::vector<const AccuracyRow*>> series;
-  for (const auto& r : st.rows)
+  for (const auto& r : table_rows)
     if (r.converged) series[series_name(r.method, r.symmetry)].push_back(&r);
   static const char* colors[] = {"#1f77b4", "#2ca02c", "#ff7f0e", "#d62728", "#9467bd"};
   for (const bool by_cost : {true, false}) {
@@ -662,6 +875,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
     }
     render_plot(spec, dir, by_cost ? "accuracy_cost" : "accuracy_resolution");
   }
+  if (!adapted_rows.empty()) write_adapted_rows(st, adapted_rows, adapted_runs, dir, refline.str());
 }
 
 AccuracyCostTable load_accuracy_cost(const std::string& path) {

@@ -24,6 +24,18 @@ struct AccuracyStudyOptions {
   std::vector<WlcExpansion> continuum_orders = {WlcExpansion::order2, WlcExpansion::full};
   /// Largest mesh the full law is run on (its sweeps cost about as much as p = 2's).
   int full_law_max_elements = 8000;
+  /// Continuum rows on the adapted mesh (Method::adapted: graded to the scene, exact contact
+  /// load, quadric-fit diameters): requested element counts (empty = none), each run with
+  /// every law of adapted_orders and every coarse / fine size ratio of adapted_size_ratios,
+  /// on the mesh seeds 0 .. adapted_seeds - 1 (AdaptedMeshOptions::seed: another
+  /// triangulation of the same size field, the analogue of the icosphere's rotations; the
+  /// row's errors are the worst over them). The full problem only: the adapted mesh keeps no
+  /// mirror of the scene. Their rows are written beside the table's
+  /// (accuracy_cost_adapted.csv), not into it.
+  std::vector<int> adapted_elements;
+  std::vector<WlcExpansion> adapted_orders = {WlcExpansion::full};
+  std::vector<double> adapted_size_ratios = {2.0};
+  int adapted_seeds = 4;  ///< in [1, 64]
   /// The reference: the discrete model at the full spectrin level (N ~ 27,500, i.e. the
   /// icosphere with 27,042 vertices) on each of these triangulation rotations
   /// (RestShapeOptions::rotation_seed; 0 = the default orientation).
@@ -119,6 +131,22 @@ struct ChainExtrapolation {
   Richardson axial, transverse;
 };
 
+/// Richardson extrapolation of three values on meshes refined by the factor `h_ratio` (> 1)
+/// in h each: observed order p = log((v1 - v2)/(v2 - v3)) / log(h_ratio); limit
+/// v3 + (v3 - v2)/(h_ratio^p - 1); clean as richardson_chain.
+Richardson richardson_chain(double v1, double v2, double v3, double h_ratio);
+
+/// Richardson extrapolation of one adapted-mesh chain (elements e, 2e, 4e: h ratio sqrt 2)
+/// on one mesh seed at one force.
+struct AdaptedChainExtrapolation {
+  WlcExpansion order = WlcExpansion::full;
+  double size_ratio = 2.0;
+  unsigned seed = 0;
+  int elements[3] = {0, 0, 0};
+  double force_pN = 0;
+  Richardson axial, transverse;
+};
+
 struct AccuracyStudy {
   AccuracyStudyOptions options;
   std::vector<StudyRun> runs;
@@ -128,6 +156,8 @@ struct AccuracyStudy {
   double reference_relative_se = 0;
   std::vector<AccuracyRow> rows;
   std::vector<ChainExtrapolation> chains;
+  /// Chains of the adapted rows (AccuracyStudyOptions::adapted_elements with e, 2e and 4e).
+  std::vector<AdaptedChainExtrapolation> adapted_chains;
 };
 
 /// Runs (or reads from the cache, re-checked before each sweep, so several processes can
@@ -148,6 +178,10 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& options,
 /// Writes DIR/accuracy_cost.csv (one row per method), accuracy_by_force.csv (the per-force
 /// errors `rbc stretch --accuracy` reads), reference.csv, convergence.csv (every run's
 /// diameters, for the observed orders) and the PNGs accuracy_cost.png, convergence_*.png.
+/// Rows and sweeps of the adapted mesh go to their own files only, when there are any:
+/// accuracy_cost_adapted.csv and accuracy_by_force_adapted.csv (the columns of the table's
+/// files and size_ratio), convergence_adapted.csv, orders_adapted.csv and
+/// richardson_adapted.csv.
 void write_accuracy_study(const AccuracyStudy& study, const std::string& dir);
 
 /// Cost ratios below this count as a tie in the verdicts: CPU-time costs of the same sweep

@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <limits>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 
+#include "continuum/adapted_mesh.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "core/geometry.hpp"
 #include "core/rest_shape.hpp"
@@ -22,12 +24,24 @@ namespace rbc {
 std::string Method::name() const {
   const std::string rotated = rotation_seed ? "_r" + std::to_string(rotation_seed) : "";
   if (kind == MethodKind::discrete) return "discrete_N" + std::to_string(resolution) + rotated;
+  if (adapted) {
+    char ratio[32];
+    std::snprintf(ratio, sizeof ratio, "%g", size_ratio);
+    return "continuum_adapted" + std::string(ratio) + "_p" + to_string(order) + "_E" +
+           std::to_string(resolution) + rotated;
+  }
   return "continuum_p" + to_string(order) + "_E" + std::to_string(resolution) + rotated;
 }
 
 std::string Method::label() const {
   if (kind == MethodKind::discrete)
     return "microscopic model (N = " + std::to_string(resolution) + ")";
+  if (adapted) {
+    std::ostringstream ratio;
+    ratio << size_ratio;
+    return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) +
+           " elements, adapted mesh, ratio " + ratio.str() + ")";
+  }
   return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) + " elements)";
 }
 
@@ -53,8 +67,31 @@ Method parse_method(const std::string& text) {
     m.resolution = number(parts[2]);
     return m;
   }
+  if ((parts.size() == 3 || parts.size() == 4) && parts[0] == "continuum-adapted") {
+    m.kind = MethodKind::continuum;
+    m.adapted = true;
+    try {
+      m.order = wlc_expansion_from_string(parts[1]);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("method '" + text + "': " + e.what());
+    }
+    m.resolution = number(parts[2]);
+    if (m.resolution < kMinContinuumElements || m.resolution > kMaxContinuumElements)
+      throw std::invalid_argument("method '" + text + "': elements must be in [" +
+                                  std::to_string(kMinContinuumElements) + ", " +
+                                  std::to_string(kMaxContinuumElements) + "]");
+    if (parts.size() == 4) {
+      const std::optional<double> r = parse_finite_number(parts[3]);
+      if (!r || *r < 1 || *r > 10)
+        throw std::invalid_argument("method '" + text + "': size ratio '" + parts[3] +
+                                    "' is not a number in [1, 10]");
+      m.size_ratio = *r;
+    }
+    return m;
+  }
   throw std::invalid_argument("method '" + text +
-                              "' is not of the form discrete:N or continuum:ORDER:ELEMENTS");
+                              "' is not of the form discrete:N, continuum:ORDER:ELEMENTS or "
+                              "continuum-adapted:ORDER:ELEMENTS[:RATIO]");
 }
 
 bool MethodRun::all_converged() const {
@@ -150,9 +187,20 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
   MethodRun run;
   run.method = m;
   run.symmetry = ro.symmetry;
-  const TriMesh mesh = make_continuum_mesh(m.resolution, m.rotation_seed);
-  // The same spectrin, bending and contact parameters as the discrete model.
   const NetworkParameters& p = ro.parameters;
+  TriMesh mesh;
+  if (m.adapted) {
+    AdaptedMeshOptions ao;
+    ao.target_elements = m.resolution;
+    ao.size_ratio = m.size_ratio;
+    ao.seed = m.rotation_seed;
+    ao.contact_fraction = p.tweezers.contact_fraction;
+    ao.validate();
+    mesh = make_adapted_mesh(ao);
+  } else {
+    mesh = make_continuum_mesh(m.resolution, m.rotation_seed);
+  }
+  // The same spectrin, bending and contact parameters as the discrete model.
   const IsotropicMembraneLaw law = make_membrane_law(p.wlc, p.steric, m.order);
   ContinuumParameters cp;
   cp.bending = p.bending;
@@ -171,6 +219,11 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
   const double cpu0 = process_cpu_seconds();
   ContinuumOptions co;
   co.newton.symmetry = ro.symmetry;
+  if (m.adapted) {  // the load and the measure that do not snap to the mesh
+    co.load = ContinuumLoad::exact_contact;
+    co.exact_contact_fraction = p.tweezers.contact_fraction;
+    co.measure = ContinuumMeasure::quadric_fit;
+  }
   const auto pts = run_continuum_stretch(model, forces, co, [&](const std::string& msg) {
     if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
   });

@@ -20,15 +20,26 @@ struct Method {
   MethodKind kind = MethodKind::discrete;
   int resolution = 2000;                      ///< vertices (discrete) or elements (continuum)
   WlcExpansion order = WlcExpansion::order2;  ///< continuum law (discrete: always the full WLC)
-  /// Triangulation orientation (RestShapeOptions::rotation_seed; 0 = the default mesh).
+  /// Triangulation orientation (RestShapeOptions::rotation_seed; 0 = the default mesh). On
+  /// the adapted mesh: the mesher's seed (AdaptedMeshOptions::seed), its analogue.
   unsigned rotation_seed = 0;
-  /// Short stable name, e.g. "discrete_N2000" or "continuum_p2_E4000" (+ "_r3" if rotated).
+  /// Continuum only: the mesh graded to the stretch scene (continuum/adapted_mesh.hpp, about
+  /// `resolution` triangles, coarse / fine edge length `size_ratio`) instead of the uniform
+  /// icosphere, run with the exact contact load and the quadric-fit diameters
+  /// (ContinuumLoad::exact_contact, ContinuumMeasure::quadric_fit), as
+  /// `rbc stretch --mesh adapted --contact-load exact-contact --measure quadric-fit`.
+  bool adapted = false;
+  double size_ratio = 2.0;  ///< adapted only: AdaptedMeshOptions::size_ratio, in [1, 10]
+  /// Short stable name, e.g. "discrete_N2000", "continuum_p2_E4000" or
+  /// "continuum_adapted2_pfull_E2000" (+ "_r3" if rotated or seeded 3).
   std::string name() const;
   /// Legend label, e.g. "microscopic model (N = 2000)".
   std::string label() const;
 };
 
-/// Parses "discrete:N" or "continuum:ORDER:ELEMENTS" (ORDER 2, 3, 4 or full).
+/// Parses "discrete:N", "continuum:ORDER:ELEMENTS" (ORDER 2, 3, 4 or full) or
+/// "continuum-adapted:ORDER:ELEMENTS[:RATIO]" (the adapted mesh, size ratio RATIO in [1, 10],
+/// default 2). Throws std::invalid_argument naming the text.
 Method parse_method(const std::string& text);
 
 struct CurvePoint {
