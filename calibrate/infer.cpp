@@ -234,10 +234,10 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
       throw std::invalid_argument(
           "--data-file: recovery data need the membrane viscosity inferred; expected eta-m in "
           "--params");
-    if (options_.sampler_kind != SamplerKind::tmcmc)
+    if (options_.sampler_kind == SamplerKind::laplace_is && inferred(Parameter::contact_fraction))
       throw std::invalid_argument(
-          "--sampler " + to_string(options_.sampler_kind) +
-          ": recovery data have no sensitivities here; expected --sampler tmcmc");
+          "--sampler laplace-is: the recovery term's gradient covers persistence, lmax, kappa and "
+          "eta-m; expected --sampler tmcmc with contact-fraction inferred");
     if (options_.method.kind != MethodKind::continuum)
       throw std::invalid_argument("--method " + options_.method.name() +
                                   ": recovery data run the continuum release scene; expected "

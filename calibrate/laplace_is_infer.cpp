@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // `rbc infer --sampler laplace-is`: the Laplace-IS sampler (calibrate/laplace_is.hpp) on the
 // calibration's likelihood, with the gradient through the continuum forward model's
-// sensitivities (calibrate/sensitivity.hpp) and the Gauss-Newton information built from them.
+// sensitivities (calibrate/sensitivity.hpp) and the Gauss-Newton information built from them;
+// recovery data add the release scene's term with its gradient and Gauss-Newton information
+// (calibrate/recovery_likelihood.hpp recovery_gradient_and_information).
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -19,12 +21,13 @@ LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Ex
   const InferOptions& o = problem.options();
   const StretchSensitivity sensitivity(problem.forward().options());
   const int d = static_cast<int>(problem.slots().size());
-  long long forward_runs = 0, sensitivity_solves = 0;
+  long long forward_runs = 0, sensitivity_solves = 0, recovery_trajectories = 0;
   const GradientTarget target = [&](const Eigen::VectorXd& theta, const WarmState& warm) {
     GradientPoint p;
     const std::vector<double> t(theta.data(), theta.data() + d);
     const LikelihoodGradient g = log_likelihood_and_gradient(problem, sensitivity, t, warm);
     forward_runs += problem.groups();  // one run per forward-run group
+    recovery_trajectories += g.recovery_trajectories;
     if (g.failed) return p;
     ++sensitivity_solves;
     p.log_likelihood = g.log_likelihood;
@@ -46,9 +49,11 @@ LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Ex
   LaplaceIsResult r = run_laplace_is(target, problem.likelihood(), problem.prior(), lo, executor);
   std::ostringstream m;
   m << "laplace-is: " << r.newton_steps << " Newton steps, " << sensitivity_solves
-    << " gradient evaluations; " << lo.samples << " importance samples, ESS " << std::fixed
-    << std::setprecision(1) << r.ess << ", log evidence " << std::setprecision(3) << r.log_evidence
-    << " +- " << r.log_evidence_sd;
+    << " gradient evaluations";
+  if (recovery_trajectories > 0) m << " (" << recovery_trajectories << " release trajectories)";
+  m << "; " << lo.samples << " importance samples, ESS " << std::fixed << std::setprecision(1)
+    << r.ess << ", log evidence " << std::setprecision(3) << r.log_evidence << " +- "
+    << r.log_evidence_sd;
   report(progress, m.str());
   if (forward_runs_out) *forward_runs_out = forward_runs;
   if (sensitivity_solves_out) *sensitivity_solves_out = sensitivity_solves;

@@ -593,4 +593,82 @@ RecoveryGradient recovery_log_likelihood_gradient(const RecoveryModel& model,
   return g;
 }
 
+RecoveryGradientInformation recovery_gradient_and_information(
+    const RecoveryModel& model, const ForwardParameters& p, double eta_m, const RecoveryData& data,
+    const RecoveryLikelihoodOptions& options, const std::array<bool, 3>& differentiate,
+    double relative_step) {
+  require_finite_in_range("relative step", "", relative_step, 0, 0.1);
+  options.validate();
+  require_finite_in_range("membrane viscosity", "pN s/um", eta_m, 0, kUnbounded);
+  double ForwardParameters::*const fields[3] = {
+      &ForwardParameters::persistence_nm, &ForwardParameters::lmax_nm, &ForwardParameters::kappa_J};
+  // The trajectories: the centre, then (lo, hi) per differentiated parameter.
+  std::vector<ForwardParameters> runs{p};
+  std::vector<int> which;  // parameter index (0..2) of each pair
+  std::vector<double> steps;
+  for (int k = 0; k < 3; ++k) {
+    if (!differentiate[k]) continue;
+    const double h = relative_step * p.*fields[k];
+    ForwardParameters lo = p, hi = p;
+    lo.*fields[k] -= h;
+    hi.*fields[k] += h;
+    runs.push_back(lo);
+    runs.push_back(hi);
+    which.push_back(k);
+    steps.push_back(h);
+  }
+  const int nr = static_cast<int>(runs.size());
+  std::vector<RecoveryCurve> curves(nr);
+  // Each simulate() runs its solvers on one thread (its own scope), so the curves do not depend
+  // on how the runs are spread over the team.
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < nr; ++i) curves[i] = model.simulate(runs[i]);
+  RecoveryGradientInformation out;
+  out.trajectories = nr;
+  RecoveryGradient& g = out.gradient;
+  const RecoveryLikelihood centre = evaluate_recovery_likelihood(curves[0], eta_m, data, options);
+  g.log_likelihood = centre.log_likelihood;
+  g.d_eta_per_pN_s_per_um = centre.dlog_deta_per_pN_s_per_um;
+  g.converged = std::isfinite(centre.log_likelihood);
+  if (!g.converged) return out;
+  double* const slots[3] = {&g.d_persistence_per_nm, &g.d_lmax_per_nm, &g.d_kappa_per_J};
+  for (size_t j = 0; j < which.size(); ++j) {
+    const double llo = recovery_log_likelihood(curves[1 + 2 * j], eta_m, data, options);
+    const double lhi = recovery_log_likelihood(curves[2 + 2 * j], eta_m, data, options);
+    if (!std::isfinite(llo) || !std::isfinite(lhi)) g.converged = false;
+    *slots[which[j]] = (lhi - llo) / (2 * steps[j]);
+  }
+  if (!g.converged) return out;
+  // Gauss-Newton information, cell by cell at the nuisances' conditional mode.
+  const double s = curves[0].eta_ref_pN_s_per_um / eta_m;
+  const double w = 1 / (data.sigma_ratio * data.sigma_ratio);
+  for (size_t c = 0; c < data.cells.size(); ++c) {
+    const RecoveryCell& cell = data.cells[c];
+    const RecoveryCellFit& fit = centre.cells[c];
+    const double a = fit.lambda_inf, r0 = fit.r0;
+    const int n = static_cast<int>(cell.time_s.size());
+    Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n, 4), jn(n, 2);
+    for (int i = 0; i < n; ++i) {
+      const double t = cell.time_s[i];
+      double gp = 0;
+      const double u = curves[0].at(t * s, &gp), x = r0 * u;
+      const double dlam_du = a * h1(x) * r0;
+      jn(i, 0) = h0(x);
+      jn(i, 1) = a * h1(x) * u;
+      jt(i, 0) = dlam_du * gp * t * (-s / eta_m);
+      for (size_t j = 0; j < which.size(); ++j) {
+        const double du =
+            (curves[2 + 2 * j].at(t * s) - curves[1 + 2 * j].at(t * s)) / (2 * steps[j]);
+        jt(i, 1 + which[j]) = dlam_du * du;
+      }
+    }
+    const Eigen::Matrix4d tt = w * jt.transpose() * jt;
+    const Eigen::Matrix<double, 4, 2> tn = w * jt.transpose() * jn;
+    const Eigen::Matrix2d nn = w * jn.transpose() * jn;
+    out.information += tt - tn * nn.ldlt().solve(tn.transpose());
+  }
+  out.information = 0.5 * (out.information + out.information.transpose()).eval();
+  return out;
+}
+
 }  // namespace rbc

@@ -36,6 +36,8 @@
 // under a uniform prior on (lambda_inf, lambda_0) over a stated box, so the value is a
 // log-evidence term comparable across models; profiling (the maximum over them) is available.
 // Docs: docs/validation/recovery_likelihood.md.
+#include <Eigen/Core>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -216,5 +218,30 @@ RecoveryGradient recovery_log_likelihood_gradient(const RecoveryModel& model,
                                                   const RecoveryData& data,
                                                   const RecoveryLikelihoodOptions& options = {},
                                                   double relative_step = 1e-3);
+
+/// The gradient of the log-likelihood (as recovery_log_likelihood_gradient, for the parameters
+/// in `differentiate` = {persistence, lmax, kappa}; the others' entries are 0) and its
+/// Gauss-Newton information in (eta_m, persistence, lmax, kappa) (natural units: pN s/um, nm,
+/// nm, J), for the gradient sampler. Per cell, with the residuals e_i = (lambda_model(t_i) -
+/// lambda_i)/sigma at the nuisances' conditional mode, J_t their derivatives in the parameters
+/// (eta_m analytic through the rescaling, du_i/d eta_m = -g'(t_i s) t_i s/eta_m; the others by
+/// the same central differences of trajectories as the gradient) and J_n in the nuisances
+/// (lambda_inf, r0), the information is the Schur complement
+///   J_t' J_t - J_t' J_n (J_n' J_n)^-1 J_n' J_t,
+/// the Gauss-Newton information of the likelihood with the nuisances marginalised (or
+/// profiled; the Laplace determinant's dependence on the parameters, a term of order 1 against
+/// the residuals' order n, is left out, as Gauss-Newton drops the residuals' curvature).
+/// Rows and columns of parameters not differentiated are 0. The 1 + 2 x (differentiated)
+/// trajectories run in parallel over the calling thread's OpenMP team, each on one thread, so
+/// the result does not depend on the thread count.
+struct RecoveryGradientInformation {
+  RecoveryGradient gradient;
+  Eigen::Matrix4d information = Eigen::Matrix4d::Zero();
+  int trajectories = 0;  ///< release-scene simulations made
+};
+RecoveryGradientInformation recovery_gradient_and_information(
+    const RecoveryModel& model, const ForwardParameters& parameters, double eta_m_pN_s_per_um,
+    const RecoveryData& data, const RecoveryLikelihoodOptions& options,
+    const std::array<bool, 3>& differentiate, double relative_step = 1e-3);
 
 }  // namespace rbc

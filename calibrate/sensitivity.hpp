@@ -154,7 +154,11 @@ class StretchSensitivity {
 /// log L (calibrate/likelihood.hpp) at theta (the problem's parameter slots, natural units) and
 /// its gradient in theta (same units; sigma-scale and tau differentiated in closed form), by
 /// the chain rule through the sensitivities at the forward runs' equilibria: one run per
-/// forward-run group, each experiment's slots moving its own model only. The physical parameters'
+/// forward-run group, each experiment's slots moving its own model only. Recovery experiments
+/// add their term, its gradient and Gauss-Newton information in eta-m, persistence, lmax and kappa
+/// (calibrate/recovery_likelihood.hpp recovery_gradient_and_information: 1 + 2 x the
+/// differentiated stretch parameters release-scene trajectories each); contact-fraction with
+/// recovery data is refused (std::invalid_argument). The physical parameters'
 /// entries are NaN where a sensitivity solve did not converge (sensitivities.converged()). `failed`
 /// (log L = -inf, no gradient) for a forward run that did not converge; outside the prior box log L
 /// is evaluated all the same (the caller applies the prior).
@@ -170,6 +174,9 @@ struct LikelihoodGradient {
   /// 1/2 tr(Sigma^-1 dSigma_a Sigma^-1 dSigma_b), uncoupled from the physical ones.
   Eigen::MatrixXd information;
   double forward_s = 0, sensitivity_s = 0;  ///< wall time of the forward run and of the rest
+  /// Release-scene trajectories run for recovery experiments (the centre and the central
+  /// differences; calibrate/recovery_likelihood.hpp recovery_gradient_and_information).
+  int recovery_trajectories = 0;
 };
 /// `sensitivity` must be built from problem.forward().options().
 LikelihoodGradient log_likelihood_and_gradient(const InferenceProblem& problem,

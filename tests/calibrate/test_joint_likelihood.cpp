@@ -273,12 +273,14 @@ TEST(JointLikelihood, RecoveryDataAddTheirReleaseSceneLikelihoodToTheStretchOnes
   const double lr = recovery_log_likelihood(curve, 0.8, read_recovery_data(cells));
   const double ls = evaluate(ps, {9.0, 200.0});
   EXPECT_NEAR(evaluate(pj, theta), ls + lr, 1e-9 * std::abs(ls + lr));
-  // Without eta-m, or with the gradient sampler, recovery data are refused before any work.
+  // Without eta-m, or with the gradient sampler and contact-fraction inferred (the recovery
+  // term's gradient does not cover it), recovery data are refused before any work.
   InferOptions bad = joint;
   bad.parameters = {Parameter::persistence, Parameter::lmax};
   EXPECT_THROW(InferenceProblem{bad}, std::invalid_argument);
   bad = joint;
   bad.sampler_kind = SamplerKind::laplace_is;
+  bad.parameters.push_back(Parameter::contact_fraction);
   EXPECT_THROW(InferenceProblem{bad}, std::invalid_argument);
   bad = joint;
   bad.data_files = {cells, f.a};  // stretch data first
