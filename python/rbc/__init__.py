@@ -100,7 +100,8 @@ UNITLESS_KEYS = frozenset({
     # counts, seeds and indices
     "cells", "rows", "vertices", "edges", "faces", "elements", "seeds", "seed", "streams",
     "samples", "samples_per_stage", "discarded_transient", "sweep", "sweeps", "adaptive_sweeps",
-    "warmup_sweeps", "batches",
+    "warmup_sweeps", "batches", "chains", "chain_seeds", "chain_steps", "chain_sweeps",
+    "samples_per_chain", "rhat_threshold",
     "colours", "iterations", "newton_iterations", "phi_iterations", "degree_histogram", "stage",
     "stages", "forward_runs", "made", "retried", "failed", "threads", "ranks",
     "resumed_from_stage", "symmetry_order", "used", "requested",
@@ -108,12 +109,12 @@ UNITLESS_KEYS = frozenset({
     "converged", "blocking_converged", "symmetry_broken", "transverse_used", "network", "law",
     "status", "status_text", "method", "data_file", "command", "unit", "library", "core",
     "config", "bending", "contact", "dihedral_mapping", "log_evidence_error_estimate", "reason",
-    "file", "name", "sigma", "sampler", "mass_matrix",
+    "file", "name", "sigma", "sampler", "mass_matrix", "rhat_method", "stem", "kind", "contents",
     # HMC: dimensionless trajectory time, counts
     "trajectory_time", "evaluations", "solves", "factor_nonzeros",
     # groups of other keys (their entries carry the units)
     "parameters", "derived", "timing", "stage_log", "stage_info", "data", "data_sets",
-    "predictive_q05_q50_q95", "hmc",
+    "predictive_q05_q50_q95", "hmc", "per_chain",
 })
 # "samples" of rbc.infer() is (S, P): each column in the unit of InferenceProblem.units.
 
