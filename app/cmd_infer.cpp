@@ -508,7 +508,7 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "data file declares ('# extra_uncertainty_um:'); UM for every data file or "
                   "FILE_STEM=UM for the data file of that name (without directory and "
                   "extension), repeatable; default 0: the files' error bars")
-      ->type_name("[FILE_STEM=]UM");
+      ->type_name("TEXT");
   cmd->add_option("--per-experiment", c->per_experiment,
                   "inferred forward-model parameters (of --params) given one value per data "
                   "file, e.g. contact-fraction: parameters contact-fraction[FILE_STEM], each "

@@ -740,7 +740,7 @@ void add_mc_command(CLI::App& app, Action& action) {
                   "writes DIR/force_KK/ per force and DIR/thermal_curve.csv/.json (no "
                   "--checkpoint or --resume)")
       ->delimiter(',')
-      ->type_name("F1,F2,...");
+      ->type_name("FLOAT");
   auto* adapt_fraction =
       cmd->add_option("--adapt-fraction", o->adapt_fraction,
                       "fraction of the sweeps with adaptive step (equilibration), in [0, 1)")
