@@ -640,7 +640,7 @@ std::string calibration_section(const CalibrationCache& cache, const std::string
     md << "### Model comparison on the same data (`" << ref.name << "`: " << ref.data_file
        << ")\n\n"
        << "Log-evidence differences against " << ref.method
-       << " (errors in quadrature from each run's island scatter) and posterior shifts of each "
+       << " (errors in quadrature from each run's evidence error) and posterior shifts of each "
           "mean in units of the reference's posterior sd. A shift below ~0.5 sd means the "
           "cheaper model is good enough for the inference.\n\n"
        << "| method | log evidence | difference | shift persistence | shift Lmax | shift "

@@ -1,0 +1,46 @@
+set terminal pngcairo size 960,960 enhanced font 'DejaVu Sans,10'
+if (!exists('rbc_output')) rbc_output = 'corner.png'
+set output rbc_output
+set datafile separator ','
+set datafile commentschars '#'
+set multiplot layout 3,3 title 'posterior (continuum p2 E500, 1000 samples)'
+unset key
+set grid
+set format x '%.3g'
+set format y '%.3g'
+set xtics rotate by 30 right
+set xlabel ''
+set xrange [8.46713:19.9297]
+set ylabel 'density'
+set autoscale y
+plot 'corner_marginals.csv' skip 1 using 1:2 with boxes fs solid 0.5 lc rgb '#1f77b4'
+set multiplot next
+set multiplot next
+set xlabel ''
+set xrange [8.46713:19.9297]
+set ylabel 'lmax (nm)'
+set yrange [154.667:242.704]
+plot 'posterior_samples.csv' skip 1 using 1:2 with points pt 7 ps 0.25 lc rgb '#1f77b4'
+set xlabel ''
+set xrange [154.667:242.704]
+set ylabel ''
+set autoscale y
+plot 'corner_marginals.csv' skip 1 using 3:4 with boxes fs solid 0.5 lc rgb '#1f77b4'
+set multiplot next
+set xlabel 'persistence (nm)'
+set xrange [8.46713:19.9297]
+set ylabel 'sigma-scale'
+set yrange [0.486904:1.24838]
+plot 'posterior_samples.csv' skip 1 using 1:3 with points pt 7 ps 0.25 lc rgb '#1f77b4'
+set xlabel 'lmax (nm)'
+set xrange [154.667:242.704]
+set ylabel ''
+set yrange [0.486904:1.24838]
+plot 'posterior_samples.csv' skip 1 using 2:3 with points pt 7 ps 0.25 lc rgb '#1f77b4'
+set xlabel 'sigma-scale'
+set xrange [0.486904:1.24838]
+set ylabel ''
+set autoscale y
+plot 'corner_marginals.csv' skip 1 using 5:6 with boxes fs solid 0.5 lc rgb '#1f77b4'
+unset multiplot
+set output
