@@ -21,13 +21,24 @@ LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Ex
   const InferOptions& o = problem.options();
   const StretchSensitivity sensitivity(problem.forward().options());
   const int d = static_cast<int>(problem.slots().size());
-  long long forward_runs = 0, sensitivity_solves = 0, recovery_trajectories = 0;
+  long long forward_runs = 0, sensitivity_solves = 0, recovery_trajectories = 0, evaluations = 0;
   const GradientTarget target = [&](const Eigen::VectorXd& theta, const WarmState& warm) {
     GradientPoint p;
     const std::vector<double> t(theta.data(), theta.data() + d);
     const LikelihoodGradient g = log_likelihood_and_gradient(problem, sensitivity, t, warm);
     forward_runs += problem.groups();  // one run per forward-run group
     recovery_trajectories += g.recovery_trajectories;
+    {  // one line per evaluation: a mode search with release trajectories takes minutes
+      std::ostringstream m;
+      m << "laplace-is: mode search, gradient evaluation " << ++evaluations << ": ";
+      if (g.failed)
+        m << "forward run failed";
+      else
+        m << "log L " << std::fixed << std::setprecision(3) << g.log_likelihood;
+      if (recovery_trajectories > 0)
+        m << " (" << recovery_trajectories << " release trajectories so far)";
+      report(progress, m.str());
+    }
     if (g.failed) return p;
     ++sensitivity_solves;
     p.log_likelihood = g.log_likelihood;
