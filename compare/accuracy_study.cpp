@@ -527,6 +527,31 @@ std::string series_title(const Method& m, Symmetry symmetry) {
 
 namespace {
 
+/// One row of accuracy_cost.csv (the columns of accuracy_cost_header()).
+std::vector<double> accuracy_cost_row(const AccuracyStudy& st, const AccuracyRow& r) {
+  const bool discrete = r.method.kind == MethodKind::discrete;
+  return {discrete ? 0.0 : 1.0,
+          discrete ? 0.0 : static_cast<double>(order_code(r.method.order)),
+          static_cast<double>(r.method.resolution),
+          static_cast<double>(r.vertices),
+          static_cast<double>(r.elements),
+          r.converged ? 1.0 : 0.0,
+          r.error_all,
+          r.error_low,
+          r.error_mid,
+          r.error_high,
+          r.cost_eg,
+          r.own_eg,
+          r.cpu_s,
+          r.wall_s,
+          r.spread,
+          static_cast<double>(r.rotations),
+          r.error_default,
+          st.reference_relative_sd,
+          static_cast<double>(st.options.cost_unit_vertices),
+          symmetry_code(r.symmetry)};
+}
+
 /// The adapted mesh's rows and sweeps (AccuracyStudyOptions::adapted_elements), beside the
 /// table: the same columns as accuracy_cost.csv, accuracy_by_force.csv and convergence.csv
 /// with the size ratio appended, their observed orders and their Richardson chains.
@@ -559,27 +584,8 @@ void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>&
                "force_pN", "error", "reference_se", "symmetry",  "size_ratio"};
   for (const auto& r : rows) {
     const double order = static_cast<double>(order_code(r.method.order));
-    t.rows.push_back({1.0,
-                      order,
-                      static_cast<double>(r.method.resolution),
-                      static_cast<double>(r.vertices),
-                      static_cast<double>(r.elements),
-                      r.converged ? 1.0 : 0.0,
-                      r.error_all,
-                      r.error_low,
-                      r.error_mid,
-                      r.error_high,
-                      r.cost_eg,
-                      r.own_eg,
-                      r.cpu_s,
-                      r.wall_s,
-                      r.spread,
-                      static_cast<double>(r.rotations),
-                      r.error_default,
-                      st.reference_relative_sd,
-                      static_cast<double>(o.cost_unit_vertices),
-                      symmetry_code(r.symmetry),
-                      r.method.size_ratio});
+    t.rows.push_back(accuracy_cost_row(st, r));
+    t.rows.back().push_back(r.method.size_ratio);
     for (size_t k = 0; k < r.error_by_force.size(); ++k)
       bf.rows.push_back({1.0, order, static_cast<double>(r.method.resolution),
                          r.converged ? 1.0 : 0.0, r.cost_eg, o.forces_pN[k], r.error_by_force[k],
@@ -690,29 +696,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       "symmetry: the solver path of cost_eg, 0 full problem, 1 --symmetry mirror (same mesh: "
       "the errors are those of the full problem's row to the solver tolerance)"};
   t.header = accuracy_cost_header();
-  for (const auto& r : table_rows)
-    t.rows.push_back({r.method.kind == MethodKind::discrete ? 0.0 : 1.0,
-                      r.method.kind == MethodKind::discrete
-                          ? 0.0
-                          : static_cast<double>(order_code(r.method.order)),
-                      static_cast<double>(r.method.resolution),
-                      static_cast<double>(r.vertices),
-                      static_cast<double>(r.elements),
-                      r.converged ? 1.0 : 0.0,
-                      r.error_all,
-                      r.error_low,
-                      r.error_mid,
-                      r.error_high,
-                      r.cost_eg,
-                      r.own_eg,
-                      r.cpu_s,
-                      r.wall_s,
-                      r.spread,
-                      static_cast<double>(r.rotations),
-                      r.error_default,
-                      st.reference_relative_sd,
-                      static_cast<double>(o.cost_unit_vertices),
-                      symmetry_code(r.symmetry)});
+  for (const auto& r : table_rows) t.rows.push_back(accuracy_cost_row(st, r));
   write_csv(dir + "/accuracy_cost.csv", t);
   // accuracy_by_force.csv: the per-force errors the --accuracy choice reads.
   CsvTable bf;
