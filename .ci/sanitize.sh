@@ -4,10 +4,10 @@
 # every finding fatal), builds everything and runs the C++ suite through ctest with leak
 # detection on. Python tests are left to the normal build (an instrumented module cannot be loaded
 # by the uninstrumented interpreter); MPI tests run in a second pass with the slow unwinder,
-# because OpenMPI's libraries have no frame pointers and unload their plugins, so the fast
-# unwinder's stacks cannot be matched against .ci/lsan.supp: a test is an MPI test when its
-# command runs mpirun, it has the ctest label "mpi", or it matches a regex in .ci/asan_mpi.txt
-# (for gtest cases that start mpirun themselves). Heavy cases excluded under ASan:
+# because OpenMPI's libraries have no frame pointers and unload their plugins (and HDF5 has no
+# frame pointers either), so the fast unwinder's stacks cannot be matched against .ci/lsan.supp:
+# a test goes to the second pass when its command runs mpirun, it has the ctest label "mpi", or it
+# matches a regex in .ci/asan_slow_unwind.txt. Heavy cases excluded under ASan:
 # .ci/asan_exclude.txt (one ctest regex a line, each with its reason and measured time).
 # Usage: .ci/sanitize.sh [extra ctest arguments, e.g. -R discrete]
 set -euo pipefail
@@ -27,12 +27,12 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # OpenMPI in containers (as the MPI tests set it too): no cross-memory attach.
 export OMPI_MCA_btl_vader_single_copy_mechanism=none
 
-# Test lists: heavy cases (excluded), Python tests (excluded), MPI tests (second pass).
+# Test lists: heavy cases (excluded), Python tests (excluded), slow-unwinder tests (second pass).
 patterns() { grep -v '^\s*\(#\|$\)' "$1" | sed 's/\s*#.*//' || true; }
 mapfile -t heavy < <(patterns .ci/asan_exclude.txt)
 mapfile -t python < <(/usr/bin/python3 .ci/ctest_tests.py build-asan python)
 mapfile -t mpi < <(/usr/bin/python3 .ci/ctest_tests.py build-asan mpi)
-mapfile -t mpi_patterns < <(patterns .ci/asan_mpi.txt)
+mapfile -t mpi_patterns < <(patterns .ci/asan_slow_unwind.txt)
 names() {  # names -> ^(a|b)$ with regex characters escaped
   local out="" n
   for n in "$@"; do out+="${out:+|}$(printf '%s' "$n" | sed 's/[][\.*^$()+?{}|]/\\&/g')"; done
@@ -46,9 +46,9 @@ exclude=("${heavy[@]}" "${mpi_regex[@]}")
 common=(--test-dir build-asan --output-on-failure -j 2 --timeout 1200 --label-exclude slow)
 first=("${common[@]}" --no-tests=error)
 ((${#exclude[@]})) && first+=(-E "$(join "${exclude[@]}")")
-echo "sanitize: C++ suite under ASan+UBSan (left out: ${#heavy[@]} heavy patterns, ${#python[@]} Python tests, MPI tests for the second pass)"
+echo "sanitize: C++ suite under ASan+UBSan (left out: ${#heavy[@]} heavy patterns, ${#python[@]} Python tests, MPI and HDF5-error tests for the second pass)"
 ASAN_OPTIONS="$asan" ctest "${first[@]}" "$@"
 if ((${#mpi_regex[@]})); then
-  echo "sanitize: MPI tests under ASan+UBSan (slow unwinder)"
+  echo "sanitize: MPI and HDF5-error tests under ASan+UBSan (slow unwinder)"
   ASAN_OPTIONS="$asan:fast_unwind_on_malloc=0" ctest "${common[@]}" -R "$(join "${mpi_regex[@]}")" "$@"
 fi

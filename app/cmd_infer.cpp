@@ -43,7 +43,8 @@ struct InferCli {
   std::vector<std::string> priors;
   /// --extra-uncertainty UM (every file) or STEM=UM (the file of that stem), repeatable.
   std::vector<std::string> extra_uncertainty;
-  std::string per_experiment;  ///< --per-experiment NAME[,NAME...]
+  std::string per_experiment;                               ///< --per-experiment NAME[,NAME...]
+  int recovery_elements = RecoveryModelOptions{}.elements;  ///< --recovery-elements
   int samples = InferOptions::default_sampler().samples;
   int chain_length = InferOptions::default_sampler().chain_length;
   double target_cov = 1.0, proposal_scale = 0.2;
@@ -283,6 +284,23 @@ InferOptions to_options(const InferCli& c) {
       throw std::invalid_argument("--per-experiment " + c.per_experiment + ": " + e.what());
     }
   }
+  o.recovery_model.elements = c.recovery_elements;
+  if (c.recovery_elements != RecoveryModelOptions{}.elements) {
+    const std::vector<std::string> files =
+        c.data_files.empty() ? std::vector<std::string>{o.data_file} : c.data_files;
+    if (std::none_of(files.begin(), files.end(), [](const std::string& f) {
+          return detect_data_kind(f) == DataKind::recovery;
+        }))
+      throw std::invalid_argument("--recovery-elements " + std::to_string(c.recovery_elements) +
+                                  ": no recovery data file among --data-file (expected one, or "
+                                  "leave the option out)");
+    try {
+      o.recovery_model.validate();
+    } catch (const std::exception& e) {
+      throw std::invalid_argument("--recovery-elements " + std::to_string(c.recovery_elements) +
+                                  ": " + e.what());
+    }
+  }
   o.sampler.samples = c.samples;
   o.sampler.chain_length = c.chain_length;
   o.sampler.target_cov = c.target_cov;
@@ -514,6 +532,13 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "file, e.g. contact-fraction: parameters contact-fraction[FILE_STEM], each "
                   "with the parameter's prior; comma-separated")
       ->type_name("NAMES");
+  cmd->add_option("--recovery-elements", c->recovery_elements,
+                  "recovery data: continuum triangles of the release scene (" +
+                      std::to_string(kMinContinuumElements) + " to " +
+                      std::to_string(kMaxContinuumElements) +
+                      "); a trajectory's cost grows with it, and eta_m moves 1.5 % from 400 to "
+                      "1,000 on the Hochmuth cells")
+      ->capture_default_str();
   cmd->add_option("--sampler", c->sampler,
                   "posterior sampler: tmcmc | laplace-is (Laplace proposal with importance "
                   "correction from the posterior mode; continuum forward model only)")

@@ -125,6 +125,8 @@ std::vector<PosteriorInput> posterior_inputs(const InferenceProblem& problem) {
       {"--seed", std::to_string(s.seed)},
   };
   inputs.insert(inputs.end(), rest.begin(), rest.end());
+  if (problem.has_recovery())
+    inputs.push_back({"--recovery-elements", std::to_string(o.recovery_model.elements)});
   return inputs;
 }
 
@@ -222,7 +224,7 @@ StageCheckpoint read_stage_checkpoint(const std::string& path) {
   StageCheckpoint out;
   StageCheckpointArrays a;
   try {
-    const H5File h = H5File::open_read(path);
+    const H5File h = H5File::open_read(path, H5Seal::required);
     const long long format = h.read_attribute_int("format");
     if (format != kStageCheckpointFormat)
       throw corrupt("format version " + std::to_string(format) + " (this rbc reads version " +

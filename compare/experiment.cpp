@@ -7,8 +7,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <regex>
+#include <optional>
 #include <stdexcept>
+#include <utility>
 
 #include "core/io.hpp"
 #include "core/validation.hpp"
@@ -53,15 +54,27 @@ std::vector<ExperimentPoint> experiment_points(const CsvTable& t, const std::str
 
 /// The declarations among the comment lines (parse_csv strips the leading "# ").
 void read_declarations(const std::vector<std::string>& comments, ExperimentFile& f) {
-  static const std::regex declaration(R"(^([a-z][a-z0-9_]*):[ \t]*(.*?)[ \t]*$)");
+  // "key: value": key of [a-z][a-z0-9_]*, blanks (space, tab) around the value dropped.
+  auto declaration =
+      [](const std::string& c) -> std::optional<std::pair<std::string, std::string>> {
+    const std::size_t colon = c.find(':');
+    if (colon == 0 || colon == std::string::npos || c[0] < 'a' || c[0] > 'z') return std::nullopt;
+    for (std::size_t i = 1; i < colon; ++i)
+      if (!((c[i] >= 'a' && c[i] <= 'z') || (c[i] >= '0' && c[i] <= '9') || c[i] == '_'))
+        return std::nullopt;
+    const std::size_t first = c.find_first_not_of(" \t", colon + 1);
+    if (first == std::string::npos) return std::pair{c.substr(0, colon), std::string()};
+    const std::size_t last = c.find_last_not_of(" \t");
+    return std::pair{c.substr(0, colon), c.substr(first, last + 1 - first)};
+  };
   auto bad = [&](const std::string& what) {
     return std::runtime_error("experiment file '" + f.path + "' " + what);
   };
   bool have_name = false, have_extra = false;
   for (const std::string& c : comments) {
-    std::smatch m;
-    if (!std::regex_match(c, m, declaration)) continue;
-    const std::string key = m[1], value = m[2];
+    const auto kv = declaration(c);
+    if (!kv) continue;
+    const auto& [key, value] = *kv;
     if (key == "name") {
       if (have_name) throw bad("declares 'name' twice");
       if (value.empty()) throw bad("declares an empty 'name'");
@@ -126,9 +139,9 @@ std::string experiment_plot_label(const std::string& label) {
     text += c;
   }
   // A unit written "um" in a name is shown as µm (the house style).
-  static const std::regex micro_unit("(^|[^A-Za-z])um([^A-Za-z]|$)");
-  while (std::regex_search(text, micro_unit))
-    text = std::regex_replace(text, micro_unit, "$1µm$2", std::regex_constants::format_first_only);
+  for (std::size_t at = find_word(text, "um"); at != std::string::npos;
+       at = find_word(text, "um", at + 1))
+    text.replace(at, 2, "µm");
   return text;
 }
 

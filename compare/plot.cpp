@@ -2,7 +2,6 @@
 #include "compare/plot.hpp"
 
 #include <filesystem>
-#include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -21,8 +20,7 @@ void check_plot_text(const std::string& text, const std::string& where) {
       refuse("a raw underscore; write a subscript as D_{A} or a literal underscore as \\_");
   if (text.find('\'') != std::string::npos)
     refuse("a single quote, which ends gnuplot's quoted string");
-  static const std::regex micro_unit("(^|[^A-Za-z])um([^A-Za-z]|$)");
-  if (std::regex_search(text, micro_unit)) refuse("'um' as a unit; write µm");
+  if (find_word(text, "um") != std::string::npos) refuse("'um' as a unit; write µm");
 }
 
 std::string plot_literal(const std::string& text) {

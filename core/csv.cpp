@@ -34,6 +34,16 @@ std::string printable(std::string_view text) {
   return out;
 }
 
+std::size_t find_word(std::string_view text, std::string_view word, std::size_t from) {
+  auto letter = [](char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); };
+  for (std::size_t at = text.find(word, from); at != std::string_view::npos;
+       at = text.find(word, at + 1)) {
+    const std::size_t end = at + word.size();
+    if ((at == 0 || !letter(text[at - 1])) && (end == text.size() || !letter(text[end]))) return at;
+  }
+  return std::string_view::npos;
+}
+
 namespace {
 
 std::runtime_error is_a_directory(const std::string& path) {

@@ -5,10 +5,15 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <exception>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
+#include <string_view>
 #include <utility>
 
 #include "core/fnv1a.hpp"
@@ -80,6 +85,60 @@ class AccessList {
  private:
   hid_t id_;
 };
+
+/// The seal in a file's user block: this text, then "fnv1a64 HEX16 bytes N\n" (the hash and length
+/// of the bytes after the block), zero padded.
+constexpr std::size_t kUserBlockBytes = 512;
+constexpr std::string_view kSealMagic = "rbc sealed HDF5 file\n";
+
+/// The user block that seals `image` (the HDF5 image of a file created with a kUserBlockBytes user
+/// block, which H5Fget_file_image leaves out: the file on disk is this block, then the image).
+std::vector<char> seal_block(const std::vector<char>& image) {
+  Fnv1a hash;
+  hash.add(image.data(), image.size());
+  char line[96];
+  const int n = std::snprintf(line, sizeof line, "fnv1a64 %016llx bytes %zu\n",
+                              static_cast<unsigned long long>(hash.h), image.size());
+  std::vector<char> block(kUserBlockBytes, '\0');
+  std::copy(kSealMagic.begin(), kSealMagic.end(), block.begin());
+  std::copy(line, line + n, block.begin() + static_cast<std::ptrdiff_t>(kSealMagic.size()));
+  return block;
+}
+
+/// Checks the seal of the file at `path` against its bytes; throws naming the file if it does
+/// not match, or if the file has none and `seal` requires one.
+void check_seal(const std::string& path, H5Seal seal) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) fail(path, "is missing or not an HDF5 file");
+  if (S_ISDIR(st.st_mode)) fail(path, "is a directory, not an HDF5 file");
+  if (!S_ISREG(st.st_mode)) fail(path, "is not a regular file (a FIFO, device or socket)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "is missing or not an HDF5 file");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!in.eof() && in.fail()) fail(path, "cannot be read");
+  const bool has_seal =
+      bytes.size() >= kUserBlockBytes && bytes.compare(0, kSealMagic.size(), kSealMagic) == 0;
+  if (!has_seal) {
+    if (seal == H5Seal::required)
+      fail(path,
+           "has no seal (the checksum rbc writes in its first 512 bytes): it was not "
+           "written by rbc, or it is corrupt");
+    return;
+  }
+  unsigned long long stored_hash = 0;
+  std::size_t stored_size = 0;
+  const std::string line = bytes.substr(kSealMagic.size(), 64);
+  if (std::sscanf(line.c_str(), "fnv1a64 %16llx bytes %zu", &stored_hash, &stored_size) != 2)
+    fail(path, "is corrupt: its seal cannot be read");
+  Fnv1a actual;
+  actual.add(bytes.data() + kUserBlockBytes, bytes.size() - kUserBlockBytes);
+  if (stored_size != bytes.size() - kUserBlockBytes)
+    fail(path, "is corrupt: it has " + std::to_string(bytes.size()) +
+                   " bytes where its seal says " + std::to_string(stored_size + kUserBlockBytes));
+  if (actual.h != stored_hash)
+    fail(path, "is corrupt: its bytes do not match the checksum sealed with them");
+}
+
 }  // namespace
 
 H5File H5File::create(const std::string& path, const std::string& name_in_errors) {
@@ -88,8 +147,11 @@ H5File H5File::create(const std::string& path, const std::string& name_in_errors
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0666);
   if (fd < 0) throw_file_error(shown, "cannot create", errno);
   const AccessList fapl(true);
+  const hid_t fcpl = H5Pcreate(H5P_FILE_CREATE);
+  const bool fcpl_ok = fcpl >= 0 && H5Pset_userblock(fcpl, kUserBlockBytes) >= 0;
   const hid_t id =
-      fapl.get() < 0 ? -1 : H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get());
+      fapl.get() < 0 || !fcpl_ok ? -1 : H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl, fapl.get());
+  if (fcpl >= 0) H5Pclose(fcpl);
   if (id < 0) {
     ::close(fd);
     remove_written_file(path);
@@ -102,8 +164,9 @@ H5File H5File::create(const std::string& path, const std::string& name_in_errors
   return f;
 }
 
-H5File H5File::open_read(const std::string& path) {
+H5File H5File::open_read(const std::string& path, H5Seal seal) {
   silence();
+  check_seal(path, seal);  // before HDF5 reads any of it
   if (H5Fis_hdf5(path.c_str()) <= 0) fail(path, "is missing or not an HDF5 file");
   const AccessList fapl(false);
   const hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get() < 0 ? H5P_DEFAULT : fapl.get());
@@ -172,7 +235,9 @@ void H5File::write_image_and_close() {
     remove_written_file(disk_path_);
     fail(path_, "cannot be flushed (HDF5 error)");
   }
+  const std::vector<char> seal = seal_block(image);
   try {
+    write_all(fd_, seal.data(), seal.size(), path_);
     write_all(fd_, image.data(), image.size(), path_);
     if (::fsync(fd_) != 0) throw_file_error(path_, "", errno);
     const int fd = fd_;

@@ -11,6 +11,10 @@
 // leaves HDF5 holding a file it failed to flush (whose library shutdown at exit() would
 // crash). Files are opened with the "strong" close degree: closing the file closes every
 // object still open in it.
+// Every file written here is sealed: its first 512 bytes (an HDF5 user block, which HDF5 and
+// the tools that read HDF5 skip) hold the FNV-1a hash and length of the rest of the file. A file
+// opened for reading whose seal does not match is refused before HDF5 parses any of it, so a
+// damaged file never reaches HDF5's parser (which is not hardened against corrupt metadata).
 #include <hdf5.h>
 
 #include <Eigen/Core>
@@ -21,6 +25,12 @@
 
 namespace rbc {
 
+/// What H5File::open_read asks of a file's seal (the hash of its bytes in its user block).
+enum class H5Seal {
+  if_present,  ///< a sealed file must match its seal; a file without one is read as it is
+  required,    ///< the file must carry a matching seal (files rbc writes itself: checkpoints)
+};
+
 /// An open HDF5 file. Owns the handle; closes on destruction.
 class H5File {
  public:
@@ -29,8 +39,9 @@ class H5File {
   /// Errors name `name_in_errors` if given (the user's file name when `path` is the temporary
   /// an atomic writer fills) and the cause (strerror).
   static H5File create(const std::string& path, const std::string& name_in_errors = "");
-  /// Opens an existing file read-only; throws if missing or not HDF5.
-  static H5File open_read(const std::string& path);
+  /// Opens an existing file read-only; throws if missing, not HDF5, or its seal does not match
+  /// its bytes (or, with H5Seal::required, it has no seal).
+  static H5File open_read(const std::string& path, H5Seal seal = H5Seal::if_present);
   H5File(H5File&& other) noexcept;
   H5File& operator=(H5File&&) = delete;
   H5File(const H5File&) = delete;

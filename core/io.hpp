@@ -123,6 +123,9 @@ void write_csv(const std::string& path, const CsvTable& table);
 /// Text taken from a file, fit for a one-line message: printable ASCII as it is, every other
 /// byte (NUL, control characters, non-ASCII) as \xNN; at most 60 bytes shown, then "...".
 std::string printable(std::string_view text);
+/// Position of `word` in `text` at or after `from` where it stands as a word of its own (no ASCII
+/// letter right before or after it), or std::string_view::npos.
+std::size_t find_word(std::string_view text, std::string_view word, std::size_t from = 0);
 
 /// Whether a CSV file names its rows in a leading text column (CsvTable::labels).
 enum class CsvLabels { none, first_column };

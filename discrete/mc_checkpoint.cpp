@@ -183,7 +183,7 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
 }
 
 McCheckpointNetwork peek_mc_checkpoint_network(const std::string& path) {
-  const H5File h = H5File::open_read(path);
+  const H5File h = H5File::open_read(path, H5Seal::required);
   check_format(h, path);
   McCheckpointNetwork n;
   n.vertices = static_cast<int>(h.read_attribute_int("vertices"));
@@ -196,7 +196,7 @@ McCheckpointNetwork peek_mc_checkpoint_network(const std::string& path) {
 }
 
 McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
-  const H5File h = H5File::open_read(path);
+  const H5File h = H5File::open_read(path, H5Seal::required);
   auto corrupt = [&](const std::string& what) {
     return std::runtime_error("checkpoint '" + path + "' is corrupt: " + what);
   };

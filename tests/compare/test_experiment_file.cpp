@@ -107,6 +107,8 @@ TEST(ExperimentFile, PlotLabelsFollowTheHouseStyle) {
   EXPECT_EQ(experiment_plot_label("my_cells.csv"), "my\\_cells.csv");
   EXPECT_EQ(experiment_plot_label("O'Brien 2020"), "O’Brien 2020");
   EXPECT_EQ(experiment_plot_label("bars +-0.4 um"), "bars +-0.4 µm");
+  EXPECT_EQ(experiment_plot_label("um: 0.4um, (0.2 um)"), "µm: 0.4µm, (0.2 µm)");
+  EXPECT_EQ(experiment_plot_label("drums umbra mum"), "drums umbra mum");
   EXPECT_EQ(experiment_plot_label("Mills et al. 2004, Fig. 8"), "Mills et al. 2004, Fig. 8");
 }
 

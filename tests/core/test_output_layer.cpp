@@ -230,5 +230,61 @@ TEST(CheckedWrites, AnHdf5FileRoundTripsThroughTheCheckedWriter) {
   EXPECT_EQ(r.read_attribute_double("force_pN"), 16.0);
 }
 
+// Every file H5File writes is sealed (the hash and length of its bytes in a 512-byte HDF5 user
+// block): a change of any one byte, anywhere, is refused before HDF5 parses the file; a file
+// without a seal (written by another HDF5 program) reads as it is unless a seal is required.
+TEST(CheckedWrites, ASealedFileRefusesAnyChangedByteAndAnUnsealedOneIsReadOnlyIfAllowed) {
+  const fs::path dir = testing::fresh_output_dir("output_layer_h5_seal");
+  const std::string path = (dir / "sealed.h5").string();
+  {
+    H5File f = H5File::create(path);
+    const double v[4] = {1, 2, 3, 4};
+    f.write("/g/v", v, 2, 2);
+    f.write_attribute("label", std::string("sealed"));
+    f.close();
+  }
+  const std::string intact = read_all(path);
+  ASSERT_GT(intact.size(), 512u);
+  EXPECT_EQ(intact.compare(0, 21, "rbc sealed HDF5 file\n"), 0);
+  EXPECT_EQ(H5File::open_read(path, H5Seal::required).read_attribute_string("label"), "sealed");
+
+  const std::string changed = (dir / "changed.h5").string();
+  std::mt19937 rng(5);
+  // Bytes of the seal line, of the padding and of the HDF5 image after the block.
+  std::vector<std::size_t> at = {21, 30, 50, 511, 512, 513, intact.size() - 1};
+  for (int k = 0; k < 40; ++k) at.push_back(512 + rng() % (intact.size() - 512));
+  int refused = 0;
+  for (const std::size_t i : at) {
+    std::string bytes = intact;
+    bytes[i] = static_cast<char>(bytes[i] ^ (1 + rng() % 255));
+    write_bytes(changed, bytes);
+    try {
+      const H5File r = H5File::open_read(changed, H5Seal::required);
+      // A change in the block's zero padding after the seal line is the one harmless place.
+      EXPECT_GT(i, 100u) << "byte " << i;
+      EXPECT_LT(i, 512u) << "byte " << i;
+    } catch (const std::runtime_error& e) {
+      ++refused;
+      EXPECT_NE(std::string(e.what()).find(changed), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_GE(refused, static_cast<int>(at.size()) - 1);
+  write_bytes(changed, intact.substr(0, intact.size() - 8));  // truncated
+  EXPECT_THROW(H5File::open_read(changed), std::runtime_error);
+
+  // A file of another HDF5 writer: no user block, no seal.
+  const std::string plain = (dir / "plain.h5").string();
+  const hid_t id = H5Fcreate(plain.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(id, 0);
+  ASSERT_GE(H5Fclose(id), 0);
+  EXPECT_NO_THROW(H5File::open_read(plain));
+  try {
+    H5File::open_read(plain, H5Seal::required);
+    ADD_FAILURE() << "an unsealed file was accepted where a seal is required";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("has no seal"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace rbc
