@@ -50,8 +50,8 @@ struct InferCli {
   double target_cov = 1.0, proposal_scale = 0.2;
   std::uint64_t seed = 1;
   int threads = 0;
-  SamplerKind sampler = SamplerKind::tmcmc;    ///< --sampler
-  int is_samples = InferOptions{}.is_samples;  ///< --is-samples (laplace-is)
+  SamplerKind sampler = InferOptions{}.sampler_kind;  ///< --sampler
+  int is_samples = InferOptions{}.is_samples;         ///< --is-samples (laplace-is)
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   Symmetry symmetry = ForwardOptions::default_newton().symmetry;
   std::string out, resume;
@@ -499,8 +499,9 @@ void print_summary(const InferenceResult& r) {
 
 void add_infer_command(CLI::App& app, Action& action) {
   auto c = std::make_shared<InferCli>();
-  auto* cmd = app.add_subcommand(
-      "infer", "Bayesian calibration (TMCMC) of the spectrin parameters from force-diameter data");
+  auto* cmd = app.add_subcommand("infer",
+                                 "Bayesian calibration (laplace-is or TMCMC) of the spectrin "
+                                 "parameters from force-diameter and recovery data");
   add_config_option(cmd);
   cmd->add_option("--data-file", c->data_files,
                   "stretch-data CSV: force_pN,axial_um,axial_err_um,transverse_um,"
@@ -540,27 +541,31 @@ void add_infer_command(CLI::App& app, Action& action) {
                       "1,000 on the Hochmuth cells")
       ->capture_default_str();
   cmd->add_option("--sampler", c->sampler,
-                  "posterior sampler: tmcmc | laplace-is (Laplace proposal with importance "
-                  "correction from the posterior mode; continuum forward model only)")
+                  "posterior sampler: tmcmc (transitional MCMC) | laplace-is (a Laplace "
+                  "proposal at the posterior mode, found with the likelihood's gradient, with "
+                  "importance correction: about a sixth of TMCMC's forward runs; stops with "
+                  "status low_ess below 50 effective samples, as on a strongly curved "
+                  "posterior). Both give the evidence")
       ->transform(enum_choice<SamplerKind>(
           {{"tmcmc", SamplerKind::tmcmc}, {"laplace-is", SamplerKind::laplace_is}}))
       ->type_name("TEXT")
-      ->default_str("tmcmc");
+      ->default_str(to_string(InferOptions{}.sampler_kind));
   cmd->add_option(
          "--is-samples", c->is_samples,
-         "laplace-is: importance samples (forward runs after the mode search), at least 10")
+         "laplace-is: importance samples (forward runs after the mode search), at least 10; "
+         "more raise the effective sample size about in proportion")
       ->capture_default_str();
   cmd->add_option(
          "--samples", c->samples,
-         "TMCMC samples per stage, at least " + std::to_string(InferOptions::minimum_samples()))
+         "tmcmc: samples per stage, at least " + std::to_string(InferOptions::minimum_samples()))
       ->capture_default_str();
-  cmd->add_option("--chain-length", c->chain_length, "Metropolis steps per sample and stage")
+  cmd->add_option("--chain-length", c->chain_length, "tmcmc: Metropolis steps per sample and stage")
       ->capture_default_str();
   cmd->add_option("--target-cov", c->target_cov,
-                  "target coefficient of variation of the stage weights")
+                  "tmcmc: target coefficient of variation of the stage weights")
       ->capture_default_str();
   cmd->add_option("--proposal-scale", c->proposal_scale,
-                  "proposal sd in units of the weighted sample sd (beta)")
+                  "tmcmc: proposal sd in units of the weighted sample sd (beta)")
       ->capture_default_str();
   cmd->add_option("--seed", c->seed,
                   "random seed, an integer in [0, 2^64 - 1] (the posterior depends on it only)")
@@ -749,6 +754,14 @@ void add_infer_command(CLI::App& app, Action& action) {
         if (r.status == TmcmcStatus::converged)
           predictions = predict_all(held_out, r, c->predict_draws, progress);
       }
+      if (r.status == TmcmcStatus::low_ess) {
+        std::cerr << "rbc: error: inference stopped (low_ess): laplace-is kept "
+                  << format_number(r.ess) << " effective samples of " << o.is_samples
+                  << " (at least " << format_number(InferOptions::kMinimumEffectiveSamples)
+                  << "): the Laplace proposal fits this posterior badly; rerun with more "
+                     "--is-samples or with --sampler tmcmc\n";
+        return 1;
+      }
       if (r.status != TmcmcStatus::converged) {
         std::cerr << "rbc: error: inference stopped (" << to_string(r.status)
                   << "): " << r.counts.failed << " of " << r.counts.runs
@@ -774,8 +787,8 @@ void add_infer_command(CLI::App& app, Action& action) {
         run["outputs"] = {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
                           "corner.png", "predictive.png"};
         if (r.experiments.size() > 1)
-          for (const auto& e : r.experiments)
-            run["outputs"].push_back("predictive_" + e.stem + ".png");
+          for (const auto& e : r.experiments)  // the stretch experiments' fits
+            if (!e.axial_q50.empty()) run["outputs"].push_back("predictive_" + e.stem + ".png");
         if (r.sampler == "tmcmc") run["outputs"].push_back(kStageCheckpointName);
         if (!predictions.empty()) {  // --predict
           write_predictions(predictions, out, r.data.name, record_comment_lines(r.record));
@@ -801,7 +814,8 @@ void add_infer_command(CLI::App& app, Action& action) {
                      "predictive.png"
                   << (r.sampler == "tmcmc" ? ", " + std::string(kStageCheckpointName) : "");
         if (r.experiments.size() > 1)
-          for (const auto& e : r.experiments) std::cout << ", predictive_" << e.stem << ".png";
+          for (const auto& e : r.experiments)
+            if (!e.axial_q50.empty()) std::cout << ", predictive_" << e.stem << ".png";
         for (const std::string& stem : prediction_file_stems(predictions))  // --predict
           std::cout << ", " << stem << ".png";
         std::cout << ", identifiability.json\n";

@@ -163,5 +163,11 @@ int main(int argc, char** argv) {
     if (rbc::app::interrupt_signal() != 0) return interrupted(e.what());
     std::cerr << "rbc: error: " << e.what() << "\n";
     return 2;
+  } catch (const std::exception& e) {
+    // A broken internal rule (std::logic_error and the like): a bug in rbc, not in the input.
+    // Outputs are written atomically, so none is left half-written.
+    std::cerr << "rbc: internal error: " << e.what()
+              << " (a bug in rbc; please report it with the command line)\n";
+    return 1;
   }
 }

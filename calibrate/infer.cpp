@@ -17,6 +17,7 @@
 #include "core/blas_threads.hpp"
 #include "core/geometry.hpp"
 #include "core/units.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
@@ -114,6 +115,27 @@ void InferOptions::validate() const {
   if (threads < 0)
     throw std::invalid_argument("--threads must be >= 0, got " + std::to_string(threads));
   fixed.validate();
+  // Each sampler's own settings, changed from their defaults for the other sampler, are
+  // refused rather than ignored.
+  const bool is = sampler_kind == SamplerKind::laplace_is;
+  auto other = [&](const std::string& option, const std::string& value) {
+    throw std::invalid_argument(option + " " + value + ": a setting of the " +
+                                (is ? "tmcmc" : "laplace-is") + " sampler, not of " +
+                                to_string(sampler_kind) + "; expected --sampler " +
+                                (is ? "tmcmc" : "laplace-is") + " with it");
+  };
+  const TmcmcOptions d = default_sampler();
+  if (is) {
+    if (sampler.samples != d.samples) other("--samples", std::to_string(sampler.samples));
+    if (sampler.chain_length != d.chain_length)
+      other("--chain-length", std::to_string(sampler.chain_length));
+    if (sampler.target_cov != d.target_cov)
+      other("--target-cov", format_number(sampler.target_cov));
+    if (sampler.proposal_scale != d.proposal_scale)
+      other("--proposal-scale", format_number(sampler.proposal_scale));
+  } else if (is_samples != InferOptions{}.is_samples) {
+    other("--is-samples", std::to_string(is_samples));
+  }
   // The sampler's own floor (TmcmcOptions::validate: 5 samples per island), named as the
   // option the user sets.
   if (sampler.samples < 5 * sampler.islands)
@@ -553,6 +575,7 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
     t.counts = lis.counts;
     t.counts.runs += mode_runs;
     t.wall_s = lis.wall_s;
+    if (!(lis.ess >= InferOptions::kMinimumEffectiveSamples)) t.status = TmcmcStatus::low_ess;
     StageInfo s;  // one "stage": the importance samples at beta = 1
     s.beta = 1;
     s.forward_runs = t.counts.runs;

@@ -26,7 +26,10 @@ std::string plain(std::string s) {
 /// An axis label in the house style (compare/plot.hpp): the parameter's name and its unit, µm
 /// with the micro sign.
 std::string label(const InferenceResult& r, int k) {
-  const std::string unit = r.units[k] == "um" ? "µm" : r.units[k];
+  std::string unit = r.units[k];  // "um" as a word (um, pN s/um) shown as µm
+  for (std::size_t at = find_word(unit, "um"); at != std::string::npos;
+       at = find_word(unit, "um", at + 1))
+    unit.replace(at, 2, "µm");
   const std::string text = plain(r.names[k]) + (unit == "1" ? "" : " (" + unit + ")");
   check_plot_text(text, "corner plot axis");
   return text;

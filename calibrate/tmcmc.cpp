@@ -79,6 +79,8 @@ std::string to_string(TmcmcStatus s) {
       return "max_stages";
     case TmcmcStatus::failed_runs:
       return "failed_runs";
+    case TmcmcStatus::low_ess:
+      return "low_ess";
   }
   return "unknown";
 }

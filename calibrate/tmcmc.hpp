@@ -210,7 +210,11 @@ struct StageInfo {
   double elapsed_s = 0;        ///< wall time since the start
 };
 
-enum class TmcmcStatus { converged, max_stages, failed_runs };
+/// How a posterior run ended: converged; TMCMC's tempering did not reach beta = 1 within its
+/// stages (max_stages); more than 1 % of the forward runs failed (failed_runs); the importance
+/// weights of laplace-is left fewer effective samples than InferOptions::kMinimumEffectiveSamples
+/// (calibrate/infer.hpp; low_ess).
+enum class TmcmcStatus { converged, max_stages, failed_runs, low_ess };
 std::string to_string(TmcmcStatus s);
 
 struct TmcmcResult {

@@ -41,7 +41,7 @@ def run(params=("sigma-scale",), method="continuum:2:300", data_file="", samples
     import emcee
 
     problem = rbc.InferenceProblem(parameters=list(params), method=method, data_file=data_file,
-                                   samples=samples, seed=seed)
+                                   samples=samples, seed=seed, sampler="tmcmc")
     lo, hi = problem.prior_lower, problem.prior_upper
 
     # TMCMC (the library's sampler)

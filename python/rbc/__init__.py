@@ -564,18 +564,20 @@ def infer(problem: Optional[InferenceProblem] = None, *,
           cancel: Optional[Callable[[], bool]] = None,
           progress: Optional[Callable[[str], None]] = None, predict: Sequence[str] = (),
           predict_draws: Optional[int] = None, **options: Any) -> dict:
-    """Bayesian calibration by TMCMC, as ``rbc infer``: the posterior of the inferred parameters
-    given force-diameter data (MODEL.md section 7).
+    """Bayesian calibration as ``rbc infer``: the posterior of the inferred parameters given
+    force-diameter data (MODEL.md section 7), by TMCMC (the default) or laplace-is.
 
     Pass an rbc.InferenceProblem, or its keyword arguments (parameters=['persistence', 'lmax',
-    'sigma-scale'], priors={name: (lower, upper)}, method='continuum:2:1000', data_file,
-    samples=500, seed=1, ...; the CLI's defaults). Returns the fields of ``rbc infer --json``
+    'sigma-scale'], priors={name: (lower, upper)}, method='continuum:2:2000', data_file,
+    sampler='tmcmc' with samples=500, or sampler='laplace-is' with is_samples=1000, seed=1, ...;
+    the CLI's defaults). Returns the fields of ``rbc infer --json``
     (each parameter's and each derived modulus's summary is a dict with its "unit") plus
     'samples' (S, P; column j in the unit InferenceProblem.units[j]: nm, J or dimensionless),
     'log_likelihood_samples' (dimensionless), the derived 'mu_samples_uN_per_m' and
-    'K_samples_uN_per_m' (S,), and 'stage_info' (per TMCMC stage: stage, beta, cov,
-    log_mean_weight, acceptance, unique_fraction, forward_runs; all dimensionless). The GIL is
-    released; Ctrl-C or cancel() returning True stops between stages with KeyboardInterrupt.
+    'K_samples_uN_per_m' (S,), and 'stage_info' (per TMCMC stage, one for laplace-is: stage,
+    beta, cov, log_mean_weight, acceptance, unique_fraction, forward_runs; all dimensionless).
+    The GIL is released; Ctrl-C or cancel() returning True stops between stages with
+    KeyboardInterrupt.
 
     predict: held-out stretch-data files, as ``rbc infer --predict``: 'predictions' then holds,
     per file, the 5, 25, 50, 75 and 95 % quantiles of D_A, D_T (um) with the file's own error

@@ -18,8 +18,15 @@ InferOptions infer_options(const std::vector<std::string>& parameters, const py:
                            double extra_uncertainty_um, const py::dict& fixed,
                            double fixed_sigma_scale, int samples, int chain_length,
                            double target_cov, double proposal_scale, unsigned long long seed,
-                           int threads) {
+                           int threads, const std::string& sampler, int is_samples) {
   InferOptions o;
+  if (sampler == "laplace-is")
+    o.sampler_kind = SamplerKind::laplace_is;
+  else if (sampler == "tmcmc")
+    o.sampler_kind = SamplerKind::tmcmc;
+  else
+    throw py::value_error("sampler '" + sampler + "': expected 'laplace-is' or 'tmcmc'");
+  o.is_samples = is_samples;
   o.data_file = data_file;
   o.method = parse_method(method);
   o.parameters.clear();
@@ -89,16 +96,18 @@ void bind_infer(py::module_& m) {
                        const std::string& method, const std::string& data_file,
                        double extra_uncertainty_um, const py::dict& fixed, double fixed_sigma_scale,
                        int samples, int chain_length, double target_cov, double proposal_scale,
-                       unsigned long long seed, int threads) {
+                       unsigned long long seed, int threads, const std::string& sampler,
+                       int is_samples) {
              const InferOptions o =
                  infer_options(parameters, priors, method, data_file, extra_uncertainty_um, fixed,
                                fixed_sigma_scale, samples, chain_length, target_cov, proposal_scale,
-                               seed, threads);
+                               seed, threads, sampler, is_samples);
              return run_released(nullptr, [&] { return std::make_shared<InferenceProblem>(o); });
            }),
            py::kw_only(),
            py::arg("parameters") = std::vector<std::string>{"persistence", "lmax", "sigma-scale"},
-           py::arg("priors") = py::dict(), py::arg("method") = "continuum:2:1000",
+           py::arg("priors") = py::dict(),
+           py::arg("method") = "continuum:2:" + std::to_string(InferOptions{}.method.resolution),
            py::arg("data_file") = "", py::arg("extra_uncertainty_um") = 0.0,
            py::arg("fixed") = py::dict(), py::arg("fixed_sigma_scale") = 1.0,
            py::arg("samples") = InferOptions::default_sampler().samples,
@@ -106,8 +115,12 @@ void bind_infer(py::module_& m) {
            py::arg("target_cov") = InferOptions::default_sampler().target_cov,
            py::arg("proposal_scale") = InferOptions::default_sampler().proposal_scale,
            py::arg("seed") = 1, py::arg("threads") = 0,
+           py::arg("sampler") = to_string(InferOptions{}.sampler_kind),
+           py::arg("is_samples") = InferOptions{}.is_samples,
            "priors: {name: (lower, upper)} overriding the defaults; fixed: values of the physical "
-           "parameters not inferred ({'kappa_J': 3e-19, ...}).")
+           "parameters not inferred ({'kappa_J': 3e-19, ...}); sampler: 'laplace-is' (is_samples "
+           "importance samples) or 'tmcmc' (samples, chain_length, target_cov, proposal_scale), "
+           "as `rbc infer --sampler`.")
       .def_property_readonly("names", [](const InferenceProblem& p) { return p.names(); })
       .def_property_readonly("units", [](const InferenceProblem& p) { return p.units(); })
       .def_property_readonly("prior_lower",

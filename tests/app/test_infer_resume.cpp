@@ -59,6 +59,8 @@ std::vector<std::string> problem_args(const std::string& data, const std::string
   return {"infer",
           "--method",
           "continuum:2:200",
+          "--sampler",
+          "tmcmc",
           "--samples",
           "40",
           "--chain-length",
@@ -329,23 +331,16 @@ TEST(InferResume, MissingCorruptOrForeignCheckpointsAndBadSeedsExitTwoBeforeWork
   const fs::path dir = testing::fresh_output_dir("infer_resume_refusals");
   const std::string data = data_file(dir);
   // A cheap run of three stages (20 samples, one Metropolis step).
-  const std::vector<std::string> args = {"infer",
-                                         "--method",
-                                         "continuum:2:200",
-                                         "--samples",
-                                         "20",
-                                         "--chain-length",
-                                         "1",
-                                         "--seed",
-                                         "3",
-                                         "--params",
-                                         "persistence,sigma-scale",
-                                         "--data-file",
-                                         data};
+  const std::vector<std::string> args = {
+      "infer",     "--method", "continuum:2:200",         "--sampler",   "tmcmc",
+      "--samples", "20",       "--chain-length",          "1",           "--seed",
+      "3",         "--params", "persistence,sigma-scale", "--data-file", data};
   const fs::path run = dir / "run";
   const testing::CliRun s = testing::run_rbc(joined(args) + " -q --out " + run.string(), 1);
   ASSERT_EQ(s.exit_code, 0) << s.all();
   const std::string base = joined(args);
+  const auto seed_at = static_cast<std::size_t>(
+      std::find(args.begin(), args.end(), std::string("--seed")) - args.begin() + 1);
 
   expect_refused(base + " --resume " + (dir / "nowhere").string(), "no such directory", dir);
   fs::create_directories(dir / "empty");
@@ -353,10 +348,10 @@ TEST(InferResume, MissingCorruptOrForeignCheckpointsAndBadSeedsExitTwoBeforeWork
   // Another seed, another data file: the inputs that differ are named with both values.
   {
     std::vector<std::string> other = args;
-    other[8] = "4";
+    other[seed_at] = "4";
     expect_refused(joined(other) + " --resume " + run.string(), "--seed (checkpoint 3, this run 4)",
                    run);
-    other[8] = "18446744073709551615";  // the largest seed parses (and differs)
+    other[seed_at] = "18446744073709551615";  // the largest seed parses (and differs)
     expect_refused(joined(other) + " --resume " + run.string(), "this run 18446744073709551615",
                    run);
     const fs::path data2 = dir / "other.csv";
@@ -372,7 +367,7 @@ TEST(InferResume, MissingCorruptOrForeignCheckpointsAndBadSeedsExitTwoBeforeWork
   // Seeds outside [0, 2^64 - 1] (they once wrapped around).
   for (const char* seed : {"-1", "18446744073709551616", "1e3", "3x"}) {
     std::vector<std::string> bad = args;
-    bad[8] = seed;
+    bad[seed_at] = seed;
     expect_refused(joined(bad) + " --out " + (dir / "never").string(), seed, dir / "never");
     EXPECT_FALSE(fs::exists(dir / "never"));
   }

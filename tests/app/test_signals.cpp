@@ -281,7 +281,7 @@ TEST(Signals, EveryCommandEnds130Or143MidRun) {
        true},
       {"infer",
        {"infer", "--data-file", data, "--params", "persistence", "--method", "continuum:2:200",
-        "--samples", "20", "--out", "o"},
+        "--sampler", "tmcmc", "--samples", "20", "--out", "o"},
        true},
       {"report", {"report", "--quick", "--out", "o"}, true},
       {"stability", {"stability", "--vertices", "100", "--elements", "200", "--out", "o"}, true},

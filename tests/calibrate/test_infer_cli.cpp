@@ -77,9 +77,17 @@ TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
       {"--params persistence,stiffness", "stiffness"},
       {"--params persistence --prior kappa=1e-19:3e-19", "kappa"},
       {"--method continuum:7:200", "7"},
-      {"--samples 2", "samples"},
+      {"--sampler tmcmc --samples 2", "samples"},
       // The sampler's floor, named as the option (4 islands of at least 5 samples).
-      {"--samples 10", "rbc: error: --samples 10: expected at least 20 samples per stage"},
+      {"--sampler tmcmc --samples 10",
+       "rbc: error: --samples 10: expected at least 20 samples per stage"},
+      // Each sampler's settings with the other sampler (tmcmc is the default).
+      {"--sampler laplace-is --samples 30",
+       "rbc: error: --samples 30: a setting of the tmcmc sampler, not of laplace-is; expected "
+       "--sampler tmcmc with it"},
+      {"--sampler laplace-is --chain-length 2", "--chain-length 2: a setting of the tmcmc sampler"},
+      {"--is-samples 300", "--is-samples 300: a setting of the laplace-is sampler, not of tmcmc"},
+      {"--sampler nuts", "--sampler"},
       {"--extra-uncertainty -1", "--extra-uncertainty must be finite and >= 0 um, got -1"},
       // The model option group: a parameter not inferred takes its value; an inferred one and
       // physics the forward model keeps fixed are refused, not ignored.
@@ -129,7 +137,7 @@ TEST(InferCli, PosteriorDependsOnTheSeedOnlyNotOnThreadsOrRanks) {
       write_file("small.csv", std::string(kHeader) +
                                   "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n90,13.8,1.2,4.6,0.6\n");
   const std::string common =
-      " infer -q --method continuum:2:200 --samples 20 --chain-length 1 --seed 3 "
+      " infer -q --method continuum:2:200 --sampler tmcmc --samples 20 --chain-length 1 --seed 3 "
       "--params persistence,sigma-scale --force-overwrite --data-file " +
       data + " --out ";
   auto go = [&](const std::string& launcher, const std::string& name) {
@@ -167,7 +175,8 @@ TEST(InferCli, WritesTheDocumentedOutputs) {
   const std::string out = kDir + "/outputs";
   fs::remove_all(out);
   const CommandRun r = run("OMP_NUM_THREADS=2 " + kRbc +
-                           " infer --method continuum:2:200 --samples 20 --params persistence "
+                           " infer --method continuum:2:200 --sampler tmcmc --samples 20 --params "
+                           "persistence "
                            "--json --data-file " +
                            data + " --out " + out);
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -190,7 +199,7 @@ TEST(InferCli, WritesTheDocumentedOutputs) {
 TEST(InferCli, HelpNamesTheSmallestSampleCount) {
   const CommandRun r = run(kRbc + " infer --help");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("TMCMC samples per stage, at least 20"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("tmcmc: samples per stage, at least 20"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("--extra-uncertainty"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("--reading-uncertainty"), std::string::npos) << r.output;
 }
@@ -200,7 +209,8 @@ CommandRun tiny_inference(const std::string& data, const std::string& out,
                           const std::string& extra_args = "") {
   fs::remove_all(out);
   return run("OMP_NUM_THREADS=1 " + kRbc +
-             " infer --method continuum:2:200 --samples 20 --chain-length 1 --params sigma-scale "
+             " infer --method continuum:2:200 --sampler tmcmc --samples 20 --chain-length 1 "
+             "--params sigma-scale "
              "--data-file " +
              data + " --out " + out + " " + extra_args);
 }
@@ -334,7 +344,8 @@ TEST(ReportCli, CalibrationSectionReadsTheCacheAndRefusesABadOne) {
   for (const char* m : {"continuum:2:200", "continuum:full:200"}) {
     const std::string name = std::string(m).find("full") != std::string::npos ? "full" : "p2";
     const CommandRun r = run("OMP_WAIT_POLICY=passive OMP_NUM_THREADS=1 " + kRbc +
-                             " infer -q --samples 20 --chain-length 1 --seed 3 --params "
+                             " infer -q --sampler tmcmc --samples 20 --chain-length 1 --seed 3 "
+                             "--params "
                              "persistence,sigma-scale --method " +
                              m + " --data-file " + data + " --out " + cache + "/" + name);
     ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -42,7 +42,7 @@ TEST(JointCli, TwoDataFilesMakeOnePosteriorWithEachFileRecorded) {
   const fs::path dir = rbc::testing::fresh_output_dir("joint_cli");
   const Tables t = tables(dir);
   const std::string files = " --data-file " + t.a.string() + " --data-file " + t.b.string();
-  const auto r = run_rbc("infer --sampler laplace-is --is-samples 40" + kCommon + files +
+  const auto r = run_rbc("infer --sampler laplace-is --is-samples 120" + kCommon + files +
                              " --extra-uncertainty table_b=0.2 --out " + (dir / "out").string(),
                          1);
   ASSERT_EQ(r.exit_code, 0) << r.all();
@@ -63,14 +63,15 @@ TEST(JointCli, ResumeWithOtherFilesIsRefused) {
   const Tables t = tables(dir);
   const std::string both = " --data-file " + t.a.string() + " --data-file " + t.b.string();
   const std::string out = (dir / "out").string();
-  const auto r =
-      run_rbc("infer" + kCommon + both + " --samples 20 --chain-length 1 --out " + out, 1);
+  const auto r = run_rbc(
+      "infer" + kCommon + both + " --sampler tmcmc --samples 20 --chain-length 1 --out " + out, 1);
   ASSERT_EQ(r.exit_code, 0) << r.all();
   ASSERT_TRUE(fs::exists(dir / "out" / "checkpoint.h5"));
   const std::string summary = read(dir / "out" / "summary.json");
   // The same files resume (the run is complete: the straight run's result again).
-  const auto same =
-      run_rbc("infer" + kCommon + both + " --samples 20 --chain-length 1 --resume " + out, 1);
+  const auto same = run_rbc(
+      "infer" + kCommon + both + " --sampler tmcmc --samples 20 --chain-length 1 --resume " + out,
+      1);
   EXPECT_EQ(same.exit_code, 0) << same.all();
   // One file fewer, the order swapped, or a file changed: refused, naming the data files.
   const fs::path changed = dir / "changed" / "table_b.csv";
@@ -80,8 +81,9 @@ TEST(JointCli, ResumeWithOtherFilesIsRefused) {
        {" --data-file " + t.a.string(),
         " --data-file " + t.b.string() + " --data-file " + t.a.string(),
         " --data-file " + t.a.string() + " --data-file " + changed.string()}) {
-    const auto bad =
-        run_rbc("infer" + kCommon + files + " --samples 20 --chain-length 1 --resume " + out, 1);
+    const auto bad = run_rbc("infer" + kCommon + files +
+                                 " --sampler tmcmc --samples 20 --chain-length 1 --resume " + out,
+                             1);
     EXPECT_EQ(bad.exit_code, 2) << files << "\n" << bad.all();
     EXPECT_NE(bad.err.find("--data-file"), std::string::npos) << bad.err;
   }

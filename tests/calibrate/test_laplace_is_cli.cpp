@@ -45,9 +45,10 @@ const std::string kCommon =
 TEST(LaplaceIsCli, MediansInsideTmcmcIntervalsAndTheSameOnOneAndTwoThreads) {
   const fs::path dir = rbc::testing::fresh_output_dir("laplace_is_cli");
   const std::string data = " --data-file " + small_data(dir).string();
-  const auto tm = run_rbc("infer" + kCommon + data + " --samples 200 --chain-length 2 --out " +
-                              (dir / "tmcmc").string(),
-                          2);
+  const auto tm =
+      run_rbc("infer" + kCommon + data + " --sampler tmcmc --samples 200 --chain-length 2 --out " +
+                  (dir / "tmcmc").string(),
+              2);
   ASSERT_EQ(tm.exit_code, 0) << tm.all();
   const auto is1 = run_rbc("infer --sampler laplace-is --is-samples 300" + kCommon + data +
                                " --out " + (dir / "is1").string(),

@@ -37,7 +37,8 @@ std::string read(const fs::path& path) {
 
 /// The options of a small, cheap inference (200 elements, 20 samples, one Metropolis step).
 const std::string kSmall =
-    "infer --method continuum:2:200 --samples 20 --chain-length 1 --params persistence,sigma-scale "
+    "infer --method continuum:2:200 --sampler tmcmc --samples 20 --chain-length 1 --params "
+    "persistence,sigma-scale "
     "--seed 3 ";
 
 std::string tiny(const std::string& data, const fs::path& out, const std::string& extra) {

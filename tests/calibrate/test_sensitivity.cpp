@@ -434,7 +434,7 @@ TEST(Sensitivity, InferWritesTheIdentifiabilityReportAtThePosteriorMedian) {
   const std::string data = write_data("sensitivity_cli_data");
   const auto dir = testing::fresh_output_dir("sensitivity_cli");
   const std::string common =
-      "infer -q --method continuum:2:200 --samples 20 --chain-length 1 --seed 2 "
+      "infer -q --method continuum:2:200 --sampler tmcmc --samples 20 --chain-length 1 --seed 2 "
       "--params persistence,lmax,sigma-scale --data-file " +
       data + " --out " + (dir / "run").string();
   for (const std::string bad : {"10,x", "10,500", "-1"}) {

@@ -29,9 +29,10 @@ def small_data(tmp_path_factory):
 
 def test_infer_equals_rbc_infer(small_data):
     args = dict(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=30,
-                seed=4)
+                sampler="tmcmc", seed=4)
     cli = run_cli_json("infer", "--params", "sigma-scale", "--method", METHOD, "--data-file",
-                       small_data, "--samples", "30", "--seed", "4", "--json", "-q")
+                       small_data, "--sampler", "tmcmc", "--samples", "30", "--seed", "4",
+                       "--json", "-q")
     py = rbc.infer(**args)
     for key in ("parameters", "derived", "log_evidence", "log_evidence_sd", "stages", "status",
                 "method", "elements", "vertices", "seed"):
@@ -40,6 +41,19 @@ def test_infer_equals_rbc_infer(small_data):
     summary = py["parameters"]
     summary = summary[0] if isinstance(summary, list) else summary["sigma-scale"]
     assert py["samples"].mean() == pytest.approx(summary["mean"], rel=1e-12)
+
+
+def test_laplace_is_equals_rbc_infer_laplace_is(small_data):
+    """rbc.infer(sampler='laplace-is') gives ``rbc infer --sampler laplace-is``'s posterior."""
+    cli = run_cli_json("infer", "--params", "sigma-scale", "--method", METHOD, "--data-file",
+                       small_data, "--sampler", "laplace-is", "--is-samples", "100", "--seed", "4",
+                       "--json", "-q")
+    py = rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data,
+                   sampler="laplace-is", is_samples=100, seed=4)
+    assert py["sampler"] == cli["sampler"] == "laplace-is"
+    for key in ("parameters", "derived", "log_evidence", "log_evidence_sd", "ess", "status"):
+        assert py[key] == cli[key], key
+    assert py["ess"] >= 50
 
 
 def test_infer_gives_the_process_its_blas_threads_back(small_data):
@@ -53,7 +67,7 @@ def test_infer_gives_the_process_its_blas_threads_back(small_data):
     ext.openblas_set_num_threads(3)  # no default gives 3 on the project's 2-core machines
     try:
         rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=30,
-                  seed=4)
+                  sampler="tmcmc", seed=4)
         assert ext.openblas_get_num_threads() == 3
         assert rbc.blas_info()["threads"] == 3
     finally:
@@ -69,7 +83,15 @@ def test_bad_inference_input_raises_value_error(small_data):
         rbc.InferenceProblem(parameters=["sigma-scale"], priors={"sigma-scale": (2.0, 1.0)},
                              data_file=small_data)
     with pytest.raises(ValueError, match="samples"):
-        rbc.InferenceProblem(parameters=["sigma-scale"], samples=0, data_file=small_data)
+        rbc.InferenceProblem(parameters=["sigma-scale"], samples=0, sampler="tmcmc",
+                             data_file=small_data)
+    with pytest.raises(ValueError, match="samples 30: a setting of the tmcmc sampler"):
+        rbc.InferenceProblem(parameters=["sigma-scale"], samples=30, sampler="laplace-is",
+                             data_file=small_data)
+    with pytest.raises(ValueError, match="is-samples 300: a setting of the laplace-is sampler"):
+        rbc.InferenceProblem(parameters=["sigma-scale"], is_samples=300, data_file=small_data)
+    with pytest.raises(ValueError, match="sampler 'mcmc'"):
+        rbc.InferenceProblem(parameters=["sigma-scale"], sampler="mcmc", data_file=small_data)
 
 
 def test_the_data_carry_their_declared_name_and_uncertainty(small_data):
@@ -114,7 +136,7 @@ def test_cancel_stops_the_inference_between_stages(small_data):
     polls = []
     with pytest.raises(KeyboardInterrupt):
         rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=20,
-                  cancel=lambda: polls.append(1) or True)
+                  sampler="tmcmc", cancel=lambda: polls.append(1) or True)
     assert len(polls) == 1  # the first poll (between stages) stopped it
 
 
@@ -126,9 +148,10 @@ def test_infer_predict_equals_rbc_infer_predict(small_data, tmp_path):
         source=os.path.join(os.path.dirname(emcee_crosscheck.DATA),
                             "mills2004_fig8_optical_tweezers.csv"))
     args = dict(parameters=["sigma-scale"], method=METHOD, data_file=small_data, samples=20,
-                seed=4)
+                sampler="tmcmc", seed=4)
     cli = run_cli_json("infer", "--params", "sigma-scale", "--method", METHOD, "--data-file",
-                       small_data, "--samples", "20", "--seed", "4", "--predict", held,
+                       small_data, "--sampler", "tmcmc", "--samples", "20", "--seed", "4",
+                       "--predict", held,
                        "--predict-draws", "8", "--json", "-q")
     py = rbc.infer(predict=[held], predict_draws=8, **args)
     assert py["predictions"] == cli["predictions"]

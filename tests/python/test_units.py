@@ -66,7 +66,8 @@ def infer_result(tmp_path_factory):
     data.write_text("force_pN,axial_um,axial_err_um,transverse_um,transverse_err_um\n"
                     "0,7.82,0.3,7.82,0.3\n38,11.0,0.5,6.6,0.4\n")
     problem = rbc.InferenceProblem(parameters=["sigma-scale"], method="continuum:2:200",
-                                   data_file=str(data), samples=20, seed=2)
+                                   data_file=str(data), samples=20, seed=2,
+                                   sampler="tmcmc")
     return problem, rbc.infer(problem)
 
 
