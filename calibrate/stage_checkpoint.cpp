@@ -268,6 +268,10 @@ StageCheckpoint read_stage_checkpoint(const std::string& path) {
     if (format != kStageCheckpointFormat)
       throw corrupt("format version " + std::to_string(format) + " (this rbc reads version " +
                     std::to_string(kStageCheckpointFormat) + ")");
+    // Another sampler's layout (laplace-is, calibrate/laplace_is_checkpoint.hpp) has other
+    // datasets: named here rather than as a missing one.
+    if (const std::string sampler = h.read_attribute_string("sampler"); sampler != "tmcmc")
+      throw corrupt("written by the sampler '" + sampler + "', expected 'tmcmc'");
     try {
       check_checkpoint_checksum(h);
       out.inputs = read_checkpoint_inputs(h);

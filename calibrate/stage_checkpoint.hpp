@@ -17,8 +17,10 @@
 // /population/log_likelihood, /population/state_index, /population/state_offsets,
 // /population/state_values (warm states, each distinct one stored once), /schedule/exponent,
 // /schedule/stage_log and /accumulators/NAME (listed in the attribute `accumulators`).
-// calibrate/stage_checkpoint_arrays.hpp holds the shapes and the checks. Another sampler
-// writes its own `sampler` name and accumulators; other inputs add `input NAME` entries.
+// calibrate/stage_checkpoint_arrays.hpp holds the shapes and the checks. Other inputs add
+// `input NAME` entries. laplace-is writes its own layout into the same file name, with
+// `sampler` "laplace-is" and the same inputs, fingerprint and checksum
+// (calibrate/laplace_is_checkpoint.hpp); each sampler refuses the other's file.
 #include <cstdint>
 #include <string>
 #include <vector>
