@@ -294,6 +294,9 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
     const int end = std::min(S, (done / block + 1) * block);
     std::vector<ChainTask> part(std::make_move_iterator(tasks.begin() + done),
                                 std::make_move_iterator(tasks.begin() + end));
+    // An executor finds a task by its index in the vector it is given (the MPI master does);
+    // an evaluation (chain_length 0) draws no random numbers, so the index changes nothing else.
+    for (size_t k = 0; k < part.size(); ++k) part[k].index = static_cast<int>(k);
     executor(setup, part);
     for (int i = done; i < end; ++i) {
       tasks[i] = std::move(part[size_t(i - done)]);

@@ -7,7 +7,8 @@
 // one line and nothing written.
 //
 // The problem: continuum p = 2 on 200 elements, three forces, two parameters, 40 importance
-// samples (four blocks of 10 draws, a checkpoint after each).
+// samples (four blocks of 10 draws, a checkpoint after each). Under mpirun (when there is one)
+// the blocks go through the MPI master-worker executor to the same result.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -16,6 +17,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -228,6 +230,48 @@ TEST(LaplaceIsResume, StoppedOrKilledRunsResumeToTheStraightResultOnAnotherThrea
     for (const auto& e : fs::directory_iterator(out))
       EXPECT_EQ(e.path().filename().string().find(".partial"), std::string::npos) << e.path();
   }
+}
+
+/// A shell command (mpirun ...) with OpenMP at one passive thread; stderr into stdout.
+testing::CliRun shell(const std::string& cmd) {
+  testing::CliRun r;
+  FILE* p = popen(("OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive " + cmd + " 2>&1").c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) r.out.append(buf, n);
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.err = r.out;
+  return r;
+}
+
+TEST(LaplaceIsResume, MpiRunsAndAResumeUnderMpiGiveTheSingleProcessResult) {
+  const std::string mpirun = RBC_MPIRUN;
+  if (mpirun.empty()) GTEST_SKIP() << "mpirun not found";
+  const fs::path dir = testing::fresh_output_dir("laplace_is_resume_mpi");
+  const auto args = problem_args(data_file(dir));
+  const std::string np2 = mpirun +
+                          " --allow-run-as-root --oversubscribe -np 2 -x OMP_NUM_THREADS -x "
+                          "OMP_WAIT_POLICY " +
+                          std::string(RBC_BINARY_DIR) + "/rbc ";
+  const fs::path straight = dir / "straight";
+  const testing::CliRun s = testing::run_rbc(joined(args) + " -q --out " + straight.string(), 1);
+  ASSERT_EQ(s.exit_code, 0) << s.all();
+  // The blocks of draws through the MPI master-worker executor.
+  const fs::path mpi = dir / "mpi";
+  const testing::CliRun m = shell(np2 + joined(args) + " -q --out " + mpi.string());
+  ASSERT_EQ(m.exit_code, 0) << m.all();
+  expect_same_posterior(straight, mpi);
+  // A single-process run killed among the draws, resumed on two ranks.
+  const fs::path out = dir / "killed";
+  const Interrupted k = interrupt_run(args, out, "importance sampling, 10 of 40", SIGKILL, 1);
+  ASSERT_NE(k.exit_code, -1000) << k.log;
+  const Position from = position(out);
+  EXPECT_EQ(from.mode_found, 1);
+  EXPECT_LT(from.draws_done, kIsSamples);
+  const testing::CliRun r = shell(np2 + joined(args) + " --resume " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.all();
+  expect_same_posterior(straight, out);
 }
 
 /// Exit 2, one "rbc: error:" line naming every string of `expect`, no work started and nothing
