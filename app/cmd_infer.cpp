@@ -14,6 +14,7 @@
 #include <iostream>
 #include <iterator>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -24,6 +25,7 @@
 #include "app/model_options.hpp"
 #include "app/run_config.hpp"
 #include "calibrate/infer.hpp"
+#include "calibrate/laplace_is_checkpoint.hpp"
 #include "calibrate/mpi_executor.hpp"
 #include "calibrate/predictive.hpp"
 #include "calibrate/sensitivity.hpp"
@@ -333,9 +335,6 @@ std::string checked_output_directory(const InferCli& c) {
     return c.out;
   }
   if (c.forward_check) throw std::invalid_argument("--resume: not with --forward-check");
-  if (c.sampler != SamplerKind::tmcmc)
-    throw std::invalid_argument("--resume " + c.resume +
-                                ": stage checkpoints are TMCMC's; expected --sampler tmcmc");
   if (!c.out.empty() && fs::weakly_canonical(c.out, ec) != fs::weakly_canonical(c.resume, ec))
     throw std::invalid_argument("--out " + c.out +
                                 ": a resumed run writes into its own "
@@ -585,10 +584,14 @@ void add_infer_command(CLI::App& app, Action& action) {
       ->default_str(to_string(ForwardOptions::default_newton().symmetry));
   cmd->add_option("--out", c->out,
                   "output directory (summary, samples, corner and predictive plots; " +
-                      std::string(kStageCheckpointName) + " after every stage)");
+                      std::string(kStageCheckpointName) +
+                      " after every stage; laplace-is: after every Newton step and block of "
+                      "importance draws)");
   cmd->add_option("--resume", c->resume,
-                  "continue the run whose --out was DIR from its last complete stage, into DIR "
-                  "(repeat the run's other options; threads and MPI ranks may differ)")
+                  "continue the run whose --out was DIR from its last checkpoint (TMCMC: the "
+                  "last complete stage; laplace-is: the last Newton step or block of importance "
+                  "draws), into DIR, to the straight run's result (repeat the run's other "
+                  "options, --sampler included; threads and MPI ranks may differ)")
       ->type_name("DIR");
   cmd->add_flag("--json", c->json, "print the JSON summary on stdout");
   cmd->add_option("--candidate-forces", c->candidate_forces,
@@ -652,30 +655,59 @@ void add_infer_command(CLI::App& app, Action& action) {
         for (const auto& a : c->at) apply_at(a, at);
         return forward_check(*problem, at, c->trace, c->repeat);
       }
-      // SIGINT/SIGTERM: the sampler stops between chains (calibrate/tmcmc.hpp), the last
-      // complete stage stays in the checkpoint, main() exits 130/143 (app/interrupt.hpp).
+      // SIGINT/SIGTERM: TMCMC stops between chains (calibrate/tmcmc.hpp), laplace-is between
+      // gradient evaluations and blocks of draws (calibrate/laplace_is.hpp); the last complete
+      // checkpoint stays, main() exits 130/143 (app/interrupt.hpp).
       make_cancellable();
       const ProgressSink progress = stderr_progress(c->quiet || !master, c->verbose);
       const std::string checkpoint = out.empty() ? std::string() : out + "/" + kStageCheckpointName;
       std::optional<SamplerState> resume_state;
+      std::optional<LaplaceIsCheckpoint> laplace_is_resume;
+      // laplace-is: where its last checkpoint is (the watcher thread of an MPI run reads it).
+      std::mutex where_mutex;
+      std::string laplace_is_where;
       const auto checkpointing = [&] {
         InferCheckpointing k;
         k.path = checkpoint;
         if (!c->resume.empty()) {
-          resume_state = load_stage_checkpoint(checkpoint, *problem, "--resume " + c->resume);
+          const std::string what = "--resume " + c->resume;
+          // Each sampler continues its own checkpoints only.
+          const std::string stored = checkpoint_sampler(checkpoint);
+          const std::string wanted = to_string(o.sampler_kind);
+          if (stored != wanted)
+            throw std::invalid_argument(what + ": the checkpoint is of --sampler " + stored +
+                                        ", this run has --sampler " + wanted +
+                                        " (expected the sampler of the run it continues)");
+          if (o.sampler_kind == SamplerKind::laplace_is) {
+            laplace_is_resume = load_laplace_is_checkpoint(checkpoint, *problem, what);
+            k.laplace_is_resume = &*laplace_is_resume;
+            laplace_is_where = laplace_is_position(laplace_is_resume->state, o.is_samples);
+          } else {
+            resume_state = load_stage_checkpoint(checkpoint, *problem, what);
+            k.resume = &*resume_state;
+          }
           remove_stale_checkpoint_temporaries(out);
-          k.resume = &*resume_state;
         }
+        k.on_checkpoint = [&](const std::string& where) {
+          const std::lock_guard<std::mutex> lock(where_mutex);
+          laplace_is_where = where;
+        };
         return k;
       };
       std::atomic<bool> told{false};  // the interrupt note was printed
       const auto tell_interrupted = [&] {
         if (told.exchange(true)) return;
+        std::string last = "the last complete stage";
+        if (o.sampler_kind == SamplerKind::laplace_is) {
+          const std::lock_guard<std::mutex> lock(where_mutex);
+          last = "the last checkpoint" +
+                 (laplace_is_where.empty() ? std::string() : " (" + laplace_is_where + ")");
+        }
         std::cerr << "rbc: " << interrupt_name() << " received: stopping"
                   << (checkpoint.empty() || !std::filesystem::exists(checkpoint)
                           ? std::string()
-                          : "; the last complete stage is in " + checkpoint +
-                                ", continue with --resume " + out)
+                          : "; " + last + " is in " + checkpoint + ", continue with --resume " +
+                                out)
                   << "\n";
       };
       const auto run = [&](const ExecutorFactory& factory) {
@@ -789,7 +821,7 @@ void add_infer_command(CLI::App& app, Action& action) {
         if (r.experiments.size() > 1)
           for (const auto& e : r.experiments)  // the stretch experiments' fits
             if (!e.axial_q50.empty()) run["outputs"].push_back("predictive_" + e.stem + ".png");
-        if (r.sampler == "tmcmc") run["outputs"].push_back(kStageCheckpointName);
+        run["outputs"].push_back(kStageCheckpointName);
         if (!predictions.empty()) {  // --predict
           write_predictions(predictions, out, r.data.name, record_comment_lines(r.record));
           for (const std::string& stem : prediction_file_stems(predictions))
@@ -812,7 +844,7 @@ void add_infer_command(CLI::App& app, Action& action) {
         std::cout << "outputs: " << out
                   << "/summary.json, run.json, posterior_samples.{csv,h5}, corner.png, "
                      "predictive.png"
-                  << (r.sampler == "tmcmc" ? ", " + std::string(kStageCheckpointName) : "");
+                  << ", " << kStageCheckpointName;
         if (r.experiments.size() > 1)
           for (const auto& e : r.experiments)
             if (!e.axial_q50.empty()) std::cout << ", predictive_" << e.stem << ".png";

@@ -565,8 +565,8 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
   const bool is = o.sampler_kind == SamplerKind::laplace_is;
   if (is) {
     if (checkpointing.resume)
-      throw std::invalid_argument("--resume: stage checkpoints are TMCMC's (--sampler tmcmc)");
-    lis = run_problem_laplace_is(problem, executor, progress, &mode_runs);
+      throw std::invalid_argument("--resume: a TMCMC checkpoint; expected --sampler tmcmc");
+    lis = run_problem_laplace_is(problem, executor, progress, checkpointing, &mode_runs);
     t.samples = lis.samples;
     t.log_likelihood = lis.log_likelihood;
     t.states = lis.states;

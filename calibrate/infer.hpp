@@ -42,6 +42,8 @@
 
 namespace rbc {
 
+struct LaplaceIsCheckpoint;  // calibrate/laplace_is_checkpoint.hpp
+
 /// The posterior sampler of `rbc infer --sampler`: TMCMC (calibrate/tmcmc.hpp) or the Laplace
 /// proposal with importance correction (calibrate/laplace_is.hpp; continuum forward model only).
 enum class SamplerKind { tmcmc, laplace_is };
@@ -299,6 +301,12 @@ struct InferCheckpointing {
   std::string path;
   /// Continue from this state (load_stage_checkpoint) instead of starting from the prior.
   const SamplerState* resume = nullptr;
+  /// --sampler laplace-is: continue from this checkpoint (calibrate/laplace_is_checkpoint.hpp,
+  /// load_laplace_is_checkpoint) instead of starting anew; `path` receives its checkpoints.
+  const LaplaceIsCheckpoint* laplace_is_resume = nullptr;
+  /// --sampler laplace-is: called after every checkpoint write with where the run is
+  /// (laplace_is_position). May be empty.
+  std::function<void(const std::string&)> on_checkpoint;
 };
 /// The same, writing and/or continuing from stage checkpoints. A run continued from a
 /// checkpoint of the same problem gives the straight run's result, bit for bit, apart from
@@ -313,6 +321,14 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
 /// and sensitivity solves when the pointers are given.
 LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Executor& executor,
                                        const ProgressSink& progress,
+                                       long long* forward_runs = nullptr,
+                                       long long* sensitivity_solves = nullptr);
+/// The same, writing checkpoints to checkpointing.path (when set) and continuing from
+/// checkpointing.laplace_is_resume (when set); polls options().sampler.cancel between gradient
+/// evaluations and blocks of importance draws (rbc::Cancelled).
+LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Executor& executor,
+                                       const ProgressSink& progress,
+                                       const InferCheckpointing& checkpointing,
                                        long long* forward_runs = nullptr,
                                        long long* sensitivity_solves = nullptr);
 /// Convenience: builds the problem and runs it.

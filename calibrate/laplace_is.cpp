@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -107,16 +108,44 @@ double weighted_quantile(const Eigen::VectorXd& x, const Eigen::VectorXd& w, dou
   return prev_x;
 }
 
+int laplace_is_block(int samples) {
+  return std::max(10, (samples + 19) / 20);
+}
+
 LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& likelihood,
                                const PriorBox& prior, const LaplaceIsOptions& options,
                                const Executor& executor_in) {
+  return run_laplace_is(target, likelihood, prior, options, executor_in, {});
+}
+
+LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& likelihood,
+                               const PriorBox& prior, const LaplaceIsOptions& options,
+                               const Executor& executor_in,
+                               const LaplaceIsContinuation& continuation) {
   options.validate();
   prior.validate();
   const auto t0 = std::chrono::steady_clock::now();
   const int d = prior.dimension();
+  const int S = options.samples;
   LaplaceIsResult r;
   Eigen::VectorXd width(d);
   for (int k = 0; k < d; ++k) width(k) = prior.upper[k] - prior.lower[k];
+  const LaplaceIsState* resume = continuation.resume;
+  if (resume) {
+    const bool shapes = resume->z.size() == d && resume->point.gradient.size() == d &&
+                        resume->point.information.rows() == d &&
+                        resume->point.information.cols() == d && resume->point.ok &&
+                        resume->draws_done >= 0 && resume->draws_done <= S &&
+                        (resume->mode_found || resume->draws_done == 0) &&
+                        resume->draw_log_likelihood.size() == resume->draws_done &&
+                        static_cast<int>(resume->draw_states.size()) == resume->draws_done;
+    if (!shapes)
+      throw std::invalid_argument("laplace-is: the state to continue from is of another problem");
+  }
+  LaplaceIsState state;  // what the checkpoints hand out
+  const auto checkpoint = [&] {
+    if (continuation.checkpoint) continuation.checkpoint(state);
+  };
 
   // --- mode search in z -------------------------------------------------------------------
   struct ZPoint {
@@ -125,10 +154,10 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
     Eigen::VectorXd grad;
     Eigen::MatrixXd hess;
   };
-  const auto evaluate_z = [&](const Eigen::VectorXd& z, const WarmState& warm) {
+  // The point's derivatives in z from its evaluation in theta (also for a stored point).
+  const auto in_z = [&](const Eigen::VectorXd& z, GradientPoint p) {
     ZPoint out;
-    out.p = target(logit_to_box(prior, z), warm);
-    ++r.gradient_evaluations;
+    out.p = std::move(p);
     if (!out.p.ok || !std::isfinite(out.p.log_likelihood)) return out;
     out.log_post = out.p.log_likelihood + logit_log_prior(z);
     Eigen::VectorXd s(d), dtheta(d);
@@ -141,29 +170,62 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
     for (int k = 0; k < d; ++k) out.hess(k, k) += 2.0 * s(k) * (1.0 - s(k));
     return out;
   };
+  const auto evaluate_z = [&](const Eigen::VectorXd& z, const WarmState& warm) {
+    throw_if_cancelled(options.cancel);
+    GradientPoint p = target(logit_to_box(prior, z), warm);
+    ++r.gradient_evaluations;
+    return in_z(z, std::move(p));
+  };
   Eigen::VectorXd z = Eigen::VectorXd::Zero(d);
-  ZPoint cur = evaluate_z(z, {});
-  if (!(cur.log_post > -kInfinity))
-    throw std::runtime_error("laplace-is: the likelihood failed at the prior centre");
-  for (int it = 0; it < options.max_newton_steps; ++it) {
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(cur.hess);
-    const Eigen::VectorXd step = ldlt.solve(cur.grad);
-    if (!step.allFinite()) break;
-    if (cur.grad.dot(step) < options.mode_tolerance) break;
-    double a = 1.0;
-    bool moved = false;
-    for (int h = 0; h < 10; ++h, a *= 0.5) {
-      const Eigen::VectorXd zn = z + a * step;
-      ZPoint next = evaluate_z(zn, cur.p.state);
-      if (next.log_post > cur.log_post) {
-        z = zn;
-        cur = std::move(next);
-        moved = true;
-        break;
+  ZPoint cur;
+  const auto record_point = [&](bool mode_found) {
+    state.mode_found = mode_found;
+    state.newton_steps = r.newton_steps;
+    state.gradient_evaluations = r.gradient_evaluations;
+    state.z = z;
+    state.point = cur.p;
+  };
+  if (resume) {
+    z = resume->z;
+    cur = in_z(z, resume->point);
+    r.newton_steps = resume->newton_steps;
+    r.gradient_evaluations = resume->gradient_evaluations;
+    if (!(cur.log_post > -kInfinity))
+      throw std::invalid_argument("laplace-is: the state to continue from has no log likelihood");
+  } else {
+    cur = evaluate_z(z, {});
+    if (!(cur.log_post > -kInfinity))
+      throw std::runtime_error("laplace-is: the likelihood failed at the prior centre");
+    record_point(false);
+    checkpoint();
+  }
+  if (!resume || !resume->mode_found) {
+    for (int it = r.newton_steps; it < options.max_newton_steps; ++it) {
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(cur.hess);
+      const Eigen::VectorXd step = ldlt.solve(cur.grad);
+      if (!step.allFinite()) break;
+      if (cur.grad.dot(step) < options.mode_tolerance) break;
+      double a = 1.0;
+      bool moved = false;
+      for (int h = 0; h < 10; ++h, a *= 0.5) {
+        const Eigen::VectorXd zn = z + a * step;
+        ZPoint next = evaluate_z(zn, cur.p.state);
+        if (next.log_post > cur.log_post) {
+          z = zn;
+          cur = std::move(next);
+          moved = true;
+          break;
+        }
       }
+      ++r.newton_steps;
+      if (!moved) break;
+      record_point(false);
+      checkpoint();
     }
-    ++r.newton_steps;
-    if (!moved) break;
+    record_point(true);
+    checkpoint();
+  } else {
+    record_point(true);
   }
   r.mode_z = z;
   r.mode_theta = logit_to_box(prior, z);
@@ -175,7 +237,6 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
   if (llt.info() != Eigen::Success)
     throw std::runtime_error("laplace-is: the Laplace covariance is not positive definite");
   const Eigen::MatrixXd chol = llt.matrixL();
-  const int S = options.samples;
   std::vector<ChainTask> tasks(S);
   Eigen::MatrixXd zs(S, d);
   const int nu_int = static_cast<int>(std::lround(options.nu));
@@ -198,7 +259,7 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
     const Eigen::VectorXd th = logit_to_box(prior, zi);
     tasks[i].index = i;
     tasks[i].theta.assign(th.data(), th.data() + d);
-    tasks[i].state = cur.p.state;  // warm start from the mode's equilibria
+    tasks[i].state = cur.p.state;  // warm start from the mode's equilibria, in every block
   }
   StageSetup setup;
   setup.stage = 0;
@@ -206,7 +267,48 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
   setup.chain_length = 0;
   setup.seed = options.seed;
   const Executor executor = executor_in ? executor_in : omp_executor(prior, likelihood);
-  executor(setup, tasks);
+  // The draws evaluated before (a continued run), then the others block by block.
+  int done = 0;
+  if (resume) {
+    done = resume->draws_done;
+    for (int i = 0; i < done; ++i) {
+      tasks[i].log_likelihood = resume->draw_log_likelihood(i);
+      tasks[i].state = resume->draw_states[size_t(i)];
+    }
+    state.counts = resume->counts;
+  }
+  const int block = continuation.checkpoint
+                        ? (continuation.block > 0 ? continuation.block : laplace_is_block(S))
+                        : S;
+  const auto record_draws = [&](int upto) {
+    state.draws_done = upto;
+    state.draw_log_likelihood.resize(upto);
+    state.draw_states.resize(size_t(upto));
+    for (int i = 0; i < upto; ++i) {
+      state.draw_log_likelihood(i) = tasks[i].log_likelihood;
+      state.draw_states[size_t(i)] = tasks[i].state;
+    }
+  };
+  while (done < S) {
+    throw_if_cancelled(options.cancel);
+    const int end = std::min(S, (done / block + 1) * block);
+    std::vector<ChainTask> part(std::make_move_iterator(tasks.begin() + done),
+                                std::make_move_iterator(tasks.begin() + end));
+    // An executor finds a task by its index in the vector it is given (the MPI master does);
+    // an evaluation (chain_length 0) draws no random numbers, so the index changes nothing else.
+    for (size_t k = 0; k < part.size(); ++k) part[k].index = static_cast<int>(k);
+    executor(setup, part);
+    for (int i = done; i < end; ++i) {
+      tasks[i] = std::move(part[size_t(i - done)]);
+      state.counts += tasks[i].counts;
+    }
+    done = end;
+    if (continuation.checkpoint) {
+      record_draws(done);
+      checkpoint();
+    }
+  }
+  ForwardCounts draw_counts = state.counts;
 
   // --- weights ----------------------------------------------------------------------------
   r.draws.resize(S, d);
@@ -218,12 +320,12 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
     for (int k = 0; k < d; ++k) r.draws(i, k) = tasks[i].theta[k];
     r.draw_log_likelihood(i) = tasks[i].log_likelihood;
     r.draw_states[i] = std::move(tasks[i].state);
-    r.counts += tasks[i].counts;
     logw(i) = std::isfinite(tasks[i].log_likelihood)
                   ? tasks[i].log_likelihood + logit_log_prior(zi) -
                         student_t_log_density(zi, z, chol, options.nu)
                   : -kInfinity;
   }
+  r.counts = draw_counts;
   const double lse = is_log_sum_exp(logw);
   if (!(lse > -kInfinity)) throw std::runtime_error("laplace-is: every importance weight is zero");
   r.weights = (logw.array() - lse).exp().matrix();

@@ -32,6 +32,13 @@
 //    with chain_length 0), warm-started from the mode's state. Equally weighted samples are
 //    drawn by systematic resampling (one uniform from the seed), so outputs written for TMCMC
 //    samples work unchanged; the summaries use the weights themselves (weighted quantiles).
+// 5. Continuation. The run's state (LaplaceIsState) is handed out after the first gradient
+//    evaluation, after every Newton step, when the mode is found and after every block of
+//    importance draws (LaplaceIsContinuation; calibrate/laplace_is_checkpoint.hpp stores it).
+//    A run continued from it gives the straight run's result bit for bit: a Newton step
+//    depends on the current point's evaluation only, and every draw is evaluated from the
+//    mode's warm state with its own stream, whatever the block it falls in. options.cancel is
+//    polled before every gradient evaluation and before every block (rbc::Cancelled).
 //
 // Measured at the default calibration (Suresh 2005 table, continuum:2:2000, persistence, lmax,
 // sigma-scale; 2 threads on a shared 2-core machine): 8 Newton steps, 23 gradient evaluations,
@@ -70,8 +77,41 @@ struct LaplaceIsOptions {
   int max_newton_steps = 30;
   double mode_tolerance = 1e-8;  ///< on the Newton decrement g' H^-1 g
   std::uint64_t seed = 1;
+  CancelCheck cancel;     ///< polled before every gradient evaluation and block of draws
   void validate() const;  ///< throws std::invalid_argument naming the value
 };
+
+/// Where a run is: the mode search's current point, or the mode and the importance draws
+/// evaluated so far (the first draws_done, in draw order). The draws themselves follow from
+/// the mode, its Laplace covariance and the seed, so they are not part of the state.
+struct LaplaceIsState {
+  bool mode_found = false;  ///< false: the mode search continues after newton_steps steps
+  int newton_steps = 0;
+  long long gradient_evaluations = 0;
+  Eigen::VectorXd z;    ///< the search's current point, logit coordinates (the mode once found)
+  GradientPoint point;  ///< the target at z: log L, gradient, information, warm state
+  int draws_done = 0;   ///< importance draws evaluated (mode_found only)
+  Eigen::VectorXd draw_log_likelihood;  ///< of those draws
+  std::vector<WarmState> draw_states;   ///< of those draws
+  ForwardCounts counts;                 ///< of those draws' forward runs
+};
+
+/// How a run starts and what it hands out.
+struct LaplaceIsContinuation {
+  /// Continue from this state (nullptr: a new run). It must come from a run with the same
+  /// target, prior and options.
+  const LaplaceIsState* resume = nullptr;
+  /// Called with the state after the first gradient evaluation, every Newton step, the mode
+  /// search and every block of importance draws. Empty: none, and the draws go to the
+  /// executor in one batch.
+  std::function<void(const LaplaceIsState&)> checkpoint;
+  /// Importance draws per block; 0: laplace_is_block(samples).
+  int block = 0;
+};
+
+/// The default block of importance draws between checkpoints: samples / 20 rounded up, at
+/// least 10 (at most 20 checkpoint writes, each holding every evaluated draw's warm state).
+int laplace_is_block(int samples);
 
 struct LaplaceIsResult {
   Eigen::VectorXd mode_theta, mode_z;  ///< posterior mode (natural and logit coordinates)
@@ -106,6 +146,10 @@ double student_t_log_density(const Eigen::VectorXd& x, const Eigen::VectorXd& m,
 LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& likelihood,
                                const PriorBox& prior, const LaplaceIsOptions& options,
                                const Executor& executor = {});
+/// The same, continuing a stored state and/or handing out the state as it goes.
+LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& likelihood,
+                               const PriorBox& prior, const LaplaceIsOptions& options,
+                               const Executor& executor, const LaplaceIsContinuation& continuation);
 
 /// Weighted quantile (weights summing to 1; linear interpolation of the weighted CDF at the
 /// midpoints of the sorted samples' masses).

@@ -3,7 +3,9 @@
 // calibration's likelihood, with the gradient through the continuum forward model's
 // sensitivities (calibrate/sensitivity.hpp) and the Gauss-Newton information built from them;
 // recovery data add the release scene's term with its gradient and Gauss-Newton information
-// (calibrate/recovery_likelihood.hpp recovery_gradient_and_information).
+// (calibrate/recovery_likelihood.hpp recovery_gradient_and_information). With a checkpoint
+// path the run's state goes to a laplace-is checkpoint (calibrate/laplace_is_checkpoint.hpp)
+// with the mode search's work counted here, and a resumed run starts from one.
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -11,12 +13,22 @@
 
 #include "calibrate/infer.hpp"
 #include "calibrate/laplace_is.hpp"
+#include "calibrate/laplace_is_checkpoint.hpp"
 #include "calibrate/sensitivity.hpp"
 
 namespace rbc {
 
 LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Executor& executor,
                                        const ProgressSink& progress, long long* forward_runs_out,
+                                       long long* sensitivity_solves_out) {
+  return run_problem_laplace_is(problem, executor, progress, InferCheckpointing{}, forward_runs_out,
+                                sensitivity_solves_out);
+}
+
+LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Executor& executor,
+                                       const ProgressSink& progress,
+                                       const InferCheckpointing& checkpointing,
+                                       long long* forward_runs_out,
                                        long long* sensitivity_solves_out) {
   const InferOptions& o = problem.options();
   const StretchSensitivity sensitivity(problem.forward().options());
@@ -56,8 +68,35 @@ LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Ex
   LaplaceIsOptions lo;
   lo.samples = o.is_samples;
   lo.seed = o.sampler.seed;
-  report(progress, "laplace-is: mode search (damped Gauss-Newton in logit coordinates)");
-  LaplaceIsResult r = run_laplace_is(target, problem.likelihood(), problem.prior(), lo, executor);
+  lo.cancel = o.sampler.cancel;
+  LaplaceIsContinuation continuation;
+  if (const LaplaceIsCheckpoint* c = checkpointing.laplace_is_resume) {
+    continuation.resume = &c->state;
+    forward_runs = c->mode_forward_runs;
+    sensitivity_solves = c->sensitivity_solves;
+    recovery_trajectories = c->recovery_trajectories;
+    evaluations = c->state.gradient_evaluations;
+    report(progress, "laplace-is: resuming from the checkpoint (" +
+                         laplace_is_position(c->state, lo.samples) + ")");
+  } else {
+    report(progress, "laplace-is: mode search (damped Gauss-Newton in logit coordinates)");
+  }
+  if (!checkpointing.path.empty()) {
+    continuation.checkpoint = [&, inputs = laplace_is_inputs(problem)](const LaplaceIsState& s) {
+      LaplaceIsCheckpoint c;
+      c.inputs = inputs;
+      c.state = s;
+      c.mode_forward_runs = forward_runs;
+      c.sensitivity_solves = sensitivity_solves;
+      c.recovery_trajectories = recovery_trajectories;
+      write_laplace_is_checkpoint(checkpointing.path, c, lo.samples);
+      const std::string where = laplace_is_position(s, lo.samples);
+      if (s.mode_found && s.draws_done > 0) report(progress, "laplace-is: " + where);
+      if (checkpointing.on_checkpoint) checkpointing.on_checkpoint(where);
+    };
+  }
+  LaplaceIsResult r =
+      run_laplace_is(target, problem.likelihood(), problem.prior(), lo, executor, continuation);
   std::ostringstream m;
   m << "laplace-is: " << r.newton_steps << " Newton steps, " << sensitivity_solves
     << " gradient evaluations";

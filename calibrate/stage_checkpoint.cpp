@@ -61,7 +61,52 @@ std::vector<double> stage_row(const StageInfo& s) {
           double(s.forward_runs), s.elapsed_s};
 }
 
+/// A check of the shared pieces that failed (the caller adds the file's name).
+struct CheckpointMismatch : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 }  // namespace
+
+void write_checkpoint_inputs(H5File& h, const std::vector<PosteriorInput>& inputs) {
+  std::vector<std::string> input_names;
+  for (const auto& i : inputs) {
+    h.write_attribute(kInputPrefix + i.name, i.value);
+    input_names.push_back(i.name);
+  }
+  h.write_attribute("inputs", join(input_names, "\n"));
+  h.write_attribute("fingerprint", hex_digits(posterior_fingerprint(inputs)));
+}
+
+std::vector<PosteriorInput> read_checkpoint_inputs(const H5File& h) {
+  std::vector<PosteriorInput> inputs;
+  for (const std::string& name : split_lines(h.read_attribute_string("inputs")))
+    inputs.push_back({name, h.read_attribute_string(kInputPrefix + name)});
+  if (h.read_attribute_string("fingerprint") != hex_digits(posterior_fingerprint(inputs)))
+    throw CheckpointMismatch("the fingerprint does not match the inputs stored with it");
+  return inputs;
+}
+
+void write_checkpoint_checksum(H5File& h) {
+  h.write_attribute(kChecksumAttribute, hex_digits(h.content_checksum(kChecksumAttribute)));
+}
+
+void check_checkpoint_checksum(const H5File& h) {
+  const std::string stored = h.read_attribute_string(kChecksumAttribute);
+  const std::string actual = hex_digits(h.content_checksum(kChecksumAttribute));
+  if (stored != actual)
+    throw CheckpointMismatch("its contents do not match the checksum written with them (stored " +
+                             stored + ", computed " + actual + ")");
+}
+
+std::string checkpoint_sampler(const std::string& path) {
+  try {
+    const H5File h = H5File::open_read(path, H5Seal::required);
+    return h.read_attribute_string("sampler");
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("checkpoint '" + path + "' cannot be read: " + e.what());
+  }
+}
 
 std::string data_file_digest(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -204,14 +249,8 @@ void write_stage_checkpoint(const std::string& path, const std::vector<Posterior
     h.write_attribute("forward_retried", s.counts.retried);
     h.write_attribute("forward_failed", s.counts.failed);
     h.write_attribute("forward_symmetry_broken", s.counts.symmetry_broken);
-    std::vector<std::string> input_names;
-    for (const auto& i : inputs) {
-      h.write_attribute(kInputPrefix + i.name, i.value);
-      input_names.push_back(i.name);
-    }
-    h.write_attribute("inputs", join(input_names, "\n"));
-    h.write_attribute("fingerprint", hex_digits(posterior_fingerprint(inputs)));
-    h.write_attribute(kChecksumAttribute, hex_digits(h.content_checksum(kChecksumAttribute)));
+    write_checkpoint_inputs(h, inputs);
+    write_checkpoint_checksum(h);
     h.close();
   }
   tmp.commit();
@@ -229,15 +268,16 @@ StageCheckpoint read_stage_checkpoint(const std::string& path) {
     if (format != kStageCheckpointFormat)
       throw corrupt("format version " + std::to_string(format) + " (this rbc reads version " +
                     std::to_string(kStageCheckpointFormat) + ")");
-    const std::string stored = h.read_attribute_string(kChecksumAttribute);
-    const std::string actual = hex_digits(h.content_checksum(kChecksumAttribute));
-    if (stored != actual)
-      throw corrupt("its contents do not match the checksum written with them (stored " + stored +
-                    ", computed " + actual + ")");
-    for (const std::string& name : split_lines(h.read_attribute_string("inputs")))
-      out.inputs.push_back({name, h.read_attribute_string(kInputPrefix + name)});
-    if (h.read_attribute_string("fingerprint") != hex_digits(posterior_fingerprint(out.inputs)))
-      throw corrupt("the fingerprint does not match the inputs stored with it");
+    // Another sampler's layout (laplace-is, calibrate/laplace_is_checkpoint.hpp) has other
+    // datasets: named here rather than as a missing one.
+    if (const std::string sampler = h.read_attribute_string("sampler"); sampler != "tmcmc")
+      throw corrupt("written by the sampler '" + sampler + "', expected 'tmcmc'");
+    try {
+      check_checkpoint_checksum(h);
+      out.inputs = read_checkpoint_inputs(h);
+    } catch (const CheckpointMismatch& e) {
+      throw corrupt(e.what());
+    }
     a.sampler = h.read_attribute_string("sampler");
     a.stage = h.read_attribute_int("stage");
     a.samples = h.read_attribute_int("samples");

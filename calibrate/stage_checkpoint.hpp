@@ -17,8 +17,10 @@
 // /population/log_likelihood, /population/state_index, /population/state_offsets,
 // /population/state_values (warm states, each distinct one stored once), /schedule/exponent,
 // /schedule/stage_log and /accumulators/NAME (listed in the attribute `accumulators`).
-// calibrate/stage_checkpoint_arrays.hpp holds the shapes and the checks. Another sampler
-// writes its own `sampler` name and accumulators; other inputs add `input NAME` entries.
+// calibrate/stage_checkpoint_arrays.hpp holds the shapes and the checks. Other inputs add
+// `input NAME` entries. laplace-is writes its own layout into the same file name, with
+// `sampler` "laplace-is" and the same inputs, fingerprint and checksum
+// (calibrate/laplace_is_checkpoint.hpp); each sampler refuses the other's file.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -28,6 +30,7 @@
 namespace rbc {
 
 class InferenceProblem;
+class H5File;
 
 /// Format version of the stage checkpoint (a reader refuses any other).
 inline constexpr long long kStageCheckpointFormat = 1;
@@ -70,6 +73,21 @@ void write_stage_checkpoint(const std::string& path, const std::vector<Posterior
 /// arrays (stage_checkpoint_arrays.hpp). Throws std::runtime_error "checkpoint 'PATH' ..."
 /// naming what is wrong (missing, not HDF5, another format, corrupt).
 StageCheckpoint read_stage_checkpoint(const std::string& path);
+
+/// The pieces every checkpoint file shares (the stage checkpoint's and laplace-is's,
+/// calibrate/laplace_is_checkpoint.hpp), on an open file: the inputs (attributes `inputs`,
+/// `input NAME`, `fingerprint`) and the content checksum (attribute `content_checksum`, written
+/// last, over everything else).
+void write_checkpoint_inputs(H5File& file, const std::vector<PosteriorInput>& inputs);
+/// Throws std::runtime_error "the fingerprint does not match ..." (no file name).
+std::vector<PosteriorInput> read_checkpoint_inputs(const H5File& file);
+void write_checkpoint_checksum(H5File& file);
+/// Throws std::runtime_error "its contents do not match the checksum ..." (no file name).
+void check_checkpoint_checksum(const H5File& file);
+
+/// The `sampler` attribute of a checkpoint ("tmcmc", "laplace-is"), read from a sealed file.
+/// Throws std::runtime_error "checkpoint 'PATH' cannot be read: ..." naming what is wrong.
+std::string checkpoint_sampler(const std::string& path);
 
 /// Throws std::invalid_argument "<what>: the checkpoint was written for NAME VALUE, this run
 /// has NAME VALUE; ..." naming every input that differs (or is missing on either side).

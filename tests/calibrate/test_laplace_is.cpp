@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include "calibrate/laplace_is.hpp"
 #include "calibrate/tmcmc.hpp"
@@ -200,6 +201,104 @@ TEST(LaplaceIs, BadOptionsAreNamed) {
   o = {};
   o.nu = 2;
   EXPECT_THROW(o.validate(), std::invalid_argument);
+}
+
+// ---- continuation (LaplaceIsContinuation) ---------------------------------------------------
+
+/// The linear-Gaussian target with a warm state that changes the result, as the forward
+/// model's equilibria change the last digits of a solve: log L gets 1e-6 x (the warm state's
+/// first value) and each point hands out its theta as its state.
+struct WarmLinearGaussian final : Likelihood {
+  LinearGaussian g;
+  int dimension() const override { return 2; }
+  static double warm_term(const WarmState& w) { return w.empty() ? 0.0 : 1e-6 * w[0]; }
+  LikelihoodValue evaluate(std::span<const double> t, const WarmState& warm,
+                           WarmState* out) const override {
+    if (out) *out = {t[0], t[1]};
+    return {g.log_l(Eigen::Vector2d(t[0], t[1])) + warm_term(warm), false, false, false};
+  }
+  GradientTarget target() const {
+    return [this](const Eigen::VectorXd& t, const WarmState& warm) {
+      GradientPoint p = g.target()(t, warm);
+      p.log_likelihood += warm_term(warm);
+      p.state = {t(0), t(1)};
+      return p;
+    };
+  }
+};
+
+void expect_same_result(const LaplaceIsResult& a, const LaplaceIsResult& b) {
+  EXPECT_EQ(a.mode_z, b.mode_z);
+  EXPECT_EQ(a.covariance_z, b.covariance_z);
+  EXPECT_EQ(a.newton_steps, b.newton_steps);
+  EXPECT_EQ(a.gradient_evaluations, b.gradient_evaluations);
+  EXPECT_EQ(a.draws, b.draws);
+  EXPECT_EQ(a.draw_log_likelihood, b.draw_log_likelihood);
+  EXPECT_EQ(a.draw_states, b.draw_states);
+  EXPECT_EQ(a.weights, b.weights);
+  EXPECT_EQ(a.samples, b.samples);
+  EXPECT_EQ(a.log_evidence, b.log_evidence);
+  EXPECT_EQ(a.log_evidence_sd, b.log_evidence_sd);
+  EXPECT_EQ(a.counts.runs, b.counts.runs);
+}
+
+TEST(LaplaceIs, ContinuedFromAnyHandedOutStateTheRunEqualsTheStraightRunExactly) {
+  const WarmLinearGaussian w;
+  LaplaceIsOptions o;
+  o.samples = 60;
+  o.seed = 5;
+  std::vector<LaplaceIsState> states;
+  LaplaceIsContinuation record;
+  record.block = 7;
+  record.checkpoint = [&](const LaplaceIsState& s) { states.push_back(s); };
+  const LaplaceIsResult straight =
+      run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 1), record);
+  // The same without checkpoints (one batch of draws).
+  expect_same_result(straight,
+                     run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 2)));
+  // First evaluation, every Newton step, the mode, ceil(60 / 7) = 9 blocks.
+  ASSERT_EQ(static_cast<int>(states.size()), 1 + straight.newton_steps + 1 + 9);
+  ASSERT_GE(straight.newton_steps, 2);
+  EXPECT_FALSE(states.front().mode_found);
+  EXPECT_TRUE(states.back().mode_found);
+  EXPECT_EQ(states.back().draws_done, o.samples);
+  for (size_t k = 0; k < states.size(); ++k) {
+    SCOPED_TRACE("state " + std::to_string(k));
+    LaplaceIsContinuation c;
+    c.resume = &states[k];
+    c.block = 13;  // other blocks, other threads
+    c.checkpoint = [](const LaplaceIsState&) {};
+    expect_same_result(straight,
+                       run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 2), c));
+  }
+}
+
+TEST(LaplaceIs, CancelStopsBetweenEvaluationsAndTheLastStateContinues) {
+  const WarmLinearGaussian w;
+  LaplaceIsOptions o;
+  o.samples = 40;
+  const LaplaceIsResult straight =
+      run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 1));
+  // Polled before every gradient evaluation and every block: stop during the mode search, and
+  // after two blocks of draws.
+  const int in_draws = static_cast<int>(straight.gradient_evaluations) + 2;
+  for (int polls : {2, in_draws}) {
+    SCOPED_TRACE(polls);
+    int calls = 0;
+    o.cancel = [&] { return ++calls > polls; };
+    std::optional<LaplaceIsState> last;
+    LaplaceIsContinuation c;
+    c.block = 10;
+    c.checkpoint = [&](const LaplaceIsState& s) { last = s; };
+    EXPECT_THROW(run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 1), c),
+                 Cancelled);
+    ASSERT_TRUE(last.has_value());
+    o.cancel = {};
+    LaplaceIsContinuation r;
+    r.resume = &*last;
+    expect_same_result(straight,
+                       run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 2), r));
+  }
 }
 
 }  // namespace
