@@ -468,7 +468,9 @@ std::vector<std::string> recovery_prediction_stems(
 void print_recovery_predictions(const std::vector<RecoveryPrediction>& predictions) {
   for (const RecoveryPrediction& p : predictions) {
     std::cout << "  held out: recovery data " << p.path << ", " << p.draws << " posterior draws ("
-              << p.eta_m_text() << ")\n"
+              << p.eta_m_text()
+              << "; each cell's lambda_0, lambda_inf at each draw: the mode of the likelihood's "
+                 "fit to its own readings)\n"
               << std::fixed << std::setprecision(2);
     for (const RecoveryCellPrediction& c : p.cells)
       std::cout << "    cell " << c.id << ": inside the 50 % band " << c.in_50 << "/" << c.points()
