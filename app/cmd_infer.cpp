@@ -28,6 +28,7 @@
 #include "calibrate/laplace_is_checkpoint.hpp"
 #include "calibrate/mpi_executor.hpp"
 #include "calibrate/predictive.hpp"
+#include "calibrate/recovery_prediction.hpp"
 #include "calibrate/sensitivity.hpp"
 #include "calibrate/stage_checkpoint.hpp"
 #include "core/cpu_time.hpp"
@@ -65,7 +66,9 @@ struct InferCli {
   // Held-out prediction (calibrate/predictive.hpp).
   std::vector<std::string> predict;             ///< --predict FILE, repeatable
   int predict_draws = kDefaultPredictiveDraws;  ///< --predict-draws (0: every sample)
-  std::string candidate_forces;                 ///< --candidate-forces (pN), empty: none
+  /// --predict-recovery-draws (0: every sample): draws for a recovery --predict file
+  int predict_recovery_draws = kDefaultRecoveryPredictiveDraws;
+  std::string candidate_forces;  ///< --candidate-forces (pN), empty: none
 };
 
 /// The model option group's values as the forward model's fixed parameters. The forward model
@@ -289,13 +292,23 @@ InferOptions to_options(const InferCli& c) {
   o.recovery_model.elements = c.recovery_elements;
   if (c.recovery_elements != RecoveryModelOptions{}.elements) {
     const std::vector<std::string> files =
-        c.data_files.empty() ? std::vector<std::string>{o.data_file} : c.data_files;
-    if (std::none_of(files.begin(), files.end(), [](const std::string& f) {
-          return detect_data_kind(f) == DataKind::recovery;
-        }))
+        c.data_files.empty() ? std::vector<std::string>{o.data_path()} : c.data_files;
+    // A recovery --predict file runs the release scene too (a file that cannot be read is
+    // named by --predict's own check).
+    const auto predicted_recovery = [](const std::string& f) {
+      try {
+        return detect_data_kind(f) == DataKind::recovery;
+      } catch (const std::exception&) {
+        return false;
+      }
+    };
+    if (std::none_of(
+            files.begin(), files.end(),
+            [](const std::string& f) { return detect_data_kind(f) == DataKind::recovery; }) &&
+        std::none_of(c.predict.begin(), c.predict.end(), predicted_recovery))
       throw std::invalid_argument("--recovery-elements " + std::to_string(c.recovery_elements) +
-                                  ": no recovery data file among --data-file (expected one, or "
-                                  "leave the option out)");
+                                  ": no recovery data file among --data-file or --predict "
+                                  "(expected one, or leave the option out)");
     try {
       o.recovery_model.validate();
     } catch (const std::exception& e) {
@@ -362,13 +375,19 @@ void remove_stale_checkpoint_temporaries(const std::string& dir) {
 // --- Held-out prediction (--predict) ---------------------------------------------------------
 
 /// The --predict files prepared against the fit's problem, checked before any work: each must
-/// read as stretch data for the fit's method, differ from the fit's data file and from the
-/// other --predict files.
-std::vector<std::unique_ptr<PredictionProblem>> prediction_problems(const InferCli& c,
-                                                                    const InferenceProblem& fit) {
+/// read as stretch data for the fit's method or as recovery data (detect_data_kind), differ
+/// from the fit's data files and from the other --predict files. The recovery files go to
+/// `recovery`.
+std::vector<std::unique_ptr<PredictionProblem>> prediction_problems(
+    const InferCli& c, const InferenceProblem& fit,
+    std::vector<std::unique_ptr<RecoveryPredictionProblem>>& recovery) {
   namespace fs = std::filesystem;
   if (c.predict_draws < 0)
     throw std::invalid_argument("--predict-draws " + std::to_string(c.predict_draws) +
+                                ": expected a number of posterior draws >= 0 (0: every sample)");
+  if (c.predict_recovery_draws < 0)
+    throw std::invalid_argument("--predict-recovery-draws " +
+                                std::to_string(c.predict_recovery_draws) +
                                 ": expected a number of posterior draws >= 0 (0: every sample)");
   if (!c.predict.empty() && c.forward_check)
     throw std::invalid_argument("--predict " + c.predict.front() + ": not with --forward-check");
@@ -380,7 +399,18 @@ std::vector<std::unique_ptr<PredictionProblem>> prediction_problems(const InferC
       if (path == c.predict[j] || fs::equivalent(path, c.predict[j], ec))
         throw std::invalid_argument("--predict " + path + ": given twice");
     try {
-      out.push_back(std::make_unique<PredictionProblem>(fit, path));
+      // A file that cannot be read is named by the stretch reader ("cannot open").
+      const auto kind = [&] {
+        try {
+          return detect_data_kind(path);
+        } catch (const std::exception&) {
+          return DataKind::stretch;
+        }
+      };
+      if (kind() == DataKind::recovery)
+        recovery.push_back(std::make_unique<RecoveryPredictionProblem>(fit, path));
+      else
+        out.push_back(std::make_unique<PredictionProblem>(fit, path));
     } catch (const std::exception& e) {
       const std::string what = e.what();
       if (what.rfind("--predict", 0) == 0) throw;
@@ -404,6 +434,51 @@ std::vector<HeldOutPrediction> predict_all(
   }
   if (!out.empty()) r.predictions = predictions_json(out);
   return out;
+}
+
+/// Predicts every recovery --predict file (as predict_all) and appends its "predictions" entry.
+std::vector<RecoveryPrediction> predict_all_recovery(
+    const std::vector<std::unique_ptr<RecoveryPredictionProblem>>& problems, InferenceResult& r,
+    int draws, const ProgressSink& progress,
+    const std::function<Executor(const RecoveryPredictionProblem&)>& make = {},
+    const std::function<void()>& done = {}) {
+  std::vector<RecoveryPrediction> out;
+  for (const auto& p : problems) {
+    out.push_back(predict_recovery(*p, r, draws, make ? make(*p) : Executor{}, progress));
+    if (done) done();
+    if (r.predictions.is_null()) r.predictions = nlohmann::json::array();
+    r.predictions.push_back(recovery_prediction_json(out.back()));
+  }
+  return out;
+}
+
+/// Output stems of the recovery predictions: predict_<file stem>, unique among every
+/// prediction's (the stretch ones keep prediction_file_stems').
+std::vector<std::string> recovery_prediction_stems(
+    const std::vector<HeldOutPrediction>& stretch,
+    const std::vector<RecoveryPrediction>& recovery) {
+  std::vector<std::string> paths;
+  for (const auto& p : stretch) paths.push_back(p.path);
+  for (const auto& p : recovery) paths.push_back(p.path);
+  const std::vector<std::string> all = prediction_file_stems(paths);
+  return {all.begin() + static_cast<long>(stretch.size()), all.end()};
+}
+
+void print_recovery_predictions(const std::vector<RecoveryPrediction>& predictions) {
+  for (const RecoveryPrediction& p : predictions) {
+    std::cout << "  held out: recovery data " << p.path << ", " << p.draws << " posterior draws ("
+              << p.eta_m_text()
+              << "; each cell's lambda_0, lambda_inf at each draw: the mode of the likelihood's "
+                 "fit to its own readings)\n"
+              << std::fixed << std::setprecision(2);
+    for (const RecoveryCellPrediction& c : p.cells)
+      std::cout << "    cell " << c.id << ": inside the 50 % band " << c.in_50 << "/" << c.points()
+                << ", inside the 90 % band " << c.in_90 << "/" << c.points() << "\n";
+    std::cout << "    all cells: " << p.fraction_50() << " inside the 50 % band, "
+              << p.fraction_90() << " inside the 90 % band; t_c = eta_m/mu " << std::setprecision(3)
+              << p.tc_q50_s << " s (90 %: " << p.tc_q05_s << " to " << p.tc_q95_s << " s)\n"
+              << std::defaultfloat;
+  }
 }
 
 void print_predictions(const std::vector<HeldOutPrediction>& predictions) {
@@ -611,14 +686,21 @@ void add_infer_command(CLI::App& app, Action& action) {
   cmd->add_flag("--quiet,-q", c->quiet, "no progress on stderr");
   add_verbose_flag(cmd, c->verbose);
   cmd->add_option("--predict", c->predict,
-                  "held-out stretch-data CSV (the --data-file format) to predict from the "
-                  "posterior: 5-95 % quantiles of D_A, D_T with the file's own error bars, and "
-                  "the fraction of its points inside the 50 % and 90 % bands (summary.json "
-                  "'predictions', predict_STEM.png); repeatable")
+                  "held-out data CSV (the --data-file formats) to predict from the posterior: "
+                  "stretch data, 5-95 % quantiles of D_A, D_T with the file's own error bars; "
+                  "recovery data (cell,time_s,length_over_width), 5-95 % quantiles of each "
+                  "cell's length over width with its reading noise (eta_m from its prior when "
+                  "not inferred); and the fraction of the points inside the 50 % and 90 % bands "
+                  "(summary.json 'predictions', predict_STEM.png); repeatable")
       ->type_name("FILE");
   cmd->add_option("--predict-draws", c->predict_draws,
-                  "posterior samples drawn for --predict (systematic resampling with --seed; "
-                  "0: every sample); one forward run per distinct sample")
+                  "posterior samples drawn for a stretch --predict file (systematic resampling "
+                  "with --seed; 0: every sample); one forward run per distinct sample")
+      ->capture_default_str();
+  cmd->add_option("--predict-recovery-draws", c->predict_recovery_draws,
+                  "posterior samples drawn for a recovery --predict file (as --predict-draws); "
+                  "one release trajectory per distinct sample, each about 1.4 CPU s at 1,000 "
+                  "--recovery-elements")
       ->capture_default_str();
   // The physics every command shares: here the values of the parameters not inferred.
   add_model_options(cmd, c->physics);
@@ -634,6 +716,8 @@ void add_infer_command(CLI::App& app, Action& action) {
       std::unique_ptr<InferenceProblem> problem;
       std::vector<std::unique_ptr<PredictionProblem>> held_out;  // --predict
       std::vector<HeldOutPrediction> predictions;
+      std::vector<std::unique_ptr<RecoveryPredictionProblem>> recovery_held_out;  // --predict
+      std::vector<RecoveryPrediction> recovery_predictions;
       std::string out;
       std::vector<double> candidates;  // --candidate-forces (pN)
       try {
@@ -644,7 +728,7 @@ void add_infer_command(CLI::App& app, Action& action) {
         if (c->forward_check && problem->experiments().size() > 1)
           throw std::invalid_argument("--forward-check: expected one --data-file, got " +
                                       std::to_string(problem->experiments().size()));
-        held_out = prediction_problems(*c, *problem);
+        held_out = prediction_problems(*c, *problem, recovery_held_out);
       } catch (const std::exception&) {
         if (!master) return 2;  // rank 0 names the error
         throw;
@@ -726,6 +810,7 @@ void add_infer_command(CLI::App& app, Action& action) {
             mpi_worker_loop(problem->prior(), problem->likelihood());
             // --predict: one more round of forward runs per file, each ended by the master.
             for (const auto& p : held_out) mpi_worker_loop(problem->prior(), p->runner());
+            for (const auto& p : recovery_held_out) mpi_worker_loop(problem->prior(), p->runner());
           } catch (const std::exception& e) {
             std::cerr << "rbc: error: MPI rank " << session.rank() << ": " << e.what() << "\n";
             session.abort(1);
@@ -767,7 +852,7 @@ void add_infer_command(CLI::App& app, Action& action) {
           ~Stop() {
             while (rounds > 0) next();
           }
-        } stop{1 + held_out.size()};
+        } stop{1 + held_out.size() + recovery_held_out.size()};
         r = run([](const InferenceProblem& p) {
           return mpi_master_executor(p.prior(), p.likelihood(), p.options().sampler.cancel);
         });
@@ -781,10 +866,21 @@ void add_infer_command(CLI::App& app, Action& action) {
                                            p.fit().options().sampler.cancel);
               },
               [&stop] { stop.next(); });  // the file's round ends once its results are in
+        if (r.status == TmcmcStatus::converged && !recovery_held_out.empty())
+          recovery_predictions = predict_all_recovery(
+              recovery_held_out, r, c->predict_recovery_draws, progress,
+              [](const RecoveryPredictionProblem& p) {
+                return mpi_master_executor(p.fit().prior(), p.runner(),
+                                           p.fit().options().sampler.cancel);
+              },
+              [&stop] { stop.next(); });
       } else {
         r = run({});
-        if (r.status == TmcmcStatus::converged)
+        if (r.status == TmcmcStatus::converged) {
           predictions = predict_all(held_out, r, c->predict_draws, progress);
+          recovery_predictions =
+              predict_all_recovery(recovery_held_out, r, c->predict_recovery_draws, progress);
+        }
       }
       if (r.status == TmcmcStatus::low_ess) {
         std::cerr << "rbc: error: inference stopped (low_ess): laplace-is kept "
@@ -827,6 +923,15 @@ void add_infer_command(CLI::App& app, Action& action) {
           for (const std::string& stem : prediction_file_stems(predictions))
             run["outputs"].push_back(stem + ".png");
         }
+        {  // --predict of recovery data
+          const std::vector<std::string> stems =
+              recovery_prediction_stems(predictions, recovery_predictions);
+          for (size_t i = 0; i < recovery_predictions.size(); ++i) {
+            write_recovery_prediction(recovery_predictions[i], out, stems[i], r.data.name,
+                                      record_comment_lines(r.record));
+            run["outputs"].push_back(stems[i] + ".png");
+          }
+        }
         run["outputs"].push_back("identifiability.json");
         write_text_atomic(out + "/run.json", run.dump(2) + "\n");
       }
@@ -838,6 +943,7 @@ void add_infer_command(CLI::App& app, Action& action) {
       else {
         print_summary(r);
         print_predictions(predictions);
+        print_recovery_predictions(recovery_predictions);
         for (const auto& line : identified.lines()) std::cout << line << "\n";
       }
       if (!out.empty() && !c->json) {
@@ -849,6 +955,8 @@ void add_infer_command(CLI::App& app, Action& action) {
           for (const auto& e : r.experiments)
             if (!e.axial_q50.empty()) std::cout << ", predictive_" << e.stem << ".png";
         for (const std::string& stem : prediction_file_stems(predictions))  // --predict
+          std::cout << ", " << stem << ".png";
+        for (const std::string& stem : recovery_prediction_stems(predictions, recovery_predictions))
           std::cout << ", " << stem << ".png";
         std::cout << ", identifiability.json\n";
       }

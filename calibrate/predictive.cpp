@@ -367,10 +367,16 @@ nlohmann::json predictions_json(const std::vector<HeldOutPrediction>& prediction
 }
 
 std::vector<std::string> prediction_file_stems(const std::vector<HeldOutPrediction>& predictions) {
+  std::vector<std::string> paths;
+  for (const HeldOutPrediction& p : predictions) paths.push_back(p.path);
+  return prediction_file_stems(paths);
+}
+
+std::vector<std::string> prediction_file_stems(const std::vector<std::string>& paths) {
   std::vector<std::string> out;
   std::set<std::string> taken;
-  for (const HeldOutPrediction& p : predictions) {
-    const std::string base = "predict_" + safe_stem(p.path);
+  for (const std::string& path : paths) {
+    const std::string base = "predict_" + safe_stem(path);
     std::string stem = base;
     for (int k = 2; taken.count(stem); ++k) stem = base + "_" + std::to_string(k);
     taken.insert(stem);

@@ -140,6 +140,8 @@ nlohmann::json predictions_json(const std::vector<HeldOutPrediction>& prediction
 
 /// Output names of the i-th prediction of a list (predict_<file stem>, made unique).
 std::vector<std::string> prediction_file_stems(const std::vector<HeldOutPrediction>& predictions);
+/// The same from the predicted files' paths (stretch and recovery files alike).
+std::vector<std::string> prediction_file_stems(const std::vector<std::string>& paths);
 
 /// Writes DIR/STEM.csv (bands, data and sigmas; `comments` first, e.g. the run record) and
 /// DIR/STEM.{gp,png} (the held-out data with their error bars over the 50 % and 90 % predictive

@@ -115,6 +115,13 @@ UNITLESS_KEYS = frozenset({
     # groups of other keys (their entries carry the units)
     "parameters", "derived", "timing", "stage_log", "stage_info", "data", "data_sets",
     "predictive_q05_q50_q95", "hmc", "per_chain",
+    # rbc infer --predict: "predictions" (calibrate/predictive.hpp, recovery_prediction.hpp);
+    # recovery data are lengths over widths (dimensionless) and their normalised recovery
+    "predictions", "path", "draws", "used_draws", "trajectories", "failed_forward_runs",
+    "failed_trajectories", "failed_nuisance_fits", "quantiles", "points", "coverage", "all",
+    "axial", "transverse", "inside_50", "inside_90", "band_50", "band_90", "cell", "observed",
+    "q05", "q25", "q50", "q75", "q95", "length_over_width", "normalised_recovery", "lambda_0",
+    "lambda_inf", "sigma_ratio", "eta_m_inferred", "eta_m_source", "nuisances",
 })
 # "samples" of rbc.infer() is (S, P): each column in the unit of InferenceProblem.units.
 

@@ -72,7 +72,7 @@ def infer_result(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def returned_dicts(infer_result):
+def returned_dicts(infer_result, predict_result):
     """Every dict the package's public API returns, by the call that returned it."""
     net = rbc.Network(rbc.rest_shape(150))
     mc = rbc.MonteCarlo(net, force_pN=20.0, seed=1)
@@ -105,7 +105,29 @@ def returned_dicts(infer_result):
         "rbc moduli --network disordered --json": run_cli_json(
             "moduli", "--network", "disordered", "--cells", "4", "--seeds", "2", "--json", "-q"),
         "rbc psi --json": run_cli_json("psi", "--deformation", "1.2,0.1,0,0.95", "--json"),
+        "rbc infer --predict --json": without_run_record(predict_result),
     }
+
+
+@pytest.fixture(scope="module")
+def predict_result(tmp_path_factory):
+    """`rbc infer --json` with a held-out stretch file and a held-out recovery file: the
+    "predictions" of both kinds (a tiny fit, 2 draws each, 200-element release scenes)."""
+    tmp = tmp_path_factory.mktemp("predict")
+    fit = tmp / "fit.csv"
+    fit.write_text("force_pN,axial_um,axial_err_um,transverse_um,transverse_err_um\n"
+                   "0,7.82,0.3,7.82,0.3\n38,11.0,0.5,6.6,0.4\n")
+    held = tmp / "held.csv"
+    held.write_text("force_pN,axial_um,axial_err_um,transverse_um,transverse_err_um\n"
+                    "0,7.9,0.3,7.9,0.3\n30,10.5,0.5,6.8,0.4\n")
+    cells = tmp / "cells.csv"
+    cells.write_text("cell,time_s,length_over_width\n1,0,1.9\n1,0.1,1.5\n1,0.2,1.3\n"
+                     "1,0.3,1.2\n")
+    return run_cli_json("infer", "--method", "continuum:2:200", "--params", "sigma-scale",
+                        "--samples", "20", "--seed", "2", "--data-file", str(fit),
+                        "--predict", str(held), "--predict", str(cells), "--predict-draws", "2",
+                        "--predict-recovery-draws", "2", "--recovery-elements", "200", "--json",
+                        "-q")
 
 
 def without_run_record(d):
