@@ -53,8 +53,9 @@ struct InferCli {
   double target_cov = 1.0, proposal_scale = 0.2;
   std::uint64_t seed = 1;
   int threads = 0;
-  SamplerKind sampler = InferOptions{}.sampler_kind;  ///< --sampler
-  int is_samples = InferOptions{}.is_samples;         ///< --is-samples (laplace-is)
+  SamplerKind sampler = InferOptions{}.sampler_kind;      ///< --sampler
+  int is_samples = InferOptions{}.is_samples;             ///< --is-samples (laplace-is)
+  double min_ess = InferOptions{}.min_effective_samples;  ///< --min-ess (laplace-is)
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   Symmetry symmetry = ForwardOptions::default_newton().symmetry;
   std::string out, resume;
@@ -324,6 +325,7 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.cancel = interrupt_check();  // polled between stages and between chains
   o.sampler_kind = c.sampler;
   o.is_samples = c.is_samples;
+  o.min_effective_samples = c.min_ess;
   o.fixed = fixed_parameters(c.physics, o.parameters);
   o.threads = c.threads;
   o.force_tolerance_pN = c.force_tolerance_pN;
@@ -629,6 +631,10 @@ void add_infer_command(CLI::App& app, Action& action) {
          "laplace-is: importance samples (forward runs after the mode search), at least 10; "
          "more raise the effective sample size about in proportion")
       ->capture_default_str();
+  cmd->add_option("--min-ess", c->min_ess,
+                  "laplace-is: fewest effective importance samples of an accepted posterior; "
+                  "below it the run stops with status low_ess (exit 1)")
+      ->capture_default_str();
   cmd->add_option(
          "--samples", c->samples,
          "tmcmc: samples per stage, at least " + std::to_string(InferOptions::minimum_samples()))
@@ -885,7 +891,7 @@ void add_infer_command(CLI::App& app, Action& action) {
       if (r.status == TmcmcStatus::low_ess) {
         std::cerr << "rbc: error: inference stopped (low_ess): laplace-is kept "
                   << format_number(r.ess) << " effective samples of " << o.is_samples
-                  << " (at least " << format_number(InferOptions::kMinimumEffectiveSamples)
+                  << " (at least " << format_number(o.min_effective_samples)
                   << "): the Laplace proposal fits this posterior badly; rerun with more "
                      "--is-samples or with --sampler tmcmc\n";
         return 1;

@@ -135,7 +135,12 @@ void InferOptions::validate() const {
       other("--proposal-scale", format_number(sampler.proposal_scale));
   } else if (is_samples != InferOptions{}.is_samples) {
     other("--is-samples", std::to_string(is_samples));
+  } else if (min_effective_samples != InferOptions{}.min_effective_samples) {
+    other("--min-ess", format_number(min_effective_samples));
   }
+  if (!(min_effective_samples >= 0) || !std::isfinite(min_effective_samples))
+    throw std::invalid_argument("--min-ess " + format_number(min_effective_samples) +
+                                ": expected a finite number >= 0");
   // The sampler's own floor (TmcmcOptions::validate: 5 samples per island), named as the
   // option the user sets.
   if (sampler.samples < 5 * sampler.islands)
@@ -575,7 +580,7 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
     t.counts = lis.counts;
     t.counts.runs += mode_runs;
     t.wall_s = lis.wall_s;
-    if (!(lis.ess >= InferOptions::kMinimumEffectiveSamples)) t.status = TmcmcStatus::low_ess;
+    if (!(lis.ess >= o.min_effective_samples)) t.status = TmcmcStatus::low_ess;
     StageInfo s;  // one "stage": the importance samples at beta = 1
     s.beta = 1;
     s.forward_runs = t.counts.runs;

@@ -93,10 +93,10 @@ struct InferOptions {
   SamplerKind sampler_kind = SamplerKind::tmcmc;
   /// Importance samples of laplace-is (forward runs after the mode search).
   int is_samples = 1000;
-  /// laplace-is: fewest effective samples (sum w)^2 / sum w^2 of an accepted posterior; below
-  /// it the run ends with status low_ess. At 50 the ends of a 90 % interval rest on 2.5
-  /// effective samples each.
-  static constexpr double kMinimumEffectiveSamples = 50;
+  /// laplace-is: fewest effective samples (sum w)^2 / sum w^2 of an accepted posterior (>= 0);
+  /// below it the run ends with status low_ess. At the default 50 the ends of a 90 % interval
+  /// rest on 2.5 effective samples each.
+  double min_effective_samples = 50;
   int threads = 0;  ///< OpenMP threads for the forward runs (0: OpenMP's default)
   /// Newton force tolerance of the continuum forward runs (pN; ForwardOptions documents
   /// the default 1e-4 pN).

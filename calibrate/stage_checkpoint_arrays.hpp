@@ -34,7 +34,7 @@ struct CheckpointTable {
 inline constexpr std::size_t kStageLogColumns = 8;
 
 struct StageCheckpointArrays {
-  std::string sampler;  ///< "tmcmc" (the only sampler so far)
+  std::string sampler;  ///< "tmcmc" (this layout; laplace-is has calibrate/laplace_is_checkpoint)
   long long stage = 0, samples = 0, dimension = 0;
   CheckpointTable<double> theta, log_likelihood;
   CheckpointTable<unsigned long long> state_index, state_offsets;

@@ -212,7 +212,7 @@ struct StageInfo {
 
 /// How a posterior run ended: converged; TMCMC's tempering did not reach beta = 1 within its
 /// stages (max_stages); more than 1 % of the forward runs failed (failed_runs); the importance
-/// weights of laplace-is left fewer effective samples than InferOptions::kMinimumEffectiveSamples
+/// weights of laplace-is left fewer effective samples than InferOptions::min_effective_samples
 /// (calibrate/infer.hpp; low_ess).
 enum class TmcmcStatus { converged, max_stages, failed_runs, low_ess };
 std::string to_string(TmcmcStatus s);

@@ -97,6 +97,9 @@ TEST(LaplaceIsCli, RefusesWhatItCannotTakeBeforeAnyWork) {
            {"--sampler laplace-is --is-samples 5",
             "rbc: error: --is-samples 5: expected at least 10"},
            {"--sampler hmc", "--sampler"},
+           {"--sampler laplace-is --min-ess -1",
+            "rbc: error: --min-ess -1: expected a finite number >= 0"},
+           {"--min-ess 10", "rbc: error: --min-ess 10: a setting of the laplace-is sampler"},
            {"--sampler laplace-is --resume " + dir.string(), "rbc: error: --resume"},
        }) {
     const fs::path out = dir / "out";
@@ -110,6 +113,26 @@ TEST(LaplaceIsCli, RefusesWhatItCannotTakeBeforeAnyWork) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(out / "summary.json")) << c.args;
   }
+}
+
+// Importance weights that leave fewer effective samples than --min-ess stop the run with status
+// low_ess and exit 1, naming the count, and write no posterior; a lower floor accepts the same
+// draws.
+TEST(LaplaceIsCli, TooFewEffectiveSamplesStopTheRunWithExitOne) {
+  const fs::path dir = rbc::testing::fresh_output_dir("laplace_is_cli_low_ess");
+  const std::string args = "infer --sampler laplace-is --is-samples 20" + kCommon +
+                           " --data-file " + small_data(dir).string() + " --out ";
+  const auto low = run_rbc(args + (dir / "low").string(), 1);
+  EXPECT_EQ(low.exit_code, 1) << low.all();
+  EXPECT_EQ(low.err.rfind("rbc: error: inference stopped (low_ess): laplace-is kept ", 0), 0u)
+      << low.err;
+  EXPECT_NE(low.err.find(" effective samples of 20 (at least 50)"), std::string::npos) << low.err;
+  EXPECT_FALSE(fs::exists(dir / "low" / "summary.json"));
+  const auto accepted = run_rbc(args + (dir / "accepted").string() + " --min-ess 2", 1);
+  ASSERT_EQ(accepted.exit_code, 0) << accepted.all();
+  const auto j = nlohmann::json::parse(std::ifstream(dir / "accepted" / "summary.json"));
+  EXPECT_GE(j["ess"].get<double>(), 2.0);
+  EXPECT_LT(j["ess"].get<double>(), 20.0 + 1e-9);
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """A Monte Carlo checkpoint is checked for internal consistency, not just format: a real
 checkpoint of `rbc mc` whose `sweep` attribute is edited with h5py and whose content checksum is
-recomputed (so the checksum alone cannot tell) is refused by `rbc mc --resume`, because the
-sweep count disagrees with the stored time series.
+recomputed, and the file resealed (so neither the checksum nor the seal can tell), is refused by
+`rbc mc --resume`, because the sweep count disagrees with the stored time series.
 
 The checksum is recomputed here from its definition (core/h5file.hpp, H5File::content_checksum:
 FNV-1a 64 over every dataset's path (datasets in groups too, depth first in name order),
@@ -83,11 +83,27 @@ def stored_checksum(path):
         return raw.tobytes().rstrip(b"\0").decode()
 
 
+def reseal(path):
+    """Writes the seal of the file's bytes again (core/h5file.hpp: the first 512 bytes, an HDF5
+    user block, hold "rbc sealed HDF5 file\\n" and "fnv1a64 HEX16 bytes N\\n", the FNV-1a 64 and
+    length of the bytes after the block, zero padded)."""
+    data = bytearray(open(path, "rb").read())
+    first = b"rbc sealed HDF5 file\n"
+    assert data[:len(first)] == first
+    h = Fnv1a()
+    h.add(bytes(data[512:]))
+    line = f"fnv1a64 {h.h:016x} bytes {len(data) - 512}\n".encode()
+    data[len(first):512] = line + b"\0" * (512 - len(first) - len(line))
+    open(path, "wb").write(bytes(data))
+
+
 def set_checksum(path):
+    """Recomputes the content checksum and the seal, as an rbc that wrote these values would."""
     value = content_checksum(path).encode()
     with h5py.File(path, "r+") as f:
         del f.attrs[CHECKSUM]
         f.attrs.create(CHECKSUM, np.bytes_(value), dtype=f"S{len(value) + 1}")
+    reseal(path)
 
 
 def rbc(*args, cwd):
@@ -113,6 +129,20 @@ def resume(path, cwd):
 
 def test_the_checksum_definition_is_rbcs(checkpoint):
     assert content_checksum(checkpoint) == stored_checksum(checkpoint)
+
+
+def test_an_edit_without_a_new_seal_is_refused_before_hdf5_reads_it(checkpoint, tmp_path):
+    edited = tmp_path / "unsealed_edit.h5"
+    shutil.copy(checkpoint, edited)
+    with h5py.File(edited, "r+") as f:
+        f.attrs.modify("sweep", np.int64(10))
+    out = resume(edited, tmp_path)
+    assert out.returncode == 2, (out.returncode, out.stdout, out.stderr)
+    assert "is corrupt: its bytes do not match the checksum sealed with them" in out.stderr
+    resealed = tmp_path / "resealed.h5"
+    shutil.copy(checkpoint, resealed)
+    reseal(resealed)  # the seal of unchanged bytes is the one rbc wrote
+    assert open(resealed, "rb").read() == open(checkpoint, "rb").read()
 
 
 def test_an_edited_sweep_count_with_a_recomputed_checksum_is_refused(checkpoint, tmp_path):
