@@ -51,13 +51,13 @@ InferenceResult fit(const std::vector<std::string>& files) {
   // The box test_recovery.cpp checked to converge at this mesh and these forces.
   o.priors = {{Parameter::persistence, 3, 16}, {Parameter::lmax, 150, 300}};
   o.sampler_kind = SamplerKind::laplace_is;
-  o.is_samples = 400;
+  o.is_samples = 800;  // table b keeps 37 effective samples of 400: under the floor of 50
   o.sampler.seed = 3;
   o.threads = 1;
   return run_inference(o);
 }
 
-// Truth p = 9 nm, Lmax = 190 nm (mu = 7.6 uN/m); noise 0.1 um; seeds fixed, not selected. The
+// Truth p = 9 nm, Lmax = 190 nm (mu = 10.0 uN/m); noise 0.1 um; seeds fixed, not selected. The
 // check "truth inside the 90 % interval" fails with probability ~10 % per parameter for a
 // calibrated posterior over new noise draws; with the seeds fixed the test is deterministic.
 TEST(JointRecovery, JointIntervalsHoldTheTruthAndMuIsNarrowerThanFromEitherTable) {
@@ -70,7 +70,6 @@ TEST(JointRecovery, JointIntervalsHoldTheTruthAndMuIsNarrowerThanFromEitherTable
   const std::string b = simulate(dir, "synthetic_b", {0, 30, 75, 120, 150}, truth, 0.1, 22);
   const InferenceResult ra = fit({a}), rb = fit({b}), rj = fit({a, b});
   for (const InferenceResult* r : {&ra, &rb, &rj}) {
-    ASSERT_EQ(r->status, TmcmcStatus::converged);
     std::cout << (r == &rj   ? "joint"
                   : r == &ra ? "a"
                              : "b")
@@ -79,6 +78,7 @@ TEST(JointRecovery, JointIntervalsHoldTheTruthAndMuIsNarrowerThanFromEitherTable
               << r->parameters[0].q95 << "], lmax " << r->parameters[1].q50 << " ["
               << r->parameters[1].q05 << ", " << r->parameters[1].q95 << "], ESS " << r->ess
               << ", forward runs " << r->counts.runs << "\n";
+    ASSERT_EQ(r->status, TmcmcStatus::converged) << to_string(r->status);
   }
   EXPECT_EQ(rj.experiments.size(), 2u);
   const double t[2] = {truth.persistence_nm, truth.lmax_nm};
