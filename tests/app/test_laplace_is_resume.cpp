@@ -29,28 +29,18 @@
 #include "cli_run.hpp"
 #include "core/h5file.hpp"
 #include "core/io.hpp"
+#include "infer_resume_helpers.hpp"
 #include "test_output.hpp"
 
 namespace rbc {
 namespace {
 
+using namespace testing::infer_resume;
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 constexpr int kIsSamples = 40;
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// The small data file of the header, written into dir.
-std::string data_file(const fs::path& dir) {
-  const fs::path p = dir / "small.csv";
-  std::ofstream(p) << "force_pN,axial_um,axial_err_um,transverse_um,transverse_err_um\n"
-                      "0,7.9,0.7,7.9,0.7\n30,10.5,0.9,5.7,0.6\n90,13.8,1.2,4.6,0.6\n";
-  return p.string();
-}
 
 std::vector<std::string> problem_args(const std::string& data, const std::string& seed = "3",
                                       const std::string& is_samples = "40") {
@@ -59,20 +49,6 @@ std::vector<std::string> problem_args(const std::string& data, const std::string
           // bit for bit, below the default floor of an accepted posterior.
           "--min-ess", "5", "--method", "continuum:2:200", "--seed", seed, "--params",
           "persistence,sigma-scale", "--data-file", data};
-}
-
-std::string joined(const std::vector<std::string>& args) {
-  std::string s;
-  for (const auto& a : args) s += (s.empty() ? "" : " ") + a;
-  return s;
-}
-
-/// Exit code, or -signal for a child a signal ended.
-int wait_child(pid_t pid) {
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
 }
 
 /// Where a checkpoint's run is.
@@ -88,78 +64,6 @@ Position position(const fs::path& dir) {
   p.newton_steps = h.read_attribute_int("newton_steps");
   p.draws_done = h.read_attribute_int("draws_done");
   return p;
-}
-
-struct Interrupted {
-  int exit_code = 0;     ///< of the killed process
-  bool mid_run = false;  ///< the signal arrived before the run finished
-  std::string log;       ///< its stdout and stderr
-};
-
-/// Starts the problem with --out dir, waits until `marker` appears in its progress (the
-/// checkpoint it reports is written before the line), then sends `sig`. If the run finishes
-/// first, the checkpoint copied the moment the marker appeared replaces the final one and the
-/// outputs are removed, so the resume still starts mid-way.
-Interrupted interrupt_run(const std::vector<std::string>& args, const fs::path& dir,
-                          const std::string& marker, int sig, int threads) {
-  const fs::path log = dir.string() + ".log";
-  std::vector<std::string> a = args;
-  a.insert(a.end(), {"--out", dir.string()});
-  const pid_t pid = testing::spawn_rbc(a, log, threads);
-  const fs::path snapshot = dir.string() + ".snapshot.h5";
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  bool seen = false;
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (read_text(log).find(marker) != std::string::npos) {
-      seen = true;
-      break;
-    }
-    if (waitpid(pid, nullptr, WNOHANG) == pid) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  Interrupted r;
-  if (seen) {
-    fs::copy_file(dir / "checkpoint.h5", snapshot, fs::copy_options::overwrite_existing);
-    kill(pid, sig);
-  }
-  r.exit_code = seen ? wait_child(pid) : -1000;
-  r.log = read_text(log);
-  r.mid_run = seen && !fs::exists(dir / "summary.json");
-  if (seen && !r.mid_run) {
-    for (const char* f : {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
-                          "predictive.csv", "corner_marginals.csv"})
-      fs::remove(dir / f);
-    fs::copy_file(snapshot, dir / "checkpoint.h5", fs::copy_options::overwrite_existing);
-  }
-  return r;
-}
-
-json summary_without_timing(const fs::path& dir) {
-  json j = json::parse(read_text(dir / "summary.json"));
-  j.erase("timing");
-  j.erase("command");     // names the output directory and --resume
-  j.erase("provenance");  // date, threads, command line
-  if (j.contains("config"))
-    for (const char* where : {"out", "resume", "threads", "quiet"}) j["config"].erase(where);
-  return j;
-}
-
-/// Every posterior output of b equals a's, number for number (timing fields aside).
-void expect_same_posterior(const fs::path& a, const fs::path& b) {
-  SCOPED_TRACE(a.string() + " vs " + b.string());
-  for (const char* f : {"posterior_samples.csv", "predictive.csv", "corner_marginals.csv"}) {
-    const CsvTable x = read_csv((a / f).string()), y = read_csv((b / f).string());
-    EXPECT_EQ(x.header, y.header) << f;
-    ASSERT_FALSE(x.rows.empty()) << f;
-    EXPECT_EQ(x.rows, y.rows) << f;  // exact: == on every double
-  }
-  EXPECT_EQ(summary_without_timing(a), summary_without_timing(b));
-  std::vector<double> xs, ys;
-  const H5File ha = H5File::open_read((a / "posterior_samples.h5").string());
-  const H5File hb = H5File::open_read((b / "posterior_samples.h5").string());
-  EXPECT_EQ(ha.read("samples", xs), hb.read("samples", ys));
-  EXPECT_EQ(xs, ys);
-  EXPECT_EQ(ha.read_attribute_double("log_evidence"), hb.read_attribute_double("log_evidence"));
 }
 
 TEST(LaplaceIsResume, StoppedOrKilledRunsResumeToTheStraightResultOnAnotherThreadCount) {
@@ -222,19 +126,6 @@ TEST(LaplaceIsResume, StoppedOrKilledRunsResumeToTheStraightResultOnAnotherThrea
     for (const auto& e : fs::directory_iterator(out))
       EXPECT_EQ(e.path().filename().string().find(".partial"), std::string::npos) << e.path();
   }
-}
-
-/// A shell command (mpirun ...) with OpenMP at one passive thread; stderr into stdout.
-testing::CliRun shell(const std::string& cmd) {
-  testing::CliRun r;
-  FILE* p = popen(("OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive " + cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) r.out.append(buf, n);
-  const int status = pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.err = r.out;
-  return r;
 }
 
 TEST(LaplaceIsResume, MpiRunsAndAResumeUnderMpiGiveTheSingleProcessResult) {
