@@ -161,7 +161,7 @@ TEST(InferResume, MpiRunWithAKilledRankResumesOnOneRankToTheStraightPosterior) {
   // SIGTERM to mpirun: it passes SIGTERM to the ranks and kills them shortly after; rank 0
   // says at once where the last complete stage is (mpirun's exit status is its own: 1).
   const fs::path term = dir / "term";
-  const Interrupted t = interrupt_run(args, term, "stage 0:", SIGTERM, 1, np2);
+  const Interrupted t = interrupt_run(args, term, "stage 0 (prior):", SIGTERM, 1, np2);
   if (t.mid_run) {
     EXPECT_NE(t.exit_code, 0) << t.log;
     EXPECT_NE(t.log.find("rbc: SIGTERM received: stopping; the last complete stage is in " +
