@@ -167,4 +167,25 @@ inline rbc::testing::CliRun shell(const std::string& cmd) {
   return r;
 }
 
+/// Changes one byte (the fourth) of `dataset`'s stored data in the HDF5 file at `path`, in place
+/// and not through HDF5 (the dataset's offset from H5Dget_offset: contiguous storage). Returns
+/// false if the dataset has no such offset.
+inline bool flip_dataset_byte(const fs::path& path, const char* dataset) {
+  haddr_t at = HADDR_UNDEF;
+  {
+    const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t d = H5Dopen2(f, dataset, H5P_DEFAULT);
+    at = H5Dget_offset(d);
+    H5Dclose(d);
+    H5Fclose(f);
+  }
+  if (at == HADDR_UNDEF) return false;
+  std::fstream g(path, std::ios::in | std::ios::out | std::ios::binary);
+  g.seekg(static_cast<std::streamoff>(at) + 3);
+  const char c = static_cast<char>(g.get() ^ 0x10);
+  g.seekp(static_cast<std::streamoff>(at) + 3);
+  g.put(c);
+  return true;
+}
+
 }  // namespace rbc::testing::infer_resume
