@@ -470,38 +470,216 @@ enum ForceField {
   kForceFields
 };
 
-/// One force of the list with its chains: start, sampling, and DIR/force_KK/ outputs.
+/// DIR/checkpoints of a force list run with --out DIR: force_KK.h5 per force (the checkpoint
+/// format of one force, discrete/mc_checkpoint.hpp) and force_list.json (the options that define
+/// the curve, compared by --resume DIR).
+std::string force_checkpoint_dir(const std::string& out) {
+  return out + "/checkpoints";
+}
+constexpr const char* kForceListFile = "force_list.json";
+
+/// "force_KK": force k's output directory under DIR and its checkpoint's name (force_KK.h5).
+std::string force_name(std::size_t k) {
+  std::ostringstream name;
+  name << "force_" << std::setw(2) << std::setfill('0') << k;
+  return name.str();
+}
+
+std::string force_checkpoint_path(const std::string& out, std::size_t k) {
+  return force_checkpoint_dir(out) + "/" + force_name(k) + ".h5";
+}
+
+/// The options that define a force list's chains and curve, by option name, resolved (the
+/// adaptive sweeps as an absolute count, the streams as the run uses them): stored in
+/// DIR/checkpoints/force_list.json and compared by --resume DIR, so the forces run on resume
+/// (fresh or continued) are those of the run it continues; compared in this order, so an error
+/// names --temperature (which sets both) before --sampling-temperature. --checkpoint-every,
+/// --snapshot-every and the output options do not change a chain and are not in it.
+nlohmann::ordered_json force_list_definition(const McCli& o) {
+  const McRunSetup su = to_setup(o);
+  const ModelCli& m = o.physics;
+  nlohmann::ordered_json j = {
+      {"--forces", o.forces_pN},
+      {"--sweeps", o.sweeps},
+      {"--seed", std::to_string(o.seed)},
+      {"--chains", o.chains},
+      {"--sampler", to_string(o.algorithm)},
+      {"--temperature", m.temperature_K},
+      {"--sampling-temperature", o.sampling_temperature()},
+      {"--streams", su.sampler.streams},
+      {"--adapt-sweeps", o.adapt_sweeps >= 0 ? o.adapt_sweeps : su.sampler.adapt_sweeps},
+      {"--sample-every", o.sample_every},
+      {"--penalty-scale", o.penalty_scale},
+      {"--start", to_string(o.start)},
+      {"--vertices", o.vertices},
+      {"--lbar", m.lbar_nm},
+      {"--lmax", m.lmax_nm},
+      {"--persistence", m.persistence_nm},
+      {"--kappa", m.kappa_J},
+      {"--h0", m.h0_per_um},
+      {"--q", m.q},
+      {"--eta", m.eta},
+      {"--contact", static_cast<int>(m.contact)},
+      {"--contact-fraction", m.contact_fraction},
+      {"--bending", to_string(m.bending)},
+      {"--dihedral-mapping", static_cast<int>(m.dihedral_mapping)}};
+  if (o.algorithm == McAlgorithm::hmc)
+    j.update({{"--hmc-step", o.hmc.step},
+              {"--hmc-trajectory-time", o.hmc.trajectory_time},
+              {"--hmc-mass", o.hmc.projected_mass ? "projected" : "exact"},
+              {"--hmc-mass-shift", o.hmc.mass_shift_fraction}});
+  return j;
+}
+
+/// --resume DIR of a force list: DIR holds a force list's checkpoints and this run's options
+/// define the same curve (std::invalid_argument naming the first option that differs, with both
+/// values). Reads files only.
+void check_force_list_resume(const McCli& o) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(o.resume, ec))
+    throw std::invalid_argument("--resume " + o.resume +
+                                ": no such directory (expected the --out directory of an "
+                                "rbc mc --forces run)");
+  if (!o.out.empty() && !(fs::equivalent(o.out, o.resume, ec) && !ec))
+    throw std::invalid_argument("--out " + o.out +
+                                ": a resumed force list writes into its own directory (--resume " +
+                                o.resume + "); leave --out out or give the same directory");
+  const fs::path list = fs::path(force_checkpoint_dir(o.resume)) / kForceListFile;
+  std::ifstream in(list);
+  const nlohmann::ordered_json stored = nlohmann::ordered_json::parse(in, nullptr, false);
+  if (!in.is_open() || !stored.is_object())
+    throw std::invalid_argument("--resume " + o.resume + ": no readable checkpoints/" +
+                                kForceListFile +
+                                " in it (rbc mc --forces ... --out DIR writes one at its start)");
+  const nlohmann::ordered_json wanted = force_list_definition(o);
+  for (const nlohmann::ordered_json* side : {&wanted, &stored})
+    for (const auto& [option, value] : side->items()) {
+      const nlohmann::ordered_json mine = wanted.value(option, nlohmann::ordered_json()),
+                                   theirs = stored.value(option, nlohmann::ordered_json());
+      if (mine != theirs)
+        throw std::invalid_argument(
+            "--resume " + o.resume + ": " + option + " differs from the run it continues (" +
+            (theirs.is_null() ? std::string("not given") : theirs.dump()) + " there, " +
+            (mine.is_null() ? std::string("not given") : mine.dump()) +
+            " here; expected the options of that run)");
+    }
+}
+
+/// Removes what a run killed mid-write leaves in DIR/checkpoints: the temporaries of checkpoint
+/// writes (".force_KK.h5.partial-PID", core/io.hpp TempFile), none of them a complete checkpoint.
+void remove_checkpoint_temporaries(const std::string& out) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(force_checkpoint_dir(out), ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(".force_", 0) == 0 && name.find(".partial-") != std::string::npos)
+      fs::remove(e.path(), ec);
+  }
+}
+
+/// What force k's checkpoint must hold: the force, its seed and every chain-defining option of
+/// the list (check_mc_resume).
+McResumeRequest force_resume_request(const McCli& o, std::size_t k) {
+  McResumeRequest r;
+  r.force_pN = o.forces_pN[k];
+  r.temperature_K = o.sampling_temperature();
+  r.seed = mc_force_seed(o.seed, k);
+  r.penalty_scale = o.penalty_scale;
+  r.bending_model = o.physics.bending;
+  r.algorithm = o.algorithm;
+  r.chains = o.chains;
+  r.adapt_sweeps = o.adapt_sweeps >= 0 ? o.adapt_sweeps : to_setup(o).sampler.adapt_sweeps;
+  r.total_sweeps = o.sweeps;
+  return r;
+}
+
+/// Reads and checks every force checkpoint in DIR/checkpoints against the network and the
+/// options (read_mc_checkpoint, check_mc_resume): a corrupt or foreign one is refused before
+/// any sampling.
+void check_force_checkpoints(const McCli& o, const Network& net) {
+  std::error_code ec;
+  for (std::size_t k = 0; k < o.forces_pN.size(); ++k) {
+    const std::string path = force_checkpoint_path(o.out, k);
+    if (!std::filesystem::is_regular_file(path, ec)) continue;
+    check_mc_resume(read_mc_checkpoint(path, net), force_resume_request(o, k), path);
+  }
+}
+
+/// One force of the list with its chains: start, sampling, and DIR/force_KK/ outputs. With
+/// --out, the chains are checkpointed in DIR/checkpoints/force_KK.h5 at sweep 0, every
+/// --checkpoint-every sweeps, when interrupted and at the end (a checkpoint at --sweeps marks
+/// the force finished); on --resume a force with a checkpoint continues from it (a finished one
+/// runs no sweep), a force without one starts afresh.
 std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_t k,
                                   const CancelCheck& cancel, const ProgressSink& progress) {
   McCli one = o;
   one.force_pN = o.forces_pN[k];
-  McRunSetup setup = to_setup(one);
-  setup.sampler.seed = mc_force_seed(o.seed, k);
-  if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
-  setup.cancel = cancel;
-  McStartOptions so;
-  so.start = o.start;
-  so.cancel = cancel;
-  const McZeroTemperatureStart z = [&] {
-    SerialOpenMpScope serial;
-    return mc_zero_temperature_start(net, setup, so);
-  }();
-  if (!z.converged)
-    throw std::runtime_error("zero-temperature equilibrium at " +
-                             format_number(z.equilibrium.force_pN) +
-                             " pN did not converge: " + to_string(z.equilibrium.status));
-  McRun run(net, setup, z.start);
-  run.advance_blocks(o.sweeps, mc_block_sweeps(o, run));
+  const std::string label =
+      "force " + std::to_string(k) + " (" + format_number(one.force_pN) + " pN)";
+  const std::string checkpoint = o.out.empty() ? "" : force_checkpoint_path(o.out, k);
+  std::unique_ptr<McRun> run;
+  McSchedule schedule;
+  std::error_code ec;
+  const bool resumed = !o.resume.empty() && std::filesystem::is_regular_file(checkpoint, ec);
+  if (resumed) {
+    McCheckpoint cp = read_mc_checkpoint(checkpoint, net);
+    schedule = cp.schedule;
+    cp.setup.cancel = cancel;
+    run = std::make_unique<McRun>(net, cp.setup, cp.chains, cp.chain_series);
+    report(progress, run->sweeps_done() >= o.sweeps
+                         ? label + ": finished, from " + checkpoint
+                         : label + ": resuming at sweep " + std::to_string(run->sweeps_done()) +
+                               " from " + checkpoint);
+  } else {
+    McRunSetup setup = to_setup(one);
+    setup.sampler.seed = mc_force_seed(o.seed, k);
+    if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
+    schedule.planned_sweeps = o.sweeps;
+    schedule.adapt_fraction = o.adapt_sweeps >= 0 ? -1.0 : o.adapt_fraction;
+    setup.cancel = cancel;
+    McStartOptions so;
+    so.start = o.start;
+    so.cancel = cancel;
+    const McZeroTemperatureStart z = [&] {
+      SerialOpenMpScope serial;
+      return mc_zero_temperature_start(net, setup, so);
+    }();
+    if (!z.converged)
+      throw std::runtime_error("zero-temperature equilibrium at " +
+                               format_number(z.equilibrium.force_pN) +
+                               " pN did not converge: " + to_string(z.equilibrium.status));
+    run = std::make_unique<McRun>(net, setup, z.start);
+  }
+  auto write_checkpoint = [&](const McRun& r) {
+    if (checkpoint.empty()) return;
+    write_mc_checkpoint(checkpoint, net, McCheckpoint::of(r, schedule));
+    report_detail(progress, label + ": checkpoint at sweep " + std::to_string(r.sweeps_done()));
+  };
+  const bool finished_before = run->sweeps_done() >= o.sweeps;
+  if (!resumed) write_checkpoint(*run);  // the start, so a resume never repeats its solves
+  try {
+    run->advance_blocks(o.sweeps, mc_block_sweeps(o, *run), [&](const McRun& r) {
+      if (r.sweeps_done() % o.checkpoint_every == 0 && r.sweeps_done() < o.sweeps)
+        write_checkpoint(r);
+      return true;
+    });
+  } catch (const Cancelled&) {
+    write_checkpoint(*run);  // every chain at its last completed sweep
+    throw;
+  }
+  if (!finished_before) write_checkpoint(*run);  // at --sweeps: the force is finished
+  const McRunSetup& setup = run->setup();
   std::vector<double> f(kForceFields, 0.0);
   f[kForce] = one.force_pN;
   f[kRefAxial] = setup.reference_axial_um;
   f[kRefTransverse] = setup.reference_transverse_um;
   nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
-  j.update(mc_run_json(net, run));
+  j.update(mc_run_json(net, *run));
   j["force_index"] = k;
   try {
-    const McSummary s = run.summarise();
-    j.update(to_json(s, run.setup()));
+    const McSummary s = run->summarise();
+    j.update(to_json(s, setup));
     f[kAxial] = s.axial.mean;
     f[kAxialError] = s.axial.error;
     f[kTransverse] = s.transverse.mean;
@@ -514,11 +692,10 @@ std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_
     j["statistics"] = e.what();
   }
   if (!o.out.empty()) {
-    std::ostringstream name;
-    name << o.out << "/force_" << std::setw(2) << std::setfill('0') << k;
-    std::filesystem::create_directories(name.str());
-    write_mc_series(name.str(), run, output_record(o));
-    write_text_atomic(name.str() + "/mc_summary.json", j.dump(2) + "\n");
+    const std::string dir = o.out + "/" + force_name(k);
+    std::filesystem::create_directories(dir);
+    write_mc_series(dir, *run, output_record(o));
+    write_text_atomic(dir + "/mc_summary.json", j.dump(2) + "\n");
   }
   report(progress, "force " + format_number(one.force_pN) + " pN done");
   return f;
@@ -529,13 +706,18 @@ std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_
 /// curve is assembled by a sum over the ranks (MPI_Allreduce) in which every entry has exactly
 /// one nonzero term, so it is exact and independent of the rank count. A small loop here, not
 /// calibrate/mpi_executor's pool: that executor serves TMCMC chains (a prior box and a
-/// likelihood), not Monte Carlo runs; its MpiSession is reused.
-int run_mc_forces(const McCli& o, const GivenOptions& given) {
+/// likelihood), not Monte Carlo runs; its MpiSession is reused. With --out DIR every force is
+/// checkpointed (run_one_force) and --resume DIR continues the list; a force's checkpoint
+/// depends on its seed and options only, so the curve of a resumed list is that of a straight
+/// run on any number of ranks and threads.
+int run_mc_forces(const McCli& given_cli, const GivenOptions& given) {
+  McCli o = given_cli;
   if (given.force)
     throw std::invalid_argument("--forces: give the forces as --forces F1,F2,... without --force");
-  if (!o.resume.empty() || !o.checkpoint.empty())
-    throw std::invalid_argument(
-        "--forces: no --checkpoint or --resume with a force list (each force runs to the end)");
+  if (!o.checkpoint.empty())
+    throw std::invalid_argument("--checkpoint " + o.checkpoint +
+                                ": a force list keeps one checkpoint per force in DIR/checkpoints/ "
+                                "of --out DIR (expected --out DIR, and --resume DIR to continue)");
   if (o.forces_pN.size() > kMaxForces)
     throw std::invalid_argument("--forces: at most " + std::to_string(kMaxForces) +
                                 " forces, got " + std::to_string(o.forces_pN.size()));
@@ -554,11 +736,26 @@ int run_mc_forces(const McCli& o, const GivenOptions& given) {
     }
   }
   const NetworkParameters model = to_network_parameters(o.physics);
+  if (!o.resume.empty()) {
+    check_force_list_resume(o);  // before any work: the same curve, or exit 2
+    o.out = o.resume;
+  }
   const bool mpi = launched_by_mpirun();
   std::unique_ptr<MpiSession> session;
   if (mpi) session = std::make_unique<MpiSession>();
   const int rank = session ? session->rank() : 0, ranks = session ? session->size() : 1;
-  if (!o.out.empty() && rank == 0) prepare_output_directory(o.out, o.overwrite, false);
+  if (!o.out.empty() && rank == 0) {
+    prepare_output_directory(o.out, o.overwrite, !o.resume.empty());
+    if (o.resume.empty()) {
+      // A fresh list: no checkpoint of another run may stay (--force-overwrite).
+      std::filesystem::remove_all(force_checkpoint_dir(o.out));
+      std::filesystem::create_directories(force_checkpoint_dir(o.out));
+      write_text_atomic(force_checkpoint_dir(o.out) + "/" + kForceListFile,
+                        force_list_definition(o).dump(2) + "\n");
+    } else {
+      remove_checkpoint_temporaries(o.out);
+    }
+  }
   if (session) MPI_Barrier(MPI_COMM_WORLD);  // the directory exists before any rank writes
   const ProgressSink progress = stderr_progress(o.quiet || rank != 0, o.verbose);
   const CancelCheck cancel = interrupt_check();
@@ -568,6 +765,14 @@ int run_mc_forces(const McCli& o, const GivenOptions& given) {
     SerialOpenMpScope serial;
     return build_network(make_rest_shape(ro), model);
   }();
+  if (!o.resume.empty()) {
+    try {
+      check_force_checkpoints(o, net);
+    } catch (const std::exception&) {
+      if (rank == 0) throw;  // one line, from rank 0; every rank finds the same and stops
+      return 2;
+    }
+  }
   std::vector<double> mine(o.forces_pN.size() * kForceFields, 0.0), all(mine.size(), 0.0);
   try {
     for (std::size_t k = 0; k < o.forces_pN.size(); ++k)
@@ -576,8 +781,15 @@ int run_mc_forces(const McCli& o, const GivenOptions& given) {
         std::copy(f.begin(), f.end(), mine.begin() + std::ptrdiff_t(k * kForceFields));
       }
   } catch (const Cancelled&) {
-    if (session) session->abort(interrupt_exit_code());
-    throw;
+    // Every force of this rank stands at a complete checkpoint (run_one_force): one line on
+    // how to continue.
+    const std::string how = o.out.empty()
+                                ? std::string("a force list without --out keeps no checkpoints")
+                                : "checkpoints of the forces in " + force_checkpoint_dir(o.out) +
+                                      "; continue with the same options and --resume " + o.out;
+    if (!session) throw std::runtime_error(how);  // main(): "rbc: interrupted by SIG...: how"
+    std::cerr << "rbc: interrupted by " << interrupt_name() << ": " << how << "\n";
+    session->abort(interrupt_exit_code());
   } catch (const std::exception& e) {
     if (!session) throw;
     std::cerr << "rbc: error: MPI rank " << rank << ": " << e.what() << "\n";
@@ -616,23 +828,21 @@ int run_mc_forces(const McCli& o, const GivenOptions& given) {
                       v(f[kTransverseError]), f[kRefAxial], f[kRefTransverse],
                       v(f[kAxial] - f[kRefAxial]), v(f[kTransverse] - f[kRefTransverse]),
                       v(f[kRhatAxial]), v(f[kRhatTransverse]), f[kConverged]});
-    curve.push_back(
-        {{"force_pN", f[kForce]},
-         {"axial_um", v(f[kAxial])},
-         {"axial_error_um", v(f[kAxialError])},
-         {"transverse_um", v(f[kTransverse])},
-         {"transverse_error_um", v(f[kTransverseError])},
-         {"reference_axial_um", f[kRefAxial]},
-         {"reference_transverse_um", f[kRefTransverse]},
-         {"thermal_shift_axial_um", v(f[kAxial] - f[kRefAxial])},
-         {"thermal_shift_axial_error_um", v(f[kAxialError])},
-         {"thermal_shift_transverse_um", v(f[kTransverse] - f[kRefTransverse])},
-         {"thermal_shift_transverse_error_um", v(f[kTransverseError])},
-         {"rhat_axial", v(f[kRhatAxial])},
-         {"rhat_transverse", v(f[kRhatTransverse])},
-         {"converged", f[kConverged] != 0},
-         {"directory",
-          o.out.empty() ? "" : "force_" + std::string(k < 10 ? "0" : "") + std::to_string(k)}});
+    curve.push_back({{"force_pN", f[kForce]},
+                     {"axial_um", v(f[kAxial])},
+                     {"axial_error_um", v(f[kAxialError])},
+                     {"transverse_um", v(f[kTransverse])},
+                     {"transverse_error_um", v(f[kTransverseError])},
+                     {"reference_axial_um", f[kRefAxial]},
+                     {"reference_transverse_um", f[kRefTransverse]},
+                     {"thermal_shift_axial_um", v(f[kAxial] - f[kRefAxial])},
+                     {"thermal_shift_axial_error_um", v(f[kAxialError])},
+                     {"thermal_shift_transverse_um", v(f[kTransverse] - f[kRefTransverse])},
+                     {"thermal_shift_transverse_error_um", v(f[kTransverseError])},
+                     {"rhat_axial", v(f[kRhatAxial])},
+                     {"rhat_transverse", v(f[kRhatTransverse])},
+                     {"converged", f[kConverged] != 0},
+                     {"directory", o.out.empty() ? "" : force_name(k)}});
   }
   nlohmann::json j = o.record.is_object() ? o.record : nlohmann::json::object();
   j.update({{"vertices", net.topo.num_vertices},
@@ -737,8 +947,9 @@ void add_mc_command(CLI::App& app, Action& action) {
   cmd->add_option("--forces", o->forces_pN,
                   "a force list F1,F2,... (pN): each force run with its chains (seeds from "
                   "(--seed, force index, chain)), spread over the MPI ranks under mpirun; "
-                  "writes DIR/force_KK/ per force and DIR/thermal_curve.csv/.json (no "
-                  "--checkpoint or --resume)")
+                  "writes DIR/force_KK/ per force, DIR/thermal_curve.csv/.json and a "
+                  "checkpoint per force in DIR/checkpoints/ (every --checkpoint-every sweeps); "
+                  "--resume DIR continues the list")
       ->delimiter(',')
       ->type_name("FLOAT");
   auto* adapt_fraction =
@@ -789,12 +1000,17 @@ void add_mc_command(CLI::App& app, Action& action) {
                       "multiplies the area/volume penalty stiffnesses while sampling (thermal "
                       "drift of A and V falls as 1/sqrt)")
           ->capture_default_str();
-  cmd->add_option("--checkpoint", o->checkpoint, "write the chain state to FILE (HDF5, atomic)")
+  cmd->add_option("--checkpoint", o->checkpoint,
+                  "write the chain state to FILE (HDF5, atomic); a force list (--forces) keeps "
+                  "its checkpoints in --out DIR instead")
       ->check(nonempty_path());
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "sweeps between checkpoints")
       ->check(integer_in(1, kMaxSweeps))
       ->capture_default_str();
-  cmd->add_option("--resume", o->resume, "continue the chain stored in FILE");
+  cmd->add_option("--resume", o->resume,
+                  "continue the chain stored in FILE; with --forces: continue the force list in "
+                  "DIR (its --out) with the same options: finished forces are kept, the others "
+                  "continue from their checkpoints");
   cmd->add_option("--out", o->out,
                   "write DIR/mc_series.csv/.h5, mc_summary.json, snapshots (.h5/.xdmf)")
       ->check(nonempty_path());

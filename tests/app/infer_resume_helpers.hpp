@@ -3,7 +3,8 @@
 // What the `rbc infer --resume` tests share (tests/app/test_infer_resume.cpp for TMCMC,
 // tests/app/test_laplace_is_resume.cpp for laplace-is): a small data file, runs stopped by a
 // signal at a progress line, and the comparison of two runs' posterior outputs, number for
-// number.
+// number. The signal at a progress line (signal_at_marker) and the checkpoint byte flip also
+// serve tests/app/test_mc_forces_resume.cpp.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -15,6 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -80,6 +82,47 @@ inline pid_t rank_pid(pid_t mpirun, int rank) {
   return -1;
 }
 
+/// A run signalled at a progress line (signal_at_marker).
+struct Signalled {
+  bool seen = false;  ///< the marker appeared and the signal was sent
+  int exit_code = 0;  ///< of the process (or of mpirun); -1000 when the marker never appeared
+  std::string log;    ///< its stdout and stderr
+};
+
+/// Starts `[launcher] rbc ARGS` with stdout and stderr to `log`, waits until the log shows
+/// `marker` (up to 120 s, or until the process ends), runs `at_marker` (if given), then sends
+/// `sig` to the process (or, under mpirun, to the rank `rank`'s process), and waits for it. When
+/// the rank's process is not found, no signal is sent and `seen` is false.
+inline Signalled signal_at_marker(const std::vector<std::string>& args, const fs::path& log,
+                                  const std::string& marker, int sig, int threads,
+                                  const std::vector<std::string>& launcher = {}, int rank = -1,
+                                  const std::function<void()>& at_marker = {}) {
+  const pid_t pid = rbc::testing::spawn_rbc(args, log, threads, launcher);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  Signalled r;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (read_text(log).find(marker) != std::string::npos) {
+      r.seen = true;
+      break;
+    }
+    if (waitpid(pid, nullptr, WNOHANG) == pid) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  if (r.seen) {
+    if (at_marker) at_marker();
+    const pid_t target = rank >= 0 ? rank_pid(pid, rank) : pid;
+    if (target > 0)  // never kill(-1, ...): that signals every process the user may signal
+      kill(target, sig);
+    else {
+      r.seen = false;
+      wait_child(pid);  // the run goes on to its end unsignalled
+    }
+  }
+  r.exit_code = r.seen ? wait_child(pid) : -1000;
+  r.log = read_text(log);
+  return r;
+}
+
 struct Interrupted {
   int exit_code = 0;     ///< of the killed process (or of mpirun)
   bool mid_run = false;  ///< the signal arrived before the run finished
@@ -94,30 +137,18 @@ struct Interrupted {
 inline Interrupted interrupt_run(const std::vector<std::string>& args, const fs::path& dir,
                                  const std::string& marker, int sig, int threads,
                                  const std::vector<std::string>& launcher = {}, int rank = -1) {
-  const fs::path log = dir.string() + ".log";
   std::vector<std::string> a = args;
   a.insert(a.end(), {"--out", dir.string()});
-  const pid_t pid = rbc::testing::spawn_rbc(a, log, threads, launcher);
   const fs::path snapshot = dir.string() + ".snapshot.h5";
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  bool seen = false;
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (read_text(log).find(marker) != std::string::npos) {
-      seen = true;
-      break;
-    }
-    if (waitpid(pid, nullptr, WNOHANG) == pid) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
+  const Signalled s =
+      signal_at_marker(a, dir.string() + ".log", marker, sig, threads, launcher, rank, [&] {
+        fs::copy_file(dir / "checkpoint.h5", snapshot, fs::copy_options::overwrite_existing);
+      });
   Interrupted r;
-  if (seen) {
-    fs::copy_file(dir / "checkpoint.h5", snapshot, fs::copy_options::overwrite_existing);
-    kill(rank >= 0 ? rank_pid(pid, rank) : pid, sig);
-  }
-  r.exit_code = seen ? wait_child(pid) : -1000;
-  r.log = read_text(log);
-  r.mid_run = seen && !fs::exists(dir / "summary.json");
-  if (seen && !r.mid_run) {  // finished first: resume from the marker's checkpoint instead
+  r.exit_code = s.exit_code;
+  r.log = s.log;
+  r.mid_run = s.seen && !fs::exists(dir / "summary.json");
+  if (s.seen && !r.mid_run) {  // finished first: resume from the marker's checkpoint instead
     for (const char* f : {"summary.json", "posterior_samples.csv", "posterior_samples.h5",
                           "predictive.csv", "corner_marginals.csv"})
       fs::remove(dir / f);

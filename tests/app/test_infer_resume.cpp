@@ -158,19 +158,31 @@ TEST(InferResume, MpiRunWithAKilledRankResumesOnOneRankToTheStraightPosterior) {
   expect_same_posterior(straight, out);
   EXPECT_EQ(json::parse(read_text(out / "summary.json"))["timing"]["ranks"], 1);
 
-  // SIGTERM to mpirun: it passes SIGTERM to the ranks and kills them shortly after; rank 0
-  // says at once where the last complete stage is (mpirun's exit status is its own: 1).
+  // SIGTERM to rank 0's own process under mpirun (mpirun would pass a signal it gets to every
+  // rank and kill them about a second later, maybe before rank 0 speaks): rank 0 stops after
+  // the chains in flight, says where the last complete stage is, releases the workers and
+  // exits 143 (so mpirun fails); the resume from that stage gives the straight posterior.
   const fs::path term = dir / "term";
-  const Interrupted t = interrupt_run(args, term, "stage 0:", SIGTERM, 1, np2);
-  if (t.mid_run) {
-    EXPECT_NE(t.exit_code, 0) << t.log;
-    EXPECT_NE(t.log.find("rbc: SIGTERM received: stopping; the last complete stage is in " +
-                         (term / "checkpoint.h5").string()),
-              std::string::npos)
-        << t.log;
-  } else {
-    std::cerr << "note: the mpirun run finished before SIGTERM reached its ranks\n";
-  }
+  const Interrupted t = interrupt_run(args, term, "stage 1:", SIGTERM, 1, np2, /*rank=*/0);
+  ASSERT_NE(t.exit_code, -1000) << "stage 1 never reported: " << t.log;
+  ASSERT_TRUE(t.mid_run) << "the run finished before SIGTERM reached rank 0: " << t.log;
+  EXPECT_NE(t.exit_code, 0) << t.log;
+  EXPECT_NE(
+      t.log.find("rbc: SIGTERM received: stopping; the last complete stage is in " +
+                 (term / "checkpoint.h5").string() + ", continue with --resume " + term.string()),
+      std::string::npos)
+      << t.log;
+  EXPECT_NE(t.log.find("rbc: interrupted by SIGTERM"), std::string::npos) << t.log;
+  EXPECT_FALSE(fs::exists(term / "summary.json"));
+  const long long term_from = checkpoint_stage(term);
+  EXPECT_GE(term_from, 1);
+  EXPECT_LT(term_from, stages);
+  const testing::CliRun tr =
+      shell(np1 + " " + kRbc + " " + joined(args) + " --resume " + term.string());
+  ASSERT_EQ(tr.exit_code, 0) << tr.all();
+  EXPECT_NE(tr.out.find("resuming after stage " + std::to_string(term_from)), std::string::npos)
+      << tr.out;
+  expect_same_posterior(straight, term);
 }
 
 /// Exit 2, one "rbc: error:" line naming `expect`, and nothing new in the directory.
