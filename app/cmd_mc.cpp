@@ -651,10 +651,11 @@ std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_
                                " pN did not converge: " + to_string(z.equilibrium.status));
     run = std::make_unique<McRun>(net, setup, z.start);
   }
-  auto write_checkpoint = [&](const McRun& r) {
+  auto write_checkpoint = [&](const McRun& r, const std::string& why = "") {
     if (checkpoint.empty()) return;
     write_mc_checkpoint(checkpoint, net, McCheckpoint::of(r, schedule));
-    report_detail(progress, label + ": checkpoint at sweep " + std::to_string(r.sweeps_done()));
+    report_detail(progress,
+                  label + ": checkpoint at sweep " + std::to_string(r.sweeps_done()) + why);
   };
   const bool finished_before = run->sweeps_done() >= o.sweeps;
   if (!resumed) write_checkpoint(*run);  // the start, so a resume never repeats its solves
@@ -665,7 +666,7 @@ std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_
       return true;
     });
   } catch (const Cancelled&) {
-    write_checkpoint(*run);  // every chain at its last completed sweep
+    write_checkpoint(*run, " (interrupted)");  // every chain at its last completed sweep
     throw;
   }
   if (!finished_before) write_checkpoint(*run);  // at --sweeps: the force is finished

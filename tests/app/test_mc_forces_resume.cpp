@@ -102,6 +102,11 @@ TEST(McForcesResume, SigtermedListResumesToTheStraightCurveOnAnotherThreadCount)
   const long long at = checkpoint_sweep(out / "checkpoints" / "force_01.h5");
   EXPECT_GE(at, 40);
   EXPECT_LT(at, 200);
+  // Written on the way out, at the sweep the chains stopped.
+  EXPECT_NE(
+      k.log.find("force 1 (20 pN): checkpoint at sweep " + std::to_string(at) + " (interrupted)"),
+      std::string::npos)
+      << k.log;
   EXPECT_FALSE(fs::exists(out / "checkpoints" / "force_02.h5"));  // never started
   // What a kill during a checkpoint write leaves: a temporary, cut short (the resume removes it).
   std::ofstream(out / "checkpoints" / ".force_01.h5.partial-999999") << "cut short";
@@ -202,6 +207,10 @@ TEST(McForcesResume, MpiListStoppedOnRankZeroResumesOnOneProcessToTheStraightCur
   const long long at = checkpoint_sweep(out / "checkpoints" / "force_00.h5");
   EXPECT_GE(at, 40);
   EXPECT_LT(at, 200);
+  EXPECT_NE(
+      k.log.find("force 0 (0 pN): checkpoint at sweep " + std::to_string(at) + " (interrupted)"),
+      std::string::npos)
+      << k.log;
   const testing::CliRun r = shell(kMpirun +
                                   " --allow-run-as-root --oversubscribe -np 1 -x OMP_NUM_THREADS "
                                   "-x OMP_WAIT_POLICY " +
