@@ -740,7 +740,14 @@ int run_mc_forces(const McCli& given_cli, const GivenOptions& given) {
   if (!o.resume.empty()) {
     check_force_list_resume(o);  // before any work: the same curve, or exit 2
     o.out = o.resume;
-  }
+  } else if (std::error_code ec;
+             !o.out.empty() && !o.overwrite &&
+             std::filesystem::exists(
+                 std::filesystem::path(force_checkpoint_dir(o.out)) / kForceListFile, ec))
+    throw std::invalid_argument("--out " + o.out +
+                                ": holds the checkpoints of a force list; continue it with "
+                                "--resume " +
+                                o.out + ", or pass --force-overwrite to start afresh");
   const bool mpi = launched_by_mpirun();
   std::unique_ptr<MpiSession> session;
   if (mpi) session = std::make_unique<MpiSession>();

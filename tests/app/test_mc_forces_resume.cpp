@@ -3,8 +3,8 @@
 // `--resume DIR` continues the list: a list stopped by SIGTERM in the middle of a force (one
 // process, or rank 0 of `mpirun -np 2`) resumes, on another thread count or rank count, to the
 // thermal curve of a straight run, number for number; finished forces are not run again. A
-// resume with another force list, another seed, a corrupt checkpoint or a foreign --out is
-// refused with exit 2 and one line before any work.
+// resume with another force list, another seed, a corrupt checkpoint or a foreign --out, and a
+// fresh run into the directory, are refused with exit 2 and one line before any work.
 //
 // The list: 150 vertices, forces 0, 20, 40 pN, 200 sweeps of two chains, a checkpoint every 20
 // sweeps (some 0.3 s per force here), so a signal at force 1's checkpoint of sweep 40 lands in
@@ -167,6 +167,9 @@ TEST(McForcesResume, ChangedOptionsOrCorruptCheckpointsAreRefusedWithExit2Before
   expect_refused(joined(list_args("0,20")) + " --out " + (dir / "elsewhere").string() + resume,
                  "its own directory", run);
   EXPECT_FALSE(fs::exists(dir / "elsewhere"));
+  // A fresh run into the directory names --resume.
+  expect_refused(joined(list_args("0,20")) + " --out " + run.string(), "--resume " + run.string(),
+                 run);
   // The same list resumes (nothing to do: every force finished).
   const testing::CliRun same = testing::run_rbc(joined(list_args("0,20")) + " -q" + resume, 1);
   EXPECT_EQ(same.exit_code, 0) << same.all();
