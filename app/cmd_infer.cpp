@@ -55,6 +55,7 @@ struct InferCli {
   int threads = 0;
   SamplerKind sampler = InferOptions{}.sampler_kind;      ///< --sampler
   int is_samples = InferOptions{}.is_samples;             ///< --is-samples (laplace-is)
+  int is_rounds = InferOptions{}.is_rounds;               ///< --is-rounds (laplace-is)
   double min_ess = InferOptions{}.min_effective_samples;  ///< --min-ess (laplace-is)
   double force_tolerance_pN = ForwardOptions::default_newton().force_tolerance_pN;
   Symmetry symmetry = ForwardOptions::default_newton().symmetry;
@@ -325,6 +326,7 @@ InferOptions to_options(const InferCli& c) {
   o.sampler.cancel = interrupt_check();  // polled between stages and between chains
   o.sampler_kind = c.sampler;
   o.is_samples = c.is_samples;
+  o.is_rounds = c.is_rounds;
   o.min_effective_samples = c.min_ess;
   o.fixed = fixed_parameters(c.physics, o.parameters);
   o.threads = c.threads;
@@ -630,6 +632,12 @@ void add_infer_command(CLI::App& app, Action& action) {
          "--is-samples", c->is_samples,
          "laplace-is: importance samples (forward runs after the mode search), at least 10; "
          "more raise the effective sample size about in proportion")
+      ->capture_default_str();
+  cmd->add_option("--is-rounds", c->is_rounds,
+                  "laplace-is: adaptation rounds; the importance samples are split into rounds, "
+                  "each after the first drawn from a Student-t refit to the weighted draws "
+                  "before it (adaptive multiple importance sampling); 1: the Laplace proposal "
+                  "alone")
       ->capture_default_str();
   cmd->add_option("--min-ess", c->min_ess,
                   "laplace-is: fewest effective importance samples of an accepted posterior; "

@@ -135,6 +135,8 @@ void InferOptions::validate() const {
       other("--proposal-scale", format_number(sampler.proposal_scale));
   } else if (is_samples != InferOptions{}.is_samples) {
     other("--is-samples", std::to_string(is_samples));
+  } else if (is_rounds != InferOptions{}.is_rounds) {
+    other("--is-rounds", std::to_string(is_rounds));
   } else if (min_effective_samples != InferOptions{}.min_effective_samples) {
     other("--min-ess", format_number(min_effective_samples));
   }
@@ -152,6 +154,10 @@ void InferOptions::validate() const {
     if (is_samples < 10)
       throw std::invalid_argument("--is-samples " + std::to_string(is_samples) +
                                   ": expected at least 10");
+    if (is_rounds < 1 || is_rounds > is_samples)
+      throw std::invalid_argument("--is-rounds " + std::to_string(is_rounds) +
+                                  ": expected 1 to --is-samples (" + std::to_string(is_samples) +
+                                  ")");
   }
   if (method.resolution <= 0)
     throw std::invalid_argument("--method resolution must be > 0, got " +
@@ -641,6 +647,8 @@ InferenceResult run_inference(const InferenceProblem& problem, const ProgressSin
     r.K = summarise_weighted("K", "uN/m", kk, lis.weights);
     r.sampler = to_string(SamplerKind::laplace_is);
     r.ess = lis.ess;
+    r.is_rounds = o.is_rounds;
+    r.round_ess = lis.round_ess;
     r.mode.assign(lis.mode_theta.data(), lis.mode_theta.data() + d);
     r.newton_steps = lis.newton_steps;
     r.gradient_evaluations = lis.gradient_evaluations;
@@ -741,6 +749,8 @@ std::string inference_json(const InferenceResult& r) {
         "delta method: sd of the importance weights / (sqrt(samples) x their mean) "
         "(calibrate/laplace_is.hpp)";
     j["ess"] = r.ess;
+    j["is_rounds"] = r.is_rounds;
+    j["round_ess"] = r.round_ess;
     json mode = json::object();  // natural units, those of "parameters"
     for (size_t k = 0; k < r.mode.size() && k < r.names.size(); ++k) mode[r.names[k]] = r.mode[k];
     j["laplace"] = {{"mode", mode},

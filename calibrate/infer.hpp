@@ -93,6 +93,9 @@ struct InferOptions {
   SamplerKind sampler_kind = SamplerKind::tmcmc;
   /// Importance samples of laplace-is (forward runs after the mode search).
   int is_samples = 1000;
+  /// laplace-is: adaptation rounds of the importance proposal (LaplaceIsOptions::rounds), 1 to
+  /// is_samples; 1: the Laplace proposal alone.
+  int is_rounds = 1;
   /// laplace-is: fewest effective samples (sum w)^2 / sum w^2 of an accepted posterior (>= 0);
   /// below it the run ends with status low_ess. At the default 50 the ends of a 90 % interval
   /// rest on 2.5 effective samples each.
@@ -268,6 +271,8 @@ struct InferenceResult {
   /// laplace-is: effective sample size of the importance weights, (sum w)^2 / sum w^2; the
   /// mode (natural units), Newton steps, gradient evaluations (forward run + sensitivities).
   double ess = 0;
+  int is_rounds = 0;              ///< laplace-is: adaptation rounds (LaplaceIsOptions::rounds)
+  std::vector<double> round_ess;  ///< laplace-is: ESS after each round but the last
   std::vector<double> mode;
   int newton_steps = 0;
   long long gradient_evaluations =

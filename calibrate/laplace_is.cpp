@@ -44,6 +44,10 @@ void LaplaceIsOptions::validate() const {
                                 std::to_string(nu));
   if (!(inflation > 0) || !std::isfinite(inflation))
     throw std::invalid_argument("proposal inflation must be > 0, got " + std::to_string(inflation));
+  if (rounds < 1 || rounds > samples)
+    throw std::invalid_argument("--is-rounds " + std::to_string(rounds) +
+                                ": expected 1 to the number of importance samples (" +
+                                std::to_string(samples) + ")");
   if (max_newton_steps < 0)
     throw std::invalid_argument("Newton steps must be >= 0, got " +
                                 std::to_string(max_newton_steps));
@@ -231,17 +235,27 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
   r.mode_theta = logit_to_box(prior, z);
   r.covariance_z = cur.hess.inverse();
 
-  // --- proposal ---------------------------------------------------------------------------
-  const Eigen::MatrixXd scale = options.inflation * r.covariance_z;
-  const Eigen::LLT<Eigen::MatrixXd> llt(scale);
-  if (llt.info() != Eigen::Success)
-    throw std::runtime_error("laplace-is: the Laplace covariance is not positive definite");
-  const Eigen::MatrixXd chol = llt.matrixL();
+  // --- proposals: round 0 the Laplace Student-t, each later one refit to the weighted draws --
+  struct Proposal {
+    Eigen::VectorXd mean;
+    Eigen::MatrixXd chol;  // lower Cholesky factor of the Student-t's scale matrix
+  };
+  std::vector<Proposal> proposals;
+  {
+    const Eigen::LLT<Eigen::MatrixXd> llt(options.inflation * r.covariance_z);
+    if (llt.info() != Eigen::Success)
+      throw std::runtime_error("laplace-is: the Laplace covariance is not positive definite");
+    proposals.push_back({z, llt.matrixL()});
+  }
+  const int rounds = options.rounds;
+  const auto round_begin = [&](int t) {
+    return static_cast<int>(static_cast<long long>(S) * t / rounds);
+  };
   std::vector<ChainTask> tasks(S);
   Eigen::MatrixXd zs(S, d);
   const int nu_int = static_cast<int>(std::lround(options.nu));
   const bool integer_nu = std::abs(options.nu - nu_int) < 1e-12;
-  for (int i = 0; i < S; ++i) {
+  const auto draw = [&](int i, const Proposal& q) {
     NormalStream rng(stream_seed(options.seed, 0, i, kIsDrawPurpose));
     Eigen::VectorXd y(d);
     for (int k = 0; k < d; ++k) y(k) = rng.normal();
@@ -254,29 +268,43 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
       std::mt19937_64 gen(stream_seed(options.seed, 1, i, kIsDrawPurpose));
       chi2 = g(gen);
     }
-    const Eigen::VectorXd zi = z + chol * y * std::sqrt(options.nu / chi2);
+    const Eigen::VectorXd zi = q.mean + q.chol * y * std::sqrt(options.nu / chi2);
     zs.row(i) = zi.transpose();
     const Eigen::VectorXd th = logit_to_box(prior, zi);
     tasks[i].index = i;
     tasks[i].theta.assign(th.data(), th.data() + d);
     tasks[i].state = cur.p.state;  // warm start from the mode's equilibria, in every block
-  }
+  };
+  // log w_i = log L + log prior - log q_mix over the first n draws, q_mix the deterministic
+  // mixture of the proposals so far, each weighted by its share of those draws.
+  const auto log_weights = [&](int n) {
+    Eigen::VectorXd logw(n);
+    const int used = static_cast<int>(proposals.size());
+    Eigen::VectorXd logq(used);
+    for (int i = 0; i < n; ++i) {
+      if (!std::isfinite(tasks[i].log_likelihood)) {
+        logw(i) = -kInfinity;
+        continue;
+      }
+      const Eigen::VectorXd zi = zs.row(i).transpose();
+      for (int t = 0; t < used; ++t)
+        logq(t) = student_t_log_density(zi, proposals[size_t(t)].mean, proposals[size_t(t)].chol,
+                                        options.nu) +
+                  std::log(static_cast<double>(round_begin(t + 1) - round_begin(t)) / n);
+      logw(i) = tasks[i].log_likelihood + logit_log_prior(zi) - is_log_sum_exp(logq);
+    }
+    return logw;
+  };
   StageSetup setup;
   setup.stage = 0;
   setup.beta = 1;
   setup.chain_length = 0;
   setup.seed = options.seed;
   const Executor executor = executor_in ? executor_in : omp_executor(prior, likelihood);
-  // The draws evaluated before (a continued run), then the others block by block.
-  int done = 0;
-  if (resume) {
-    done = resume->draws_done;
-    for (int i = 0; i < done; ++i) {
-      tasks[i].log_likelihood = resume->draw_log_likelihood(i);
-      tasks[i].state = resume->draw_states[size_t(i)];
-    }
-    state.counts = resume->counts;
-  }
+  // The draws evaluated before (a continued run) are taken from the state; the others are
+  // evaluated block by block, a block never crossing into the next round.
+  const int resumed = resume ? resume->draws_done : 0;
+  if (resume) state.counts = resume->counts;
   const int block = continuation.checkpoint
                         ? (continuation.block > 0 ? continuation.block : laplace_is_block(S))
                         : S;
@@ -289,24 +317,54 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
       state.draw_states[size_t(i)] = tasks[i].state;
     }
   };
-  while (done < S) {
-    throw_if_cancelled(options.cancel);
-    const int end = std::min(S, (done / block + 1) * block);
-    std::vector<ChainTask> part(std::make_move_iterator(tasks.begin() + done),
-                                std::make_move_iterator(tasks.begin() + end));
-    // An executor finds a task by its index in the vector it is given (the MPI master does);
-    // an evaluation (chain_length 0) draws no random numbers, so the index changes nothing else.
-    for (size_t k = 0; k < part.size(); ++k) part[k].index = static_cast<int>(k);
-    executor(setup, part);
-    for (int i = done; i < end; ++i) {
-      tasks[i] = std::move(part[size_t(i - done)]);
-      state.counts += tasks[i].counts;
+  for (int t = 0; t < rounds; ++t) {
+    const int begin = round_begin(t), stop = round_begin(t + 1);
+    for (int i = begin; i < stop; ++i) draw(i, proposals.back());
+    for (int i = begin; i < std::min(stop, resumed); ++i) {
+      tasks[i].log_likelihood = resume->draw_log_likelihood(i);
+      tasks[i].state = resume->draw_states[size_t(i)];
     }
-    done = end;
-    if (continuation.checkpoint) {
-      record_draws(done);
-      checkpoint();
+    int done = std::max(begin, std::min(stop, resumed));
+    while (done < stop) {
+      throw_if_cancelled(options.cancel);
+      const int end = std::min(stop, (done / block + 1) * block);
+      std::vector<ChainTask> part(std::make_move_iterator(tasks.begin() + done),
+                                  std::make_move_iterator(tasks.begin() + end));
+      // An executor finds a task by its index in the vector it is given (the MPI master does);
+      // an evaluation (chain_length 0) draws no random numbers, so the index changes nothing
+      // else.
+      for (size_t k = 0; k < part.size(); ++k) part[k].index = static_cast<int>(k);
+      executor(setup, part);
+      for (int i = done; i < end; ++i) {
+        tasks[i] = std::move(part[size_t(i - done)]);
+        state.counts += tasks[i].counts;
+      }
+      done = end;
+      if (continuation.checkpoint) {
+        record_draws(done);
+        checkpoint();
+      }
     }
+    if (t + 1 == rounds) break;
+    // Refit: the next proposal's location and scale are the weighted mean and covariance of
+    // all draws so far, blended with the last scale while the draws are few (weight
+    // min(1, ESS / (10 d))), so that a handful of dominant draws cannot collapse it.
+    const Eigen::VectorXd logw = log_weights(stop);
+    const double lse = is_log_sum_exp(logw);
+    Proposal next = proposals.back();
+    if (lse > -kInfinity) {
+      const Eigen::VectorXd w = (logw.array() - lse).exp().matrix();
+      const Eigen::MatrixXd zt = zs.topRows(stop);
+      const Eigen::VectorXd mean = zt.transpose() * w;
+      const Eigen::MatrixXd centred = zt.rowwise() - mean.transpose();
+      const Eigen::MatrixXd cov = centred.transpose() * w.asDiagonal() * centred;
+      const double lambda = std::min(1.0, (1.0 / w.squaredNorm()) / (10.0 * d));
+      const Eigen::MatrixXd last = proposals.back().chol * proposals.back().chol.transpose();
+      const Eigen::LLT<Eigen::MatrixXd> llt(lambda * cov + (1.0 - lambda) * last);
+      if (llt.info() == Eigen::Success && mean.allFinite()) next = {mean, llt.matrixL()};
+    }
+    r.round_ess.push_back(lse > -kInfinity ? 1.0 / (logw.array() - lse).exp().square().sum() : 0.0);
+    proposals.push_back(std::move(next));
   }
   ForwardCounts draw_counts = state.counts;
 
@@ -314,16 +372,11 @@ LaplaceIsResult run_laplace_is(const GradientTarget& target, const Likelihood& l
   r.draws.resize(S, d);
   r.draw_log_likelihood.resize(S);
   r.draw_states.resize(S);
-  Eigen::VectorXd logw(S);
+  const Eigen::VectorXd logw = log_weights(S);
   for (int i = 0; i < S; ++i) {
-    const Eigen::VectorXd zi = zs.row(i).transpose();
     for (int k = 0; k < d; ++k) r.draws(i, k) = tasks[i].theta[k];
     r.draw_log_likelihood(i) = tasks[i].log_likelihood;
     r.draw_states[i] = std::move(tasks[i].state);
-    logw(i) = std::isfinite(tasks[i].log_likelihood)
-                  ? tasks[i].log_likelihood + logit_log_prior(zi) -
-                        student_t_log_density(zi, z, chol, options.nu)
-                  : -kInfinity;
   }
   r.counts = draw_counts;
   const double lse = is_log_sum_exp(logw);

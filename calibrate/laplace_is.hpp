@@ -25,6 +25,16 @@
 //    Gauss-Newton curvature that is too large (GN drops the residuals' second derivatives).
 //    Draw i uses its own stream stream_seed(seed, 0, i, purpose) (Box-Muller normals and a
 //    chi-square from nu normals), so the draws do not depend on threads or ranks.
+// 3b. Adaptation (LaplaceIsOptions::rounds = R > 1): adaptive multiple importance sampling
+//    (Cornuet, Marin, Mira and Robert, Scand. J. Stat. 2012). The draws are split into R rounds;
+//    round 0 uses the Laplace proposal q_0, and after round t the proposal q_{t+1} is the
+//    Student-t whose location is the weighted mean and whose scale matrix is the weighted
+//    covariance C of all draws so far, blended with q_t's scale Sigma_t as
+//    lambda C + (1 - lambda) Sigma_t, lambda = min(1, ESS / (10 d)), so that a few dominant
+//    draws cannot collapse it. Every draw's weight uses the deterministic mixture
+//    q(z) = sum_t (n_t / S) q_t(z) (the balance heuristic), in the refits and in the final
+//    weights. The Laplace Gaussian cannot follow a curved ridge; the refit covers the ridge's
+//    extent, and the mixture keeps the weights of the Laplace round's draws bounded.
 // 4. Importance weights w_i = prior(z_i) L(theta_i) / q(z_i) (log space). The evidence is
 //    Z = mean w (the prior is normalised), its error by the delta method,
 //    sd(log Z) = sd(w) / (sqrt(S) mean w); the effective sample size is (sum w)^2 / sum w^2.
@@ -74,6 +84,11 @@ struct LaplaceIsOptions {
   int samples = 1000;      ///< importance samples S
   double nu = 5;           ///< Student-t degrees of freedom (> 2)
   double inflation = 1.5;  ///< factor on the Laplace covariance
+  /// Adaptation rounds R (1 to samples): the S draws are split into R rounds of S/R; round 0
+  /// draws from the Laplace proposal, each later round from a Student-t refit to the weighted
+  /// draws before it, and every draw is weighted against the mixture of all R proposals (see
+  /// the file comment, 3b). 1: the Laplace proposal alone.
+  int rounds = 1;
   int max_newton_steps = 30;
   double mode_tolerance = 1e-8;  ///< on the Newton decrement g' H^-1 g
   std::uint64_t seed = 1;
@@ -126,6 +141,9 @@ struct LaplaceIsResult {
   Eigen::VectorXd log_likelihood;
   std::vector<WarmState> states;
   double log_evidence = 0, log_evidence_sd = 0, ess = 0;
+  /// ESS of the draws of rounds 0..t against the mixture of their proposals, after each round
+  /// but the last (empty with one round).
+  std::vector<double> round_ess;
   ForwardCounts counts;  ///< of the S importance evaluations
   double wall_s = 0;
 };

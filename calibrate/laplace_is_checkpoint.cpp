@@ -38,6 +38,8 @@ std::vector<PosteriorInput> laplace_is_inputs(const InferenceProblem& problem) {
     if (std::find(std::begin(tmcmc_only), std::end(tmcmc_only), i.name) == std::end(tmcmc_only))
       out.push_back(std::move(i));
   out.push_back({"--is-samples", std::to_string(problem.options().is_samples)});
+  if (problem.options().is_rounds != 1)  // one round: the inputs of a run without the option
+    out.push_back({"--is-rounds", std::to_string(problem.options().is_rounds)});
   return out;
 }
 

@@ -67,6 +67,7 @@ LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Ex
   };
   LaplaceIsOptions lo;
   lo.samples = o.is_samples;
+  lo.rounds = o.is_rounds;
   lo.seed = o.sampler.seed;
   lo.cancel = o.sampler.cancel;
   LaplaceIsContinuation continuation;
@@ -101,9 +102,10 @@ LaplaceIsResult run_problem_laplace_is(const InferenceProblem& problem, const Ex
   m << "laplace-is: " << r.newton_steps << " Newton steps, " << sensitivity_solves
     << " gradient evaluations";
   if (recovery_trajectories > 0) m << " (" << recovery_trajectories << " release trajectories)";
-  m << "; " << lo.samples << " importance samples, ESS " << std::fixed << std::setprecision(1)
-    << r.ess << ", log evidence " << std::setprecision(3) << r.log_evidence << " +- "
-    << r.log_evidence_sd;
+  m << "; " << lo.samples << " importance samples";
+  if (lo.rounds > 1) m << " in " << lo.rounds << " rounds";
+  m << ", ESS " << std::fixed << std::setprecision(1) << r.ess << ", log evidence "
+    << std::setprecision(3) << r.log_evidence << " +- " << r.log_evidence_sd;
   report(progress, m.str());
   if (forward_runs_out) *forward_runs_out = forward_runs;
   if (sensitivity_solves_out) *sensitivity_solves_out = sensitivity_solves;

@@ -93,7 +93,7 @@ UNITLESS_KEYS = frozenset({
     "degree6_fraction", "degree6_fraction_std", "phi_over_area", "row_distortion",
     "area_drift", "volume_drift", "max_area_drift", "max_volume_drift", "worst_aspect_ratio",
     "volume_scale", "penalty_scale", "acceptance", "beta", "cov", "distinct_parents",
-    "unique_fraction", "log_mean_weight", "log_evidence", "log_evidence_sd",
+    "unique_fraction", "log_mean_weight", "log_evidence", "log_evidence_sd", "is_rounds", "round_ess",
     "log_likelihood_samples", "inefficiency", "q", "eta", "contact_fraction",
     "strain", "mu_relative_shift", "mu_relative_shift_error", "K_relative_shift",
     "K_relative_shift_error", "equipartition_ratio", "equipartition_ratio_error",

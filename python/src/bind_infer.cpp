@@ -18,7 +18,7 @@ InferOptions infer_options(const std::vector<std::string>& parameters, const py:
                            double extra_uncertainty_um, const py::dict& fixed,
                            double fixed_sigma_scale, int samples, int chain_length,
                            double target_cov, double proposal_scale, unsigned long long seed,
-                           int threads, const std::string& sampler, int is_samples) {
+                           int threads, const std::string& sampler, int is_samples, int is_rounds) {
   InferOptions o;
   if (sampler == "laplace-is")
     o.sampler_kind = SamplerKind::laplace_is;
@@ -27,6 +27,7 @@ InferOptions infer_options(const std::vector<std::string>& parameters, const py:
   else
     throw py::value_error("sampler '" + sampler + "': expected 'laplace-is' or 'tmcmc'");
   o.is_samples = is_samples;
+  o.is_rounds = is_rounds;
   o.data_file = data_file;
   o.method = parse_method(method);
   o.parameters.clear();
@@ -97,11 +98,11 @@ void bind_infer(py::module_& m) {
                        double extra_uncertainty_um, const py::dict& fixed, double fixed_sigma_scale,
                        int samples, int chain_length, double target_cov, double proposal_scale,
                        unsigned long long seed, int threads, const std::string& sampler,
-                       int is_samples) {
+                       int is_samples, int is_rounds) {
              const InferOptions o =
                  infer_options(parameters, priors, method, data_file, extra_uncertainty_um, fixed,
                                fixed_sigma_scale, samples, chain_length, target_cov, proposal_scale,
-                               seed, threads, sampler, is_samples);
+                               seed, threads, sampler, is_samples, is_rounds);
              return run_released(nullptr, [&] { return std::make_shared<InferenceProblem>(o); });
            }),
            py::kw_only(),
@@ -117,9 +118,11 @@ void bind_infer(py::module_& m) {
            py::arg("seed") = 1, py::arg("threads") = 0,
            py::arg("sampler") = to_string(InferOptions{}.sampler_kind),
            py::arg("is_samples") = InferOptions{}.is_samples,
+           py::arg("is_rounds") = InferOptions{}.is_rounds,
            "priors: {name: (lower, upper)} overriding the defaults; fixed: values of the physical "
            "parameters not inferred ({'kappa_J': 3e-19, ...}); sampler: 'laplace-is' (is_samples "
-           "importance samples) or 'tmcmc' (samples, chain_length, target_cov, proposal_scale), "
+           "importance samples in is_rounds adaptation rounds) or 'tmcmc' (samples, chain_length, "
+           "target_cov, proposal_scale), "
            "as `rbc infer --sampler`.")
       .def_property_readonly("names", [](const InferenceProblem& p) { return p.names(); })
       .def_property_readonly("units", [](const InferenceProblem& p) { return p.units(); })

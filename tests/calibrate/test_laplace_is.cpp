@@ -106,6 +106,94 @@ TEST(LaplaceIs, LinearGaussianMatchesTheClosedFormAndTmcmc) {
               4 * std::hypot(tr.log_evidence_sd, r.log_evidence_sd) + 0.02);
 }
 
+/// Adaptive rounds (LaplaceIsOptions::rounds) on the linear-Gaussian target: the weighted
+/// posterior and the evidence still match the closed form (the mixture weights are unbiased).
+TEST(LaplaceIs, AdaptiveRoundsMatchTheLinearGaussianClosedForm) {
+  const LinearGaussian g;
+  const FunctionLikelihood like = g.likelihood();
+  LaplaceIsOptions o;
+  o.samples = 4000;
+  o.rounds = 4;
+  o.seed = 11;
+  const LaplaceIsResult r =
+      run_laplace_is(g.target(), like, g.box, o, omp_executor(g.box, like, 1));
+  ASSERT_EQ(r.round_ess.size(), 3u);
+  EXPECT_GT(r.ess, 0.5 * o.samples);
+  const Eigen::VectorXd m = g.mean();
+  const Eigen::VectorXd sd = g.information().inverse().diagonal().cwiseSqrt();
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::VectorXd x = r.draws.col(k);
+    const double se50 = 1.2533 * sd(k) / std::sqrt(r.ess);
+    const double se05 = std::sqrt(0.05 * 0.95) / 0.10314 * sd(k) / std::sqrt(r.ess);
+    EXPECT_NEAR(weighted_quantile(x, r.weights, 0.5), m(k), 4 * se50) << k;
+    EXPECT_NEAR(weighted_quantile(x, r.weights, 0.05), m(k) - 1.6449 * sd(k), 4 * se05) << k;
+    EXPECT_NEAR(weighted_quantile(x, r.weights, 0.95), m(k) + 1.6449 * sd(k), 4 * se05) << k;
+  }
+  EXPECT_NEAR(r.log_evidence, g.log_evidence(), 4 * r.log_evidence_sd);
+}
+
+/// A curved ridge ("banana"): log L = -1/2 (t1 / 1)^2 - 1/2 ((t2 - t1^2) / 0.3)^2 in the box
+/// [-4, 4] x [-3, 14]. The Laplace Gaussian at the mode is straight and too narrow along the
+/// ridge; the adaptive rounds must raise the effective sample size and keep the evidence and
+/// the quantiles of t2 on their values by quadrature (a 1,200 x 1,200 midpoint grid, which
+/// resolves the 0.3-wide ridge with 12 points across it and more).
+TEST(LaplaceIs, AdaptiveRoundsFollowACurvedRidge) {
+  const PriorBox box{{-4.0, -3.0}, {4.0, 14.0}};
+  const double s2 = 0.3;
+  const auto log_l = [&](double t1, double t2) {
+    return -0.5 * t1 * t1 - 0.5 * std::pow((t2 - t1 * t1) / s2, 2);
+  };
+  const GradientTarget target = [&](const Eigen::VectorXd& t, const WarmState&) {
+    GradientPoint p;
+    p.ok = true;
+    p.log_likelihood = log_l(t(0), t(1));
+    const Eigen::Vector2d res{t(0), (t(1) - t(0) * t(0)) / s2};
+    Eigen::Matrix2d J;
+    J << 1.0, 0.0, -2.0 * t(0) / s2, 1.0 / s2;  // d res / d theta
+    p.gradient = -J.transpose() * res;
+    p.information = J.transpose() * J;
+    return p;
+  };
+  const FunctionLikelihood like(2, [&](std::span<const double> t) { return log_l(t[0], t[1]); });
+  // Quadrature: evidence (1/V) int L, and the CDF of t2.
+  const int n = 1200;
+  const double h1 = 8.0 / n, h2 = 17.0 / n;
+  std::vector<double> marginal2(n, 0.0);
+  double total = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double l = std::exp(log_l(-4.0 + (i + 0.5) * h1, -3.0 + (j + 0.5) * h2)) * h1 * h2;
+      marginal2[size_t(j)] += l;
+      total += l;
+    }
+  const double log_z = std::log(total) - box.log_volume();
+  const auto quantile2 = [&](double q) {
+    double c = 0;
+    for (int j = 0; j < n; ++j) {
+      if (c + marginal2[size_t(j)] >= q * total)
+        return -3.0 + (j + (q * total - c) / marginal2[size_t(j)]) * h2;
+      c += marginal2[size_t(j)];
+    }
+    return 14.0;
+  };
+  LaplaceIsOptions o;
+  o.samples = 3000;
+  o.seed = 9;
+  const LaplaceIsResult one = run_laplace_is(target, like, box, o, omp_executor(box, like, 1));
+  o.rounds = 5;
+  const LaplaceIsResult r = run_laplace_is(target, like, box, o, omp_executor(box, like, 1));
+  EXPECT_GT(r.ess, 1.5 * one.ess) << "one round: " << one.ess;
+  EXPECT_NEAR(r.log_evidence, log_z, 4 * r.log_evidence_sd + 1e-3);
+  // Quantile standard errors from the t2 marginal's density at the quantile (finite
+  // differences of the quadrature CDF).
+  for (double q : {0.05, 0.5, 0.95}) {
+    const double x = quantile2(q);
+    const double density = 0.02 / (quantile2(q + 0.01) - quantile2(q - 0.01));
+    const double se = std::sqrt(q * (1 - q)) / (density * std::sqrt(r.ess));
+    EXPECT_NEAR(weighted_quantile(r.draws.col(1), r.weights, q), x, 4 * se) << q;
+  }
+}
+
 /// The weighted draws of a target flat in the box are uniform in it (the log-Jacobian of the
 /// logit map in the weights): Kolmogorov-Smirnov distance of the weighted empirical CDF of
 /// each coordinate's position in the box against the uniform CDF, below the 0.1 % critical
@@ -201,6 +289,11 @@ TEST(LaplaceIs, BadOptionsAreNamed) {
   o = {};
   o.nu = 2;
   EXPECT_THROW(o.validate(), std::invalid_argument);
+  o = {};
+  o.rounds = 0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.rounds = o.samples + 1;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
 }
 
 // ---- continuation (LaplaceIsContinuation) ---------------------------------------------------
@@ -244,32 +337,38 @@ void expect_same_result(const LaplaceIsResult& a, const LaplaceIsResult& b) {
 
 TEST(LaplaceIs, ContinuedFromAnyHandedOutStateTheRunEqualsTheStraightRunExactly) {
   const WarmLinearGaussian w;
-  LaplaceIsOptions o;
-  o.samples = 60;
-  o.seed = 5;
-  std::vector<LaplaceIsState> states;
-  LaplaceIsContinuation record;
-  record.block = 7;
-  record.checkpoint = [&](const LaplaceIsState& s) { states.push_back(s); };
-  const LaplaceIsResult straight =
-      run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 1), record);
-  // The same without checkpoints (one batch of draws).
-  expect_same_result(straight,
-                     run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 2)));
-  // First evaluation, every Newton step, the mode, ceil(60 / 7) = 9 blocks.
-  ASSERT_EQ(static_cast<int>(states.size()), 1 + straight.newton_steps + 1 + 9);
-  ASSERT_GE(straight.newton_steps, 2);
-  EXPECT_FALSE(states.front().mode_found);
-  EXPECT_TRUE(states.back().mode_found);
-  EXPECT_EQ(states.back().draws_done, o.samples);
-  for (size_t k = 0; k < states.size(); ++k) {
-    SCOPED_TRACE("state " + std::to_string(k));
-    LaplaceIsContinuation c;
-    c.resume = &states[k];
-    c.block = 13;  // other blocks, other threads
-    c.checkpoint = [](const LaplaceIsState&) {};
+  for (int rounds : {1, 3}) {
+    SCOPED_TRACE("rounds " + std::to_string(rounds));
+    LaplaceIsOptions o;
+    o.samples = 60;
+    o.seed = 5;
+    o.rounds = rounds;
+    std::vector<LaplaceIsState> states;
+    LaplaceIsContinuation record;
+    record.block = 7;
+    record.checkpoint = [&](const LaplaceIsState& s) { states.push_back(s); };
+    const LaplaceIsResult straight =
+        run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 1), record);
+    // The same without checkpoints (one batch of draws per round).
     expect_same_result(straight,
-                       run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 2), c));
+                       run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 2)));
+    // First evaluation, every Newton step, the mode, then the blocks: ceil(60 / 7) = 9 with
+    // one round; with three, blocks also end at the rounds' ends (20 and 40): 11.
+    ASSERT_EQ(static_cast<int>(states.size()),
+              1 + straight.newton_steps + 1 + (rounds == 1 ? 9 : 11));
+    ASSERT_GE(straight.newton_steps, 2);
+    EXPECT_FALSE(states.front().mode_found);
+    EXPECT_TRUE(states.back().mode_found);
+    EXPECT_EQ(states.back().draws_done, o.samples);
+    for (size_t k = 0; k < states.size(); ++k) {
+      SCOPED_TRACE("state " + std::to_string(k));
+      LaplaceIsContinuation c;
+      c.resume = &states[k];
+      c.block = 13;  // other blocks, other threads
+      c.checkpoint = [](const LaplaceIsState&) {};
+      expect_same_result(straight,
+                         run_laplace_is(w.target(), w, w.g.box, o, omp_executor(w.g.box, w, 2), c));
+    }
   }
 }
 
