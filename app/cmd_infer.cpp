@@ -543,8 +543,9 @@ void print_summary(const InferenceResult& r) {
   if (r.sampler == "laplace-is")
     std::cout << "posterior (" << r.method << ", laplace-is: " << r.newton_steps
               << " Newton steps from the prior centre, " << r.samples_per_stage
-              << " importance samples, effective " << std::setprecision(4) << r.ess << ", seed "
-              << r.seed << "):\n";
+              << " importance samples"
+              << (r.is_rounds > 1 ? " in " + std::to_string(r.is_rounds) + " rounds" : "")
+              << ", effective " << std::setprecision(4) << r.ess << ", seed " << r.seed << "):\n";
   else
     std::cout << "posterior (" << r.method << ", " << r.samples_per_stage << " samples per stage, "
               << "stage 0 (prior) and " << tempering << " tempering stage"
@@ -900,7 +901,7 @@ void add_infer_command(CLI::App& app, Action& action) {
         std::cerr << "rbc: error: inference stopped (low_ess): laplace-is kept "
                   << format_number(r.ess) << " effective samples of " << o.is_samples
                   << " (at least " << format_number(o.min_effective_samples)
-                  << "): the Laplace proposal fits this posterior badly; rerun with more "
+                  << "): the importance proposal fits this posterior badly; rerun with more "
                      "--is-samples or with --sampler tmcmc\n";
         return 1;
       }

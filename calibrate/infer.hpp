@@ -16,11 +16,11 @@
 // - parameters persistence, lmax, sigma-scale; uniform priors of default_prior()
 //   (calibrate/prior_spec.hpp); the parameters not inferred keep the paper's values
 //   (p = 7.5 nm, Lmax = 237.75 nm, kappa = 2e-19 J, contact fraction 0.05, sigma scale 1);
-// - sampler: TMCMC (calibrate/tmcmc.hpp) with 500 samples per stage, target coefficient of
-//   variation 1, proposal scale 0.2, 3 Metropolis steps per sample and stage, 4 islands, seed 1;
-//   or (--sampler laplace-is, continuum forward model only) the Laplace proposal with importance
-//   correction (calibrate/laplace_is.hpp), 1,000 importance samples: at the default calibration
-//   ESS 383, log-evidence error 0.04, 1,023 forward runs against TMCMC's 6,064;
+// - sampler: laplace-is, the Laplace proposal with adaptive importance correction
+//   (calibrate/laplace_is.hpp), 1,000 importance samples in 4 rounds, seed 1: about 1,030
+//   forward runs; or (--sampler tmcmc) TMCMC (calibrate/tmcmc.hpp) with 500 samples per stage,
+//   target coefficient of variation 1, proposal scale 0.2, 3 Metropolis steps per sample and
+//   stage, 4 islands: about 6,000 forward runs. Both give the evidence;
 // - the posterior-predictive band is that of the model curve (median and 5-95 % of
 //   D_A(F), D_T(F) over the posterior samples), without the measurement noise.
 #include <Eigen/Core>
@@ -84,18 +84,19 @@ struct InferOptions {
   ForwardParameters fixed;       ///< values of the physical parameters not inferred
   double fixed_sigma_scale = 1;  ///< when sigma-scale is not inferred
   TmcmcOptions sampler = default_sampler();
-  /// Which sampler; laplace-is uses sampler.seed and is_samples, not the TMCMC settings.
-  /// Default TMCMC. laplace-is is 8 times faster on the default calibration (Suresh 2005 table,
-  /// continuum:2:2000, persistence, lmax, sigma-scale: 35 s and 1,023 forward runs against 290 s
-  /// and 6,064 on an idle 2-core machine, `rbc bench infer`, medians within 2.5 %), but on the
-  /// Mills 2004 table with the same prior box its importance weights leave 39 effective samples
-  /// of 1,000 (the curved persistence-Lmax ridge), so it is not the default.
-  SamplerKind sampler_kind = SamplerKind::tmcmc;
+  /// Which sampler; laplace-is uses sampler.seed, is_samples and is_rounds, not the TMCMC
+  /// settings. Default laplace-is: on both stretch tables it uses about a sixth of TMCMC's
+  /// forward runs for the same medians and 90 % intervals (`rbc bench infer` runs both side by
+  /// side; docs/validation/calibration.md gives the figures). TMCMC needs no gradient and stays
+  /// the reference (`--sampler tmcmc`).
+  SamplerKind sampler_kind = SamplerKind::laplace_is;
   /// Importance samples of laplace-is (forward runs after the mode search).
   int is_samples = 1000;
   /// laplace-is: adaptation rounds of the importance proposal (LaplaceIsOptions::rounds), 1 to
-  /// is_samples; 1: the Laplace proposal alone.
-  int is_rounds = 1;
+  /// is_samples; 1: the Laplace proposal alone. With 4 rounds of 250 the Mills 2004 table keeps
+  /// 430-510 effective samples of 1,000, where the Laplace proposal alone keeps 39 (its
+  /// persistence-Lmax ridge is curved).
+  int is_rounds = 4;
   /// laplace-is: fewest effective samples (sum w)^2 / sum w^2 of an accepted posterior (>= 0);
   /// below it the run ends with status low_ess. At the default 50 the ends of a 90 % interval
   /// rest on 2.5 effective samples each.

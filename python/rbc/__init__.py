@@ -93,7 +93,7 @@ UNITLESS_KEYS = frozenset({
     "degree6_fraction", "degree6_fraction_std", "phi_over_area", "row_distortion",
     "area_drift", "volume_drift", "max_area_drift", "max_volume_drift", "worst_aspect_ratio",
     "volume_scale", "penalty_scale", "acceptance", "beta", "cov", "distinct_parents",
-    "unique_fraction", "log_mean_weight", "log_evidence", "log_evidence_sd", "is_rounds", "round_ess",
+    "unique_fraction", "log_mean_weight", "log_evidence", "log_evidence_sd",
     "log_likelihood_samples", "inefficiency", "q", "eta", "contact_fraction",
     "strain", "mu_relative_shift", "mu_relative_shift_error", "K_relative_shift",
     "K_relative_shift_error", "equipartition_ratio", "equipartition_ratio_error",
@@ -570,13 +570,15 @@ def network_hessian_operator(network: Network, positions: np.ndarray, *,
 def infer(problem: Optional[InferenceProblem] = None, *,
           cancel: Optional[Callable[[], bool]] = None,
           progress: Optional[Callable[[str], None]] = None, predict: Sequence[str] = (),
-          predict_draws: Optional[int] = None, **options: Any) -> dict:
+          predict_draws: Optional[int] = None, predict_recovery_draws: Optional[int] = None,
+          **options: Any) -> dict:
     """Bayesian calibration as ``rbc infer``: the posterior of the inferred parameters given
-    force-diameter data (MODEL.md section 7), by TMCMC (the default) or laplace-is.
+    force-diameter data (MODEL.md section 7), by laplace-is (the default) or TMCMC.
 
     Pass an rbc.InferenceProblem, or its keyword arguments (parameters=['persistence', 'lmax',
     'sigma-scale'], priors={name: (lower, upper)}, method='continuum:2:2000', data_file,
-    sampler='tmcmc' with samples=500, or sampler='laplace-is' with is_samples=1000, seed=1, ...;
+    sampler='laplace-is' with is_samples=1000 and is_rounds=4, or sampler='tmcmc' with
+    samples=500, seed=1, ...;
     the CLI's defaults). Returns the fields of ``rbc infer --json``
     (each parameter's and each derived modulus's summary is a dict with its "unit") plus
     'samples' (S, P; column j in the unit InferenceProblem.units[j]: nm, J or dimensionless),
@@ -586,16 +588,21 @@ def infer(problem: Optional[InferenceProblem] = None, *,
     The GIL is released; Ctrl-C or cancel() returning True stops between stages with
     KeyboardInterrupt.
 
-    predict: held-out stretch-data files, as ``rbc infer --predict``: 'predictions' then holds,
-    per file, the 5, 25, 50, 75 and 95 % quantiles of D_A, D_T (um) with the file's own error
-    bars and the fraction of its points inside the 50 % and 90 % bands; predict_draws as
-    ``--predict-draws`` (None: its default; 0: every sample).
+    predict: held-out data files, as ``rbc infer --predict``: 'predictions' then holds, per
+    stretch file, the 5, 25, 50, 75 and 95 % quantiles of D_A, D_T (um) with the file's own
+    error bars and the fraction of its points inside the 50 % and 90 % bands; per recovery file
+    (header cell,time_s,length_over_width; kind "recovery") each cell's predicted length over
+    width (dimensionless) with its bands and coverage. predict_draws and
+    predict_recovery_draws as ``--predict-draws`` and ``--predict-recovery-draws`` (None: their
+    defaults; 0: every sample).
     """
     if problem is None:
         problem = InferenceProblem(**options)
     elif options:
         raise ValueError("give either an InferenceProblem or its options, not both")
     extra = {} if predict_draws is None else {"predict_draws": predict_draws}
+    if predict_recovery_draws is not None:
+        extra["predict_recovery_draws"] = predict_recovery_draws
     return _rbc._infer(problem, cancel, progress, predict=[str(p) for p in predict], **extra)
 
 

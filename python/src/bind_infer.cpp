@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Bayesian calibration (calibrate/infer.hpp): the inference problem (data, forward model, prior
-// box, the likelihood `rbc infer` samples) and the TMCMC run, as `rbc infer` sets them up.
+// box, the likelihood `rbc infer` samples) and the posterior run, as `rbc infer` sets them up.
 #include <nlohmann/json.hpp>
 
 #include "calibrate/infer.hpp"
 #include "calibrate/predictive.hpp"
+#include "calibrate/recovery_prediction.hpp"
 #include "calibrate/sensitivity.hpp"
 #include "common.hpp"
 
@@ -216,10 +217,14 @@ void bind_infer(py::module_& m) {
   m.def(
       "_infer",
       [](std::shared_ptr<InferenceProblem> problem, py::object cancel, py::object progress,
-         const std::vector<std::string>& predict, int predict_draws) {
+         const std::vector<std::string>& predict, int predict_draws, int predict_recovery_draws) {
         if (predict_draws < 0)
           throw std::invalid_argument("predict_draws must be >= 0 (0: every sample), got " +
                                       std::to_string(predict_draws));
+        if (predict_recovery_draws < 0)
+          throw std::invalid_argument(
+              "predict_recovery_draws must be >= 0 (0: every sample), got " +
+              std::to_string(predict_recovery_draws));
         // run_inference takes the sampler options (and their cancel hook, polled between
         // stages) from the problem: a copy of it is built with the hook (data, mesh; no solve).
         const auto cb = make_callbacks(std::move(cancel), std::move(progress));
@@ -228,15 +233,35 @@ void bind_infer(py::module_& m) {
         const ProgressSink sink = make_progress_sink(cb);
         const InferenceResult r = run_released(cb, [&] {
           const InferenceProblem p(o);
-          // Held-out files (calibrate/predictive.hpp): read and checked before any forward run.
+          // Held-out files, stretch (calibrate/predictive.hpp) or recovery data
+          // (calibrate/recovery_prediction.hpp, by the file's header): read and checked before
+          // any forward run.
           std::vector<std::unique_ptr<PredictionProblem>> held_out;
-          for (const std::string& f : predict)
-            held_out.push_back(std::make_unique<PredictionProblem>(p, f));
+          std::vector<std::unique_ptr<RecoveryPredictionProblem>> recovery;
+          for (const std::string& f : predict) {
+            const bool is_recovery = [&] {
+              try {
+                return detect_data_kind(f) == DataKind::recovery;
+              } catch (const std::exception&) {
+                return false;  // the stretch reader names what is wrong with the file
+              }
+            }();
+            if (is_recovery)
+              recovery.push_back(std::make_unique<RecoveryPredictionProblem>(p, f));
+            else
+              held_out.push_back(std::make_unique<PredictionProblem>(p, f));
+          }
           InferenceResult res = run_inference(p, sink);
           std::vector<HeldOutPrediction> predictions;
           for (const auto& h : held_out)
             predictions.push_back(predict_held_out(*h, res, predict_draws, {}, sink));
           if (!predictions.empty()) res.predictions = predictions_json(predictions);
+          for (const auto& r : recovery) {
+            const RecoveryPrediction rp =
+                predict_recovery(*r, res, predict_recovery_draws, {}, sink);
+            if (res.predictions.is_null()) res.predictions = nlohmann::json::array();
+            res.predictions.push_back(recovery_prediction_json(rp));
+          }
           return res;
         });
         py::dict out = py::module_::import("json").attr("loads")(inference_json(r));
@@ -264,7 +289,8 @@ void bind_infer(py::module_& m) {
       },
       py::arg("problem"), py::arg("cancel"), py::arg("progress"),
       py::arg("predict") = std::vector<std::string>{},
-      py::arg("predict_draws") = kDefaultPredictiveDraws);
+      py::arg("predict_draws") = kDefaultPredictiveDraws,
+      py::arg("predict_recovery_draws") = kDefaultRecoveryPredictiveDraws);
 }
 
 }  // namespace rbc::py_bind

@@ -202,9 +202,9 @@ TEST(LaplaceIsResume, ChangedInputsAndTheOtherSamplersCheckpointsAreRefusedBefor
         "continuum:2:300";
     expect_refused(joined(method) + " --resume " + run.string(), {"--method"}, run);
   }
-  // The laplace-is checkpoint resumed by TMCMC (the default sampler).
+  // The laplace-is checkpoint resumed by TMCMC.
   const std::string tmcmc_args =
-      "infer --samples 20 --chain-length 1 --seed 3 --method "
+      "infer --sampler tmcmc --samples 20 --chain-length 1 --seed 3 --method "
       "continuum:2:200 --params persistence,sigma-scale --data-file " +
       data;
   expect_refused(tmcmc_args + " --resume " + run.string(),

@@ -81,12 +81,17 @@ TEST(InferCli, BadInputExitsTwoNamingTheValueAndWritesNothing) {
       // The sampler's floor, named as the option (4 islands of at least 5 samples).
       {"--sampler tmcmc --samples 10",
        "rbc: error: --samples 10: expected at least 20 samples per stage"},
-      // Each sampler's settings with the other sampler (tmcmc is the default).
-      {"--sampler laplace-is --samples 30",
+      // Each sampler's settings with the other sampler (laplace-is is the default).
+      {"--samples 30",
        "rbc: error: --samples 30: a setting of the tmcmc sampler, not of laplace-is; expected "
        "--sampler tmcmc with it"},
       {"--sampler laplace-is --chain-length 2", "--chain-length 2: a setting of the tmcmc sampler"},
-      {"--is-samples 300", "--is-samples 300: a setting of the laplace-is sampler, not of tmcmc"},
+      {"--sampler tmcmc --is-samples 300",
+       "--is-samples 300: a setting of the laplace-is sampler, not of tmcmc"},
+      {"--sampler tmcmc --is-rounds 2",
+       "--is-rounds 2: a setting of the laplace-is sampler, not of tmcmc"},
+      {"--is-rounds 0", "--is-rounds 0: expected 1 to --is-samples (1000)"},
+      {"--is-samples 100 --is-rounds 101", "--is-rounds 101: expected 1 to --is-samples (100)"},
       {"--sampler nuts", "--sampler"},
       {"--extra-uncertainty -1", "--extra-uncertainty must be finite and >= 0 um, got -1"},
       // The model option group: a parameter not inferred takes its value; an inferred one and

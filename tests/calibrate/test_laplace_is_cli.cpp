@@ -99,7 +99,8 @@ TEST(LaplaceIsCli, RefusesWhatItCannotTakeBeforeAnyWork) {
            {"--sampler hmc", "--sampler"},
            {"--sampler laplace-is --min-ess -1",
             "rbc: error: --min-ess -1: expected a finite number >= 0"},
-           {"--min-ess 10", "rbc: error: --min-ess 10: a setting of the laplace-is sampler"},
+           {"--sampler tmcmc --min-ess 10",
+            "rbc: error: --min-ess 10: a setting of the laplace-is sampler"},
            {"--sampler laplace-is --resume " + dir.string(), "rbc: error: --resume"},
        }) {
     const fs::path out = dir / "out";

@@ -98,6 +98,7 @@ TEST(HeldOutPrediction, BandsCoverDataAtTheTruthAsClaimedAndMissDataAtOtherParam
   o.method = kMethod;
   o.parameters = {Parameter::persistence, Parameter::lmax};
   o.priors = {{Parameter::persistence, 3, 16}, {Parameter::lmax, 150, 300}};
+  o.sampler_kind = SamplerKind::tmcmc;
   o.sampler.samples = 100;
   o.sampler.chain_length = 2;
   o.sampler.seed = 5;

@@ -83,6 +83,7 @@ TEST(Recovery, PosteriorMeansLieWithinFourAndAHalfSdOfTheTruthForTwoParameterSet
     o.parameters = {Parameter::persistence, Parameter::lmax};
     o.priors = {{Parameter::persistence, 3, 16}, {Parameter::lmax, 150, 300}};
     o.extra_uncertainty_um = 0;
+    o.sampler_kind = SamplerKind::tmcmc;
     o.sampler.samples = 200;
     o.sampler.chain_length = 2;
     o.sampler.seed = 5;

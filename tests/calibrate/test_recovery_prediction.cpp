@@ -205,7 +205,8 @@ TEST(RecoveryPrediction, SameOnOneAndTwoThreads) {
 }
 
 /// The options of a small, cheap inference (200 elements, 20 samples, one Metropolis step).
-const std::string kSmall = "infer --method continuum:2:200 --samples 20 --chain-length 1 --seed 3 ";
+const std::string kSmall =
+    "infer --method continuum:2:200 --sampler tmcmc --samples 20 --chain-length 1 --seed 3 ";
 
 // A bad recovery file (or draw count) exits 2 with one line naming it, before any forward run.
 TEST(RecoveryPredictionCli, BadRecoveryFileExitsTwoBeforeAnyWork) {

@@ -89,7 +89,8 @@ def test_bad_inference_input_raises_value_error(small_data):
         rbc.InferenceProblem(parameters=["sigma-scale"], samples=30, sampler="laplace-is",
                              data_file=small_data)
     with pytest.raises(ValueError, match="is-samples 300: a setting of the laplace-is sampler"):
-        rbc.InferenceProblem(parameters=["sigma-scale"], is_samples=300, data_file=small_data)
+        rbc.InferenceProblem(parameters=["sigma-scale"], is_samples=300, sampler="tmcmc",
+                             data_file=small_data)
     with pytest.raises(ValueError, match="sampler 'mcmc'"):
         rbc.InferenceProblem(parameters=["sigma-scale"], sampler="mcmc", data_file=small_data)
 
@@ -165,3 +166,24 @@ def test_infer_predict_equals_rbc_infer_predict(small_data, tmp_path):
     with pytest.raises(ValueError, match="predict_draws must be >= 0"):
         rbc.infer(predict=[held], predict_draws=-1, progress=messages.append, **args)
     assert not any("stage" in m for m in messages), messages
+
+
+def test_infer_predicts_a_recovery_file_as_rbc_infer_predict(small_data, tmp_path):
+    """A recovery file among predict= (header cell,time_s,length_over_width) is predicted by
+    the release scene, as ``rbc infer --predict``: the same "recovery" entry, its coverage
+    fractions in [0, 1]."""
+    cells = tmp_path / "cells.csv"
+    cells.write_text("cell,time_s,length_over_width\n1,0,1.9\n1,0.1,1.5\n1,0.2,1.3\n"
+                     "1,0.3,1.2\n")
+    cli = run_cli_json("infer", "--params", "sigma-scale", "--method", METHOD, "--data-file",
+                       small_data, "--sampler", "tmcmc", "--samples", "20", "--seed", "4",
+                       "--predict", str(cells), "--predict-recovery-draws", "2", "--json", "-q")
+    py = rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data,
+                   sampler="tmcmc", samples=20, seed=4, predict=[str(cells)],
+                   predict_recovery_draws=2)
+    assert py["predictions"] == cli["predictions"]
+    (p,) = py["predictions"]
+    assert p["kind"] == "recovery"
+    with pytest.raises(ValueError, match="predict_recovery_draws must be >= 0"):
+        rbc.infer(parameters=["sigma-scale"], method=METHOD, data_file=small_data,
+                  sampler="tmcmc", samples=20, predict=[str(cells)], predict_recovery_draws=-1)

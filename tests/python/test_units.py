@@ -124,7 +124,8 @@ def predict_result(tmp_path_factory):
     cells.write_text("cell,time_s,length_over_width\n1,0,1.9\n1,0.1,1.5\n1,0.2,1.3\n"
                      "1,0.3,1.2\n")
     return run_cli_json("infer", "--method", "continuum:2:200", "--params", "sigma-scale",
-                        "--samples", "20", "--seed", "2", "--data-file", str(fit),
+                        "--sampler", "tmcmc", "--samples", "20", "--seed", "2",
+                        "--data-file", str(fit),
                         "--predict", str(held), "--predict", str(cells), "--predict-draws", "2",
                         "--predict-recovery-draws", "2", "--recovery-elements", "200", "--json",
                         "-q")
