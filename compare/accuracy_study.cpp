@@ -280,7 +280,7 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
     for (int e : o.continuum_elements) {
       if (order != WlcExpansion::order2 && e > o.full_law_max_elements) continue;
       add(MethodKind::continuum, e, order, 0);
-      if (order == WlcExpansion::order2 && e <= o.spread_max_resolution)
+      if (e <= o.spread_max_resolution)
         for (unsigned s : o.spread_seeds) add(MethodKind::continuum, e, order, s);
     }
   // The adapted mesh: every seed in full (no mirror to use).
