@@ -39,7 +39,7 @@ TEST(RefinedMeshCli, StretchRunsOnTheLibraryMeshWithItsMirrorsAndRefusesMisuse) 
     EXPECT_EQ(a[k].at("elements").get<int>(), rep.elements);
     EXPECT_TRUE(a[k].at("converged").get<bool>());
     EXPECT_TRUE(b[k].at("converged").get<bool>());
-    EXPECT_FALSE(a[k].contains("symmetry_order"));  // reported by the mirror path only
+    EXPECT_FALSE(a[k].contains("symmetry_order"));       // reported by the mirror path only
     EXPECT_EQ(b[k].at("symmetry_order").get<int>(), 4);  // the icosphere's four mirrors
     for (const char* d : {"axial_um", "transverse_um"})
       EXPECT_NEAR(a[k].at(d).get<double>(), b[k].at(d).get<double>(), 1e-6) << d;
