@@ -79,7 +79,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     int adapted_seeds = AccuracyStudyOptions{}.adapted_seeds;
     bool no_adapted = false;
     // The refined-mesh rows of the table (accuracy_cost_refined.csv).
-    std::vector<int> refined_elements = {1700, 2400, 4000};
+    std::vector<int> refined_elements = {2900, 4500, 6500};
     std::vector<double> refined_ratios = {2.0, 3.0};
     bool no_refined = false;
   };
@@ -182,7 +182,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "--accuracy-table: element counts of the continuum rows on the refined mesh "
                   "(full law, exact contact load, quadric-fit diameters, both solver paths, the "
                   "rotations of --spread-seeds; written to accuracy_cost_refined.csv), 200 to "
-                  "79,996 (default 1700,2400,4000)")
+                  "79,996 (default 2900,4500,6500)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->delimiter(',');
   cmd->add_option("--refined-ratios", o->refined_ratios,

@@ -274,10 +274,14 @@ TriMesh make_refined_mesh(const RefinedMeshOptions& o, RefinedMeshReport* report
   std::map<int, Trial> tried;
   int f = clamp_f(std::sqrt(o.target_elements / 20.0 / (1.0 + 1.5 * o.size_ratio)));
   int passes = 0;
-  for (; passes < 4 && !tried.count(f); ++passes) {
+  for (; passes < 6 && !tried.count(f); ++passes) {
     tried.emplace(f, refine_on(f));
     const double count = tried.at(f).mesh.topo.num_faces();
-    f = clamp_f(f * std::sqrt(o.target_elements / count));
+    const int scaled = clamp_f(f * std::sqrt(o.target_elements / count));
+    // Jump by the count's scaling; once it points back to a tried frequency, bracket the
+    // target by the neighbour on its side (the counts grow with f).
+    const int neighbour = clamp_f(count > o.target_elements ? f - 1 : f + 1);
+    f = !tried.count(scaled) ? scaled : neighbour;
   }
   // The closest count of the frequencies tried.
   const Trial* best = nullptr;
