@@ -19,6 +19,7 @@
 #include "continuum/adapted_mesh.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/error_indicator.hpp"
+#include "continuum/refined_mesh.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
 #include "core/rest_shape.hpp"
@@ -35,9 +36,10 @@ namespace {
 /// Which model `rbc stretch` runs (--model discrete | continuum).
 enum class StretchModel { discrete, continuum };
 
-/// Which continuum mesh (--mesh): the Phi-minimised icosphere or the CGAL mesh graded to the
-/// scene (continuum/adapted_mesh.hpp).
-enum class ContinuumMesh { uniform, adapted };
+/// Which continuum mesh (--mesh): the Phi-minimised icosphere, the CGAL mesh graded to the
+/// scene (continuum/adapted_mesh.hpp), or the icosphere refined by red-green refinement towards
+/// the same scene, keeping its mirrors (continuum/refined_mesh.hpp).
+enum class ContinuumMesh { uniform, adapted, refined };
 
 /// Options in natural units (nm, J, pN), converted once in to_network_parameters().
 struct StretchCli {
@@ -55,7 +57,7 @@ struct StretchCli {
   WlcExpansion order = WlcExpansion::order2;
   int elements = 4000;
   ContinuumMesh mesh = ContinuumMesh::uniform;
-  /// --mesh-size-ratio (--mesh adapted): coarse / fine edge length
+  /// --mesh-size-ratio (--mesh adapted or refined): coarse / fine edge length
   double mesh_size_ratio = AdaptedMeshOptions{}.size_ratio;
   /// --mesh-seed (--mesh adapted): turns the mesher's initial points (another triangulation)
   unsigned mesh_seed = 0;
@@ -457,10 +459,42 @@ int run_continuum(const StretchCli& o) {
   ao.contact_fraction = params.tweezers.contact_fraction;
   ao.validate();
   AdaptedMeshReport adapted_report;
-  const TriMesh mesh = o.mesh == ContinuumMesh::adapted
-                           ? make_adapted_mesh(ao, &adapted_report)
+  RefinedMeshOptions ro;
+  ro.target_elements = o.elements;
+  ro.size_ratio = o.mesh_size_ratio;
+  ro.contact_fraction = params.tweezers.contact_fraction;
+  ro.orientation = o.orientation;
+  ro.seed = o.mesh_seed;
+  ro.validate();
+  RefinedMeshReport refined_report;
+  const TriMesh mesh = o.mesh == ContinuumMesh::adapted ? make_adapted_mesh(ao, &adapted_report)
+                       : o.mesh == ContinuumMesh::refined
+                           ? make_refined_mesh(ro, &refined_report)
                            : make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
   nlohmann::json mesh_kind = "uniform";
+  if (o.mesh == ContinuumMesh::refined) {
+    mesh_report = assess_mesh(mesh);
+    mesh_report.volume_scale = refined_report.volume_scale;
+    const RefinedSizeField& f = refined_report.size;
+    mesh_kind = {{"kind", "refined"},
+                 {"size_ratio", o.mesh_size_ratio},
+                 {"fine_um", f.fine_um},
+                 {"cap_plane_um", f.plane_um},
+                 {"band_um", f.band_um},
+                 {"rim_y_um", f.rim_y_um},
+                 {"rim_band_um", f.rim_band_um},
+                 {"grading", f.grading},
+                 {"coarse_vertices", refined_report.coarse_vertices},
+                 {"coarse_elements", refined_report.coarse_elements},
+                 {"passes", refined_report.passes},
+                 {"seed", o.mesh_seed}};
+    report(progress, "refined mesh (red-green refinement of the " +
+                         std::to_string(refined_report.coarse_elements) +
+                         "-element icosphere): edges down to " + format_number(f.fine_um) +
+                         " um beyond |x| = " + format_number(f.plane_um - f.band_um) +
+                         " um and around the D_T rim points (0, +-" + format_number(f.rim_y_um) +
+                         ", 0) um");
+  }
   if (o.mesh == ContinuumMesh::adapted) {
     mesh_report = assess_mesh(mesh);
     mesh_report.volume_scale = adapted_report.volume_scale;
@@ -669,18 +703,25 @@ void add_stretch_command(CLI::App& app, Action& action) {
                   "continuum: uniform (Phi-minimised icosphere) | adapted (CGAL surface mesher "
                   "with a size field: fine at the bead-contact rims and the pulled tips, "
                   "--mesh-size-ratio times coarser elsewhere, about --elements triangles; no "
-                  "mirror symmetry, so --symmetry mirror solves in full)")
-      ->transform(enum_choice<ContinuumMesh>(
-          {{"uniform", ContinuumMesh::uniform}, {"adapted", ContinuumMesh::adapted}}))
+                  "mirror symmetry, so --symmetry mirror solves in full) | refined (the "
+                  "icosphere refined by red-green refinement to edges --mesh-size-ratio times "
+                  "finer at the bead-contact rims and around the rim points where D_T is "
+                  "measured, about --elements triangles; keeps the icosphere's mirrors, so "
+                  "--symmetry mirror applies)")
+      ->transform(enum_choice<ContinuumMesh>({{"uniform", ContinuumMesh::uniform},
+                                              {"adapted", ContinuumMesh::adapted},
+                                              {"refined", ContinuumMesh::refined}}))
       ->type_name("TEXT")
       ->default_str("uniform");
   cmd->add_option("--mesh-size-ratio", o->mesh_size_ratio,
-                  "continuum with --mesh adapted: coarse / fine edge length, in [1, 10]")
+                  "continuum with --mesh adapted or refined: coarse / fine edge length, in [1, "
+                  "10]")
       ->capture_default_str();
   cmd->add_option("--mesh-seed", o->mesh_seed,
                   "continuum with --mesh adapted: turns the mesher's initial points by a random "
                   "rotation drawn from this seed (0: unturned), giving another triangulation of "
-                  "the same size field; same seed, same mesh")
+                  "the same size field; same seed, same mesh; with --mesh refined: turns the "
+                  "coarse icosphere the same way (a turned mesh keeps no mirror of the scene)")
       ->check(integer_in(0, 1000000))
       ->capture_default_str();
   cmd->add_option("--out", o->out,
@@ -749,10 +790,12 @@ void add_stretch_command(CLI::App& app, Action& action) {
         if (cmd->get_option(name)->count() > 0 && o->model != StretchModel::continuum)
           throw std::invalid_argument(std::string(name) +
                                       " applies to --model continuum, got --model discrete");
-      for (const char* name : {"--mesh-size-ratio", "--mesh-seed"})
-        if (cmd->get_option(name)->count() > 0 && o->mesh != ContinuumMesh::adapted)
-          throw std::invalid_argument(std::string(name) +
-                                      " applies to --mesh adapted, got --mesh uniform");
+      if (cmd->get_option("--mesh-size-ratio")->count() > 0 && o->mesh == ContinuumMesh::uniform)
+        throw std::invalid_argument(
+            "--mesh-size-ratio applies to --mesh adapted or refined, got --mesh uniform");
+      if (cmd->get_option("--mesh-seed")->count() > 0 && o->mesh == ContinuumMesh::uniform)
+        throw std::invalid_argument(
+            "--mesh-seed applies to --mesh adapted or refined, got --mesh uniform");
       if (o->mesh == ContinuumMesh::adapted && cmd->get_option("--mesh-orientation")->count() > 0)
         throw std::invalid_argument(
             "--mesh-orientation applies to --mesh uniform, got --mesh adapted");

@@ -78,6 +78,10 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     std::vector<double> adapted_ratios = {2.0, 3.0};
     int adapted_seeds = AccuracyStudyOptions{}.adapted_seeds;
     bool no_adapted = false;
+    // The refined-mesh rows of the table (accuracy_cost_refined.csv).
+    std::vector<int> refined_elements = {2900, 4500, 6500};
+    std::vector<double> refined_ratios = {2.0, 3.0};
+    bool no_refined = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("tradeoff", "Accuracy against wall time, with the Pareto front");
@@ -174,6 +178,24 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       ->check(integer_in(1, 64))
       ->capture_default_str();
   cmd->add_flag("--no-adapted", o->no_adapted, "--accuracy-table: no adapted-mesh rows");
+  cmd->add_option("--refined-elements", o->refined_elements,
+                  "--accuracy-table: element counts of the continuum rows on the refined mesh "
+                  "(full law, exact contact load, quadric-fit diameters, both solver paths, the "
+                  "rotations of --spread-seeds; written to accuracy_cost_refined.csv), 200 to "
+                  "79,996 (default 2900,4500,6500)")
+      ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
+      ->delimiter(',');
+  cmd->add_option("--refined-ratios", o->refined_ratios,
+                  "--accuracy-table: coarse / fine size ratios of the refined rows, each in [1, "
+                  "10] (default 2,3)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            const std::optional<double> r = parse_finite_number(text);
+            return r && *r >= 1 && *r <= 10 ? "" : text + ": expected a number in [1, 10]";
+          },
+          "RATIO"))
+      ->delimiter(',');
+  cmd->add_flag("--no-refined", o->no_refined, "--accuracy-table: no refined-mesh rows");
   cmd->add_flag("--runs-only", o->runs_only,
                 "--accuracy-table: only run (and cache) the sweeps, write no table");
   auto physics = std::make_shared<ModelCli>();
@@ -204,6 +226,9 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         ao.adapted_seeds = o->adapted_seeds;
         if (o->no_continuum) ao.continuum_elements.clear();
         if (o->no_continuum || o->no_adapted) ao.adapted_elements.clear();
+        ao.refined_elements = o->refined_elements;
+        ao.refined_size_ratios = o->refined_ratios;
+        if (o->no_continuum || o->no_refined) ao.refined_elements.clear();
         ao.reference_seeds = o->reference_seeds;
         ao.spread_seeds = o->spread_seeds;
         ao.spread_max_resolution = o->spread_max;
@@ -241,6 +266,10 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                           ? ""
                           : ", accuracy_cost_adapted.csv, accuracy_by_force_adapted.csv, "
                             "convergence_adapted.csv, orders_adapted.csv, richardson_adapted.csv")
+                  << (ao.refined_elements.empty()
+                          ? ""
+                          : ", accuracy_cost_refined.csv, accuracy_by_force_refined.csv, "
+                            "convergence_refined.csv, orders_refined.csv")
                   << "\n";
         return 0;
       }

@@ -38,11 +38,11 @@ std::string cost_text(double cost) {
 
 std::string method_spec(const Method& m) {
   if (m.kind == MethodKind::discrete) return "discrete:" + std::to_string(m.resolution);
-  if (m.adapted) {
+  if (m.adapted || m.refined) {
     std::ostringstream ratio;
     ratio << m.size_ratio;
-    return "continuum-adapted:" + to_string(m.order) + ":" + std::to_string(m.resolution) + ":" +
-           ratio.str();
+    return std::string(m.adapted ? "continuum-adapted:" : "continuum-refined:") +
+           to_string(m.order) + ":" + std::to_string(m.resolution) + ":" + ratio.str();
   }
   return "continuum:" + to_string(m.order) + ":" + std::to_string(m.resolution);
 }
@@ -232,7 +232,7 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
   auto same_method = [&](const Candidate& c) {
     const Method &a = c.entry->method, &b = ok[0].entry->method;
     return a.kind == b.kind && a.order == b.order && a.resolution == b.resolution &&
-           a.adapted == b.adapted && a.size_ratio == b.size_ratio;
+           a.adapted == b.adapted && a.refined == b.refined && a.size_ratio == b.size_ratio;
   };
   size_t runner = 0;
   for (size_t k = 1; k < ok.size() && !runner; ++k)

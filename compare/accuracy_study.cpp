@@ -72,6 +72,21 @@ void AccuracyStudyOptions::validate() const {
       throw std::invalid_argument("adapted-mesh seeds must be in [1, 64], got " +
                                   std::to_string(adapted_seeds));
   }
+  for (int e : refined_elements)
+    if (e < kMinContinuumElements || e > kMaxContinuumElements)
+      throw std::invalid_argument(
+          "refined-mesh elements must be in [" + std::to_string(kMinContinuumElements) + ", " +
+          std::to_string(kMaxContinuumElements) + "], got " + std::to_string(e));
+  if (!refined_elements.empty()) {
+    if (refined_orders.empty() || refined_size_ratios.empty())
+      throw std::invalid_argument("accuracy study: refined-mesh rows need a law and a size ratio");
+    for (double r : refined_size_ratios)
+      if (!(r >= 1 && r <= 10)) {
+        std::ostringstream m;
+        m << "refined-mesh size ratio must be in [1, 10], got " << r;
+        throw std::invalid_argument(m.str());
+      }
+  }
   if (cost_unit_vertices < 100 || cost_unit_vertices > 40000)
     throw std::invalid_argument("cost-unit vertices must be in [100, 40000], got " +
                                 std::to_string(cost_unit_vertices));
@@ -149,8 +164,9 @@ const std::vector<std::string>& accuracy_cost_header() {
 /// Same method and resolution (any rotation).
 bool same_family(const Method& a, const Method& b) {
   return a.kind == b.kind && a.resolution == b.resolution &&
-         (a.kind == MethodKind::discrete || (a.order == b.order && a.adapted == b.adapted &&
-                                             (!a.adapted || a.size_ratio == b.size_ratio)));
+         (a.kind == MethodKind::discrete ||
+          (a.order == b.order && a.adapted == b.adapted && a.refined == b.refined &&
+           (!(a.adapted || a.refined) || a.size_ratio == b.size_ratio)));
 }
 
 /// One sweep of the study: a discretisation and the solver path it is run with.
@@ -280,7 +296,7 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
     for (int e : o.continuum_elements) {
       if (order != WlcExpansion::order2 && e > o.full_law_max_elements) continue;
       add(MethodKind::continuum, e, order, 0);
-      if (order == WlcExpansion::order2 && e <= o.spread_max_resolution)
+      if (e <= o.spread_max_resolution)
         for (unsigned s : o.spread_seeds) add(MethodKind::continuum, e, order, s);
     }
   // The adapted mesh: every seed in full (no mirror to use).
@@ -293,6 +309,19 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
           m.size_ratio = ratio;
           add_one(m, Symmetry::none);
         }
+  // The refined mesh: as the uniform meshes (its default orientation keeps their mirrors).
+  for (double ratio : o.refined_size_ratios)
+    for (WlcExpansion order : o.refined_orders)
+      for (int e : o.refined_elements) {
+        Method m{MethodKind::continuum, e, order, 0};
+        m.refined = true;
+        m.size_ratio = ratio;
+        for (Symmetry sym : o.symmetries) add_one(m, sym);
+        for (unsigned s : o.spread_seeds) {
+          m.rotation_seed = s;
+          add_one(m, Symmetry::none);
+        }
+      }
   // The reference size is also a table entry (default mesh, default tolerance), then the
   // reference sweeps at their own tolerance.
   add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, 0);
@@ -400,6 +429,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
   std::sort(st.rows.begin(), st.rows.end(), [](const AccuracyRow& a, const AccuracyRow& b) {
     if (a.method.kind != b.method.kind) return a.method.kind < b.method.kind;
     if (a.method.adapted != b.method.adapted) return b.method.adapted;
+    if (a.method.refined != b.method.refined) return b.method.refined;
     if (a.method.size_ratio != b.method.size_ratio)
       return a.method.size_ratio < b.method.size_ratio;
     if (a.method.order != b.method.order)
@@ -412,7 +442,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     auto find = [&](int e) -> const MethodRun* {
       for (const auto& s : st.runs)
         if (s.run.method.kind == MethodKind::continuum && !s.run.method.adapted &&
-            s.run.method.order == order && s.run.method.resolution == e &&
+            !s.run.method.refined && s.run.method.order == order && s.run.method.resolution == e &&
             s.run.method.rotation_seed == 0 && s.run.symmetry == Symmetry::none &&
             s.run.points.size() == nf && s.run.all_converged())
           return &s.run;
@@ -554,31 +584,43 @@ std::vector<double> accuracy_cost_row(const AccuracyStudy& st, const AccuracyRow
 
 /// The adapted mesh's rows and sweeps (AccuracyStudyOptions::adapted_elements), beside the
 /// table: the same columns as accuracy_cost.csv, accuracy_by_force.csv and convergence.csv
-/// with the size ratio appended, their observed orders and their Richardson chains.
+/// with the size ratio appended, their observed orders and their Richardson chains. With
+/// `refined`, the refined mesh's (AccuracyStudyOptions::refined_elements) to the *_refined
+/// files: convergence and observed orders from the full path only (the mirror path has the
+/// same mesh), no Richardson chains (its sizes are not nested).
 void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>& rows,
                         const std::vector<const StudyRun*>& runs, const std::string& dir,
-                        const std::string& refline) {
+                        const std::string& refline, bool refined = false) {
   const auto& o = st.options;
+  const std::string kind = refined ? "refined" : "adapted";
   const std::string mesh_line =
-      "continuum model on the adapted mesh (rbc stretch --mesh adapted --contact-load "
-      "exact-contact --measure quadric-fit; continuum/adapted_mesh.hpp): resolution = "
-      "requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = mesh seeds "
-      "0 .. rotations-1 (--mesh-seed: another triangulation of the same size field, the "
-      "analogue of the icosphere's rotations); full problem only (symmetry 0)";
+      refined ? "continuum model on the refined mesh (rbc stretch --mesh refined --contact-load "
+                "exact-contact --measure quadric-fit; continuum/refined_mesh.hpp): resolution "
+                "= requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = "
+                "the default orientation and the turned coarse icospheres (--mesh-seed), as the "
+                "table's; symmetry 0 full problem, 1 --symmetry mirror"
+              : "continuum model on the adapted mesh (rbc stretch --mesh adapted --contact-load "
+                "exact-contact --measure quadric-fit; continuum/adapted_mesh.hpp): resolution = "
+                "requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = "
+                "mesh seeds 0 .. rotations-1 (--mesh-seed: another triangulation of the same "
+                "size field, the analogue of the icosphere's rotations); full problem only "
+                "(symmetry 0)";
   CsvTable t;
   t.comments = {
-      "accuracy against cost over the forces of the study (pN), adapted-mesh rows; the "
-      "columns of accuracy_cost.csv and size_ratio",
+      "accuracy against cost over the forces of the study (pN), " + kind +
+          "-mesh rows; the columns of accuracy_cost.csv and size_ratio",
       mesh_line, refline,
       "error = largest relative error of D_A and D_T against the reference (fraction, not %), "
-      "worst over the mesh seeds; error_default = seed 0's alone, all forces",
+      "worst over the " +
+          std::string(refined ? "rotations" : "mesh seeds") + "; error_default = " +
+          (refined ? "the default orientation's" : "seed 0's") + " alone, all forces",
       "cost_eg = process CPU of the whole sweep (mesh generation excluded, as the table's "
       "set-up) / CPU of one energy+gradient evaluation of the discrete network with " +
           std::to_string(o.cost_unit_vertices) + " requested vertices, in the same process"};
   t.header = accuracy_cost_header();
   t.header.push_back("size_ratio");
   CsvTable bf;
-  bf.comments = {"per-force relative errors of accuracy_cost_adapted.csv's rows (same order)",
+  bf.comments = {"per-force relative errors of accuracy_cost_" + kind + ".csv's rows (same order)",
                  mesh_line, refline};
   bf.header = {"kind",     "order", "resolution",   "converged", "cost_eg",
                "force_pN", "error", "reference_se", "symmetry",  "size_ratio"};
@@ -591,10 +633,11 @@ void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>&
                          r.converged ? 1.0 : 0.0, r.cost_eg, o.forces_pN[k], r.error_by_force[k],
                          st.reference_relative_se, symmetry_code(r.symmetry), r.method.size_ratio});
   }
-  write_csv(dir + "/accuracy_cost_adapted.csv", t);
-  write_csv(dir + "/accuracy_by_force_adapted.csv", bf);
+  write_csv(dir + "/accuracy_cost_" + kind + ".csv", t);
+  write_csv(dir + "/accuracy_by_force_" + kind + ".csv", bf);
   CsvTable cv;
-  cv.comments = {"every adapted-mesh sweep: diameters (um) per force, rest surface area (um^2)",
+  cv.comments = {"every " + kind + "-mesh sweep" + (refined ? " on the full path" : "") +
+                     ": diameters (um) per force, rest surface area (um^2)",
                  mesh_line,
                  "order: 0 full law, 2, 3, 4; seed: --mesh-seed; setup_s: mesh generation and "
                  "model set-up (s, wall)"};
@@ -602,6 +645,7 @@ void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>&
                "force_pN", "axial_um",   "transverse_um", "converged", "surface_um2", "setup_s"};
   for (const StudyRun* s : runs) {
     const MethodRun& r = s->run;
+    if (refined && r.symmetry != Symmetry::none) continue;
     for (const auto& p : r.points)
       cv.rows.push_back(
           {static_cast<double>(order_code(r.method.order)), r.method.size_ratio,
@@ -609,18 +653,18 @@ void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>&
            static_cast<double>(r.vertices), static_cast<double>(r.elements), p.force_pN, p.axial_um,
            p.transverse_um, p.converged ? 1.0 : 0.0, r.surface_um2, r.setup_s});
   }
-  write_csv(dir + "/convergence_adapted.csv", cv);
+  write_csv(dir + "/convergence_" + kind + ".csv", cv);
   // Observed order per law and size ratio, as orders.csv (errors above twice the reference sd).
   CsvTable oc;
   oc.comments = {
-      "observed order p of error ~ h^p (h ~ N^-1/2, N vertices) of the adapted rows, "
-      "least squares over the rows with error_all > 2 x reference sd; order 0 full, "
-      "2, 3, 4"};
+      "observed order p of error ~ h^p (h ~ N^-1/2, N vertices) of the " + kind + " rows" +
+      (refined ? " (full path)" : "") +
+      ", least squares over the rows with error_all > 2 x reference sd; order 0 full, 2, 3, 4"};
   oc.header = {"order",         "size_ratio", "points", "smallest_vertices", "largest_vertices",
                "observed_order"};
   std::map<std::pair<int, double>, std::pair<std::vector<double>, std::vector<double>>> fits;
   for (const auto& r : rows)
-    if (r.converged && r.error_all > 2 * st.reference_relative_sd) {
+    if (r.converged && r.error_all > 2 * st.reference_relative_sd && r.symmetry == Symmetry::none) {
       auto& f = fits[{order_code(r.method.order), r.method.size_ratio}];
       f.first.push_back(r.vertices);
       f.second.push_back(r.error_all);
@@ -630,7 +674,8 @@ void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>&
         {static_cast<double>(key.first), key.second, static_cast<double>(f.first.size()),
          *std::min_element(f.first.begin(), f.first.end()),
          *std::max_element(f.first.begin(), f.first.end()), observed_order(f.first, f.second)});
-  write_csv(dir + "/orders_adapted.csv", oc);
+  write_csv(dir + "/orders_" + kind + ".csv", oc);
+  if (refined) return;
   CsvTable rc;
   rc.comments = {
       "Richardson extrapolation of the adapted chains (requested elements e, 2e, 4e: "
@@ -666,10 +711,16 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   const auto& o = st.options;
   // The table's own files hold the uniform meshes' rows and sweeps; the adapted ones go to
   // the *_adapted files (write_adapted_rows).
-  std::vector<AccuracyRow> table_rows, adapted_rows;
-  for (const auto& r : st.rows) (r.method.adapted ? adapted_rows : table_rows).push_back(r);
-  std::vector<const StudyRun*> table_runs, adapted_runs;
-  for (const auto& s : st.runs) (s.run.method.adapted ? adapted_runs : table_runs).push_back(&s);
+  // The refined ones to the *_refined files.
+  std::vector<AccuracyRow> table_rows, adapted_rows, refined_rows;
+  for (const auto& r : st.rows)
+    (r.method.adapted ? adapted_rows : r.method.refined ? refined_rows : table_rows).push_back(r);
+  std::vector<const StudyRun*> table_runs, adapted_runs, refined_runs;
+  for (const auto& s : st.runs)
+    (s.run.method.adapted   ? adapted_runs
+     : s.run.method.refined ? refined_runs
+                            : table_runs)
+        .push_back(&s);
   std::ostringstream refline;
   refline << "reference: discrete network at the full spectrin level (" << o.reference_vertices
           << " requested vertices), mean over " << o.reference_seeds.size()
@@ -860,6 +911,8 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
     render_plot(spec, dir, by_cost ? "accuracy_cost" : "accuracy_resolution");
   }
   if (!adapted_rows.empty()) write_adapted_rows(st, adapted_rows, adapted_runs, dir, refline.str());
+  if (!refined_rows.empty())
+    write_adapted_rows(st, refined_rows, refined_runs, dir, refline.str(), true);
 }
 
 AccuracyCostTable load_accuracy_cost(const std::string& path) {

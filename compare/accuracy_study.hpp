@@ -36,6 +36,17 @@ struct AccuracyStudyOptions {
   std::vector<WlcExpansion> adapted_orders = {WlcExpansion::full};
   std::vector<double> adapted_size_ratios = {2.0};
   int adapted_seeds = 4;  ///< in [1, 64]
+  /// Continuum rows on the refined mesh (Method::refined: the icosphere refined towards the
+  /// scene by red-green refinement, keeping its mirrors; exact contact load, quadric-fit
+  /// diameters): requested element counts (empty = none), each run with every law of
+  /// refined_orders and every size ratio of refined_size_ratios. Swept as the uniform
+  /// meshes are: the default orientation once per solver path of `symmetries`, and the
+  /// rotations spread_seeds (the coarse icosphere turned) in full; a row's errors are the
+  /// worst over them. Their rows are written beside the table's (accuracy_cost_refined.csv),
+  /// not into it.
+  std::vector<int> refined_elements;
+  std::vector<WlcExpansion> refined_orders = {WlcExpansion::full};
+  std::vector<double> refined_size_ratios = {2.0, 3.0};
   /// The reference: the discrete model at the full spectrin level (N ~ 27,500, i.e. the
   /// icosphere with 27,042 vertices) on each of these triangulation rotations
   /// (RestShapeOptions::rotation_seed; 0 = the default orientation).
@@ -181,7 +192,9 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& options,
 /// Rows and sweeps of the adapted mesh go to their own files only, when there are any:
 /// accuracy_cost_adapted.csv and accuracy_by_force_adapted.csv (the columns of the table's
 /// files and size_ratio), convergence_adapted.csv, orders_adapted.csv and
-/// richardson_adapted.csv.
+/// richardson_adapted.csv. Rows and sweeps of the refined mesh likewise go to
+/// accuracy_cost_refined.csv, accuracy_by_force_refined.csv, convergence_refined.csv (the full
+/// sweeps) and orders_refined.csv (the full path's rows).
 void write_accuracy_study(const AccuracyStudy& study, const std::string& dir);
 
 /// Cost ratios below this count as a tie in the verdicts: CPU-time costs of the same sweep

@@ -13,6 +13,7 @@
 
 #include "continuum/adapted_mesh.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "continuum/refined_mesh.hpp"
 #include "core/geometry.hpp"
 #include "core/rest_shape.hpp"
 #include "core/validation.hpp"
@@ -24,11 +25,11 @@ namespace rbc {
 std::string Method::name() const {
   const std::string rotated = rotation_seed ? "_r" + std::to_string(rotation_seed) : "";
   if (kind == MethodKind::discrete) return "discrete_N" + std::to_string(resolution) + rotated;
-  if (adapted) {
+  if (adapted || refined) {
     char ratio[32];
     std::snprintf(ratio, sizeof ratio, "%g", size_ratio);
-    return "continuum_adapted" + std::string(ratio) + "_p" + to_string(order) + "_E" +
-           std::to_string(resolution) + rotated;
+    return std::string(adapted ? "continuum_adapted" : "continuum_refined") + ratio + "_p" +
+           to_string(order) + "_E" + std::to_string(resolution) + rotated;
   }
   return "continuum_p" + to_string(order) + "_E" + std::to_string(resolution) + rotated;
 }
@@ -36,11 +37,11 @@ std::string Method::name() const {
 std::string Method::label() const {
   if (kind == MethodKind::discrete)
     return "microscopic model (N = " + std::to_string(resolution) + ")";
-  if (adapted) {
+  if (adapted || refined) {
     std::ostringstream ratio;
     ratio << size_ratio;
-    return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) +
-           " elements, adapted mesh, ratio " + ratio.str() + ")";
+    return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) + " elements, " +
+           (adapted ? "adapted" : "refined") + " mesh, ratio " + ratio.str() + ")";
   }
   return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) + " elements)";
 }
@@ -67,9 +68,11 @@ Method parse_method(const std::string& text) {
     m.resolution = number(parts[2]);
     return m;
   }
-  if ((parts.size() == 3 || parts.size() == 4) && parts[0] == "continuum-adapted") {
+  if ((parts.size() == 3 || parts.size() == 4) &&
+      (parts[0] == "continuum-adapted" || parts[0] == "continuum-refined")) {
     m.kind = MethodKind::continuum;
-    m.adapted = true;
+    m.adapted = parts[0] == "continuum-adapted";
+    m.refined = !m.adapted;
     try {
       m.order = wlc_expansion_from_string(parts[1]);
     } catch (const std::invalid_argument& e) {
@@ -90,8 +93,9 @@ Method parse_method(const std::string& text) {
     return m;
   }
   throw std::invalid_argument("method '" + text +
-                              "' is not of the form discrete:N, continuum:ORDER:ELEMENTS or "
-                              "continuum-adapted:ORDER:ELEMENTS[:RATIO]");
+                              "' is not of the form discrete:N, continuum:ORDER:ELEMENTS, "
+                              "continuum-adapted:ORDER:ELEMENTS[:RATIO] or "
+                              "continuum-refined:ORDER:ELEMENTS[:RATIO]");
 }
 
 bool MethodRun::all_converged() const {
@@ -197,6 +201,14 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
     ao.contact_fraction = p.tweezers.contact_fraction;
     ao.validate();
     mesh = make_adapted_mesh(ao);
+  } else if (m.refined) {
+    RefinedMeshOptions ro;
+    ro.target_elements = m.resolution;
+    ro.size_ratio = m.size_ratio;
+    ro.seed = m.rotation_seed;
+    ro.contact_fraction = p.tweezers.contact_fraction;
+    ro.validate();
+    mesh = make_refined_mesh(ro);
   } else {
     mesh = make_continuum_mesh(m.resolution, m.rotation_seed);
   }
@@ -219,7 +231,7 @@ MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
   const double cpu0 = process_cpu_seconds();
   ContinuumOptions co;
   co.newton.symmetry = ro.symmetry;
-  if (m.adapted) {  // the load and the measure that do not snap to the mesh
+  if (m.adapted || m.refined) {  // the load and the measure that do not snap to the mesh
     co.load = ContinuumLoad::exact_contact;
     co.exact_contact_fraction = p.tweezers.contact_fraction;
     co.measure = ContinuumMeasure::quadric_fit;

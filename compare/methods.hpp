@@ -29,9 +29,18 @@ struct Method {
   /// (ContinuumLoad::exact_contact, ContinuumMeasure::quadric_fit), as
   /// `rbc stretch --mesh adapted --contact-load exact-contact --measure quadric-fit`.
   bool adapted = false;
-  double size_ratio = 2.0;  ///< adapted only: AdaptedMeshOptions::size_ratio, in [1, 10]
-  /// Short stable name, e.g. "discrete_N2000", "continuum_p2_E4000" or
-  /// "continuum_adapted2_pfull_E2000" (+ "_r3" if rotated or seeded 3).
+  /// Continuum only: the icosphere refined towards the scene by red-green refinement
+  /// (continuum/refined_mesh.hpp, about `resolution` triangles, coarse / fine edge length
+  /// `size_ratio`; rotation_seed turns the coarse icosphere), run with the exact contact load
+  /// and the quadric-fit diameters, as `rbc stretch --mesh refined --contact-load exact-contact
+  /// --measure quadric-fit`. It keeps the icosphere's mirrors (seed 0).
+  bool refined = false;
+  /// adapted or refined only: AdaptedMeshOptions::size_ratio or RefinedMeshOptions::size_ratio,
+  /// in [1, 10]
+  double size_ratio = 2.0;
+  /// Short stable name, e.g. "discrete_N2000", "continuum_p2_E4000",
+  /// "continuum_adapted2_pfull_E2000" or "continuum_refined3_pfull_E1700" (+ "_r3" if rotated
+  /// or seeded 3).
   std::string name() const;
   /// Legend label, e.g. "microscopic model (N = 2000)".
   std::string label() const;
@@ -39,7 +48,8 @@ struct Method {
 
 /// Parses "discrete:N", "continuum:ORDER:ELEMENTS" (ORDER 2, 3, 4 or full) or
 /// "continuum-adapted:ORDER:ELEMENTS[:RATIO]" (the adapted mesh, size ratio RATIO in [1, 10],
-/// default 2). Throws std::invalid_argument naming the text.
+/// default 2) or "continuum-refined:ORDER:ELEMENTS[:RATIO]" (the refined mesh, the same).
+/// Throws std::invalid_argument naming the text.
 Method parse_method(const std::string& text);
 
 struct CurvePoint {

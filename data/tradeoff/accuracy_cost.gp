@@ -3,7 +3,7 @@ if (!exists('rbc_output')) rbc_output = 'accuracy_cost.png'
 set output rbc_output
 set datafile separator ','
 set datafile commentschars '#'
-set title 'Accuracy against cost, 13 Mills forces'
+set title 'Accuracy against cost, 13 forces of 0-193 pN'
 set xlabel 'cost (energy+gradient evaluations of the N = 1,002 network)'
 set ylabel 'largest relative error of D_{A}, D_{T} (%)'
 set key below center horizontal
