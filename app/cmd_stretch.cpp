@@ -559,11 +559,11 @@ int run_continuum(const StretchCli& o) {
 /// --accuracy P%: sets model, resolution, order and (unless --symmetry was given, which then
 /// restricts the choice to its rows) the solver path from the trade-off table, before any
 /// work; refusals (std::invalid_argument -> exit 2) name the reason in one line.
-/// The table includes the continuum rows on the adapted mesh (accuracy_by_force_adapted.csv),
-/// measured with the exact contact load and the quadric-fit diameters: a choice of one sets
-/// --mesh adapted, its --mesh-size-ratio, --contact-load exact-contact and --measure
-/// quadric-fit; with --contact-load or --measure given (`load_or_measure_given`) they are left
-/// out of the choice.
+/// The table includes the continuum rows on the adapted and the refined meshes
+/// (accuracy_by_force_adapted.csv, accuracy_by_force_refined.csv), measured with the exact
+/// contact load and the quadric-fit diameters: a choice of one sets --mesh adapted or refined,
+/// its --mesh-size-ratio, --contact-load exact-contact and --measure quadric-fit; with
+/// --contact-load or --measure given (`load_or_measure_given`) they are left out of the choice.
 void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bool symmetry_given,
                            bool load_or_measure_given) {
   const double percent = parse_accuracy_percent(o.accuracy);
@@ -579,7 +579,8 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bo
                                 e.what());
   }
   if (load_or_measure_given)
-    std::erase_if(table.entries, [](const AccuracyEntry& e) { return e.method.adapted; });
+    std::erase_if(table.entries,
+                  [](const AccuracyEntry& e) { return e.method.adapted || e.method.refined; });
   const AccuracyChoice ch = choose_by_accuracy(
       table, forces, percent, symmetry_given ? std::optional<Symmetry>(o.symmetry) : std::nullopt);
   const Method& m = ch.chosen.method;
@@ -589,8 +590,8 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bo
     o.vertices = m.resolution;
   else
     o.elements = m.resolution, o.order = m.order;
-  if (m.adapted) {
-    o.mesh = ContinuumMesh::adapted;
+  if (m.adapted || m.refined) {
+    o.mesh = m.adapted ? ContinuumMesh::adapted : ContinuumMesh::refined;
     o.mesh_size_ratio = m.size_ratio;
     o.contact_load = ContinuumLoad::exact_contact;
     o.measure = ContinuumMeasure::quadric_fit;

@@ -57,9 +57,13 @@ std::string default_accuracy_table_path() {
 
 namespace {
 
-/// Reads the rows of accuracy_by_force.csv (adapted = false) or accuracy_by_force_adapted.csv
-/// (adapted = true: the columns symmetry and size_ratio required) into `table`.
-void read_accuracy_rows(const std::string& path, bool adapted, AccuracyTable& table) {
+/// Which mesh a file's continuum rows were run on.
+enum class RowMesh { uniform, adapted, refined };
+
+/// Reads the rows of accuracy_by_force.csv (RowMesh::uniform), accuracy_by_force_adapted.csv or
+/// accuracy_by_force_refined.csv (the columns symmetry and size_ratio required) into `table`.
+void read_accuracy_rows(const std::string& path, RowMesh mesh, AccuracyTable& table) {
+  const bool adapted = mesh != RowMesh::uniform;  // a graded mesh: size_ratio column
   const CsvTable t = read_csv(path);
   // The symmetry column came with the mirror rows; a table without it is all Symmetry::none.
   std::vector<std::string> expected = {"kind",    "order",    "resolution", "converged",
@@ -95,16 +99,18 @@ void read_accuracy_rows(const std::string& path, bool adapted, AccuracyTable& ta
     if (adapted) {
       if (m.kind != MethodKind::continuum || !(r[9] >= 1 && r[9] <= 10))
         throw std::runtime_error(where +
-                                 ": adapted rows are continuum (kind 1) with size_ratio in "
+                                 ": graded-mesh rows are continuum (kind 1) with size_ratio in "
                                  "[1, 10]");
-      m.adapted = true;
+      m.adapted = mesh == RowMesh::adapted;
+      m.refined = mesh == RowMesh::refined;
       m.size_ratio = r[9];
     }
     table.reference_relative_se = std::max(table.reference_relative_se, r[7]);
     auto is_this = [&](const AccuracyEntry& e) {
       return e.method.kind == m.kind && e.method.order == m.order &&
              e.method.resolution == m.resolution && e.symmetry == symmetry &&
-             e.method.adapted == m.adapted && e.method.size_ratio == m.size_ratio;
+             e.method.adapted == m.adapted && e.method.refined == m.refined &&
+             e.method.size_ratio == m.size_ratio;
     };
     if (table.entries.size() == first || !is_this(table.entries.back())) {
       for (size_t j = first; j < table.entries.size(); ++j)
@@ -128,23 +134,25 @@ void read_accuracy_rows(const std::string& path, bool adapted, AccuracyTable& ta
 AccuracyTable load_accuracy_table(const std::string& path) {
   AccuracyTable table;
   table.source = path;
-  read_accuracy_rows(path, false, table);
+  read_accuracy_rows(path, RowMesh::uniform, table);
   return table;
 }
 
 AccuracyTable load_accuracy_table_with_adapted(const std::string& path) {
   AccuracyTable table = load_accuracy_table(path);
-  const std::string adapted =
-      (std::filesystem::path(path).parent_path() / "accuracy_by_force_adapted.csv").string();
-  if (!std::filesystem::exists(adapted)) return table;
   const double se = table.reference_relative_se;
-  table.reference_relative_se = 0;
-  read_accuracy_rows(adapted, true, table);
-  if (std::abs(table.reference_relative_se - se) > 1e-9 * std::max(se, 1e-12))
-    throw std::runtime_error(adapted + ": its reference_se differs from " + path +
-                             "'s: the two files are not of the same table");
-  table.reference_relative_se = se;
-  table.source = path + " and " + adapted;
+  for (const auto& [name, mesh] : {std::pair{"accuracy_by_force_adapted.csv", RowMesh::adapted},
+                                   std::pair{"accuracy_by_force_refined.csv", RowMesh::refined}}) {
+    const std::string file = (std::filesystem::path(path).parent_path() / name).string();
+    if (!std::filesystem::exists(file)) continue;
+    table.reference_relative_se = 0;
+    read_accuracy_rows(file, mesh, table);
+    if (std::abs(table.reference_relative_se - se) > 1e-9 * std::max(se, 1e-12))
+      throw std::runtime_error(file + ": its reference_se differs from " + path +
+                               "'s: the two files are not of the same table");
+    table.reference_relative_se = se;
+    table.source += " and " + file;
+  }
   return table;
 }
 

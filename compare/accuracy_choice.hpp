@@ -34,10 +34,11 @@ struct AccuracyTable {
 /// missing, malformed, or its rows are not grouped by method with increasing forces.
 AccuracyTable load_accuracy_table(const std::string& path);
 
-/// load_accuracy_table and, when accuracy_by_force_adapted.csv lies beside `path` (the rows of
-/// the continuum model on the adapted mesh, AccuracyStudyOptions::adapted_elements: the same
-/// columns and size_ratio), its entries too (Method::adapted). Throws std::runtime_error as
-/// load_accuracy_table, or if the two files' reference_se differ.
+/// load_accuracy_table and, when accuracy_by_force_adapted.csv or accuracy_by_force_refined.csv
+/// lie beside `path` (the rows of the continuum model on the adapted or the refined mesh,
+/// AccuracyStudyOptions::adapted_elements and refined_elements: the same columns and
+/// size_ratio), their entries too (Method::adapted, Method::refined). Throws std::runtime_error
+/// as load_accuracy_table, or if a file's reference_se differs from the table's.
 AccuracyTable load_accuracy_table_with_adapted(const std::string& path);
 
 /// Default table: <data directory>/tradeoff/accuracy_by_force.csv.

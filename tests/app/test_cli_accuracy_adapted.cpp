@@ -126,28 +126,33 @@ TEST(AccuracyTableAdapted, RowsAreTheStretchRunsWorstOverTheMeshSeeds) {
   }
 }
 
-// `rbc stretch --accuracy P%` chooses among the committed table's rows and the adapted rows
-// beside it: the cheapest entry whose error at the force plus the reference's standard error
-// meets P, computed here from the two CSV files; an adapted choice runs on the adapted mesh
-// with the exact contact load and the quadric fit (the diameters of the table's sweep).
+// `rbc stretch --accuracy P%` chooses among the committed table's rows and the adapted and
+// refined rows beside it: the cheapest entry whose error at the force plus the reference's
+// standard error meets P, computed here from the three CSV files; a graded-mesh choice runs on
+// its mesh with the exact contact load and the quadric fit (the diameters of the table's sweep).
 TEST(AccuracyTableAdapted, StretchAccuracyChoosesAmongTheAdaptedRows) {
   const std::string data = std::string(RBC_SOURCE_DIR) + "/data/tradeoff/";
   struct Entry {
     std::string spec;
     double cost = 0, error = 0;
     int resolution = 0;
-    bool adapted = false;
+    bool adapted = false;  // a graded mesh: adapted or refined
+    std::string mesh = "uniform";
+    double size_ratio = 0;
   };
   std::vector<Entry> entries;
   double se = 0;
-  for (const bool adapted : {false, true}) {
-    const CsvTable t =
-        read_csv(data + (adapted ? "accuracy_by_force_adapted.csv" : "accuracy_by_force.csv"));
+  for (const std::string mesh : {"uniform", "adapted", "refined"}) {
+    const bool adapted = mesh != "uniform";
+    const CsvTable t = read_csv(data + (adapted ? "accuracy_by_force_" + mesh + ".csv"
+                                                : std::string("accuracy_by_force.csv")));
     for (const auto& q : t.rows) {
       if (q[column(t, "force_pN")] != 193 || q[column(t, "converged")] != 1) continue;
       se = q[column(t, "reference_se")];
       Entry e;
       e.adapted = adapted;
+      e.mesh = mesh;
+      if (adapted) e.size_ratio = q[column(t, "size_ratio")];
       e.resolution = static_cast<int>(q[column(t, "resolution")]);
       e.cost = q[column(t, "cost_eg")];
       e.error = q[column(t, "error")];
@@ -158,7 +163,7 @@ TEST(AccuracyTableAdapted, StretchAccuracyChoosesAmongTheAdaptedRows) {
       else if (!adapted)
         e.spec = "continuum:" + law + ":" + std::to_string(e.resolution);
       else
-        e.spec = "continuum-adapted:" + law + ":" + std::to_string(e.resolution) + ":" +
+        e.spec = "continuum-" + mesh + ":" + law + ":" + std::to_string(e.resolution) + ":" +
                  std::to_string(static_cast<int>(q[column(t, "size_ratio")]));
       entries.push_back(e);
     }
@@ -173,7 +178,7 @@ TEST(AccuracyTableAdapted, StretchAccuracyChoosesAmongTheAdaptedRows) {
   };
   const Entry* expected = cheapest(0.3, true);
   ASSERT_NE(expected, nullptr);
-  ASSERT_TRUE(expected->adapted) << "the committed table does not choose an adapted row at "
+  ASSERT_TRUE(expected->adapted) << "the committed table does not choose a graded-mesh row at "
                                     "193 pN and 0.3 %: "
                                  << expected->spec;
 
@@ -182,11 +187,12 @@ TEST(AccuracyTableAdapted, StretchAccuracyChoosesAmongTheAdaptedRows) {
   const json point = json::parse(r.out).at("points").at(0);
   EXPECT_EQ(point.at("accuracy_choice").at("chosen").at("method"), expected->spec);
   // The run is the table's seed-0 sweep at 193 pN (its mesh and its diameters).
-  const CsvTable conv = read_csv(data + "convergence_adapted.csv");
+  const CsvTable conv = read_csv(data + "convergence_" + expected->mesh + ".csv");
   bool found = false;
   for (const auto& c : conv.rows)
     if (c[column(conv, "resolution")] == expected->resolution && c[column(conv, "seed")] == 0 &&
-        c[column(conv, "size_ratio")] == 2 && c[column(conv, "force_pN")] == 193) {
+        c[column(conv, "size_ratio")] == expected->size_ratio &&
+        c[column(conv, "force_pN")] == 193) {
       found = true;
       EXPECT_EQ(point.at("elements").get<double>(), c[column(conv, "elements")]);
       EXPECT_NEAR(point.at("axial_um").get<double>(), c[column(conv, "axial_um")], 1e-5);
