@@ -289,8 +289,8 @@ TEST(RecoverySpread, ArgumentsAreValidated) {
 // ---------------------------------------------------------------------------------------------
 // The command line
 
-const std::string kSmall =
-    "infer --method continuum:2:200 --recovery-elements 200 --seed 3 --force-tolerance 1e-3 ";
+const std::string kStretch = "infer --method continuum:2:200 --seed 3 --force-tolerance 1e-3 ";
+const std::string kSmall = kStretch + "--recovery-elements 200 ";
 
 std::string write_file(const fs::path& dir, const std::string& name, const std::string& text) {
   const fs::path p = dir / name;
@@ -320,11 +320,11 @@ TEST(RecoverySpreadCli, RefusedWithoutRecoveryDataOrViscosity) {
   const fs::path dir = testing::fresh_output_dir("recovery_spread_cli_bad");
   const std::string stretch = stretch_file(dir), cells = cells_file(dir);
   struct Case {
-    std::string args, expect;
+    std::string args, expect, prefix = kSmall;
   };
   const std::vector<Case> cases = {
       {"--params persistence,eta-spread --data-file " + stretch,
-       "rbc: error: --params eta-spread: no recovery data file"},
+       "rbc: error: --params eta-spread: no recovery data file", kStretch},
       {"--params persistence,eta-spread --data-file " + stretch + " --data-file " + cells,
        "rbc: error: --data-file: recovery data need the membrane viscosity inferred; expected "
        "eta-m in --params"},
@@ -335,7 +335,7 @@ TEST(RecoverySpreadCli, RefusedWithoutRecoveryDataOrViscosity) {
   for (const Case& c : cases) {
     const fs::path out = dir / "never";
     fs::remove_all(out);
-    const auto r = testing::run_rbc(kSmall + c.args + " --out " + out.string());
+    const auto r = testing::run_rbc(c.prefix + c.args + " --out " + out.string());
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.all();
     EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << "\n" << r.all();
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
