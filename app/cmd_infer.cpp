@@ -190,6 +190,7 @@ void apply_at(const std::string& text, ForwardParameters& p) {
     case Parameter::sigma_scale:
     case Parameter::eta_m:
     case Parameter::tau:
+    case Parameter::eta_spread:
       throw std::invalid_argument("--at " + to_string(which) +
                                   ": not a stretch forward-model parameter");
   }
@@ -595,12 +596,13 @@ void add_infer_command(CLI::App& app, Action& action) {
                   "inferred parameters from persistence (nm), lmax (nm), kappa (J), "
                   "contact-fraction, sigma-scale, tau (um: the between-experiment sd of a "
                   "per-experiment offset of D_A and of D_T, marginalised; prior 0:1), eta-m "
-                  "(pN s/um, recovery data only)")
+                  "(pN s/um, recovery data only), eta-spread (the between-cell sd of log eta_m, "
+                  "each recovery cell at its own viscosity, integrated out; with eta-m)")
       ->capture_default_str();
   cmd->add_option("--prior", c->priors,
                   "uniform prior NAME=LOWER:UPPER, repeatable (defaults: persistence=2:40, "
                   "lmax=150:300, kappa=5e-20:1e-18, contact-fraction=0.02:0.15, "
-                  "sigma-scale=0.2:3, tau=0:1, eta-m=0.2:2)");
+                  "sigma-scale=0.2:3, tau=0:1, eta-m=0.2:2, eta-spread=0.01:1)");
   cmd->add_option("--extra-uncertainty", c->extra_uncertainty,
                   "uncertainty (um) added in quadrature to every error bar, on top of what the "
                   "data file declares ('# extra_uncertainty_um:'); UM for every data file or "

@@ -279,6 +279,11 @@ InferenceProblem::InferenceProblem(const InferOptions& options) : options_(optio
     options_.recovery_likelihood.validate();
     recovery_model_ = std::make_unique<RecoveryModel>(options_.recovery_model);
   }
+  if (inferred(Parameter::eta_spread) && !recovery)
+    throw std::invalid_argument(
+        "--params eta-spread: no recovery data file; the between-cell spread of the membrane "
+        "viscosity enters only the recovery likelihood (expected a --data-file with columns "
+        "cell,time_s,length_over_width and eta-m in --params)");
   if (inferred(Parameter::eta_m)) {
     if (!recovery)
       throw std::invalid_argument(
@@ -392,6 +397,7 @@ ForwardParameters InferenceProblem::physical(std::span<const double> theta, int 
       case Parameter::sigma_scale:
       case Parameter::eta_m:
       case Parameter::tau:
+      case Parameter::eta_spread:
         break;
     }
   }
@@ -422,6 +428,12 @@ double InferenceProblem::eta_m(std::span<const double> theta) const {
   return 0.0;
 }
 
+double InferenceProblem::eta_spread(std::span<const double> theta) const {
+  for (size_t k = 0; k < slots_.size(); ++k)
+    if (slots_[k].parameter == Parameter::eta_spread) return theta[k];
+  return 0.0;
+}
+
 double InferenceProblem::recovery_log_likelihood(std::span<const double> theta,
                                                  int experiment) const {
   const Experiment& e = experiments_[experiment];
@@ -430,8 +442,12 @@ double InferenceProblem::recovery_log_likelihood(std::span<const double> theta,
                                 std::to_string(experiment) + " holds no recovery data");
   const RecoveryCurve curve = recovery_model_->simulate(physical(theta, experiment));
   if (!curve.converged) return -kInf;
-  const double l =
-      rbc::recovery_log_likelihood(curve, eta_m(theta), *e.recovery, options_.recovery_likelihood);
+  const double spread = eta_spread(theta);
+  const double l = spread != 0
+                       ? recovery_spread_log_likelihood(curve, eta_m(theta), spread, *e.recovery,
+                                                        options_.recovery_likelihood)
+                       : rbc::recovery_log_likelihood(curve, eta_m(theta), *e.recovery,
+                                                      options_.recovery_likelihood);
   return std::isfinite(l) ? l : -kInf;
 }
 

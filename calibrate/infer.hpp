@@ -197,11 +197,15 @@ class InferenceProblem {
   double tau(std::span<const double> theta) const;
   /// The membrane viscosity eta_m (pN s/um) of recovery data; 0 when not inferred.
   double eta_m(std::span<const double> theta) const;
+  /// The between-cell sd of log eta_m (calibrate/recovery_likelihood.hpp, cells with their own
+  /// viscosity); 0 when not inferred (every cell at eta_m).
+  double eta_spread(std::span<const double> theta) const;
   /// The release scene of the recovery experiments; null without recovery data.
   const RecoveryModel* recovery_model() const { return recovery_model_.get(); }
   bool has_recovery() const { return recovery_model_ != nullptr; }
   /// log L of recovery experiment e at theta (a release-scene trajectory, rescaled in time to
-  /// eta_m); -inf when the trajectory or the nuisance fit fails.
+  /// eta_m; with eta-spread inferred, each cell integrated over its own viscosity,
+  /// recovery_spread_log_likelihood); -inf when the trajectory or the nuisance fit fails.
   double recovery_log_likelihood(std::span<const double> theta, int experiment) const;
   /// Model diameters at the first group's forces from a sample's warm state.
   ModelDiameters diameters_from_state(const WarmState& state) const;

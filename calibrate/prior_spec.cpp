@@ -13,7 +13,7 @@ namespace rbc {
 namespace {
 constexpr Parameter kAll[kParameterCount] = {
     Parameter::persistence, Parameter::lmax,  Parameter::kappa, Parameter::contact_fraction,
-    Parameter::sigma_scale, Parameter::eta_m, Parameter::tau};
+    Parameter::sigma_scale, Parameter::eta_m, Parameter::tau,   Parameter::eta_spread};
 /// Spectrin rest link length (nm) the discrete and continuum models keep fixed.
 constexpr double kLbarNm = 75.0;
 
@@ -52,6 +52,8 @@ std::string to_string(Parameter p) {
       return "eta-m";
     case Parameter::tau:
       return "tau";
+    case Parameter::eta_spread:
+      return "eta-spread";
   }
   return "unknown";
 }
@@ -124,6 +126,9 @@ void PriorRange::validate() const {
     case Parameter::tau:
       need(lower >= 0, "between-experiment sd tau must be >= 0 um");
       break;
+    case Parameter::eta_spread:
+      need(lower > 0, "between-cell sd of log eta_m must be > 0");
+      break;
   }
 }
 
@@ -143,6 +148,8 @@ PriorRange default_prior(Parameter p) {
       return {p, 0.2, 2.0};
     case Parameter::tau:
       return {p, 0.0, 1.0};
+    case Parameter::eta_spread:
+      return {p, 0.01, 1.0};
   }
   return {p, 0, 1};
 }

@@ -17,12 +17,14 @@ enum class Parameter {
   sigma_scale,       ///< factor on every error bar (dimensionless)
   eta_m,             ///< membrane viscosity (pN s/um = Pa s um); enters recovery data only
   tau,               ///< between-experiment sd of a per-experiment diameter offset (um)
+  eta_spread,        ///< between-cell sd of log eta_m (dimensionless); recovery data only
 };
-inline constexpr int kParameterCount = 7;
+inline constexpr int kParameterCount = 8;
 
-/// CLI name: "persistence", "lmax", "kappa", "contact-fraction", "sigma-scale", "eta-m", "tau".
+/// CLI name: "persistence", "lmax", "kappa", "contact-fraction", "sigma-scale", "eta-m", "tau",
+/// "eta-spread".
 std::string to_string(Parameter p);
-/// Unit at the CLI: "nm", "nm", "J", "1", "1", "pN s/um", "um".
+/// Unit at the CLI: "nm", "nm", "J", "1", "1", "pN s/um", "um", "1".
 std::string unit_of(Parameter p);
 /// Parses a CLI name; throws std::invalid_argument naming it and listing the known ones.
 Parameter parameter_from_string(const std::string& name);
@@ -36,7 +38,7 @@ struct PriorRange {
   double lower = 0, upper = 0;
   /// Throws std::invalid_argument naming the parameter and the box unless both bounds are
   /// finite, lower < upper and the box is physical (p > 0, Lmax > 75 nm, kappa > 0,
-  /// contact fraction in (0, 0.5), sigma scale > 0, eta_m > 0, tau >= 0).
+  /// contact fraction in (0, 0.5), sigma scale > 0, eta_m > 0, tau >= 0, eta-spread > 0).
   void validate() const;
 };
 
@@ -52,7 +54,12 @@ struct PriorRange {
 ///   eta-m 0.2:2 pN s/um (membrane viscosity; Hochmuth et al. 1979 report 0.6-1 pN s/um,
 ///   i.e. (0.6-1) x 1e-3 dyn s/cm),
 ///   tau 0:1 um (the between-experiment sd of calibrate/likelihood.hpp's hierarchical layer:
-///   uniform from no offset to 1 um, twice the smallest error bar of the bundled stretch data).
+///   uniform from no offset to 1 um, twice the smallest error bar of the bundled stretch data),
+///   eta-spread 0.01:1 (the sd s of log eta_m over recovery cells,
+///   calibrate/recovery_likelihood.hpp: 0.01 is far below what 25 readings of a cell resolve, ~0.05
+///   in log eta, so the lower edge is the shared-eta_m model in effect, while s > 0 keeps the
+///   quadrature's width defined; 1 is a factor e per sd between cells, beyond the factor 1.5 that
+///   the four Hochmuth cells span fitted one by one).
 PriorRange default_prior(Parameter p);
 
 /// Parses "NAME=LOWER:UPPER", e.g. "persistence=3:20" or "kappa=1e-19:5e-19"; throws

@@ -3,6 +3,7 @@
 
 #include <omp.h>
 
+#include <gsl/gsl_integration.h>
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -525,6 +526,20 @@ RecoveryCellFit fit_cell(const CellProblem& c, const RecoveryLikelihoodOptions& 
   return fit;
 }
 
+/// Cell `cell` read on `curve` at rescale s = eta_ref/eta_m.
+CellProblem cell_problem(const RecoveryCurve& curve, double s, const RecoveryCell& cell,
+                         double sigma) {
+  CellProblem c;
+  c.cell = &cell;
+  c.sigma = sigma;
+  for (double t : cell.time_s) {
+    double gp = 0;
+    c.u.push_back(curve.at(t * s, &gp));
+    c.du_ds.push_back(gp * t);
+  }
+  return c;
+}
+
 }  // namespace
 
 RecoveryLikelihood evaluate_recovery_likelihood(const RecoveryCurve& curve, double eta_m,
@@ -541,14 +556,7 @@ RecoveryLikelihood evaluate_recovery_likelihood(const RecoveryCurve& curve, doub
   const double s = curve.eta_ref_pN_s_per_um / eta_m;  // data time t is reference time t s
   double dlog_ds = 0;
   for (const RecoveryCell& cell : data.cells) {
-    CellProblem c;
-    c.cell = &cell;
-    c.sigma = data.sigma_ratio;
-    for (double t : cell.time_s) {
-      double gp = 0;
-      c.u.push_back(curve.at(t * s, &gp));
-      c.du_ds.push_back(gp * t);
-    }
+    const CellProblem c = cell_problem(curve, s, cell, data.sigma_ratio);
     double dterm = 0;
     out.cells.push_back(fit_cell(c, options, dterm));
     out.log_likelihood += out.cells.back().log_term;
@@ -593,19 +601,22 @@ RecoveryGradient recovery_log_likelihood_gradient(const RecoveryModel& model,
   return g;
 }
 
-RecoveryGradientInformation recovery_gradient_and_information(
-    const RecoveryModel& model, const ForwardParameters& p, double eta_m, const RecoveryData& data,
-    const RecoveryLikelihoodOptions& options, const std::array<bool, 3>& differentiate,
-    double relative_step) {
-  require_finite_in_range("relative step", "", relative_step, 0, 0.1);
-  options.validate();
-  require_finite_in_range("membrane viscosity", "pN s/um", eta_m, 0, kUnbounded);
+namespace {
+
+/// The trajectories of a gradient: the centre, then (lo, hi) per differentiated parameter among
+/// (p, Lmax, kappa), each on one thread of the calling thread's OpenMP team.
+struct DifferenceRuns {
+  std::vector<RecoveryCurve> curves;
+  std::vector<int> which;  ///< parameter index (0..2) of each pair
+  std::vector<double> steps;
+};
+
+DifferenceRuns difference_runs(const RecoveryModel& model, const ForwardParameters& p,
+                               const std::array<bool, 3>& differentiate, double relative_step) {
   double ForwardParameters::*const fields[3] = {
       &ForwardParameters::persistence_nm, &ForwardParameters::lmax_nm, &ForwardParameters::kappa_J};
-  // The trajectories: the centre, then (lo, hi) per differentiated parameter.
+  DifferenceRuns out;
   std::vector<ForwardParameters> runs{p};
-  std::vector<int> which;  // parameter index (0..2) of each pair
-  std::vector<double> steps;
   for (int k = 0; k < 3; ++k) {
     if (!differentiate[k]) continue;
     const double h = relative_step * p.*fields[k];
@@ -614,17 +625,60 @@ RecoveryGradientInformation recovery_gradient_and_information(
     hi.*fields[k] += h;
     runs.push_back(lo);
     runs.push_back(hi);
-    which.push_back(k);
-    steps.push_back(h);
+    out.which.push_back(k);
+    out.steps.push_back(h);
   }
   const int nr = static_cast<int>(runs.size());
-  std::vector<RecoveryCurve> curves(nr);
+  out.curves.resize(nr);
   // Each simulate() runs its solvers on one thread (its own scope), so the curves do not depend
   // on how the runs are spread over the team.
 #pragma omp parallel for schedule(dynamic, 1)
-  for (int i = 0; i < nr; ++i) curves[i] = model.simulate(runs[i]);
+  for (int i = 0; i < nr; ++i) out.curves[i] = model.simulate(runs[i]);
+  return out;
+}
+
+/// One cell's Gauss-Newton information in (eta_m, p, Lmax, kappa) at eta_m with its nuisances
+/// at `fit` (the Schur complement of recovery_gradient_and_information).
+Eigen::Matrix4d cell_information(const DifferenceRuns& r, double eta_m, const RecoveryCell& cell,
+                                 const RecoveryCellFit& fit, double sigma) {
+  const double s = r.curves[0].eta_ref_pN_s_per_um / eta_m;
+  const double w = 1 / (sigma * sigma);
+  const double a = fit.lambda_inf, r0 = fit.r0;
+  const int n = static_cast<int>(cell.time_s.size());
+  Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n, 4), jn(n, 2);
+  for (int i = 0; i < n; ++i) {
+    const double t = cell.time_s[i];
+    double gp = 0;
+    const double u = r.curves[0].at(t * s, &gp), x = r0 * u;
+    const double dlam_du = a * h1(x) * r0;
+    jn(i, 0) = h0(x);
+    jn(i, 1) = a * h1(x) * u;
+    jt(i, 0) = dlam_du * gp * t * (-s / eta_m);
+    for (size_t j = 0; j < r.which.size(); ++j) {
+      const double du =
+          (r.curves[2 + 2 * j].at(t * s) - r.curves[1 + 2 * j].at(t * s)) / (2 * r.steps[j]);
+      jt(i, 1 + r.which[j]) = dlam_du * du;
+    }
+  }
+  const Eigen::Matrix4d tt = w * jt.transpose() * jt;
+  const Eigen::Matrix<double, 4, 2> tn = w * jt.transpose() * jn;
+  const Eigen::Matrix2d nn = w * jn.transpose() * jn;
+  return tt - tn * nn.ldlt().solve(tn.transpose());
+}
+
+}  // namespace
+
+RecoveryGradientInformation recovery_gradient_and_information(
+    const RecoveryModel& model, const ForwardParameters& p, double eta_m, const RecoveryData& data,
+    const RecoveryLikelihoodOptions& options, const std::array<bool, 3>& differentiate,
+    double relative_step) {
+  require_finite_in_range("relative step", "", relative_step, 0, 0.1);
+  options.validate();
+  require_finite_in_range("membrane viscosity", "pN s/um", eta_m, 0, kUnbounded);
+  const DifferenceRuns runs = difference_runs(model, p, differentiate, relative_step);
+  const std::vector<RecoveryCurve>& curves = runs.curves;
   RecoveryGradientInformation out;
-  out.trajectories = nr;
+  out.trajectories = static_cast<int>(curves.size());
   RecoveryGradient& g = out.gradient;
   const RecoveryLikelihood centre = evaluate_recovery_likelihood(curves[0], eta_m, data, options);
   g.log_likelihood = centre.log_likelihood;
@@ -632,40 +686,257 @@ RecoveryGradientInformation recovery_gradient_and_information(
   g.converged = std::isfinite(centre.log_likelihood);
   if (!g.converged) return out;
   double* const slots[3] = {&g.d_persistence_per_nm, &g.d_lmax_per_nm, &g.d_kappa_per_J};
-  for (size_t j = 0; j < which.size(); ++j) {
+  for (size_t j = 0; j < runs.which.size(); ++j) {
     const double llo = recovery_log_likelihood(curves[1 + 2 * j], eta_m, data, options);
     const double lhi = recovery_log_likelihood(curves[2 + 2 * j], eta_m, data, options);
     if (!std::isfinite(llo) || !std::isfinite(lhi)) g.converged = false;
-    *slots[which[j]] = (lhi - llo) / (2 * steps[j]);
+    *slots[runs.which[j]] = (lhi - llo) / (2 * runs.steps[j]);
   }
   if (!g.converged) return out;
   // Gauss-Newton information, cell by cell at the nuisances' conditional mode.
-  const double s = curves[0].eta_ref_pN_s_per_um / eta_m;
-  const double w = 1 / (data.sigma_ratio * data.sigma_ratio);
-  for (size_t c = 0; c < data.cells.size(); ++c) {
-    const RecoveryCell& cell = data.cells[c];
-    const RecoveryCellFit& fit = centre.cells[c];
-    const double a = fit.lambda_inf, r0 = fit.r0;
-    const int n = static_cast<int>(cell.time_s.size());
-    Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n, 4), jn(n, 2);
-    for (int i = 0; i < n; ++i) {
-      const double t = cell.time_s[i];
-      double gp = 0;
-      const double u = curves[0].at(t * s, &gp), x = r0 * u;
-      const double dlam_du = a * h1(x) * r0;
-      jn(i, 0) = h0(x);
-      jn(i, 1) = a * h1(x) * u;
-      jt(i, 0) = dlam_du * gp * t * (-s / eta_m);
-      for (size_t j = 0; j < which.size(); ++j) {
-        const double du =
-            (curves[2 + 2 * j].at(t * s) - curves[1 + 2 * j].at(t * s)) / (2 * steps[j]);
-        jt(i, 1 + which[j]) = dlam_du * du;
-      }
+  for (size_t c = 0; c < data.cells.size(); ++c)
+    out.information +=
+        cell_information(runs, eta_m, data.cells[c], centre.cells[c], data.sigma_ratio);
+  out.information = 0.5 * (out.information + out.information.transpose()).eval();
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cells with their own viscosity
+
+namespace {
+
+/// Gauss-Hermite rule for the weight exp(-z^2/2) (GSL: a = 0, b = 1/2); the weights sum to
+/// sqrt(2 pi).
+struct HermiteRule {
+  std::vector<double> z, w;
+};
+
+HermiteRule hermite_rule(int n) {
+  gsl_integration_fixed_workspace* ws = gsl_integration_fixed_alloc(
+      gsl_integration_fixed_hermite, static_cast<size_t>(n), 0.0, 0.5, 0.0, 0.0);
+  if (!ws) throw std::runtime_error("Gauss-Hermite rule of " + std::to_string(n) + " nodes");
+  HermiteRule r;
+  const double* z = gsl_integration_fixed_nodes(ws);
+  const double* w = gsl_integration_fixed_weights(ws);
+  r.z.assign(z, z + n);
+  r.w.assign(w, w + n);
+  gsl_integration_fixed_free(ws);
+  return r;
+}
+
+/// One cell's term at viscosity eta and its derivative d/d eta (0 when not finite).
+struct CellAtEta {
+  double log_term = -std::numeric_limits<double>::infinity();
+  double d_eta = 0;
+  RecoveryCellFit fit;
+};
+
+CellAtEta cell_at_eta(const RecoveryCurve& curve, double eta, const RecoveryCell& cell,
+                      double sigma, const RecoveryLikelihoodOptions& o) {
+  CellAtEta out;
+  if (!(eta > 0) || !std::isfinite(eta)) return out;
+  const double s = curve.eta_ref_pN_s_per_um / eta;
+  const CellProblem c = cell_problem(curve, s, cell, sigma);
+  double dterm_ds = 0;
+  out.fit = fit_cell(c, o, dterm_ds);
+  out.log_term = out.fit.log_term;
+  if (std::isfinite(out.log_term)) out.d_eta = -dterm_ds * s / eta;
+  return out;
+}
+
+/// The integral of one cell over its own viscosity (RecoverySpreadLikelihood).
+RecoverySpreadCell spread_cell(const RecoveryCurve& curve, double eta_m, double spread,
+                               const RecoveryCell& cell, double sigma,
+                               const RecoveryLikelihoodOptions& o, const HermiteRule& rule) {
+  constexpr double kNegInf = -std::numeric_limits<double>::infinity();
+  RecoverySpreadCell out;
+  out.id = cell.id;
+  const double m = std::log(eta_m);
+  if (spread == 0) {  // the shared viscosity; d/ds = 0 by symmetry
+    const CellAtEta a = cell_at_eta(curve, eta_m, cell, sigma, o);
+    out.log_term = a.log_term;
+    out.d_eta_per_pN_s_per_um = a.d_eta;
+    out.eta_mode_pN_s_per_um = eta_m;
+    return out;
+  }
+  const double sd = std::abs(spread), var = sd * sd;
+  // f(v) = log L_c(e^v) + log N(v; m, s^2) up to a constant, v = log eta_c; f'(v) analytic.
+  const auto f = [&](double v, double& fp) {
+    const CellAtEta a = cell_at_eta(curve, std::exp(v), cell, sigma, o);
+    if (!std::isfinite(a.log_term)) {
+      fp = 0;
+      return kNegInf;
     }
-    const Eigen::Matrix4d tt = w * jt.transpose() * jt;
-    const Eigen::Matrix<double, 4, 2> tn = w * jt.transpose() * jn;
-    const Eigen::Matrix2d nn = w * jn.transpose() * jn;
-    out.information += tt - tn * nn.ldlt().solve(tn.transpose());
+    fp = std::exp(v) * a.d_eta - (v - m) / var;
+    return a.log_term - 0.5 * (v - m) * (v - m) / var;
+  };
+  // -f'' by a central difference of f' (step a thousandth of the current width); the prior's
+  // 1/s^2 where the likelihood's curvature is not negative.
+  double width = std::min(sd, 0.1);
+  const auto curvature = [&](double v) {
+    const double h = 1e-3 * width;
+    double gp = 0, gm = 0;
+    const double fp = f(v + h, gp), fm = f(v - h, gm);
+    const double c = -(gp - gm) / (2 * h);
+    return std::isfinite(fp) && std::isfinite(fm) && c > 0 ? c : 1 / var;
+  };
+  double v = m, g = 0;
+  double fv = f(v, g);
+  if (!std::isfinite(fv)) {
+    out.log_term = kNegInf;
+    return out;
+  }
+  // Newton on f', each step at most 1 in log eta and halved until f does not fall.
+  for (int it = 0; it < 100; ++it) {
+    const double c = curvature(v);
+    width = 1 / std::sqrt(c);
+    double step = std::clamp(g / c, -1.0, 1.0);
+    double v1 = v, f1 = fv, g1 = g;
+    bool moved = false;
+    for (int half = 0; half < 40; ++half) {
+      v1 = v + step;
+      f1 = f(v1, g1);
+      if (std::isfinite(f1) && f1 >= fv - 1e-12 * (1 + std::abs(fv))) {
+        moved = true;
+        break;
+      }
+      step *= 0.5;
+    }
+    if (!moved) break;
+    v = v1;
+    fv = f1;
+    g = g1;
+    if (std::abs(step) < 1e-9 * width) break;
+  }
+  width = 1 / std::sqrt(curvature(v));
+  out.eta_mode_pN_s_per_um = std::exp(v);
+  out.log_eta_sd = width;
+  // Nodes v_k = v* + width z_k, i.e. eps_k = (v_k - m)/s; the integral over eps is
+  // (width/s) sum_k w_k e^{z_k^2/2} L_c(eta_m e^{s eps_k}) phi(eps_k).
+  const int n = static_cast<int>(rule.z.size());
+  std::vector<double> l(n, kNegInf), d_eta(n, 0.0), d_s(n, 0.0);
+  double top = kNegInf;
+  for (int k = 0; k < n; ++k) {
+    const double z = rule.z[k];
+    const double vk = v + width * z;
+    const double eps = (vk - m) / spread;
+    const double eta_k = std::exp(vk);
+    const CellAtEta a = cell_at_eta(curve, eta_k, cell, sigma, o);
+    if (!std::isfinite(a.log_term)) continue;
+    l[k] = std::log(rule.w[k]) + 0.5 * z * z + std::log(width / sd) + a.log_term - 0.5 * eps * eps -
+           0.5 * kLog2Pi;
+    d_eta[k] = a.d_eta * eta_k / eta_m;
+    d_s[k] = a.d_eta * eta_k * eps;
+    top = std::max(top, l[k]);
+  }
+  if (!std::isfinite(top)) {
+    out.log_term = kNegInf;
+    return out;
+  }
+  double sum = 0;
+  for (int k = 0; k < n; ++k)
+    if (std::isfinite(l[k])) sum += std::exp(l[k] - top);
+  out.log_term = top + std::log(sum);
+  for (int k = 0; k < n; ++k) {
+    if (!std::isfinite(l[k])) continue;
+    const double p = std::exp(l[k] - top) / sum;
+    out.d_eta_per_pN_s_per_um += p * d_eta[k];
+    out.d_spread += p * d_s[k];
+  }
+  return out;
+}
+
+}  // namespace
+
+RecoverySpreadLikelihood evaluate_recovery_spread_likelihood(
+    const RecoveryCurve& curve, double eta_m, double spread, const RecoveryData& data,
+    const RecoveryLikelihoodOptions& options, int nodes) {
+  options.validate();
+  require_finite_in_range("membrane viscosity", "pN s/um", eta_m, 0, kUnbounded);
+  require_finite_in_range("between-cell spread", "", spread, -kUnbounded, kUnbounded,
+                          Ends::open_open);
+  require_finite_in_range("reading uncertainty sigma_ratio", "", data.sigma_ratio, 0, kUnbounded);
+  require_integer_in_range("Gauss-Hermite nodes", nodes, 1, 200);
+  RecoverySpreadLikelihood out;
+  if (!curve.converged) {
+    out.log_likelihood = -std::numeric_limits<double>::infinity();
+    return out;
+  }
+  const HermiteRule rule = hermite_rule(nodes);
+  for (const RecoveryCell& cell : data.cells) {
+    out.cells.push_back(spread_cell(curve, eta_m, spread, cell, data.sigma_ratio, options, rule));
+    const RecoverySpreadCell& c = out.cells.back();
+    out.log_likelihood += c.log_term;
+    out.dlog_deta_per_pN_s_per_um += c.d_eta_per_pN_s_per_um;
+    out.dlog_dspread += c.d_spread;
+  }
+  if (!std::isfinite(out.log_likelihood)) {
+    out.log_likelihood = -std::numeric_limits<double>::infinity();
+    out.dlog_deta_per_pN_s_per_um = out.dlog_dspread = 0;
+  }
+  return out;
+}
+
+double recovery_spread_log_likelihood(const RecoveryCurve& curve, double eta_m, double spread,
+                                      const RecoveryData& data,
+                                      const RecoveryLikelihoodOptions& options, int nodes) {
+  return evaluate_recovery_spread_likelihood(curve, eta_m, spread, data, options, nodes)
+      .log_likelihood;
+}
+
+RecoverySpreadGradientInformation recovery_spread_gradient_and_information(
+    const RecoveryModel& model, const ForwardParameters& p, double eta_m, double spread,
+    const RecoveryData& data, const RecoveryLikelihoodOptions& options,
+    const std::array<bool, 3>& differentiate, double relative_step, int nodes) {
+  require_finite_in_range("relative step", "", relative_step, 0, 0.1);
+  options.validate();
+  require_finite_in_range("membrane viscosity", "pN s/um", eta_m, 0, kUnbounded);
+  require_finite_in_range("between-cell spread", "", spread, -kUnbounded, kUnbounded,
+                          Ends::open_open);
+  require_integer_in_range("Gauss-Hermite nodes", nodes, 1, 200);
+  const DifferenceRuns runs = difference_runs(model, p, differentiate, relative_step);
+  RecoverySpreadGradientInformation out;
+  out.trajectories = static_cast<int>(runs.curves.size());
+  RecoveryGradient& g = out.gradient;
+  const RecoverySpreadLikelihood centre =
+      evaluate_recovery_spread_likelihood(runs.curves[0], eta_m, spread, data, options, nodes);
+  g.log_likelihood = centre.log_likelihood;
+  g.d_eta_per_pN_s_per_um = centre.dlog_deta_per_pN_s_per_um;
+  g.d_spread = centre.dlog_dspread;
+  g.converged = std::isfinite(centre.log_likelihood);
+  if (!g.converged) return out;
+  double* const slots[3] = {&g.d_persistence_per_nm, &g.d_lmax_per_nm, &g.d_kappa_per_J};
+  for (size_t j = 0; j < runs.which.size(); ++j) {
+    const double llo =
+        recovery_spread_log_likelihood(runs.curves[1 + 2 * j], eta_m, spread, data, options, nodes);
+    const double lhi =
+        recovery_spread_log_likelihood(runs.curves[2 + 2 * j], eta_m, spread, data, options, nodes);
+    if (!std::isfinite(llo) || !std::isfinite(lhi)) g.converged = false;
+    *slots[runs.which[j]] = (lhi - llo) / (2 * runs.steps[j]);
+  }
+  if (!g.converged) return out;
+  // Fisher information of the Gaussian approximation, cell by cell (the header's formula).
+  const double var = spread * spread;
+  for (size_t c = 0; c < data.cells.size(); ++c) {
+    const double eta_c = centre.cells[c].eta_mode_pN_s_per_um;
+    const CellAtEta at =
+        cell_at_eta(runs.curves[0], eta_c, data.cells[c], data.sigma_ratio, options);
+    if (!std::isfinite(at.log_term)) {
+      g.converged = false;
+      return out;
+    }
+    Eigen::Matrix4d info = cell_information(runs, eta_c, data.cells[c], at.fit, data.sigma_ratio);
+    info.row(0) *= eta_c;  // log eta_c's row and column
+    info.col(0) *= eta_c;
+    const Eigen::Vector4d ie = info.col(0);
+    const double iee = ie[0];
+    Eigen::Matrix4d mean = info - var * ie * ie.transpose() / (1 + var * iee);
+    mean.row(0) /= eta_m;  // log eta_m -> eta_m
+    mean.col(0) /= eta_m;
+    out.information.topLeftCorner<4, 4>() += mean;
+    const double e_sigma_e = iee / (1 + var * iee);
+    out.information(4, 4) += 2 * var * e_sigma_e * e_sigma_e;
   }
   out.information = 0.5 * (out.information + out.information.transpose()).eval();
   return out;

@@ -36,6 +36,19 @@
 // under a uniform prior on (lambda_inf, lambda_0) over a stated box, so the value is a
 // log-evidence term comparable across models; profiling (the maximum over them) is available.
 // Docs: docs/validation/recovery_likelihood.md.
+//
+// Cells with their own viscosity (optional; `rbc infer --params ...,eta-m,eta-spread`). Cell c
+// has eta_c = eta_m exp(s eps_c), eps_c ~ N(0, 1) independent, s (dimensionless) the sd of
+// log eta over cells, and its term is the marginal
+//   log int L_c(eta_m e^{s eps}) phi(eps) d eps
+// of its likelihood above (nuisances included) over its own viscosity. Every eta_c reads the
+// same trajectory through the rescaling, so the integral costs no new simulation. It is taken
+// by ADAPTIVE Gauss-Hermite quadrature (Liu & Pierce 1994): the nodes are centred at the
+// integrand's mode in v = log eta_c and scaled by its curvature there, since a cell of 25
+// readings fixes its log eta_c to ~0.05, much narrower than the spread of Gauss-Hermite nodes
+// laid out for the prior N(0, 1) once s exceeds ~0.05 (there a fixed rule of 40 nodes misses
+// the likelihood's peak altogether). Nodes and weights: GSL's gsl_integration_fixed_hermite.
+// s = 0 is the shared-eta_m likelihood above.
 #include <Eigen/Core>
 #include <array>
 #include <string>
@@ -211,6 +224,9 @@ struct RecoveryGradient {
   double d_eta_per_pN_s_per_um = 0;
   double d_persistence_per_nm = 0, d_lmax_per_nm = 0, d_kappa_per_J = 0;
   bool converged = false;
+  /// d log_likelihood / d s, the between-cell sd of log eta (recovery_spread_gradient_and_
+  /// information only; 0 otherwise).
+  double d_spread = 0;
 };
 RecoveryGradient recovery_log_likelihood_gradient(const RecoveryModel& model,
                                                   const ForwardParameters& parameters,
@@ -243,5 +259,79 @@ RecoveryGradientInformation recovery_gradient_and_information(
     const RecoveryModel& model, const ForwardParameters& parameters, double eta_m_pN_s_per_um,
     const RecoveryData& data, const RecoveryLikelihoodOptions& options,
     const std::array<bool, 3>& differentiate, double relative_step = 1e-3);
+
+// ---------------------------------------------------------------------------------------------
+// Cells with their own viscosity
+
+/// Gauss-Hermite nodes per cell of the between-cell layer. The quadrature is adaptive (centred
+/// and scaled at the integrand's mode): 20 nodes agree with 40 to 7e-5 in log L on the four
+/// Hochmuth cells and synthetic ones, s from 0.01 to 1 (tests/calibrate/test_recovery_spread.cpp).
+/// That floor is the integrand's smoothness, not the node count (10 to 80 nodes all differ from
+/// 160 by 1e-6 to 1e-5): RecoveryCurve::at is C1, so the quadrature converges algebraically.
+inline constexpr int kRecoverySpreadNodes = 20;
+
+/// One cell of the between-cell layer.
+struct RecoverySpreadCell {
+  int id = 0;
+  double log_term = 0;  ///< log int L_c(eta_m e^{s eps}) phi(eps) d eps; -inf: no node fitted
+  /// Its partial derivatives in eta_m (per pN s/um) and s at the quadrature's nodes.
+  double d_eta_per_pN_s_per_um = 0, d_spread = 0;
+  /// The mode of the integrand: the cell's own viscosity given eta_m, s and its readings.
+  double eta_mode_pN_s_per_um = 0;
+  double log_eta_sd = 0;  ///< the integrand's width in log eta_c at the mode (1/sqrt(-f''))
+};
+
+struct RecoverySpreadLikelihood {
+  double log_likelihood = 0;             ///< sum of the cells' terms; -inf when a cell's term is
+  double dlog_deta_per_pN_s_per_um = 0;  ///< d log_likelihood / d eta_m (pN s/um)^-1
+  double dlog_dspread = 0;               ///< d log_likelihood / d s
+  std::vector<RecoverySpreadCell> cells;
+};
+
+/// The likelihood of `data` with each cell at its own viscosity eta_m exp(s eps), eps ~ N(0,1):
+/// eta_m (pN s/um, > 0), spread s (the sd of log eta over cells, finite; its sign does not
+/// matter; s = 0 gives evaluate_recovery_likelihood's value with d/ds = 0), `nodes` Gauss-
+/// Hermite nodes per cell (1 to 200) placed at the mode of the cell's integrand in log eta_c
+/// (Newton on its analytic derivative, the curvature by central differences of that
+/// derivative) with the width 1/sqrt(-f'') there. The derivatives are those of the quadrature
+/// sum with its nodes held fixed in eps (d/d eta_m = sum_k p_k D_k eta_k/eta_m, d/ds =
+/// sum_k p_k D_k eta_k eps_k, p_k the nodes' shares of the sum, D_k = d log L_c/d eta at eta_k,
+/// analytic through the rescaling); they differ from the derivative of the re-centred sum by
+/// its quadrature error only. Throws rbc::InvalidParameter for invalid arguments.
+RecoverySpreadLikelihood evaluate_recovery_spread_likelihood(
+    const RecoveryCurve& curve, double eta_m_pN_s_per_um, double spread, const RecoveryData& data,
+    const RecoveryLikelihoodOptions& options = {}, int nodes = kRecoverySpreadNodes);
+/// evaluate_recovery_spread_likelihood(...).log_likelihood.
+double recovery_spread_log_likelihood(const RecoveryCurve& curve, double eta_m_pN_s_per_um,
+                                      double spread, const RecoveryData& data,
+                                      const RecoveryLikelihoodOptions& options = {},
+                                      int nodes = kRecoverySpreadNodes);
+
+/// The gradient and information of the between-cell likelihood, as
+/// recovery_gradient_and_information: log L and d/d eta_m, d/ds from
+/// evaluate_recovery_spread_likelihood on the centre trajectory; d/dp, d/dLmax, d/dkappa by
+/// central differences of the same trajectories (every node of every cell read on the lo and
+/// hi curves). The information in (eta_m, persistence, lmax, kappa, s) is the expected (Fisher)
+/// information of a Gaussian approximation of the hierarchy, per cell: its likelihood as a
+/// Gaussian in (log eta_c, p, Lmax, kappa) with precision I_c, the Gauss-Newton information
+/// of recovery_gradient_and_information at the cell's mode eta_c (log eta_c's row and column
+/// times eta_c), and log eta_c ~ N(log eta_m, s^2). The cell's estimate then has covariance
+/// Sigma = I_c^-1 + s^2 e e' (e the log eta direction), whose Fisher information is
+///   Sigma^-1 = I_c - s^2 I_c e e' I_c / (1 + s^2 e' I_c e)   for (log eta_m, p, Lmax, kappa),
+///   1/2 tr(Sigma^-1 dSigma/ds)^2 = 2 s^2 (I_ee / (1 + s^2 I_ee))^2   for s,
+/// uncoupled (a Gaussian's mean and variance parameters), log eta_m's row and column divided by
+/// eta_m. Both blocks are positive semi-definite; at s = 0 the first is the shared-eta_m
+/// information and the second 0 (the likelihood is even in s).
+struct RecoverySpreadGradientInformation {
+  RecoveryGradient gradient;  ///< d_spread filled
+  /// (eta_m, persistence, lmax, kappa, s) in pN s/um, nm, nm, J, 1.
+  Eigen::Matrix<double, 5, 5> information = Eigen::Matrix<double, 5, 5>::Zero();
+  int trajectories = 0;  ///< release-scene simulations made
+};
+RecoverySpreadGradientInformation recovery_spread_gradient_and_information(
+    const RecoveryModel& model, const ForwardParameters& parameters, double eta_m_pN_s_per_um,
+    double spread, const RecoveryData& data, const RecoveryLikelihoodOptions& options,
+    const std::array<bool, 3>& differentiate, double relative_step = 1e-3,
+    int nodes = kRecoverySpreadNodes);
 
 }  // namespace rbc

@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -25,6 +26,16 @@ namespace fs = std::filesystem;
 constexpr double kUnboundedLogL = std::numeric_limits<double>::infinity();
 /// stream_seed's purpose of the eta_m draws from the prior (4 is the predictive draws').
 constexpr int kEtaDrawPurpose = 5;
+/// stream_seed's purpose of a held-out cell's own viscosity (eta-spread inferred).
+constexpr int kCellEtaPurpose = 6;
+
+/// A standard normal from its own stream (Box-Muller on two portable uniforms in (0, 1]).
+double cell_normal(std::uint64_t seed, int cell, int draw) {
+  std::mt19937_64 gen(stream_seed(seed, cell + 1, draw, kCellEtaPurpose));
+  const double u1 = (static_cast<double>(gen() >> 11) + 1) * 0x1.0p-53;
+  const double u2 = static_cast<double>(gen() >> 11) * 0x1.0p-53;
+  return std::sqrt(-2 * std::log(u1)) * std::cos(2 * std::numbers::pi * u2);
+}
 
 /// Release trajectories in the Likelihood shape the executors run.
 class RecoveryRunner final : public Likelihood {
@@ -86,6 +97,8 @@ double RecoveryPrediction::fraction_90() const {
   return points() ? static_cast<double>(in_90()) / points() : 0.0;
 }
 std::string RecoveryPrediction::eta_m_text() const {
+  if (eta_m_inferred && eta_spread_inferred)
+    return "eta_m inferred: each draw's own, each cell at eta_m exp(s eps), eps ~ N(0,1)";
   if (eta_m_inferred) return "eta_m inferred: each draw's own";
   return "eta_m not inferred: drawn from its prior " + number_text(eta_m_lower) + " to " +
          number_text(eta_m_upper) + " pN s/um";
@@ -163,6 +176,8 @@ RecoveryPrediction predict_recovery(const RecoveryPredictionProblem& problem,
   r.elements = problem.model().options().elements;
   r.eta_m_inferred =
       std::find(o.parameters.begin(), o.parameters.end(), Parameter::eta_m) != o.parameters.end();
+  r.eta_spread_inferred = std::find(o.parameters.begin(), o.parameters.end(),
+                                    Parameter::eta_spread) != o.parameters.end();
   const PriorRange eta_prior = default_prior(Parameter::eta_m);
   r.eta_m_lower = eta_prior.lower;
   r.eta_m_upper = eta_prior.upper;
@@ -175,7 +190,7 @@ RecoveryPrediction predict_recovery(const RecoveryPredictionProblem& problem,
   std::map<std::array<double, 4>, int> run_of;
   std::vector<ChainTask> tasks;
   std::vector<int> run_of_draw;
-  std::vector<double> eta_of_draw;
+  std::vector<double> eta_of_draw, spread_of_draw;
   for (size_t j = 0; j < index.size(); ++j) {
     std::vector<double> theta(d);
     for (int k = 0; k < d; ++k) theta[k] = fit.samples(index[j], k);
@@ -189,6 +204,7 @@ RecoveryPrediction predict_recovery(const RecoveryPredictionProblem& problem,
       tasks.push_back(std::move(t));
     }
     run_of_draw.push_back(it->second);
+    spread_of_draw.push_back(fp.eta_spread(theta));
     if (r.eta_m_inferred) {
       eta_of_draw.push_back(fp.eta_m(theta));
     } else {
@@ -234,8 +250,24 @@ RecoveryPrediction predict_recovery(const RecoveryPredictionProblem& problem,
     if (!ok[t]) continue;
     const RecoveryCurve& curve = curves[t];
     const double eta_m = eta_of_draw[j];
-    const RecoveryLikelihood l =
-        evaluate_recovery_likelihood(curve, eta_m, r.data, o.recovery_likelihood);
+    // Each cell's viscosity: eta_m, or with eta-spread its own draw about it.
+    std::vector<double> eta_cell(nc, eta_m);
+    RecoveryLikelihood l;
+    if (spread_of_draw[j] == 0) {
+      l = evaluate_recovery_likelihood(curve, eta_m, r.data, o.recovery_likelihood);
+    } else {
+      for (size_t c = 0; c < nc; ++c) {
+        eta_cell[c] =
+            eta_m * std::exp(spread_of_draw[j] *
+                             cell_normal(o.sampler.seed, static_cast<int>(c), static_cast<int>(j)));
+        RecoveryData one;
+        one.cells = {r.data.cells[c]};
+        one.sigma_ratio = r.data.sigma_ratio;
+        const RecoveryLikelihood lc =
+            evaluate_recovery_likelihood(curve, eta_cell[c], one, o.recovery_likelihood);
+        l.cells.insert(l.cells.end(), lc.cells.begin(), lc.cells.end());
+      }
+    }
     const bool fitted =
         l.cells.size() == nc && std::all_of(l.cells.begin(), l.cells.end(),
                                             [](const RecoveryCellFit& f) { return f.converged; });
@@ -243,8 +275,9 @@ RecoveryPrediction predict_recovery(const RecoveryPredictionProblem& problem,
       ++r.failed_fits;
       continue;
     }
-    const double s = curve.eta_ref_pN_s_per_um / eta_m;  // data time t is reference time t s
     for (size_t c = 0; c < nc; ++c) {
+      // data time t is reference time t s
+      const double s = curve.eta_ref_pN_s_per_um / eta_cell[c];
       const RecoveryCellFit& f = l.cells[c];
       const RecoveryCell& cell = r.data.cells[c];
       for (size_t i = 0; i < cell.time_s.size(); ++i) {

@@ -11,6 +11,9 @@
 // uniform draw on eta-m's prior box (default_prior: 0.2 to 2 pN s/um) from its own random
 // stream (stream_seed(seed, 0, j, 5)), since stretch data determine the shear modulus mu but not
 // eta_m. Data time t reads g_j at reference time t eta_ref/eta_m,j (the likelihood's rescaling).
+// With eta-spread inferred (cells with their own viscosity, calibrate/recovery_likelihood.hpp),
+// each cell c of the held-out file is a new cell at draw j: its viscosity eta_m,j exp(s_j eps)
+// with eps ~ N(0, 1) from its own stream (stream_seed(seed, c + 1, j, 6), Box-Muller).
 // Each cell's nuisances (lambda_0, lambda_inf) are those of the likelihood at that draw: the
 // mode of its fit to the cell's own readings (evaluate_recovery_likelihood), so the prediction
 // is of the curve's shape in time, not of its amplitude or limit. The predictive of a reading at
@@ -64,6 +67,7 @@ struct RecoveryPrediction {
   int failed_fits = 0;   ///< draws left out because a cell's nuisance fit failed
   int used_draws = 0;    ///< draws in the bands
   bool eta_m_inferred = false;
+  bool eta_spread_inferred = false;  ///< each cell at its own viscosity (eta-spread inferred)
   double eta_m_lower = 0, eta_m_upper = 0;  ///< the prior box eta_m is drawn from otherwise
   int elements = 0;                         ///< continuum triangles of the release scene
   /// Kelvin-Voigt time t_c = eta_m/mu over the used draws (s): 5, 50, 95 % quantiles.
@@ -76,7 +80,8 @@ struct RecoveryPrediction {
   int in_90() const;
   double fraction_50() const;
   double fraction_90() const;
-  /// How eta_m enters, in words: "eta_m inferred: each draw's own" or "eta_m not inferred:
+  /// How eta_m enters, in words: "eta_m inferred: each draw's own", the same followed by
+  /// ", each cell at eta_m exp(s eps), eps ~ N(0,1)" with eta-spread, or "eta_m not inferred:
   /// drawn from its prior 0.2 to 2 pN s/um".
   std::string eta_m_text() const;
 };

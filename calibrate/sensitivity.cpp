@@ -56,6 +56,7 @@ double& parameter_ref(ForwardParameters& p, Parameter q) {
     case Parameter::sigma_scale:
     case Parameter::eta_m:
     case Parameter::tau:
+    case Parameter::eta_spread:
       break;
   }
   throw std::invalid_argument("sensitivities: '" + to_string(q) +
@@ -613,7 +614,8 @@ LikelihoodGradient likelihood_gradient(const InferenceProblem& problem,
   for (size_t ei = 0; ei < problem.experiments().size(); ++ei) {
     const Experiment& e = problem.experiments()[ei];
     if (e.kind != DataKind::recovery) continue;
-    // Slot k's index in (eta_m, persistence, lmax, kappa), -1 when it does not move this term.
+    // Slot k's index in (eta_m, persistence, lmax, kappa, eta-spread), -1 when it does not move
+    // this term.
     std::vector<int> index(d, -1);
     std::array<bool, 3> differentiate{false, false, false};
     for (int k = 0; k < d; ++k) {
@@ -631,16 +633,31 @@ LikelihoodGradient likelihood_gradient(const InferenceProblem& problem,
         case Parameter::kappa:
           index[k] = 3;
           break;
+        case Parameter::eta_spread:
+          index[k] = 4;
+          break;
         default:
           break;
       }
-      if (index[k] > 0) differentiate[index[k] - 1] = true;
+      if (index[k] > 0 && index[k] < 4) differentiate[index[k] - 1] = true;
     }
-    const RecoveryGradientInformation ri = in_context("recovery gradient", [&] {
-      return recovery_gradient_and_information(
-          *problem.recovery_model(), problem.physical(theta, static_cast<int>(ei)),
-          problem.eta_m(theta), *e.recovery, problem.options().recovery_likelihood, differentiate,
-          kRecoveryRelativeStep);
+    // Without eta-spread every cell at eta_m; with it, each at its own viscosity, integrated
+    // out (calibrate/recovery_likelihood.hpp recovery_spread_gradient_and_information).
+    const double spread = problem.eta_spread(theta);
+    const RecoverySpreadGradientInformation ri = in_context("recovery gradient", [&] {
+      const ForwardParameters at = problem.physical(theta, static_cast<int>(ei));
+      if (spread != 0)
+        return recovery_spread_gradient_and_information(
+            *problem.recovery_model(), at, problem.eta_m(theta), spread, *e.recovery,
+            problem.options().recovery_likelihood, differentiate, kRecoveryRelativeStep);
+      const RecoveryGradientInformation shared = recovery_gradient_and_information(
+          *problem.recovery_model(), at, problem.eta_m(theta), *e.recovery,
+          problem.options().recovery_likelihood, differentiate, kRecoveryRelativeStep);
+      RecoverySpreadGradientInformation r;
+      r.gradient = shared.gradient;
+      r.information.topLeftCorner<4, 4>() = shared.information;
+      r.trajectories = shared.trajectories;
+      return r;
     });
     out.recovery_trajectories += ri.trajectories;
     if (!ri.gradient.converged) {
@@ -650,8 +667,8 @@ LikelihoodGradient likelihood_gradient(const InferenceProblem& problem,
       return out;
     }
     const RecoveryGradient& rg = ri.gradient;
-    const double dlog[4] = {rg.d_eta_per_pN_s_per_um, rg.d_persistence_per_nm, rg.d_lmax_per_nm,
-                            rg.d_kappa_per_J};
+    const double dlog[5] = {rg.d_eta_per_pN_s_per_um, rg.d_persistence_per_nm, rg.d_lmax_per_nm,
+                            rg.d_kappa_per_J, rg.d_spread};
     out.log_likelihood += rg.log_likelihood;
     for (int k = 0; k < d; ++k) {
       if (index[k] < 0) continue;

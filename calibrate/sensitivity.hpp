@@ -157,7 +157,10 @@ class StretchSensitivity {
 /// forward-run group, each experiment's slots moving its own model only. Recovery experiments
 /// add their term, its gradient and Gauss-Newton information in eta-m, persistence, lmax and kappa
 /// (calibrate/recovery_likelihood.hpp recovery_gradient_and_information: 1 + 2 x the
-/// differentiated stretch parameters release-scene trajectories each); contact-fraction with
+/// differentiated stretch parameters release-scene trajectories each), and in eta-spread when
+/// it is inferred (recovery_spread_gradient_and_information: the same trajectories, each cell
+/// integrated over its own viscosity; its information the Fisher information of the Gaussian
+/// approximation stated there); contact-fraction with
 /// recovery data is refused (std::invalid_argument). The physical parameters'
 /// entries are NaN where a sensitivity solve did not converge (sensitivities.converged()). `failed`
 /// (log L = -inf, no gradient) for a forward run that did not converge; outside the prior box log L

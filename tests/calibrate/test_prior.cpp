@@ -48,8 +48,9 @@ TEST(Prior, ParameterListsRefuseUnknownAndRepeatedNames) {
 }
 
 TEST(Prior, DefaultBoxesAreValidAndHoldThePaperValues) {
-  // eta-m: Hochmuth et al. 1979's 0.6 pN s/um; tau: a 0.1 um offset (its box starts at 0).
-  const double paper[kParameterCount] = {7.5, 237.75, 2e-19, 0.05, 1.0, 0.6, 0.1};
+  // eta-m: Hochmuth et al. 1979's 0.6 pN s/um; tau: a 0.1 um offset (its box starts at 0);
+  // eta-spread: 0.2, the sd of log eta_m of the four Hochmuth cells fitted one by one.
+  const double paper[kParameterCount] = {7.5, 237.75, 2e-19, 0.05, 1.0, 0.6, 0.1, 0.2};
   for (int k = 0; k < kParameterCount; ++k) {
     const PriorRange r = default_prior(static_cast<Parameter>(k));
     EXPECT_NO_THROW(r.validate());
