@@ -112,18 +112,6 @@ class GradedCriteria {
   Criteria criteria_;
 };
 
-/// Puts x on the zero set of the level function by Newton steps along its gradient.
-Vec3 project_to_surface(const EvansFungShape& shape, Vec3 x) {
-  for (int it = 0; it < 20; ++it) {
-    const double f = evans_fung_level(shape, x);
-    const Vec3 g = evans_fung_level_gradient(shape, x);
-    const Vec3 step = f / g.squaredNorm() * g;
-    x -= step;
-    if (step.norm() < 1e-15 * shape.radius_um) break;
-  }
-  return x;
-}
-
 /// Orients the faces consistently (breadth-first over shared edges) and outward (positive
 /// enclosed volume). std::runtime_error if an edge is not shared by exactly two faces or the
 /// surface is not orientable.
@@ -234,7 +222,7 @@ TriMesh mesh_surface(const EvansFungShape& shape, const SizeField& size_um, unsi
     }
   Positions x(3, static_cast<Eigen::Index>(points.size()));
   for (std::size_t i = 0; i < points.size(); ++i)
-    x.col(static_cast<Eigen::Index>(i)) = project_to_surface(shape, points[i]);
+    x.col(static_cast<Eigen::Index>(i)) = evans_fung_project(shape, points[i]);
   orient_outward(x, faces);
   TriMesh mesh;
   mesh.x = std::move(x);
@@ -269,6 +257,17 @@ Vec3 evans_fung_level_gradient(const EvansFungShape& s, const Vec3& p) {
   // f = z^2/R^2 - (1 - t) g^2: df/dt = g^2 - (1 - t) 2 g g'; dt/dx = 2x/R^2.
   const double df_dt = g * g - (1.0 - t) * 2.0 * g * dg;
   return {df_dt * 2.0 * p.x() / (r * r), df_dt * 2.0 * p.y() / (r * r), 2.0 * p.z() / (r * r)};
+}
+
+Vec3 evans_fung_project(const EvansFungShape& shape, Vec3 x_um) {
+  for (int it = 0; it < 20; ++it) {
+    const double f = evans_fung_level(shape, x_um);
+    const Vec3 g = evans_fung_level_gradient(shape, x_um);
+    const Vec3 step = f / g.squaredNorm() * g;
+    x_um -= step;
+    if (step.norm() < 1e-15 * shape.radius_um) break;
+  }
+  return x_um;
 }
 
 double SceneSizeField::operator()(const Vec3& x_um) const {

@@ -33,6 +33,9 @@ namespace rbc {
 double evans_fung_level(const EvansFungShape& shape, const Vec3& x_um);
 /// Gradient of evans_fung_level (1/um).
 Vec3 evans_fung_level_gradient(const EvansFungShape& shape, const Vec3& x_um);
+/// x (um) put on the Evans-Fung surface by Newton steps along the level function's gradient
+/// (at most 20; they stop below 1e-15 R): the point of the surface near x, for x near it.
+Vec3 evans_fung_project(const EvansFungShape& shape, Vec3 x_um);
 
 /// A size field on the rest surface: the target edge length (um) at a point.
 using SizeField = std::function<double(const Vec3&)>;

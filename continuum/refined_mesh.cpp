@@ -34,18 +34,6 @@ Tri sorted(Tri t) {
   return t;
 }
 
-/// Puts x on the zero set of the level function by Newton steps along its gradient.
-Vec3 project_to_surface(const EvansFungShape& shape, Vec3 x) {
-  for (int it = 0; it < 20; ++it) {
-    const double f = evans_fung_level(shape, x);
-    const Vec3 g = evans_fung_level_gradient(shape, x);
-    const Vec3 step = f / g.squaredNorm() * g;
-    x -= step;
-    if (step.norm() < 1e-15 * shape.radius_um) break;
-  }
-  return x;
-}
-
 /// The refinement state: vertices, the red triangles (possibly with hanging nodes), the
 /// midpoint of every split edge, and each vertex's image under each element of the group.
 struct Refiner {
@@ -65,7 +53,7 @@ struct Refiner {
     const int m = split(a, b);
     if (m >= 0) return m;
     const int id = static_cast<int>(x.size());
-    x.push_back(project_to_surface(shape, 0.5 * (x[a] + x[b])));
+    x.push_back(evans_fung_project(shape, 0.5 * (x[a] + x[b])));
     parents.emplace_back(a, b);
     midpoint.emplace(edge_key(a, b), id);
     return id;

@@ -122,8 +122,6 @@ UNITLESS_KEYS = frozenset({
     "axial", "transverse", "inside_50", "inside_90", "band_50", "band_90", "cell", "observed",
     "q05", "q25", "q50", "q75", "q95", "length_over_width", "normalised_recovery", "lambda_0",
     "lambda_inf", "sigma_ratio", "eta_m_inferred", "eta_m_source", "nuisances",
-    # rbc infer: the between-cell sd of log eta_m (a parameter name, a key of laplace-is "mode")
-    "eta-spread",
 })
 # "samples" of rbc.infer() is (S, P): each column in the unit of InferenceProblem.units.
 
