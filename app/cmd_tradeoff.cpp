@@ -53,6 +53,16 @@ void print_time_to_accuracy(const McConvergenceResult& r) {
   std::cout << mc_convergence_conclusion(r) << "\n";
 }
 
+/// The check of a coarse / fine size ratio of a graded mesh: a number in [1, 10].
+CLI::Validator size_ratio_validator() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        const std::optional<double> r = parse_finite_number(text);
+        return r && *r >= 1 && *r <= 10 ? "" : text + ": expected a number in [1, 10]";
+      },
+      "RATIO");
+}
+
 }  // namespace
 
 void add_tradeoff_command(CLI::App& app, Action& action) {
@@ -165,12 +175,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   cmd->add_option("--adapted-ratios", o->adapted_ratios,
                   "--accuracy-table: coarse / fine size ratios of the adapted rows, each in [1, "
                   "10] (default 2,3)")
-      ->check(CLI::Validator(
-          [](std::string& text) -> std::string {
-            const std::optional<double> r = parse_finite_number(text);
-            return r && *r >= 1 && *r <= 10 ? "" : text + ": expected a number in [1, 10]";
-          },
-          "RATIO"))
+      ->check(size_ratio_validator())
       ->delimiter(',');
   cmd->add_option("--adapted-seeds", o->adapted_seeds,
                   "--accuracy-table: mesh seeds 0 .. K-1 of each adapted row, its errors the "
@@ -188,12 +193,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
   cmd->add_option("--refined-ratios", o->refined_ratios,
                   "--accuracy-table: coarse / fine size ratios of the refined rows, each in [1, "
                   "10] (default 2,3)")
-      ->check(CLI::Validator(
-          [](std::string& text) -> std::string {
-            const std::optional<double> r = parse_finite_number(text);
-            return r && *r >= 1 && *r <= 10 ? "" : text + ": expected a number in [1, 10]";
-          },
-          "RATIO"))
+      ->check(size_ratio_validator())
       ->delimiter(',');
   cmd->add_flag("--no-refined", o->no_refined, "--accuracy-table: no refined-mesh rows");
   cmd->add_flag("--runs-only", o->runs_only,
