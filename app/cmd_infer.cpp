@@ -622,11 +622,11 @@ void add_infer_command(CLI::App& app, Action& action) {
                       "1,000 on the Hochmuth cells")
       ->capture_default_str();
   cmd->add_option("--sampler", c->sampler,
-                  "posterior sampler: tmcmc (transitional MCMC) | laplace-is (a Laplace "
-                  "proposal at the posterior mode, found with the likelihood's gradient, with "
-                  "importance correction: about a sixth of TMCMC's forward runs; stops with "
-                  "status low_ess below 50 effective samples, as on a strongly curved "
-                  "posterior). Both give the evidence")
+                  "posterior sampler: laplace-is (a Student-t proposal at the posterior mode, "
+                  "found with the likelihood's gradient, adapted to the weighted draws over "
+                  "--is-rounds rounds, with importance correction: about a sixth of TMCMC's "
+                  "forward runs; stops with status low_ess below --min-ess effective samples) | "
+                  "tmcmc (transitional MCMC, the reference). Both give the evidence")
       ->transform(enum_choice<SamplerKind>(
           {{"tmcmc", SamplerKind::tmcmc}, {"laplace-is", SamplerKind::laplace_is}}))
       ->type_name("TEXT")
