@@ -456,9 +456,8 @@ TEST(RecoverySpreadCli, BothSamplersCarryTheSpread) {
   const fs::path dir = testing::fresh_output_dir("recovery_spread_cli_run");
   const std::string data = "--data-file " + stretch_file(dir) + " --data-file " + cells_file(dir);
   const std::string params = " --params persistence,eta-m,eta-spread ";
-  for (const std::string sampler :
-       {"--sampler tmcmc --samples 20 --chain-length 1",
-        "--sampler laplace-is --is-samples 20 --min-ess 0"}) {
+  for (const std::string sampler : {"--sampler tmcmc --samples 20 --chain-length 1",
+                                    "--sampler laplace-is --is-samples 20 --min-ess 0"}) {
     const fs::path out = dir / (sampler.find("laplace") != std::string::npos ? "is" : "tmcmc");
     const auto r = testing::run_rbc(kSmall + sampler + params + data + " --out " + out.string(), 2);
     ASSERT_EQ(r.exit_code, 0) << sampler << "\n" << r.all();
