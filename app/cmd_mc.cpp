@@ -206,6 +206,33 @@ McRunSetup to_setup(const McCli& o) {
   return setup;
 }
 
+/// A new chain: its setup (to_setup with `seed` and the adaptive phase of --adapt-sweeps or
+/// --adapt-fraction), its schedule, and its start, the zero-temperature equilibrium by
+/// continuation (which also fills the setup's multipliers and reference), solved on one thread
+/// for a bit-reproducible start state.
+struct NewMcChain {
+  McRunSetup setup;
+  McSchedule schedule;
+  McZeroTemperatureStart start;
+};
+
+NewMcChain new_mc_chain(const Network& net, const McCli& o, unsigned long seed,
+                        const CancelCheck& cancel, const ProgressSink& progress) {
+  NewMcChain c;
+  c.setup = to_setup(o);
+  c.setup.sampler.seed = seed;
+  if (o.adapt_sweeps >= 0) c.setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
+  c.setup.cancel = cancel;
+  c.schedule.planned_sweeps = o.sweeps;
+  c.schedule.adapt_fraction = o.adapt_sweeps >= 0 ? -1.0 : o.adapt_fraction;
+  McStartOptions so;
+  so.start = o.start;
+  so.cancel = cancel;
+  SerialOpenMpScope serial;
+  c.start = mc_zero_temperature_start(net, c.setup, so, progress);
+  return c;
+}
+
 /// Sweeps per block of the chains (McRun::advance_blocks): a divisor of the checkpoint and
 /// snapshot intervals (checkpoints and snapshots fall on block ends), at most ~20,000 vertex
 /// moves (Metropolis) or 4 trajectories (HMC) per chain, so progress and checkpoints keep up.
@@ -289,19 +316,9 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     cp.setup.cancel = cancel;
     run = std::make_unique<McRun>(net, cp.setup, cp.chains, cp.chain_series);
   } else {
-    McRunSetup setup = to_setup(o);
-    if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
-    schedule.planned_sweeps = o.sweeps;
-    schedule.adapt_fraction = o.adapt_sweeps >= 0 ? -1.0 : o.adapt_fraction;
-    setup.cancel = cancel;
-    // Zero-temperature equilibrium by continuation: start state, multipliers and reference.
-    McStartOptions so;
-    so.start = o.start;
-    so.cancel = cancel;
-    const McZeroTemperatureStart z = [&] {
-      SerialOpenMpScope serial;  // one thread for a bit-reproducible start state
-      return mc_zero_temperature_start(net, setup, so, progress);
-    }();
+    const NewMcChain c = new_mc_chain(net, o, o.seed, cancel, progress);
+    schedule = c.schedule;
+    const McZeroTemperatureStart& z = c.start;
     if (!z.converged) {
       const StretchPoint& eq = z.equilibrium;
       std::cerr << "rbc: error: zero-temperature equilibrium at " + format_number(eq.force_pN) +
@@ -309,7 +326,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
                        format_scientific(eq.residual_pN) + " pN\n";
       return 1;
     }
-    run = std::make_unique<McRun>(net, setup, z.start);
+    run = std::make_unique<McRun>(net, c.setup, z.start);
   }
 
   const long long first_sweep = run->sweeps_done();
@@ -632,24 +649,14 @@ std::vector<double> run_one_force(const McCli& o, const Network& net, std::size_
                          : label + ": resuming at sweep " + std::to_string(run->sweeps_done()) +
                                " from " + checkpoint);
   } else {
-    McRunSetup setup = to_setup(one);
-    setup.sampler.seed = mc_force_seed(o.seed, k);
-    if (o.adapt_sweeps >= 0) setup.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
-    schedule.planned_sweeps = o.sweeps;
-    schedule.adapt_fraction = o.adapt_sweeps >= 0 ? -1.0 : o.adapt_fraction;
-    setup.cancel = cancel;
-    McStartOptions so;
-    so.start = o.start;
-    so.cancel = cancel;
-    const McZeroTemperatureStart z = [&] {
-      SerialOpenMpScope serial;
-      return mc_zero_temperature_start(net, setup, so);
-    }();
+    const NewMcChain c = new_mc_chain(net, one, mc_force_seed(o.seed, k), cancel, {});
+    schedule = c.schedule;
+    const McZeroTemperatureStart& z = c.start;
     if (!z.converged)
       throw std::runtime_error("zero-temperature equilibrium at " +
                                format_number(z.equilibrium.force_pN) +
                                " pN did not converge: " + to_string(z.equilibrium.status));
-    run = std::make_unique<McRun>(net, setup, z.start);
+    run = std::make_unique<McRun>(net, c.setup, z.start);
   }
   auto write_checkpoint = [&](const McRun& r, const std::string& why = "") {
     if (checkpoint.empty()) return;

@@ -40,6 +40,9 @@ enum class StretchModel { discrete, continuum };
 /// scene (continuum/adapted_mesh.hpp), or the icosphere refined by red-green refinement towards
 /// the same scene, keeping its mirrors (continuum/refined_mesh.hpp).
 enum class ContinuumMesh { uniform, adapted, refined };
+/// --mesh-volume: the refined mesh with its vertices on the Evans-Fung surface, or scaled to
+/// enclose its volume (RefinedMeshOptions::match_volume).
+enum class MeshVolume { surface, scale };
 
 /// Options in natural units (nm, J, pN), converted once in to_network_parameters().
 struct StretchCli {
@@ -61,6 +64,8 @@ struct StretchCli {
   double mesh_size_ratio = AdaptedMeshOptions{}.size_ratio;
   /// --mesh-seed (--mesh adapted): turns the mesher's initial points (another triangulation)
   unsigned mesh_seed = 0;
+  /// --mesh-volume (--mesh refined)
+  MeshVolume mesh_volume = MeshVolume::surface;
   /// --symmetry mirror: solve on the mirror-symmetric configurations (core/mirror_symmetry.hpp)
   Symmetry symmetry = Symmetry::none;
   /// --symmetry-check (continuum, with --symmetry mirror): which equilibria are checked
@@ -465,6 +470,7 @@ int run_continuum(const StretchCli& o) {
   ro.contact_fraction = params.tweezers.contact_fraction;
   ro.orientation = o.orientation;
   ro.seed = o.mesh_seed;
+  ro.match_volume = o.mesh_volume == MeshVolume::scale;
   ro.validate();
   RefinedMeshReport refined_report;
   const TriMesh mesh = o.mesh == ContinuumMesh::adapted ? make_adapted_mesh(ao, &adapted_report)
@@ -487,6 +493,8 @@ int run_continuum(const StretchCli& o) {
                  {"coarse_vertices", refined_report.coarse_vertices},
                  {"coarse_elements", refined_report.coarse_elements},
                  {"passes", refined_report.passes},
+                 {"volume", o.mesh_volume == MeshVolume::scale ? "scale" : "surface"},
+                 {"volume_scale", refined_report.volume_scale},
                  {"seed", o.mesh_seed}};
     report(progress, "refined mesh (red-green refinement of the " +
                          std::to_string(refined_report.coarse_elements) +
@@ -725,6 +733,15 @@ void add_stretch_command(CLI::App& app, Action& action) {
                   "coarse icosphere the same way (a turned mesh keeps no mirror of the scene)")
       ->check(integer_in(0, 1000000))
       ->capture_default_str();
+  cmd->add_option("--mesh-volume", o->mesh_volume,
+                  "continuum with --mesh refined: surface (every vertex on the Evans-Fung "
+                  "surface; the polyhedron encloses slightly less) | scale (scaled about the "
+                  "centre to enclose the Evans-Fung volume, as the uniform meshes are, which "
+                  "moves the fine rims off the surface by the coarse regions' deficit)")
+      ->transform(
+          enum_choice<MeshVolume>({{"surface", MeshVolume::surface}, {"scale", MeshVolume::scale}}))
+      ->type_name("TEXT")
+      ->default_str("surface");
   cmd->add_option("--out", o->out,
                   "write per-force HDF5/XDMF shapes, stretch.csv and run.json (must be empty "
                   "unless --force-overwrite)")
@@ -786,14 +803,18 @@ void add_stretch_command(CLI::App& app, Action& action) {
       // --contact-load, --measure and --mesh choose how the continuum applies and measures and
       // what it is meshed with: refused for the network, whose vertices are the junction
       // complexes (rather than ignored).
-      for (const char* name :
-           {"--contact-load", "--measure", "--mesh", "--mesh-size-ratio", "--mesh-seed"})
+      for (const char* name : {"--contact-load", "--measure", "--mesh", "--mesh-size-ratio",
+                               "--mesh-seed", "--mesh-volume"})
         if (cmd->get_option(name)->count() > 0 && o->model != StretchModel::continuum)
           throw std::invalid_argument(std::string(name) +
                                       " applies to --model continuum, got --model discrete");
       if (cmd->get_option("--mesh-size-ratio")->count() > 0 && o->mesh == ContinuumMesh::uniform)
         throw std::invalid_argument(
             "--mesh-size-ratio applies to --mesh adapted or refined, got --mesh uniform");
+      if (cmd->get_option("--mesh-volume")->count() > 0 && o->mesh != ContinuumMesh::refined)
+        throw std::invalid_argument(
+            "--mesh-volume applies to --mesh refined, got --mesh " +
+            std::string(o->mesh == ContinuumMesh::uniform ? "uniform" : "adapted"));
       if (cmd->get_option("--mesh-seed")->count() > 0 && o->mesh == ContinuumMesh::uniform)
         throw std::invalid_argument(
             "--mesh-seed applies to --mesh adapted or refined, got --mesh uniform");

@@ -89,8 +89,8 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     int adapted_seeds = AccuracyStudyOptions{}.adapted_seeds;
     bool no_adapted = false;
     // The refined-mesh rows of the table (accuracy_cost_refined.csv).
-    std::vector<int> refined_elements = {2900, 4500, 6500};
-    std::vector<double> refined_ratios = {2.0, 3.0};
+    std::vector<int> refined_elements = {500, 1000, 2000, 2900, 4000, 4500, 6500, 8000};
+    std::vector<double> refined_ratios = {1.0, 2.0, 3.0};
     bool no_refined = false;
   };
   auto o = std::make_shared<Opts>();
@@ -187,12 +187,14 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                   "--accuracy-table: element counts of the continuum rows on the refined mesh "
                   "(full law, exact contact load, quadric-fit diameters, both solver paths, the "
                   "rotations of --spread-seeds; written to accuracy_cost_refined.csv), 200 to "
-                  "79,996 (default 2900,4500,6500)")
+                  "79,996 (default 500,1000,2000,2900,4000,4500,6500,8000; a count whose mesh is "
+                  "one already swept at the ratio is left out)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->delimiter(',');
   cmd->add_option("--refined-ratios", o->refined_ratios,
                   "--accuracy-table: coarse / fine size ratios of the refined rows, each in [1, "
-                  "10] (default 2,3)")
+                  "10] (default 1,2,3; 1: the icosphere itself, refined only where a triangle "
+                  "is larger than its mean)")
       ->check(size_ratio_validator())
       ->delimiter(',');
   cmd->add_flag("--no-refined", o->no_refined, "--accuracy-table: no refined-mesh rows");

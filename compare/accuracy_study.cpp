@@ -7,13 +7,16 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include "compare/accuracy_choice.hpp"
 #include "compare/plot.hpp"
 #include "continuum/continuum_model.hpp"
+#include "continuum/refined_mesh.hpp"
 #include "core/io.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 
@@ -309,10 +312,21 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
           m.size_ratio = ratio;
           add_one(m, Symmetry::none);
         }
-  // The refined mesh: as the uniform meshes (its default orientation keeps their mirrors).
+  // The refined mesh: as the uniform meshes (its default orientation keeps their mirrors). A
+  // requested count whose mesh is one already planned at the same ratio is left out: the
+  // smallest refined mesh is that of the coarsest icosphere (2,748 triangles at ratio 2), so
+  // smaller requests give it again.
+  std::set<std::pair<double, int>> refined_meshes;  // (size ratio, triangles)
   for (double ratio : o.refined_size_ratios)
-    for (WlcExpansion order : o.refined_orders)
-      for (int e : o.refined_elements) {
+    for (int e : o.refined_elements) {
+      RefinedMeshOptions ro;
+      ro.target_elements = e;
+      ro.size_ratio = ratio;
+      ro.contact_fraction = NetworkParameters{}.tweezers.contact_fraction;
+      RefinedMeshReport rep;
+      make_refined_mesh(ro, &rep);
+      if (!refined_meshes.insert({ratio, rep.elements}).second) continue;
+      for (WlcExpansion order : o.refined_orders) {
         Method m{MethodKind::continuum, e, order, 0};
         m.refined = true;
         m.size_ratio = ratio;
@@ -322,6 +336,7 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
           add_one(m, Symmetry::none);
         }
       }
+    }
   // The reference size is also a table entry (default mesh, default tolerance), then the
   // reference sweeps at their own tolerance.
   add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, 0);
@@ -540,17 +555,23 @@ namespace {
 std::string series_name(const Method& m, Symmetry symmetry) {
   const std::string mirror = symmetry == Symmetry::mirror ? "_mirror" : "";
   if (m.kind == MethodKind::discrete) return "discrete" + mirror;
-  return (m.order == WlcExpansion::full ? "continuum_full" : "continuum_p" + to_string(m.order)) +
-         mirror;
+  const std::string law =
+      m.order == WlcExpansion::full ? "continuum_full" : "continuum_p" + to_string(m.order);
+  if (m.refined) return law + "_refined" + format_number(m.size_ratio) + mirror;
+  return law + mirror;
 }
 
 /// Legend title of a series (plain words: gnuplot's enhanced text would subscript "_").
 std::string series_title(const Method& m, Symmetry symmetry) {
   const std::string mirror = symmetry == Symmetry::mirror ? ", mirror" : "";
   if (m.kind == MethodKind::discrete) return "discrete" + mirror;
-  return (m.order == WlcExpansion::full ? "continuum full law"
-                                        : "continuum p = " + to_string(m.order)) +
-         mirror;
+  const std::string law =
+      m.order == WlcExpansion::full ? "continuum full law" : "continuum p = " + to_string(m.order);
+  if (m.refined)  // "continuum" left out: the legend's columns must fit the figure's width
+    return (m.size_ratio == 1.0 ? "on-surface icosphere"
+                                : "refined mesh " + format_number(m.size_ratio)) +
+           (m.order == WlcExpansion::full ? ", full law" : ", p = " + to_string(m.order)) + mirror;
+  return law + mirror;
 }
 
 }  // namespace
@@ -856,7 +877,11 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   std::map<std::string, std::vector<const AccuracyRow*>> series;
   for (const auto& r : table_rows)
     if (r.converged) series[series_name(r.method, r.symmetry)].push_back(&r);
-  static const char* colors[] = {"#1f77b4", "#2ca02c", "#ff7f0e", "#d62728", "#9467bd"};
+  // The refined rows of size ratio 1 (the icosphere with its vertices on the surface, the exact
+  // contact load and the quadric-fit diameters): the continuum model at its best.
+  for (const auto& r : refined_rows)
+    if (r.converged && r.method.size_ratio == 1.0)
+      series[series_name(r.method, r.symmetry)].push_back(&r);
   for (const bool by_cost : {true, false}) {
     PlotSpec spec;
     spec.title = by_cost ? "Accuracy against cost, 13 forces of 0-193 pN"
@@ -867,6 +892,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
     spec.ylabel = "largest relative error of D_{A}, D_{T} (%)";
     spec.log_x = spec.log_y = true;
     spec.y_range = "[1e-2:10]";  // percent
+    spec.width_px = 1400;        // four legend entries a row
     {
       std::ostringstream line;  // the reference's own spread: errors below it are not resolved
       line << "set arrow from graph 0, first " << 100 * st.reference_relative_sd
@@ -878,14 +904,16 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
             << 115 * st.reference_relative_sd << " tc rgb '#777777'";
       spec.extra_commands.push_back(label.str());
     }
-    std::map<std::string, int> colour_of;  // a model's colour, shared by its mirror path
     for (const auto& [name, rows] : series) {
       const bool mirror = rows.front()->symmetry == Symmetry::mirror;
       if (!by_cost && mirror) continue;
-      const int k = colour_of
-                        .emplace(series_name(rows.front()->method, Symmetry::none),
-                                 static_cast<int>(colour_of.size()))
-                        .first->second;
+      // A model's colour, shared by its mirror path.
+      const std::string model = series_name(rows.front()->method, Symmetry::none);
+      const char* colour = model == "continuum_full"      ? "#1f77b4"
+                           : model == "continuum_p2"      ? "#2ca02c"
+                           : model == "discrete"          ? "#ff7f0e"
+                           : rows.front()->method.refined ? "#d62728"
+                                                          : "#9467bd";
       const std::string title = series_title(rows.front()->method, rows.front()->symmetry);
       CsvTable s;
       s.header = {"x", "error", "spread"};
@@ -896,8 +924,8 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       const std::string file = (by_cost ? "cost_" : "resolution_") + name + ".csv";
       write_csv(dir + "/" + file, s);
       // The mirror path of a model: its colour, open symbols, dashed.
-      spec.series.push_back({title, file, "1:($2*100)", "linespoints", colors[k % 5],
-                             mirror ? 6 : 7, mirror ? 2 : 1});
+      spec.series.push_back(
+          {title, file, "1:($2*100)", "linespoints", colour, mirror ? 6 : 7, mirror ? 2 : 1});
       CsvTable sp;  // rotation spread, only the sizes that were rotated
       sp.header = s.header;
       for (const auto& q : s.rows)
@@ -905,7 +933,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
       if (!by_cost && !sp.rows.empty()) {
         write_csv(dir + "/spread_" + name + ".csv", sp);
         spec.series.push_back({title + " rotation spread (sd)", "spread_" + name + ".csv",
-                               "1:($3*100)", "linespoints", colors[k % 5], 6, 2});
+                               "1:($3*100)", "linespoints", colour, 6, 2});
       }
     }
     render_plot(spec, dir, by_cost ? "accuracy_cost" : "accuracy_resolution");

@@ -31,9 +31,10 @@ struct Method {
   bool adapted = false;
   /// Continuum only: the icosphere refined towards the scene by red-green refinement
   /// (continuum/refined_mesh.hpp, about `resolution` triangles, coarse / fine edge length
-  /// `size_ratio`; rotation_seed turns the coarse icosphere), run with the exact contact load
-  /// and the quadric-fit diameters, as `rbc stretch --mesh refined --contact-load exact-contact
-  /// --measure quadric-fit`. It keeps the icosphere's mirrors (seed 0).
+  /// `size_ratio`; rotation_seed turns the coarse icosphere), its vertices on the Evans-Fung
+  /// surface (RefinedMeshOptions' default), run with the exact contact load and the quadric-fit
+  /// diameters, as `rbc stretch --mesh refined --contact-load exact-contact --measure
+  /// quadric-fit`. It keeps the icosphere's mirrors (seed 0).
   bool refined = false;
   /// adapted or refined only: AdaptedMeshOptions::size_ratio or RefinedMeshOptions::size_ratio,
   /// in [1, 10]

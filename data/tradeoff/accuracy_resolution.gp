@@ -1,4 +1,4 @@
-set terminal pngcairo size 1100,700 enhanced font 'DejaVu Sans,12'
+set terminal pngcairo size 1400,700 enhanced font 'DejaVu Sans,12'
 if (!exists('rbc_output')) rbc_output = 'accuracy_resolution.png'
 set output rbc_output
 set datafile separator ','
@@ -18,6 +18,8 @@ set arrow from graph 0, first 0.107994 to graph 1, first 0.107994 nohead dt 2 lc
 set label 'reference spread (sd over rotations)' at graph 0.02, first 0.124193 tc rgb '#777777'
 plot 'resolution_continuum_full.csv' skip 1 using 1:($2*100) with linespoints title 'continuum full law' lc rgb '#1f77b4' pt 7 lw 2 dt 1, \
      'spread_continuum_full.csv' skip 1 using 1:($3*100) with linespoints title 'continuum full law rotation spread (sd)' lc rgb '#1f77b4' pt 6 lw 2 dt 2, \
+     'resolution_continuum_full_refined1.csv' skip 1 using 1:($2*100) with linespoints title 'on-surface icosphere, full law' lc rgb '#d62728' pt 7 lw 2 dt 1, \
+     'spread_continuum_full_refined1.csv' skip 1 using 1:($3*100) with linespoints title 'on-surface icosphere, full law rotation spread (sd)' lc rgb '#d62728' pt 6 lw 2 dt 2, \
      'resolution_continuum_p2.csv' skip 1 using 1:($2*100) with linespoints title 'continuum p = 2' lc rgb '#2ca02c' pt 7 lw 2 dt 1, \
      'spread_continuum_p2.csv' skip 1 using 1:($3*100) with linespoints title 'continuum p = 2 rotation spread (sd)' lc rgb '#2ca02c' pt 6 lw 2 dt 2, \
      'resolution_discrete.csv' skip 1 using 1:($2*100) with linespoints title 'discrete' lc rgb '#ff7f0e' pt 7 lw 2 dt 1, \

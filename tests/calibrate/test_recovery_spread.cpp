@@ -422,6 +422,61 @@ TEST(RecoverySpreadPrediction, HeldOutCellsAtTheirOwnViscosity) {
     }
 }
 
+// One posterior draw, so each held-out cell's band median is that draw's curve for the cell:
+// lambda_inf (1 + r0 g(t eta_ref/eta_c))/(1 - r0 g) at the cell's own viscosity eta_c, with
+// (lambda_0, lambda_inf) the mode of the cell's nuisance fit at eta_c. Under the uniform nuisance
+// prior that mode is the least-squares fit, so the median curve must be stationary in
+// (lambda_0, lambda_inf) against the cell's readings: the score of each, in units of its own
+// Fisher information's square root, vanishes. g at each reading is read back from the median,
+// so the test needs no access to the cell's drawn eta_c. A prediction that reads the curve at
+// eta_m while the nuisances were fitted at eta_c (or the reverse) leaves a score of several
+// units on the cells whose eta_c differs from eta_m.
+TEST(RecoverySpreadPrediction, EachCellsMedianIsItsOwnNuisanceFit) {
+  const fs::path dir = testing::fresh_output_dir("recovery_spread_own_fit");
+  InferOptions o;
+  o.data_files = {stretch_file(dir), cells_file(dir)};
+  o.method = Method{MethodKind::continuum, 200, WlcExpansion::order2};
+  o.parameters = {Parameter::persistence, Parameter::eta_m, Parameter::eta_spread};
+  o.recovery_model = small_scene();
+  o.threads = 1;
+  const InferenceProblem problem(o);
+  const RecoveryPredictionProblem held(problem,
+                                       cells_file_at(dir, "held.csv", {0.5, 0.7, 1.1, 1.6}, 33));
+  InferenceResult fit;
+  fit.samples = Eigen::MatrixXd(1, 3);
+  fit.samples.row(0) << 7.5, 0.85, 0.5;
+  const RecoveryPrediction r = predict_recovery(held, fit, 0);
+  ASSERT_EQ(r.used_draws, 1);
+  const double sigma = r.data.sigma_ratio;
+  double largest = 0;
+  for (const RecoveryCellPrediction& cp : r.cells) {
+    const double l0 = cp.lambda_0, linf = cp.lambda_inf, sum = l0 + linf;
+    const double r0 = (l0 - linf) / sum;
+    ASSERT_GT(std::abs(r0), 0.1);
+    double score[2] = {0, 0}, information[2] = {0, 0};
+    for (int i = 0; i < cp.points(); ++i) {
+      const double m = cp.q50[i], q = m / linf;
+      const double x = (q - 1) / (q + 1);  // r0 g at this reading
+      const double g = x / r0;
+      const double d_r0 = linf * 2 * g / ((1 - x) * (1 - x));  // d lambda / d r0
+      const double d[2] = {d_r0 * 2 * linf / (sum * sum),
+                           (1 + x) / (1 - x) - d_r0 * 2 * l0 / (sum * sum)};
+      const double e = cp.observed[i] - m;
+      for (int k = 0; k < 2; ++k) {
+        score[k] += e * d[k] / (sigma * sigma);
+        information[k] += d[k] * d[k] / (sigma * sigma);
+      }
+    }
+    for (int k = 0; k < 2; ++k) {
+      const double z = score[k] / std::sqrt(information[k]);
+      std::printf("cell %d: standardised score in %s %.2e\n", cp.id,
+                  k == 0 ? "lambda_0" : "lambda_inf", z);
+      largest = std::max(largest, std::abs(z));
+    }
+  }
+  EXPECT_LT(largest, 1e-3);
+}
+
 // eta-spread without recovery data, or without eta-m, exits 2 with one line before any work.
 TEST(RecoverySpreadCli, RefusedWithoutRecoveryDataOrViscosity) {
   const fs::path dir = testing::fresh_output_dir("recovery_spread_cli_bad");

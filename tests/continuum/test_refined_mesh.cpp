@@ -146,7 +146,10 @@ TEST(RefinedMesh, AreaAndVolumeConvergeToTheClosedForm) {
   EXPECT_LT(last_volume, 2e-4);
 }
 
-TEST(RefinedMesh, MakeRefinedMeshMeetsItsTargetAndMatchesTheVolume) {
+// The default mesh keeps its vertices on the surface, so it encloses less than the surface
+// (the chords cut inside the convex rim); with match_volume it is the same mesh scaled about
+// the centre by s = (V / V_surface)^(1/3), enclosing the Evans-Fung volume.
+TEST(RefinedMesh, MakeRefinedMeshMeetsItsTargetOnTheSurfaceOrScaledToTheVolume) {
   const EvansFungMeasures exact = evans_fung_measures(EvansFungShape{});
   for (int target : {2500, 4500}) {
     RefinedMeshOptions o;
@@ -156,9 +159,21 @@ TEST(RefinedMesh, MakeRefinedMeshMeetsItsTargetAndMatchesTheVolume) {
     EXPECT_EQ(rep.elements, m.topo.num_faces());
     EXPECT_NEAR(m.topo.num_faces(), target, 0.2 * target);
     EXPECT_GT(rep.elements, rep.coarse_elements);
-    EXPECT_NEAR(enclosed_volume(m.x, m.topo), exact.volume_um3, 1e-9 * exact.volume_um3);
-    expect_closed_outward_sphere(m, rep.volume_scale);
+    EXPECT_EQ(rep.volume_scale, 1.0);
+    const double v_surface = enclosed_volume(m.x, m.topo);
+    EXPECT_LT(v_surface, exact.volume_um3);
+    EXPECT_GT(v_surface, 0.99 * exact.volume_um3);
+    expect_closed_outward_sphere(m);
     EXPECT_EQ(find_mirror_symmetry(m.x, m.topo).order(), 4);
+
+    o.match_volume = true;
+    RefinedMeshReport scaled_rep;
+    const TriMesh scaled = make_refined_mesh(o, &scaled_rep);
+    ASSERT_TRUE(scaled.topo.faces == m.topo.faces);
+    EXPECT_NEAR(scaled_rep.volume_scale, std::cbrt(exact.volume_um3 / v_surface), 1e-12);
+    EXPECT_LT((scaled.x - scaled_rep.volume_scale * m.x).cwiseAbs().maxCoeff(), 1e-13);
+    EXPECT_NEAR(enclosed_volume(scaled.x, scaled.topo), exact.volume_um3, 1e-9 * exact.volume_um3);
+    expect_closed_outward_sphere(scaled, scaled_rep.volume_scale);
   }
   RefinedMeshOptions bad;
   bad.size_ratio = 0.5;
