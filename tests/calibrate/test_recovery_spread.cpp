@@ -368,6 +368,18 @@ std::string cells_file_at(const fs::path& dir, const std::string& name,
   return write_file(dir, name, s.str());
 }
 
+/// A fit of p, eta-m and eta-spread to a stretch table and three recovery cells on the smallest
+/// release scene, one thread: the problem the prediction tests draw from.
+InferOptions spread_prediction_options(const fs::path& dir) {
+  InferOptions o;
+  o.data_files = {stretch_file(dir), cells_file(dir)};
+  o.method = Method{MethodKind::continuum, 200, WlcExpansion::order2};
+  o.parameters = {Parameter::persistence, Parameter::eta_m, Parameter::eta_spread};
+  o.recovery_model = small_scene();
+  o.threads = 1;
+  return o;
+}
+
 // Held-out prediction with eta-spread: each held-out cell is a new cell at its own viscosity
 // eta_m exp(s eps). Posterior draws at eta_m = 0.85 pN s/um (one trajectory) and two held-out
 // cells at 0.55 and 1.3 pN s/um (0.43 below and above in log eta): with s = 0.35 in the draws
@@ -376,12 +388,7 @@ std::string cells_file_at(const fs::path& dir, const std::string& name,
 // are the shared prediction's.
 TEST(RecoverySpreadPrediction, HeldOutCellsAtTheirOwnViscosity) {
   const fs::path dir = testing::fresh_output_dir("recovery_spread_prediction");
-  InferOptions o;
-  o.data_files = {stretch_file(dir), cells_file(dir)};
-  o.method = Method{MethodKind::continuum, 200, WlcExpansion::order2};
-  o.parameters = {Parameter::persistence, Parameter::eta_m, Parameter::eta_spread};
-  o.recovery_model = small_scene();
-  o.threads = 1;
+  const InferOptions o = spread_prediction_options(dir);
   const InferenceProblem problem(o);
   const RecoveryPredictionProblem held(problem, cells_file_at(dir, "held.csv", {0.55, 1.3}, 21));
   double fraction[2] = {0, 0};
@@ -433,12 +440,7 @@ TEST(RecoverySpreadPrediction, HeldOutCellsAtTheirOwnViscosity) {
 // units on the cells whose eta_c differs from eta_m.
 TEST(RecoverySpreadPrediction, EachCellsMedianIsItsOwnNuisanceFit) {
   const fs::path dir = testing::fresh_output_dir("recovery_spread_own_fit");
-  InferOptions o;
-  o.data_files = {stretch_file(dir), cells_file(dir)};
-  o.method = Method{MethodKind::continuum, 200, WlcExpansion::order2};
-  o.parameters = {Parameter::persistence, Parameter::eta_m, Parameter::eta_spread};
-  o.recovery_model = small_scene();
-  o.threads = 1;
+  const InferOptions o = spread_prediction_options(dir);
   const InferenceProblem problem(o);
   const RecoveryPredictionProblem held(problem,
                                        cells_file_at(dir, "held.csv", {0.5, 0.7, 1.1, 1.6}, 33));
