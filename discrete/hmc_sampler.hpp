@@ -6,8 +6,9 @@
 // network's free energy network_energy() with the area and volume multipliers held fixed and
 // the penalties times LoadState::stiffness_scale, beta = 1/(kB T) at the sampling temperature.
 //
-// Mass matrix (pN/um, times beta): built once, at the chain's reference positions (the
-// zero-temperature equilibrium), and never changed, so the transition is exact HMC:
+// Mass matrix (pN/um, times beta): built at the chain's reference positions (the
+// zero-temperature equilibrium, or the thermal mean, see "Reference" below), and never changed
+// during the production transitions, so they are exact HMC:
 //   M = beta (K0 + U C U'),
 //   K0 = the network Hessian (discrete/network_hessian.hpp) at the reference: the exact one
 //        plus a shift of HmcOptions::mass_shift_fraction times its mean diagonal when that
