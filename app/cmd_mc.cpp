@@ -95,6 +95,7 @@ OptionNames mc_option_names() {
       {"penalty scale", "--penalty-scale"},
       {"sample interval (sweeps)", "--sample-every"},
       {"adaptive fraction", "--adapt-fraction"},
+      {"adaptive sweeps", "--adapt-sweeps (or --adapt-fraction x --sweeps)"},
       {"HMC leapfrog step", "--hmc-step"},
       {"HMC trajectory time", "--hmc-trajectory-time"},
       {"HMC mass shift fraction", "--hmc-mass-shift"},
@@ -266,7 +267,13 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     throw std::invalid_argument(
         "--adapt-sweeps " + std::to_string(o.adapt_sweeps) +
         ": expected an integer in [0, --sweeps = " + std::to_string(o.sweeps) + "]");
-  to_setup(o);  // every number up front (on --resume too: a given option must be valid)
+  {
+    McRunSetup up_front = to_setup(o);  // every number up front (on --resume too)
+    if (o.adapt_sweeps >= 0 && o.resume.empty()) {
+      up_front.sampler.adapt_sweeps = static_cast<int>(o.adapt_sweeps);
+      up_front.validate();  // e.g. the thermal HMC mass reference's adaptive sweeps
+    }
+  }
   const NetworkParameters model = to_network_parameters(o.physics);  // the physics, validated
   if (std::error_code ec; !o.resume.empty() && !std::filesystem::is_regular_file(o.resume, ec))
     throw std::invalid_argument("--resume " + o.resume + ": no such checkpoint file");
@@ -544,7 +551,8 @@ nlohmann::ordered_json force_list_definition(const McCli& o) {
     j.update({{"--hmc-step", o.hmc.step},
               {"--hmc-trajectory-time", o.hmc.trajectory_time},
               {"--hmc-mass", o.hmc.projected_mass ? "projected" : "exact"},
-              {"--hmc-mass-shift", o.hmc.mass_shift_fraction}});
+              {"--hmc-mass-shift", o.hmc.mass_shift_fraction},
+              {"--hmc-mass-reference", to_string(o.hmc.mass_reference)}});
   return j;
 }
 
@@ -1005,6 +1013,15 @@ void add_mc_command(CLI::App& app, Action& action) {
                   "hmc: diagonal shift of the mass matrix as a fraction of its mean diagonal, in "
                   "[1e-8, 1]")
       ->capture_default_str();
+  cmd->add_option("--hmc-mass-reference", o->hmc.mass_reference,
+                  "hmc: positions the mass matrix is built at: the zero-temperature equilibrium "
+                  "for the whole run (equilibrium), or rebuilt once at the end of the adaptive "
+                  "sweeps at the mean positions of their second half (thermal; needs >= 2 "
+                  "adaptive sweeps)")
+      ->transform(enum_choice<HmcMassReference>(
+          {{"equilibrium", HmcMassReference::equilibrium}, {"thermal", HmcMassReference::thermal}}))
+      ->type_name("TEXT")
+      ->default_str("equilibrium");
   cmd->add_option("--start", o->start, "equilibrium | rest")
       ->transform(
           enum_choice<McStart>({{"equilibrium", McStart::equilibrium}, {"rest", McStart::rest}}))

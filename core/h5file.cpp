@@ -340,6 +340,10 @@ bool H5File::has(const std::string& name) const {
   return H5Lexists(id_, name.c_str(), H5P_DEFAULT) > 0;
 }
 
+bool H5File::has_attribute(const std::string& name) const {
+  return H5Aexists(id_, name.c_str()) > 0;
+}
+
 std::pair<hsize_t, hsize_t> H5File::read_raw(const std::string& name, hid_t type,
                                              std::function<void*(size_t)> alloc) const {
   if (!has(name)) fail(path_, "has no dataset " + name);

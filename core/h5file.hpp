@@ -64,6 +64,8 @@ class H5File {
   void write_attribute(const std::string& name, const std::string& value);
 
   bool has(const std::string& name) const;
+  /// Whether the file's root carries the attribute `name`.
+  bool has_attribute(const std::string& name) const;
   /// Reads a 2-D (or 1-D, as n x 1) dataset into a row-major buffer; returns its shape.
   std::pair<hsize_t, hsize_t> read(const std::string& name, std::vector<double>& out) const;
   std::pair<hsize_t, hsize_t> read(const std::string& name, std::vector<int>& out) const;

@@ -33,6 +33,16 @@ Eigen::VectorXd DenseMassMatrix::inverse_times(const Eigen::VectorXd& p) const {
   return l_.transpose().triangularView<Eigen::Upper>().solve(y);
 }
 
+std::string to_string(HmcMassReference r) {
+  return r == HmcMassReference::thermal ? "thermal" : "equilibrium";
+}
+
+HmcMassReference hmc_mass_reference_from_string(const std::string& s) {
+  if (s == "equilibrium") return HmcMassReference::equilibrium;
+  if (s == "thermal") return HmcMassReference::thermal;
+  throw std::invalid_argument("HMC mass reference '" + s + "': expected equilibrium or thermal");
+}
+
 void HmcOptions::validate() const {
   require_finite_in_range("HMC leapfrog step", "", step, 0.0, 4.0);
   require_finite_in_range("HMC trajectory time", "", trajectory_time, 0.0, 100.0);

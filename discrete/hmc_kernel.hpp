@@ -30,6 +30,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <string>
 
 namespace rbc {
 
@@ -64,6 +65,18 @@ class DenseMassMatrix final : public MassMatrix {
   Eigen::MatrixXd l_;  ///< lower Cholesky factor of M
 };
 
+/// Where the network mass matrix (discrete/hmc_sampler.hpp) is built.
+enum class HmcMassReference {
+  /// At the chain's start, the zero-temperature equilibrium, for the whole run.
+  equilibrium,
+  /// At the start during the adaptive phase; at its end rebuilt once at the mean of the chain's
+  /// positions over the second half of the adaptive phase, then fixed.
+  thermal,
+};
+std::string to_string(HmcMassReference r);
+/// "equilibrium" or "thermal"; std::invalid_argument otherwise.
+HmcMassReference hmc_mass_reference_from_string(const std::string& s);
+
 struct HmcOptions {
   /// Initial leapfrog step h (dimensionless time), in (0, 4]: the steps the adaptation settles
   /// on for the cell at 300 K are 0.07 to 0.15 from N = 250 to 8,000.
@@ -82,6 +95,10 @@ struct HmcOptions {
   /// Network mass matrix: diagonal shift of K0 as a fraction of its mean diagonal, in
   /// [1e-8, 1]: the floor of the mass of modes the Hessian makes soft.
   double mass_shift_fraction = 1e-4;
+  /// Network mass matrix: built at the zero-temperature equilibrium (default) or rebuilt once at
+  /// the end of the adaptive phase at the thermal mean positions (needs McOptions::adapt_sweeps
+  /// >= 2, checked by McOptions::validate()).
+  HmcMassReference mass_reference = HmcMassReference::equilibrium;
   /// Throws rbc::InvalidParameter naming the value.
   void validate() const;
 };

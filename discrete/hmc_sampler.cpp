@@ -142,6 +142,7 @@ HmcSampler::HmcSampler(const Network& net, const LoadState& load, const Position
         "HMC mass reference is infeasible (a link at Lmax or a collapsed face)");
   reference_ = mass_reference;
   mass_ = std::make_unique<NetworkMassMatrix>(net_, load_, reference_, beta_, opt_.hmc);
+  mass_info_ = mass_->info();
   potential_ = [this](const Eigen::VectorXd& q, Eigen::VectorXd& grad) {
     const Eigen::Map<const Positions> xq(q.data(), 3, net_.topo.num_vertices);
     Positions g(3, net_.topo.num_vertices);
@@ -170,10 +171,6 @@ void HmcSampler::set_state(const Positions& x) {
   volume_ = geo.volume_um3;
 }
 
-const HmcMassInfo& HmcSampler::mass_info() const {
-  return mass_->info();
-}
-
 int HmcSampler::mobile_vertices() const {
   return net_.topo.num_vertices;
 }
@@ -196,11 +193,36 @@ McSweepStats HmcSampler::sweep() {
     area_ = geo.area_um2;
     volume_ = geo.volume_um3;
   }
+  if (opt_.hmc.mass_reference == HmcMassReference::thermal) accumulate_reference();
   McSweepStats st;
   st.attempted = 1;
   st.accepted = last_.accepted ? 1 : 0;
   st.infeasible = last_.diverged ? 1 : 0;
   return st;
+}
+
+void HmcSampler::accumulate_reference() {
+  // sweep_ transitions done: the last one is transition sweep_ - 1 (0-based).
+  const long long k = sweep_ - 1;
+  if (k < window_start() || k >= opt_.adapt_sweeps) return;
+  if (k == window_start()) reference_sum_ = Positions::Zero(3, net_.topo.num_vertices);
+  reference_sum_ += x_;
+  if (k + 1 < opt_.adapt_sweeps) return;
+  const long long count = opt_.adapt_sweeps - window_start();
+  const Positions mean = reference_sum_ / double(count);
+  reference_sum_.resize(3, 0);
+  if (!std::isfinite(network_energy(net_, mean, load_))) return;  // M stays the start's
+  std::unique_ptr<NetworkMassMatrix> rebuilt;
+  try {
+    rebuilt = std::make_unique<NetworkMassMatrix>(net_, load_, mean, beta_, opt_.hmc);
+  } catch (const std::runtime_error&) {
+    return;  // neither Hessian factorises at the mean: M stays the start's
+  }
+  mass_ = std::move(rebuilt);
+  reference_ = mean;
+  mass_info_ = mass_->info();
+  mass_info_.thermal = true;
+  mass_info_.reference_transitions = count;
 }
 
 McChainState HmcSampler::state() const {
@@ -211,6 +233,7 @@ McChainState HmcSampler::state() const {
   const auto* p = static_cast<const unsigned char*>(gsl_rng_state(rng_.get()));
   s.rng_state.emplace_back(p, p + gsl_rng_size(rng_.get()));
   s.mass_reference = reference_;
+  s.mass_reference_sum = reference_sum_;
   return s;
 }
 
@@ -224,9 +247,24 @@ void HmcSampler::restore(const McChainState& s) {
     throw std::invalid_argument("chain state's mass reference differs from the sampler's");
   if (!(s.step_um > 0) || !std::isfinite(s.step_um) || s.sweep < 0)
     throw std::invalid_argument("chain state has an invalid step or sweep count");
+  const bool in_window = opt_.hmc.mass_reference == HmcMassReference::thermal &&
+                         s.sweep > window_start() && s.sweep < opt_.adapt_sweeps;
+  if (in_window &&
+      (s.mass_reference_sum.rows() != 3 || s.mass_reference_sum.cols() != net_.topo.num_vertices ||
+       !s.mass_reference_sum.allFinite()))
+    throw std::invalid_argument(
+        "chain state inside the thermal mass reference's averaging window has no position sum");
   set_state(s.x);
   step_ = s.step_um;
   sweep_ = s.sweep;
+  if (in_window)
+    reference_sum_ = s.mass_reference_sum;
+  else
+    reference_sum_.resize(3, 0);
+  if (opt_.hmc.mass_reference == HmcMassReference::thermal && sweep_ >= opt_.adapt_sweeps) {
+    mass_info_.thermal = true;
+    mass_info_.reference_transitions = opt_.adapt_sweeps - window_start();
+  }
   std::memcpy(gsl_rng_state(rng_.get()), s.rng_state[0].data(), s.rng_state[0].size());
 }
 

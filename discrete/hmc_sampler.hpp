@@ -6,8 +6,9 @@
 // network's free energy network_energy() with the area and volume multipliers held fixed and
 // the penalties times LoadState::stiffness_scale, beta = 1/(kB T) at the sampling temperature.
 //
-// Mass matrix (pN/um, times beta): built once, at the chain's reference positions (the
-// zero-temperature equilibrium), and never changed, so the transition is exact HMC:
+// Mass matrix (pN/um, times beta): built at the chain's reference positions (the
+// zero-temperature equilibrium, or the thermal mean, see "Reference" below), and never changed
+// during the production transitions, so they are exact HMC:
 //   M = beta (K0 + U C U'),
 //   K0 = the network Hessian (discrete/network_hessian.hpp) at the reference: the exact one
 //        plus a shift of HmcOptions::mass_shift_fraction times its mean diagonal when that
@@ -19,6 +20,18 @@
 //        F (unit translations t and the unit rotation r_x about the stretch axis at the
 //        reference), given the mass c = the mean diagonal of K0, so that no momentum along them
 //        turns into a large velocity.
+// Reference (HmcOptions::mass_reference). equilibrium: M is built at the start (the
+// zero-temperature equilibrium) for the whole run. thermal: M is built at the start, the chain's
+// positions after each transition k of the second half of the adaptive phase
+// (k = floor(a/2) .. a-1, a = McOptions::adapt_sweeps) are summed, and after transition a-1 M is
+// rebuilt once, by the same construction, at their mean x_bar (the Hessian and the area, volume
+// and rotation columns at x_bar). M is fixed from transition a on, so the production chain (the
+// samples McRun::summarise() uses) is exact HMC with that M: the law is unchanged, like the step
+// adaptation this is a choice of the adaptive phase. The zero-temperature Hessian is stiffer
+// than the thermal shape's along slow collective directions (D_A at 300 K:
+// docs/validation/monte-carlo.md, "Collective moves"). When the energy at x_bar is not finite
+// or neither Hessian factorises there, M stays the start's (HmcMassInfo::thermal false).
+//
 // M^-1 is applied by Sherman-Morrison-Woodbury on one CHOLMOD factorisation of K0 (double
 // precision: the kinetic energy, the drifts and the momentum draws all use this one factor):
 //   M^-1 p = (K0^-1 p - W S^-1 U' K0^-1 p) / beta,  W = K0^-1 U,  S = C^-1 + U' W;
@@ -44,6 +57,11 @@ struct HmcMassInfo {
   double shift_pN_per_um = 0;       ///< diagonal shift added to K0
   double rigid_mass_pN_per_um = 0;  ///< c, the mass of the four zero modes
   double factor_nonzeros = 0;       ///< of the Cholesky factor of K0
+  /// Built at the thermal mean positions (HmcMassReference::thermal, after the adaptive phase);
+  /// false at the start positions.
+  bool thermal = false;
+  /// Transitions whose positions were averaged for the thermal reference (0 when not thermal).
+  long long reference_transitions = 0;
 };
 
 /// M = beta (K0 + U C U') at positions x (see above), with its factor. Prepared state: built
@@ -108,17 +126,25 @@ class HmcSampler final : public McChain {
   /// solves (the factor's: one per M^-1 application and one per momentum draw).
   long long evaluations() const { return evaluations_; }
   long long solves() const { return solves_; }
-  const HmcMassInfo& mass_info() const;
+  /// How the mass matrix in use was made (after a restore past the thermal rebuild: thermal as
+  /// the options say, the state holding the positions it was built at).
+  const HmcMassInfo& mass_info() const { return mass_info_; }
   double beta_per_pNum() const { return beta_; }
 
  private:
   void set_state(const Positions& x);
+  /// First transition (0-based) of the thermal reference's averaging window.
+  long long window_start() const { return opt_.adapt_sweeps / 2; }
+  /// Thermal reference: adds the positions to the window's sum, and after the last adaptive
+  /// transition rebuilds the mass matrix at the mean.
+  void accumulate_reference();
 
   const Network& net_;
   LoadState load_;
   McOptions opt_;
   double beta_ = 0;
   Positions x_, reference_;
+  Positions reference_sum_;  ///< thermal reference: sum of positions over the window so far, um
   HmcState state_;
   double step_ = 0;
   long long sweep_ = 0;
@@ -127,6 +153,7 @@ class HmcSampler final : public McChain {
   HmcTransition last_;
   McThreadDecision threads_;
   std::unique_ptr<NetworkMassMatrix> mass_;
+  HmcMassInfo mass_info_;
   HmcPotential potential_;
   struct RngFree {
     void operator()(gsl_rng* r) const noexcept { gsl_rng_free(r); }

@@ -123,6 +123,12 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
           throw std::invalid_argument("HMC chain state without its mass reference");
         h.write(group + "/mass_reference_um", c.mass_reference.data(),
                 hsize_t(c.mass_reference.cols()), 3);
+        if (c.mass_reference_sum.size()) {
+          if (c.mass_reference_sum.cols() != c.x.cols())
+            throw std::invalid_argument("HMC chain state's position sum has the wrong size");
+          h.write(group + "/mass_reference_sum_um", c.mass_reference_sum.data(),
+                  hsize_t(c.mass_reference_sum.cols()), 3);
+        }
       }
       sweeps.push_back(static_cast<unsigned long long>(c.sweep));
       rows_count.push_back(series[k].size());
@@ -175,6 +181,10 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
       h.write_attribute("hmc_max_steps", static_cast<long long>(m.max_steps));
       h.write_attribute("hmc_projected_mass", static_cast<long long>(m.projected_mass));
       h.write_attribute("hmc_mass_shift_fraction", m.mass_shift_fraction);
+      // Written for the thermal reference only, so an equilibrium run's file is the same as
+      // before the option existed; absent means equilibrium.
+      if (m.mass_reference != HmcMassReference::equilibrium)
+        h.write_attribute("hmc_mass_reference", to_string(m.mass_reference));
     }
     h.write_attribute(kChecksumAttribute, hex_digits(h.content_checksum(kChecksumAttribute)));
     h.close();
@@ -321,6 +331,17 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
                       std::to_string(nv) + " x 3 finite positions");
       cp.chains[std::size_t(k)].mass_reference =
           Eigen::Map<const Eigen::Matrix3Xd>(reference.data(), 3, nv);
+      const std::string sum_name = "/chain_" + std::to_string(k) + "/mass_reference_sum_um";
+      if (h.has(sum_name)) {
+        std::vector<double> sum;
+        const auto [srows, scols] = h.read(sum_name, sum);
+        if (static_cast<long long>(srows) != nv || scols != 3 ||
+            !Eigen::Map<const Eigen::VectorXd>(sum.data(), Eigen::Index(sum.size())).allFinite())
+          throw corrupt("HMC mass reference position sum of chain " + std::to_string(k) +
+                        " is not " + std::to_string(nv) + " x 3 finite numbers");
+        cp.chains[std::size_t(k)].mass_reference_sum =
+            Eigen::Map<const Eigen::Matrix3Xd>(sum.data(), 3, nv);
+      }
     }
     HmcOptions& m = u.sampler.hmc;
     m.step = h.read_attribute_double("hmc_step");
@@ -331,6 +352,14 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
     m.max_steps = static_cast<int>(h.read_attribute_int("hmc_max_steps"));
     m.projected_mass = h.read_attribute_int("hmc_projected_mass") != 0;
     m.mass_shift_fraction = h.read_attribute_double("hmc_mass_shift_fraction");
+    if (h.has_attribute("hmc_mass_reference")) {
+      try {
+        m.mass_reference =
+            hmc_mass_reference_from_string(h.read_attribute_string("hmc_mass_reference"));
+      } catch (const std::invalid_argument& e) {
+        throw corrupt(e.what());
+      }
+    }
   }
   try {
     u.validate();

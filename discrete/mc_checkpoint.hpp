@@ -22,7 +22,10 @@
 // mc_sample_columns()) and, for HMC, mass_reference_um (N x 3, the positions its mass matrix was
 // built at). HMC runs add the attributes hmc_step, hmc_trajectory_time, hmc_jitter,
 // hmc_target_acceptance, hmc_adapt_gain, hmc_max_steps, hmc_projected_mass,
-// hmc_mass_shift_fraction. Other format versions are refused with a message naming the version.
+// hmc_mass_shift_fraction, and hmc_mass_reference ("thermal"; absent: equilibrium); a thermal
+// chain checkpointed inside its averaging window adds /chain_c/mass_reference_sum_um (N x 3, the
+// sum of its positions over the window so far). Other format versions are refused with a message
+// naming the version.
 #include <cstdint>
 #include <string>
 #include <utility>

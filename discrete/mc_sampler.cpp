@@ -52,6 +52,10 @@ void McOptions::validate() const {
     require_finite_in_range("HMC sampling temperature", "K", temperature_K, 0.0,
                             kMaxSamplingTemperature_K, Ends::open_closed);
     hmc.validate();
+    if (hmc.mass_reference == HmcMassReference::thermal && adapt_sweeps < 2)
+      throw InvalidParameter("adaptive sweeps", std::to_string(adapt_sweeps),
+                             ">= 2 (the thermal HMC mass reference averages the positions over "
+                             "the second half of the adaptive phase)");
     if (!mobile.empty())
       throw InvalidParameter("mobile vertices", std::to_string(mobile.size()),
                              "all (HMC moves every vertex; a subset needs the metropolis sampler)");

@@ -143,6 +143,10 @@ struct McChainState {
   long long sweep = 0;  ///< completed sweeps
   /// HMC: the positions the mass matrix was built at (3 x N, um); empty for Metropolis.
   Positions mass_reference;
+  /// HMC with the thermal mass reference, inside the averaging window (second half of the
+  /// adaptive phase): the sum of the chain's positions after each transition of the window so
+  /// far (3 x N, um); empty otherwise.
+  Positions mass_reference_sum;
 };
 
 /// Counts of one sweep.

@@ -198,6 +198,9 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
                 {"solves", solves},
                 {"mass_matrix", m.exact ? "exact Hessian" : "projected Hessian"},
                 {"mass_shift_pN_per_um", m.shift_pN_per_um},
+                {"mass_reference", to_string(su.sampler.hmc.mass_reference)},
+                {"mass_built_at", m.thermal ? "thermal mean" : "start"},
+                {"mass_reference_transitions", m.reference_transitions},
                 {"rigid_mass_pN_per_um", m.rigid_mass_pN_per_um},
                 {"factor_nonzeros", m.factor_nonzeros}};
   }

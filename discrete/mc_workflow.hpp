@@ -111,7 +111,10 @@ nlohmann::json to_json(const McThreadDecision& decision);
 /// chain_steps, reference_axial_um, reference_transverse_um, running_total_drift_area_um2,
 /// running_total_drift_volume_um3 (largest over the chains); for HMC also "hmc":
 /// {trajectory_time, evaluations, solves (totals over the chains of this process's run),
-/// mass_matrix, mass_shift_pN_per_um, rigid_mass_pN_per_um, factor_nonzeros}.
+/// mass_matrix, mass_shift_pN_per_um, mass_reference (the option: equilibrium or thermal),
+/// mass_built_at (chain 0's matrix in use: "start", or "thermal mean" after the thermal
+/// rebuild), mass_reference_transitions (positions averaged for it), rigid_mass_pN_per_um,
+/// factor_nonzeros}.
 nlohmann::json mc_run_json(const Network& net, const McRun& run);
 /// mc_run_json without the sampler-specific block.
 nlohmann::json mc_run_keys(const Network& net, const McRun& run);

@@ -299,6 +299,55 @@ TEST(McCli, HmcSamplerRunsResumesAndRefusesBadInput) {
 namespace rbc {
 namespace {
 
+// --hmc-mass-reference thermal through the front end: the JSON records the option and where the
+// matrix in use was built; a checkpoint after the rebuild (adaptive sweeps 8, averaged over
+// 4 .. 7; the library test HmcThermalMass.ResumesAcrossTheRebuildBitForBitOnAnyThreadCount
+// checkpoints inside the window too) resumes on another thread count to the straight run's means
+// bit for bit; too short an adaptive phase and an unknown reference are refused in one line
+// before any work.
+TEST(McCli, HmcThermalMassReferenceRecordsResumesAndRefusesBadInput) {
+  using testing::fresh_output_dir;
+  using testing::run_rbc;
+  const fs::path dir = fresh_output_dir("mc_cli_hmc_thermal");
+  const std::string base =
+      "mc -n 150 --force 20 --sampler hmc --hmc-mass-reference thermal --adapt-sweeps 8 --seed 2 "
+      "--chains 1 -q --json";
+  const CliRun whole = run_rbc(base + " --sweeps 20", 2);
+  ASSERT_EQ(whole.exit_code, 0) << whole.all();
+  const json w = json::parse(whole.out);
+  EXPECT_EQ(w.at("hmc").at("mass_reference"), "thermal");
+  EXPECT_EQ(w.at("hmc").at("mass_built_at"), "thermal mean");
+  EXPECT_EQ(w.at("hmc").at("mass_reference_transitions"), 4);
+  const std::string ck = quoted(dir / "chain.h5");
+  ASSERT_EQ(
+      run_rbc(base + " --sweeps 10 --checkpoint " + ck + " --checkpoint-every 10", 2).exit_code, 0);
+  const CliRun resumed = run_rbc("mc --resume " + ck + " --sweeps 20 -q --json", 1);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.all();
+  const json r = json::parse(resumed.out);
+  EXPECT_EQ(r.at("hmc").at("mass_built_at"), "thermal mean");
+  EXPECT_EQ(r.at("energy_pNum").at("mean"), w.at("energy_pNum").at("mean"));
+  EXPECT_EQ(r.at("axial_um").at("mean"), w.at("axial_um").at("mean"));
+  const CliRun plain = run_rbc(
+      "mc -n 150 --force 20 --sampler hmc --adapt-sweeps 8 --seed 2 "
+      "--chains 1 -q --json --sweeps 20",
+      2);
+  ASSERT_EQ(plain.exit_code, 0) << plain.all();
+  EXPECT_EQ(json::parse(plain.out).at("hmc").at("mass_built_at"), "start");
+  for (const std::string bad : {"--sampler hmc --hmc-mass-reference thermal --adapt-sweeps 1",
+                                "--sampler hmc --hmc-mass-reference hot"}) {
+    const CliRun b = run_rbc("mc -n 150 --sweeps 10 -q " + bad);
+    EXPECT_EQ(b.exit_code, 2) << bad << "\n" << b.all();
+    EXPECT_NE(b.err.find("rbc: error:"), std::string::npos) << b.all();
+    EXPECT_EQ(std::count(b.err.begin(), b.err.end(), '\n'), 1) << b.all();
+  }
+}
+
+}  // namespace
+}  // namespace rbc
+
+namespace rbc {
+namespace {
+
 // The continuum's exact contact load and quadric-fit measure through `rbc stretch`: the
 // diameters printed are those of the quadric fit on the shape written (recomputed here from the
 // file), the run differs from the default vertex patch and vertex measure, the shape carries the
