@@ -49,6 +49,14 @@ std::vector<double> read_dataset(const fs::path& file, const std::string& name) 
   return v;
 }
 
+/// `rbc mc -n 150 -q ARGS` is refused before any work: exit 2, one line on stderr.
+void expect_refused_in_one_line(const std::string& args) {
+  const CliRun b = run_rbc("mc -n 150 -q " + args);
+  EXPECT_EQ(b.exit_code, 2) << args << "\n" << b.all();
+  EXPECT_NE(b.err.find("rbc: error:"), std::string::npos) << b.all();
+  EXPECT_EQ(std::count(b.err.begin(), b.err.end(), '\n'), 1) << b.all();
+}
+
 TEST(McCli, ThreadDecisionIsRecordedInJsonAndRunJson) {
   // Two threads available, N = 150: the sweeps run on one (a second does not pay at this size),
   // and both outputs say so with the reason.
@@ -285,12 +293,8 @@ TEST(McCli, HmcSamplerRunsResumesAndRefusesBadInput) {
   EXPECT_EQ(other.exit_code, 2) << other.all();
   EXPECT_NE(other.err.find("hmc"), std::string::npos) << other.all();
   for (const std::string bad : {"--sampler gibbs", "--sampler hmc --sampling-temperature 0",
-                                "--sampler hmc --hmc-step 5", "--sampler hmc --hmc-step 0"}) {
-    const CliRun b = run_rbc("mc -n 150 --sweeps 1 -q " + bad);
-    EXPECT_EQ(b.exit_code, 2) << bad << "\n" << b.all();
-    EXPECT_NE(b.err.find("rbc: error:"), std::string::npos) << b.all();
-    EXPECT_EQ(std::count(b.err.begin(), b.err.end(), '\n'), 1) << b.all();
-  }
+                                "--sampler hmc --hmc-step 5", "--sampler hmc --hmc-step 0"})
+    expect_refused_in_one_line("--sweeps 1 " + bad);
 }
 
 }  // namespace
@@ -334,12 +338,8 @@ TEST(McCli, HmcThermalMassReferenceRecordsResumesAndRefusesBadInput) {
   ASSERT_EQ(plain.exit_code, 0) << plain.all();
   EXPECT_EQ(json::parse(plain.out).at("hmc").at("mass_built_at"), "start");
   for (const std::string bad : {"--sampler hmc --hmc-mass-reference thermal --adapt-sweeps 1",
-                                "--sampler hmc --hmc-mass-reference hot"}) {
-    const CliRun b = run_rbc("mc -n 150 --sweeps 10 -q " + bad);
-    EXPECT_EQ(b.exit_code, 2) << bad << "\n" << b.all();
-    EXPECT_NE(b.err.find("rbc: error:"), std::string::npos) << b.all();
-    EXPECT_EQ(std::count(b.err.begin(), b.err.end(), '\n'), 1) << b.all();
-  }
+                                "--sampler hmc --hmc-mass-reference hot"})
+    expect_refused_in_one_line("--sweeps 10 " + bad);
 }
 
 }  // namespace
