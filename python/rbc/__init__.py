@@ -110,8 +110,10 @@ UNITLESS_KEYS = frozenset({
     "status", "status_text", "method", "data_file", "command", "unit", "library", "core",
     "config", "bending", "contact", "dihedral_mapping", "log_evidence_error_estimate", "reason",
     "file", "name", "sigma", "sampler", "mass_matrix", "rhat_method", "stem", "kind", "contents",
-    # HMC: dimensionless trajectory time, counts
-    "trajectory_time", "evaluations", "solves", "factor_nonzeros",
+    # HMC: dimensionless trajectory time, counts; where the mass matrix was built (text) and
+    # the count of transitions its thermal mean averaged
+    "trajectory_time", "evaluations", "solves", "factor_nonzeros", "mass_reference",
+    "mass_built_at", "mass_reference_transitions",
     # groups of other keys (their entries carry the units)
     "parameters", "derived", "timing", "stage_log", "stage_info", "data", "data_sets",
     "predictive_q05_q50_q95", "hmc", "per_chain",
