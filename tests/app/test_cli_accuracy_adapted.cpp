@@ -46,7 +46,7 @@ TEST(AccuracyTableAdapted, RowsAreTheStretchRunsWorstOverTheMeshSeeds) {
   const std::string common =
       "tradeoff --accuracy-table -q --vertices 150 --elements 200 --orders 2 --symmetries none "
       "--spread-max 0 --reference-vertices 300 --reference-seeds 0,1 --adapted-ratios 2,3 "
-      "--adapted-seeds 2 --out ";
+      "--adapted-seeds 2 --no-refined --out ";
   const CliRun r = run_rbc(common + quoted(dir / "t") + " --adapted-elements 300", 1);
   ASSERT_EQ(r.exit_code, 0) << r.all();
 
@@ -114,6 +114,7 @@ TEST(AccuracyTableAdapted, RowsAreTheStretchRunsWorstOverTheMeshSeeds) {
   EXPECT_NEAR(cost.rows[1][column(cost, "error_all")], worst3, 1e-9);
   EXPECT_TRUE(fs::exists(dir / "t" / "runs" / "continuum_adapted2_pfull_E300_r1.csv"));
   EXPECT_TRUE(fs::exists(dir / "t" / "runs" / "continuum_adapted3_pfull_E300_r1.csv"));
+  EXPECT_FALSE(fs::exists(dir / "t" / "accuracy_cost_refined.csv"));  // --no-refined
 
   // Out of range: refused before any work, one line, exit 2.
   for (const std::string bad :
