@@ -89,7 +89,7 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     int adapted_seeds = AccuracyStudyOptions{}.adapted_seeds;
     bool no_adapted = false;
     // The refined-mesh rows of the table (accuracy_cost_refined.csv).
-    std::vector<int> refined_elements = {500, 1000, 2000, 2900, 4000, 4500, 6500, 8000};
+    std::vector<int> refined_elements = {500, 1000, 1500, 2000, 2900, 4000, 4500, 6500, 8000};
     std::vector<double> refined_ratios = {1.0, 2.0, 3.0};
     bool no_refined = false;
   };
@@ -183,12 +183,13 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       ->check(integer_in(1, 64))
       ->capture_default_str();
   cmd->add_flag("--no-adapted", o->no_adapted, "--accuracy-table: no adapted-mesh rows");
-  cmd->add_option("--refined-elements", o->refined_elements,
-                  "--accuracy-table: element counts of the continuum rows on the refined mesh "
-                  "(full law, exact contact load, quadric-fit diameters, both solver paths, the "
-                  "rotations of --spread-seeds; written to accuracy_cost_refined.csv), 200 to "
-                  "79,996 (default 500,1000,2000,2900,4000,4500,6500,8000; a count whose mesh is "
-                  "one already swept at the ratio is left out)")
+  cmd->add_option(
+         "--refined-elements", o->refined_elements,
+         "--accuracy-table: element counts of the continuum rows on the refined mesh "
+         "(full law, exact contact load, quadric-fit diameters, both solver paths, the "
+         "rotations of --spread-seeds; written to accuracy_cost_refined.csv), 200 to "
+         "79,996 (default 500,1000,1500,2000,2900,4000,4500,6500,8000; a count whose mesh is "
+         "one already swept at the ratio is left out)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->delimiter(',');
   cmd->add_option("--refined-ratios", o->refined_ratios,

@@ -231,12 +231,12 @@ TriMesh make_refined_mesh(const RefinedMeshOptions& o, RefinedMeshReport* report
     RefinedSizeField field;
     int coarse_vertices = 0, coarse_elements = 0;
   };
-  auto refine_on = [&](int frequency) {
+  auto refine_on = [&](int frequency, unsigned rotation_seed) {
     RestShapeOptions ro;
     ro.shape = o.shape;
     ro.target_vertices = 10 * frequency * frequency + 2;
     ro.orientation = o.orientation;
-    ro.rotation_seed = o.seed;
+    ro.rotation_seed = rotation_seed;
     ro.match_volume = false;  // the coarse vertices stay on the surface; matched at the end
     Trial t;
     const TriMesh coarse = make_rest_shape(ro);
@@ -262,8 +262,12 @@ TriMesh make_refined_mesh(const RefinedMeshOptions& o, RefinedMeshReport* report
   std::map<int, Trial> tried;
   int f = clamp_f(std::sqrt(o.target_elements / 20.0 / (1.0 + 1.5 * o.size_ratio)));
   int passes = 0;
+  // The frequency is searched on the unturned icosphere, so that every turn of a request is a
+  // turn of the same coarse mesh (a turned mesh's count differs by up to 30 % at f = 4 to 7, and
+  // its own search could land on another frequency: the rotations of one row would then be
+  // triangulations of different sizes).
   for (; passes < 6 && !tried.count(f); ++passes) {
-    tried.emplace(f, refine_on(f));
+    tried.emplace(f, refine_on(f, 0));
     const double count = tried.at(f).mesh.topo.num_faces();
     const int scaled = clamp_f(f * std::sqrt(o.target_elements / count));
     // Jump by the count's scaling; once it points back to a tried frequency, bracket the
@@ -273,10 +277,18 @@ TriMesh make_refined_mesh(const RefinedMeshOptions& o, RefinedMeshReport* report
   }
   // The closest count of the frequencies tried.
   const Trial* best = nullptr;
+  int best_f = 0;
   for (const auto& [freq, t] : tried)
     if (!best || std::abs(t.mesh.topo.num_faces() - o.target_elements) <
-                     std::abs(best->mesh.topo.num_faces() - o.target_elements))
+                     std::abs(best->mesh.topo.num_faces() - o.target_elements)) {
       best = &t;
+      best_f = freq;
+    }
+  Trial turned;
+  if (o.seed != 0) {
+    turned = refine_on(best_f, o.seed);
+    best = &turned;
+  }
   TriMesh mesh = best->mesh;
   double scale = 1.0;
   if (o.match_volume) {

@@ -89,7 +89,9 @@ struct RefinedMeshOptions {
   TriangulationOrientation orientation = TriangulationOrientation::dimple_vertex;
   /// Turns the coarse icosphere by a random rotation (RestShapeOptions::rotation_seed; 0: not
   /// turned): another triangulation under the same size field, the analogue of the uniform
-  /// mesh's rotations. A turned mesh keeps none of the scene's mirrors.
+  /// mesh's rotations. The coarse frequency is the unturned mesh's for the same target (so the
+  /// turns of one request are turns of one coarse mesh; their refined counts differ by a few %
+  /// as the rims cut other triangles). A turned mesh keeps none of the scene's mirrors.
   unsigned seed = 0;
   int max_levels = 6;  ///< refinement levels, in [0, 10]
   /// Scale the mesh about its centre so that it encloses the Evans-Fung volume exactly, as
@@ -101,7 +103,7 @@ struct RefinedMeshOptions {
   /// the quadric-fit diameters (the smooth surface through the vertices) that offset is an error
   /// refinement cannot remove: over the 13 Mills forces, worst over 4 orientations, against the
   /// spectrin-level network, the scaled mesh of 2,748 triangles (size ratio 2) errs by 0.35 %
-  /// (0.15 % already at 0 pN), the same mesh on the surface by 0.25 % (0.03 % at 0 pN); at 4,368
+  /// (0.18 % already at 0 pN), the same mesh on the surface by 0.25 % (0.06 % at 0 pN); at 4,368
   /// triangles 0.24 % against 0.15 %. On the surface the rest volume is the polyhedron's, which
   /// the volume constraint then keeps, as it keeps any rest mesh's.
   bool match_volume = false;
