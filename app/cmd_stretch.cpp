@@ -730,7 +730,8 @@ void add_stretch_command(CLI::App& app, Action& action) {
                   "continuum with --mesh adapted: turns the mesher's initial points by a random "
                   "rotation drawn from this seed (0: unturned), giving another triangulation of "
                   "the same size field; same seed, same mesh; with --mesh refined: turns the "
-                  "coarse icosphere the same way (a turned mesh keeps no mirror of the scene)")
+                  "coarse icosphere the same way (the unturned mesh's icosphere for the same "
+                  "--elements; a turned mesh keeps no mirror of the scene)")
       ->check(integer_in(0, 1000000))
       ->capture_default_str();
   cmd->add_option("--mesh-volume", o->mesh_volume,
@@ -757,13 +758,15 @@ void add_stretch_command(CLI::App& app, Action& action) {
                 "print the run on stdout as JSON: {command, config, provenance, points: [...]}");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress on stderr");
   add_verbose_flag(cmd, o->verbose);
-  cmd->add_option("--accuracy", o->accuracy,
-                  "choose the cheapest model and resolution whose accuracy over the forces "
-                  "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv "
-                  "and the adapted-mesh rows beside it (accuracy_by_force_adapted.csv; left out "
-                  "when --contact-load or --measure is given); excludes --model, --vertices, "
-                  "--elements, --order, --mesh, --mesh-size-ratio; also chooses --symmetry "
-                  "unless it is given");
+  cmd->add_option(
+      "--accuracy", o->accuracy,
+      "choose the cheapest model and resolution whose accuracy over the forces "
+      "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv "
+      "and the adapted- and refined-mesh rows beside it (accuracy_by_force_adapted.csv, "
+      "accuracy_by_force_refined.csv; left out when --contact-load or --measure is "
+      "given); excludes --model, --vertices, "
+      "--elements, --order, --mesh, --mesh-size-ratio; also chooses --symmetry "
+      "unless it is given");
   cmd->callback([o, &action, tolerance, cmd] {
     o->tolerance_given = tolerance->count() > 0;
     std::string explicit_choice;  // the first method option given with --accuracy
