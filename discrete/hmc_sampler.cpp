@@ -234,6 +234,7 @@ McChainState HmcSampler::state() const {
   s.rng_state.emplace_back(p, p + gsl_rng_size(rng_.get()));
   s.mass_reference = reference_;
   s.mass_reference_sum = reference_sum_;
+  s.mass_at_thermal_mean = mass_info_.thermal;
   return s;
 }
 
@@ -261,10 +262,15 @@ void HmcSampler::restore(const McChainState& s) {
     reference_sum_ = s.mass_reference_sum;
   else
     reference_sum_.resize(3, 0);
-  if (opt_.hmc.mass_reference == HmcMassReference::thermal && sweep_ >= opt_.adapt_sweeps) {
-    mass_info_.thermal = true;
-    mass_info_.reference_transitions = opt_.adapt_sweeps - window_start();
-  }
+  if (s.mass_at_thermal_mean &&
+      (opt_.hmc.mass_reference != HmcMassReference::thermal || sweep_ < opt_.adapt_sweeps))
+    throw std::invalid_argument(
+        "chain state's mass matrix is at the thermal mean before the adaptive phase ended");
+  // After the window the matrix is the thermal mean's, or the start's when the rebuild could not
+  // be made there: the state says which.
+  mass_info_.thermal = s.mass_at_thermal_mean;
+  mass_info_.reference_transitions =
+      s.mass_at_thermal_mean ? opt_.adapt_sweeps - window_start() : 0;
   std::memcpy(gsl_rng_state(rng_.get()), s.rng_state[0].data(), s.rng_state[0].size());
 }
 

@@ -183,8 +183,14 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
       h.write_attribute("hmc_mass_shift_fraction", m.mass_shift_fraction);
       // Written for the thermal reference only, so an equilibrium run's file is the same as
       // before the option existed; absent means equilibrium.
-      if (m.mass_reference != HmcMassReference::equilibrium)
+      if (m.mass_reference != HmcMassReference::equilibrium) {
         h.write_attribute("hmc_mass_reference", to_string(m.mass_reference));
+        // Per chain: 1 when its matrix is the thermal mean's, 0 while (or, after a failed
+        // rebuild, since) it is the start's.
+        std::vector<int> at_mean;
+        for (const McChainState& c : chains) at_mean.push_back(c.mass_at_thermal_mean ? 1 : 0);
+        h.write("/chain_mass_at_thermal_mean", at_mean.data(), hsize_t(at_mean.size()), 1);
+      }
     }
     h.write_attribute(kChecksumAttribute, hex_digits(h.content_checksum(kChecksumAttribute)));
     h.close();
@@ -358,6 +364,25 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
             hmc_mass_reference_from_string(h.read_attribute_string("hmc_mass_reference"));
       } catch (const std::invalid_argument& e) {
         throw corrupt(e.what());
+      }
+    }
+    if (m.mass_reference == HmcMassReference::thermal) {
+      std::vector<int> at_mean;
+      if (h.has("/chain_mass_at_thermal_mean")) {
+        const auto [rows, cols] = h.read("/chain_mass_at_thermal_mean", at_mean);
+        if (static_cast<long long>(rows) != chain_count || cols != 1)
+          throw corrupt("chain_mass_at_thermal_mean is not one flag per chain");
+      } else {  // written before the flag existed: every rebuild past the window was made
+        for (const McChainState& c : cp.chains)
+          at_mean.push_back(c.sweep >= u.sampler.adapt_sweeps ? 1 : 0);
+      }
+      for (long long k = 0; k < chain_count; ++k) {
+        McChainState& c = cp.chains[std::size_t(k)];
+        const int flag = at_mean[std::size_t(k)];
+        if ((flag != 0 && flag != 1) || (flag == 1 && c.sweep < u.sampler.adapt_sweeps))
+          throw corrupt("chain " + std::to_string(k) + "'s mass matrix flag (" +
+                        std::to_string(flag) + ") is not 0, or 1 after the adaptive phase");
+        c.mass_at_thermal_mean = flag == 1;
       }
     }
   }

@@ -147,6 +147,10 @@ struct McChainState {
   /// adaptive phase): the sum of the chain's positions after each transition of the window so
   /// far (3 x N, um); empty otherwise.
   Positions mass_reference_sum;
+  /// HMC: the mass matrix in use was built at the thermal mean (HmcMassReference::thermal after
+  /// the adaptive phase); false while it is the start's, also when the rebuild at the mean could
+  /// not be made (an infeasible mean, or no Hessian factorised there) and the start's was kept.
+  bool mass_at_thermal_mean = false;
 };
 
 /// Counts of one sweep.

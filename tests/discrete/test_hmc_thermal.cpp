@@ -160,6 +160,61 @@ TEST(HmcThermalMass, ResumesAcrossTheRebuildBitForBitOnAnyThreadCount) {
         << "chain " << k << ": two threads against one";
 }
 
+// Which matrix a chain uses after the adaptive phase travels with its state and its checkpoint:
+// a chain whose rebuild at the mean could not be made keeps the start's matrix and, resumed,
+// still says so (mass_info().thermal false, no averaged transitions), beside a chain that was
+// rebuilt; a file whose flag claims the thermal matrix before the phase ended is refused.
+TEST(HmcThermalMass, WhichMatrixAChainUsesSurvivesACheckpoint) {
+  const SmallCell c;
+  const McRunSetup setup = thermal_mass_setup(8);  // window: transitions 4 .. 7
+  McRun run(c.net, setup, c.x);
+  run.advance(10);
+  McCheckpoint cp = McCheckpoint::of(run);
+  ASSERT_EQ(cp.chains.size(), 2u);
+  EXPECT_TRUE(cp.chains[0].mass_at_thermal_mean);
+  EXPECT_TRUE(cp.chains[1].mass_at_thermal_mean);
+  // Chain 1 as after a failed rebuild: the start's reference and matrix.
+  cp.chains[1].mass_reference = c.x;
+  cp.chains[1].mass_at_thermal_mean = false;
+  const auto dir = rbc::testing::fresh_output_dir("hmc_thermal_flag");
+  const std::string file = (dir / "chains.h5").string();
+  write_mc_checkpoint(file, c.net, cp);
+  const McCheckpoint back = read_mc_checkpoint(file, c.net);
+  EXPECT_TRUE(back.chains[0].mass_at_thermal_mean);
+  EXPECT_FALSE(back.chains[1].mass_at_thermal_mean);
+  McRun resumed(c.net, back.setup, back.chains, back.chain_series);
+  const auto& rebuilt = dynamic_cast<const HmcSampler&>(resumed.chain(0));
+  const auto& kept = dynamic_cast<const HmcSampler&>(resumed.chain(1));
+  EXPECT_TRUE(rebuilt.mass_info().thermal);
+  EXPECT_EQ(rebuilt.mass_info().reference_transitions, 4);
+  EXPECT_FALSE(kept.mass_info().thermal);
+  EXPECT_EQ(kept.mass_info().reference_transitions, 0);
+  EXPECT_EQ(mc_run_json(c.net, resumed).at("hmc").at("mass_built_at"), "thermal mean");
+  resumed.advance(12);
+  EXPECT_FALSE(resumed.states()[1].mass_at_thermal_mean);
+  EXPECT_EQ((resumed.states()[1].mass_reference - c.x).cwiseAbs().maxCoeff(), 0.0);
+
+  // The thermal matrix claimed before the adaptive phase ended: refused on reading and restoring.
+  McRun early(c.net, setup, c.x);
+  early.advance(5);
+  McCheckpoint bad = McCheckpoint::of(early);
+  bad.chains[0].mass_at_thermal_mean = true;
+  const std::string bad_file = (dir / "early.h5").string();
+  write_mc_checkpoint(bad_file, c.net, bad);
+  try {
+    read_mc_checkpoint(bad_file, c.net);
+    ADD_FAILURE() << "a flag before the adaptive phase ended was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("mass matrix flag (1)"), std::string::npos) << e.what();
+  }
+  LoadState load;
+  load.force_pN = setup.force_pN;
+  load.multipliers = setup.multipliers;
+  load.stiffness_scale = setup.penalty_scale;
+  HmcSampler h(c.net, load, bad.chains[0].x, bad.chains[0].mass_reference, setup.sampler);
+  EXPECT_THROW(h.restore(bad.chains[0]), std::invalid_argument);
+}
+
 // The law is unchanged: independent chains with the thermal and the equilibrium reference, from
 // the zero-temperature equilibrium at 88 pN (the start `rbc mc` uses), give the same means of the
 // energy, D_A, D_T, area and volume, each within 3.5 combined (autocorrelation-corrected) errors
