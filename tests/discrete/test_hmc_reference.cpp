@@ -39,12 +39,16 @@ McSummary run_chain(const Network& net, McAlgorithm algorithm, long long sweeps,
 // Five means compared at N = 500 (ten comparisons with the N = 2,000 case of the note): each
 // within 3.5 combined errors, both errors converged (Geyer's window closed with >= 50 effective
 // samples). Metropolis needs ~2,000 sweeps per independent D_A (inefficiency measured at 40,000
-// sweeps: 1,900, not yet converged), so it runs 400,000 sweeps; HMC 3,000 trajectories.
+// sweeps: 1,900, not yet converged), so it runs 400,000 sweeps; HMC runs 15,000 trajectories
+// (about 100 s of the test's 9 minutes). HMC's acceptance is not stationary at this size (blocks of
+// 1,000 trajectories range from 0.03 to 0.40), and on some processors its inefficiencies of the
+// energy and the area exceed 300 trajectories, so their errors do not converge and this test
+// fails: docs/validation/monte-carlo.md states it.
 TEST(SlowReferenceHmc, SamplesTheMetropolisLawAtN500) {
   RestShapeOptions ro;
   ro.target_vertices = 500;
   const Network net = build_network(make_rest_shape(ro), NetworkParameters{});
-  const McSummary h = run_chain(net, McAlgorithm::hmc, 3000, 300);
+  const McSummary h = run_chain(net, McAlgorithm::hmc, 15000, 300);
   const McSummary m = run_chain(net, McAlgorithm::metropolis, 400000, 4000);
   auto compare = [](const char* name, const BlockingResult& a, const BlockingResult& b) {
     EXPECT_TRUE(a.converged) << name << " (hmc) error not converged";
