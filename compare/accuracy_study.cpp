@@ -943,15 +943,23 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
     write_adapted_rows(st, refined_rows, refined_runs, dir, refline.str(), true);
 }
 
-AccuracyCostTable load_accuracy_cost(const std::string& path) {
+AccuracyCostTable load_accuracy_cost(const std::string& path, CostRows kind) {
   const CsvTable t = read_csv(path);
-  // The last column (symmetry) came with the mirror rows; a table without it is all full.
+  // The last column (symmetry) came with the mirror rows; a table without it is all full. The
+  // graded-mesh files always have it, and size_ratio after it.
   const std::vector<std::string>& full_header = accuracy_cost_header();
   const std::vector<std::string> older(full_header.begin(), full_header.end() - 1);
-  const bool has_symmetry = t.header == full_header;
-  if (!has_symmetry && t.header != older)
-    throw std::runtime_error(path + ": not an accuracy_cost.csv (header differs)");
-  const size_t columns = has_symmetry ? full_header.size() : older.size();
+  std::vector<std::string> graded = full_header;
+  graded.push_back("size_ratio");
+  const bool beside = kind != CostRows::table;
+  const bool has_symmetry = t.header == (beside ? graded : full_header);
+  if (!has_symmetry && (beside || t.header != older))
+    throw std::runtime_error(path + ": not an accuracy_cost" +
+                             (kind == CostRows::adapted   ? "_adapted"
+                              : kind == CostRows::refined ? "_refined"
+                                                          : "") +
+                             ".csv (header differs)");
+  const size_t columns = t.header.size();
   AccuracyCostTable out;
   for (size_t k = 0; k < t.rows.size(); ++k) {
     const auto& q = t.rows[k];
@@ -978,6 +986,16 @@ AccuracyCostTable load_accuracy_cost(const std::string& path) {
     out.reference_relative_sd = q[17];
     out.cost_unit_vertices = static_cast<int>(q[18]);
     r.symmetry = has_symmetry && q[19] == 1 ? Symmetry::mirror : Symmetry::none;
+    if (beside) {
+      if (r.method.kind != MethodKind::continuum || !(q[20] >= 1 && q[20] <= 10))
+        throw std::runtime_error(path + " row " + std::to_string(k + 1) +
+                                 ": a graded-mesh row must be a continuum row with a size ratio "
+                                 "in [1, 10], got kind " +
+                                 std::to_string(q[0]) + ", size ratio " + std::to_string(q[20]));
+      r.method.adapted = kind == CostRows::adapted;
+      r.method.refined = kind == CostRows::refined;
+      r.method.size_ratio = q[20];
+    }
     out.rows.push_back(r);
   }
   if (out.rows.empty()) throw std::runtime_error(path + ": no rows");

@@ -208,7 +208,11 @@ struct AccuracyCostTable {
   double reference_relative_sd = 0;
   int cost_unit_vertices = 0;
 };
-AccuracyCostTable load_accuracy_cost(const std::string& path);
+/// Which rows a cost file holds: the table's (accuracy_cost.csv) or those of a graded mesh
+/// beside it (accuracy_cost_adapted.csv, accuracy_cost_refined.csv: the same columns and
+/// size_ratio; their methods get Method::adapted or Method::refined and the size ratio).
+enum class CostRows { table, adapted, refined };
+AccuracyCostTable load_accuracy_cost(const std::string& path, CostRows rows = CostRows::table);
 
 /// The plain-language answer to "is the continuum model cheaper at equal accuracy?" per
 /// force range and accuracy level (0.5, 1, 2, 5 %), from the rows: for each, the cheapest

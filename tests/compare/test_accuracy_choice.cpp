@@ -355,6 +355,46 @@ TEST(AccuracyStudy, CostTableReadsWithOrWithoutTheSymmetryColumn) {
   fs::remove_all(dir);
 }
 
+// The graded-mesh rows beside the table read with their mesh and size ratio; each file is refused
+// as the other kind, and a graded-mesh row that is not a continuum row is refused.
+TEST(AccuracyStudy, GradedMeshRowsReadWithTheirMeshAndSizeRatio) {
+  namespace fs = std::filesystem;
+  const std::string data = std::string(RBC_SOURCE_DIR) + "/data/tradeoff/";
+  for (const auto& [file, kind] : {std::pair{"accuracy_cost_adapted.csv", CostRows::adapted},
+                                   std::pair{"accuracy_cost_refined.csv", CostRows::refined}}) {
+    const CsvTable raw = read_csv(data + file);
+    const AccuracyCostTable t = load_accuracy_cost(data + file, kind);
+    ASSERT_EQ(t.rows.size(), raw.rows.size()) << file;
+    const size_t ratio_column = raw.header.size() - 1;
+    ASSERT_EQ(raw.header[ratio_column], "size_ratio");
+    for (size_t k = 0; k < t.rows.size(); ++k) {
+      const AccuracyRow& r = t.rows[k];
+      EXPECT_EQ(r.method.kind, MethodKind::continuum);
+      EXPECT_EQ(r.method.adapted, kind == CostRows::adapted) << file << " row " << k;
+      EXPECT_EQ(r.method.refined, kind == CostRows::refined);
+      EXPECT_EQ(r.method.size_ratio, raw.rows[k][ratio_column]);
+      EXPECT_EQ(r.cost_eg, raw.rows[k][10]);
+    }
+    EXPECT_THROW(load_accuracy_cost(data + file), std::runtime_error) << file << " as the table";
+  }
+  EXPECT_THROW(load_accuracy_cost(data + "accuracy_cost.csv", CostRows::refined),
+               std::runtime_error);
+  const fs::path dir = testing::fresh_output_dir("accuracy_cost_graded_rows");
+  std::ifstream in(data + "accuracy_cost_refined.csv");
+  std::ofstream network(dir / "network.csv");
+  std::string line;
+  bool header_seen = false;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    network << (header_seen ? "0" + line.substr(line.find(',')) : line) << '\n';  // kind 0
+    header_seen = true;
+  }
+  network.close();
+  EXPECT_THROW(load_accuracy_cost((dir / "network.csv").string(), CostRows::refined),
+               std::runtime_error);
+  fs::remove_all(dir);
+}
+
 // The reference sweeps are cached per force tolerance: a tolerance that rounds to the same
 // short name, or a file whose stored tolerance differs, is swept again, never reused.
 TEST(AccuracyStudy, ReferenceSweepsAreCachedPerTolerance) {
