@@ -248,6 +248,10 @@ void HmcSampler::restore(const McChainState& s) {
     throw std::invalid_argument("chain state's mass reference differs from the sampler's");
   if (!(s.step_um > 0) || !std::isfinite(s.step_um) || s.sweep < 0)
     throw std::invalid_argument("chain state has an invalid step or sweep count");
+  if (s.mass_at_thermal_mean &&
+      (opt_.hmc.mass_reference != HmcMassReference::thermal || s.sweep < opt_.adapt_sweeps))
+    throw std::invalid_argument(
+        "chain state's mass matrix is at the thermal mean before the adaptive phase ended");
   const bool in_window = opt_.hmc.mass_reference == HmcMassReference::thermal &&
                          s.sweep > window_start() && s.sweep < opt_.adapt_sweeps;
   if (in_window &&
@@ -262,10 +266,6 @@ void HmcSampler::restore(const McChainState& s) {
     reference_sum_ = s.mass_reference_sum;
   else
     reference_sum_.resize(3, 0);
-  if (s.mass_at_thermal_mean &&
-      (opt_.hmc.mass_reference != HmcMassReference::thermal || sweep_ < opt_.adapt_sweeps))
-    throw std::invalid_argument(
-        "chain state's mass matrix is at the thermal mean before the adaptive phase ended");
   // After the window the matrix is the thermal mean's, or the start's when the rebuild could not
   // be made there: the state says which.
   mass_info_.thermal = s.mass_at_thermal_mean;
