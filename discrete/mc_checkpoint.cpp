@@ -372,7 +372,7 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
         const auto [rows, cols] = h.read("/chain_mass_at_thermal_mean", at_mean);
         if (static_cast<long long>(rows) != chain_count || cols != 1)
           throw corrupt("chain_mass_at_thermal_mean is not one flag per chain");
-      } else {  // written before the flag existed: every rebuild past the window was made
+      } else {  // a file without the flags: every chain past the window counts as rebuilt
         for (const McChainState& c : cp.chains)
           at_mean.push_back(c.sweep >= u.sampler.adapt_sweeps ? 1 : 0);
       }
