@@ -91,8 +91,13 @@ void commit_file(const std::string& tmp, const std::string& path) {
   try {
     fsync_path(tmp, path);
     require_replaceable(path);
-    if (std::rename(tmp.c_str(), path.c_str()) != 0)
-      throw_file_error(path, "cannot move the finished file into place", errno);
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+      const int err = errno;
+      // Another process may have put a directory or device there since the check above: the
+      // error then names what is there, as the check does.
+      require_replaceable(path);
+      throw_file_error(path, "cannot move the finished file into place", err);
+    }
   } catch (...) {
     ::unlink(tmp.c_str());
     throw;
