@@ -18,9 +18,13 @@
 namespace rbc {
 
 namespace {
-constexpr int kLowRank = 6;                  ///< dA, dV, three translations, the rotation about x
-constexpr double kRotationMassFactor = 1e4;  ///< rotation's mass over the translations'
+constexpr double kRotationMassFactor = 1e4;  ///< a rotation's mass over the translations'
 }  // namespace
+
+std::vector<int> rigid_rotation_axes(const LoadState& load) {
+  if (load.force_pN == 0.0) return {0, 1, 2};
+  return {0};
+}
 
 /// M = beta (K0 + U C U') with its factor (see the header).
 NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, const Positions& x,
@@ -66,9 +70,12 @@ NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, 
     throw std::runtime_error("HMC mass matrix: the projected network Hessian did not factorise");
   info_.factor_nonzeros = factor_.factor_nonzeros();
 
-  // Low-rank part: columns of U and the diagonal of C (pN/um).
-  u_.resize(3 * n, kLowRank);
-  c_.resize(kLowRank);
+  // Low-rank part: columns of U and the diagonal of C (pN/um): dA, dV, the three translations
+  // and the rotations that leave F unchanged (see rigid_rotation_axes()).
+  const std::vector<int> axes = rigid_rotation_axes(load);
+  const int low_rank = 5 + static_cast<int>(axes.size());
+  u_.resize(3 * n, low_rank);
+  c_.resize(low_rank);
   u_.col(0) = flat(ga);
   u_.col(1) = flat(gv);
   c_(0) = ka;
@@ -78,27 +85,27 @@ NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, 
     Positions t3 = Positions::Zero(3, n);
     t3.row(d).setConstant(1.0 / std::sqrt(double(n)));
     u_.col(2 + d) = flat(t3);
+    c_(2 + d) = info_.rigid_mass_pN_per_um;
   }
-  Positions r = Positions::Zero(3, n);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d q = x.col(i) - centre;
-    r(1, i) = -q(2);
-    r(2, i) = q(1);
-  }
-  r /= r.norm();
-  u_.col(5) = flat(r);
-  for (int k = 2; k < kLowRank; ++k) c_(k) = info_.rigid_mass_pN_per_um;
-  // The rotation about the axis, heavier still: the mass matrix is fixed in the laboratory frame,
-  // so a cell that turns away from the reference orientation meets a mass matrix whose stiff
-  // directions (the area and volume penalties above all) no longer line up with its own, and the
-  // tolerated step shrinks as it turns (measured at N = 492, 88 pN: the acceptance fell from 0.64
-  // to 0.08 over 1,100 trajectories while the cell turned by 0.26 degrees). 1e4 times the mass
-  // makes each trajectory turn it 100 times less; F does not depend on the angle, so the law is
+  // The rotations, heavier still: the mass matrix is fixed in the laboratory frame, so a cell
+  // that turns away from the reference orientation meets a mass matrix whose stiff directions
+  // (the area and volume penalties above all) no longer line up with its own, and the tolerated
+  // step shrinks as it turns (measured at N = 492, 88 pN: the acceptance fell from 0.64 to 0.08
+  // over 1,100 trajectories while the cell turned by 0.26 degrees about the axis; at 0 pN, with
+  // only the axis rotation heavy, to 0.002 while the cell tilted). 1e4 times the mass makes each
+  // trajectory turn it 100 times less; F does not depend on these angles, so the law is
   // unchanged.
-  c_(5) = kRotationMassFactor * info_.rigid_mass_pN_per_um;
+  for (std::size_t k = 0; k < axes.size(); ++k) {
+    Positions r = Positions::Zero(3, n);
+    const Eigen::Vector3d e = Eigen::Vector3d::Unit(axes[k]);
+    for (int i = 0; i < n; ++i) r.col(i) = e.cross(Eigen::Vector3d(x.col(i) - centre));
+    r /= r.norm();
+    u_.col(5 + static_cast<int>(k)) = flat(r);
+    c_(5 + static_cast<int>(k)) = kRotationMassFactor * info_.rigid_mass_pN_per_um;
+  }
   w_ = factor_.solve(Eigen::MatrixXd(u_));
   Eigen::MatrixXd cap = u_.transpose() * w_;
-  for (int k = 0; k < kLowRank; ++k) cap(k, k) += 1.0 / c_(k);
+  for (Eigen::Index k = 0; k < c_.size(); ++k) cap(k, k) += 1.0 / c_(k);
   capacitance_.compute(cap);
   if (capacitance_.info() != Eigen::Success)
     throw std::runtime_error("HMC mass matrix: the Woodbury capacitance is singular");
@@ -108,8 +115,8 @@ Eigen::VectorXd NetworkMassMatrix::draw(gsl_rng* rng) const {
   const Eigen::Index m = k0_.rows();
   Eigen::VectorXd z(m);
   for (Eigen::Index i = 0; i < m; ++i) z(i) = gsl_ran_gaussian_ziggurat(rng, 1.0);
-  Eigen::VectorXd z2(kLowRank);
-  for (int k = 0; k < kLowRank; ++k) z2(k) = gsl_ran_gaussian_ziggurat(rng, 1.0);
+  Eigen::VectorXd z2(c_.size());
+  for (Eigen::Index k = 0; k < c_.size(); ++k) z2(k) = gsl_ran_gaussian_ziggurat(rng, 1.0);
   const Eigen::VectorXd w = factor_.solve_factor_transpose(z);  // ~ N(0, K0^-1)
   Eigen::VectorXd p = k0_.selfadjointView<Eigen::Lower>() * w;  // ~ N(0, K0)
   p.noalias() += u_ * (c_.cwiseSqrt().cwiseProduct(z2));

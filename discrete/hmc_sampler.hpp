@@ -14,12 +14,15 @@
 //        plus a shift of HmcOptions::mass_shift_fraction times its mean diagonal when that
 //        factorises (and HmcOptions::projected_mass is off), else the
 //        element-wise projected one (semidefinite, same shift);
-//   U = [dA/dx, dV/dx, t_x, t_y, t_z, r_x], C = diag(s k_A, s k_V, c, c, c, c): the rank-two
-//        part of the area and volume penalties, which the sparse Hessian leaves out (with them
-//        the step would be capped by the stiffest, global, modes), and the four zero modes of
-//        F (unit translations t and the unit rotation r_x about the stretch axis at the
-//        reference), given the mass c = the mean diagonal of K0, so that no momentum along them
-//        turns into a large velocity.
+//   U = [dA/dx, dV/dx, t_x, t_y, t_z, r_x (, r_y, r_z)],
+//   C = diag(s k_A, s k_V, c, c, c, 1e4 c (, 1e4 c, 1e4 c)): the rank-two part of the area and
+//        volume penalties, which the sparse Hessian leaves out (with them the step would be
+//        capped by the stiffest, global, modes), and the zero modes of F: the unit translations
+//        t and the unit rotations r about the axes rigid_rotation_axes() names (the stretch axis
+//        x under a bead force; all three axes at zero force), at the reference. The translations
+//        get the mass c = the mean diagonal of K0, so that no momentum along them turns into a
+//        large velocity; the rotations 1e4 c, so that the cell keeps its orientation to the
+//        fixed mass matrix (a turned cell's stiff directions leave the matrix's).
 // Reference (HmcOptions::mass_reference). equilibrium: M is built at the start (the
 // zero-temperature equilibrium) for the whole run. thermal: M is built at the start, the chain's
 // positions after each transition k of the second half of the adaptive phase
@@ -45,11 +48,16 @@
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCore>
 #include <memory>
+#include <vector>
 
 #include "core/sparse_cholesky.hpp"
 #include "discrete/mc_sampler.hpp"
 
 namespace rbc {
+
+/// The axes (0 = x, 1 = y, 2 = z) of the rigid rotations that leave the network's free energy
+/// unchanged under `load`: x alone when the beads pull (force != 0), all three at zero force.
+std::vector<int> rigid_rotation_axes(const LoadState& load);
 
 /// How the mass matrix was made (recorded with the run).
 struct HmcMassInfo {
@@ -74,7 +82,8 @@ class NetworkMassMatrix final : public MassMatrix {
   Eigen::VectorXd draw(gsl_rng* rng) const override;
   Eigen::VectorXd inverse_times(const Eigen::VectorXd& p) const override;
   const HmcMassInfo& info() const { return info_; }
-  /// K0 (lower triangle, pN/um), U (3N x 6) and diag C (pN/um): M = beta (K0 + U C U').
+  /// K0 (lower triangle, pN/um), U (3N x 6, or 3N x 8 at zero force) and diag C (pN/um):
+  /// M = beta (K0 + U C U').
   const Eigen::SparseMatrix<double>& sparse_part() const { return k0_; }
   const Eigen::MatrixXd& low_rank_columns() const { return u_; }
   const Eigen::VectorXd& low_rank_stiffness() const { return c_; }
@@ -83,7 +92,7 @@ class NetworkMassMatrix final : public MassMatrix {
   double beta_;
   SparseCholesky factor_;
   Eigen::SparseMatrix<double> k0_;  ///< lower triangle, pN/um
-  Eigen::MatrixXd u_, w_;           ///< U (3N x 6) and K0^-1 U
+  Eigen::MatrixXd u_, w_;           ///< U (3N x 6 or 8) and K0^-1 U
   Eigen::VectorXd c_;               ///< diag C, pN/um
   Eigen::LDLT<Eigen::MatrixXd> capacitance_;
   HmcMassInfo info_;
