@@ -184,7 +184,8 @@ std::string draw_mc_picture(const McCli& o, const Network& net, const McRunSetup
 /// checkpoint, which otherwise supplies them).
 struct GivenOptions {
   bool force = false, temperature = false, seed = false, penalty_scale = false, vertices = false,
-       bending = false, adapt_fraction = false, sampler = false, chains = false;
+       bending = false, adapt_fraction = false, sampler = false, chains = false,
+       area_volume = false;
 };
 
 /// The run's setup from the command line (multipliers and reference filled in later),
@@ -295,6 +296,7 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
   if (given.adapt_fraction) request.adapt_fraction = o.adapt_fraction;
   if (given.sampler) request.algorithm = o.algorithm;
   if (given.chains) request.chains = o.chains;
+  if (given.area_volume) request.area_volume = o.hmc.area_volume;
   if (o.adapt_sweeps >= 0) request.adapt_sweeps = o.adapt_sweeps;
   request.total_sweeps = o.sweeps;
   if (!o.resume.empty()) {
@@ -552,7 +554,8 @@ nlohmann::ordered_json force_list_definition(const McCli& o) {
               {"--hmc-trajectory-time", o.hmc.trajectory_time},
               {"--hmc-mass", o.hmc.projected_mass ? "projected" : "exact"},
               {"--hmc-mass-shift", o.hmc.mass_shift_fraction},
-              {"--hmc-mass-reference", to_string(o.hmc.mass_reference)}});
+              {"--hmc-mass-reference", to_string(o.hmc.mass_reference)},
+              {"--hmc-area-volume", to_string(o.hmc.area_volume)}});
   return j;
 }
 
@@ -1022,6 +1025,15 @@ void add_mc_command(CLI::App& app, Action& action) {
           {{"equilibrium", HmcMassReference::equilibrium}, {"thermal", HmcMassReference::thermal}}))
       ->type_name("TEXT")
       ->default_str("equilibrium");
+  cmd->add_option("--hmc-area-volume", o->hmc.area_volume,
+                  "hmc: the cell's area and volume held by the penalties of the Metropolis "
+                  "sampler's law (penalty, stiffened by --penalty-scale), or exactly, by "
+                  "constraints (exact: the law of infinitely stiff penalties; a step several "
+                  "times longer)")
+      ->transform(enum_choice<HmcAreaVolume>(
+          {{"penalty", HmcAreaVolume::penalty}, {"exact", HmcAreaVolume::exact}}))
+      ->type_name("TEXT")
+      ->default_str("penalty");
   cmd->add_option("--start", o->start, "equilibrium | rest")
       ->transform(
           enum_choice<McStart>({{"equilibrium", McStart::equilibrium}, {"rest", McStart::rest}}))
@@ -1072,7 +1084,8 @@ void add_mc_command(CLI::App& app, Action& action) {
         cmd->get_option("--bending")->count() > 0,
         adapt_fraction->count() > 0,
         sampler->count() > 0,
-        chains->count() > 0};
+        chains->count() > 0,
+        cmd->get_option("--hmc-area-volume")->count() > 0};
     o->sampling_temperature_given = sampling_temp->count() > 0;
     action = [o, cmd, given] {
       o->record = run_record(*cmd);

@@ -43,6 +43,16 @@ HmcMassReference hmc_mass_reference_from_string(const std::string& s) {
   throw std::invalid_argument("HMC mass reference '" + s + "': expected equilibrium or thermal");
 }
 
+std::string to_string(HmcAreaVolume a) {
+  return a == HmcAreaVolume::exact ? "exact" : "penalty";
+}
+
+HmcAreaVolume hmc_area_volume_from_string(const std::string& s) {
+  if (s == "penalty") return HmcAreaVolume::penalty;
+  if (s == "exact") return HmcAreaVolume::exact;
+  throw std::invalid_argument("HMC area and volume '" + s + "': expected penalty or exact");
+}
+
 void HmcOptions::validate() const {
   require_finite_in_range("HMC leapfrog step", "", step, 0.0, 4.0);
   require_finite_in_range("HMC trajectory time", "", trajectory_time, 0.0, 100.0);

@@ -77,6 +77,19 @@ std::string to_string(HmcMassReference r);
 /// "equilibrium" or "thermal"; std::invalid_argument otherwise.
 HmcMassReference hmc_mass_reference_from_string(const std::string& s);
 
+/// How the network sampler (discrete/hmc_sampler.hpp) holds the cell's area and volume.
+enum class HmcAreaVolume {
+  /// The penalties of the Metropolis sampler's law (McRunSetup::penalty_scale), integrated by
+  /// the leapfrog like every other term.
+  penalty,
+  /// Exact constraints A = A0, V = V0 held by RATTLE (discrete/hmc_constrained.hpp): the law of
+  /// infinitely stiff penalties.
+  exact,
+};
+std::string to_string(HmcAreaVolume a);
+/// "penalty" or "exact"; std::invalid_argument otherwise.
+HmcAreaVolume hmc_area_volume_from_string(const std::string& s);
+
 struct HmcOptions {
   /// Initial leapfrog step h (dimensionless time), in (0, 4]: the steps the adaptation settles
   /// on for the cell at 300 K are 0.07 to 0.15 from N = 250 to 8,000.
@@ -99,6 +112,9 @@ struct HmcOptions {
   /// the end of the adaptive phase at the thermal mean positions (needs McOptions::adapt_sweeps
   /// >= 2, checked by McOptions::validate()).
   HmcMassReference mass_reference = HmcMassReference::equilibrium;
+  /// Network sampler: the area and volume as penalties (the Metropolis sampler's law) or as
+  /// exact constraints.
+  HmcAreaVolume area_volume = HmcAreaVolume::penalty;
   /// Throws rbc::InvalidParameter naming the value.
   void validate() const;
 };

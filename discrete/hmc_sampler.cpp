@@ -21,6 +21,69 @@ namespace {
 constexpr double kRotationMassFactor = 1e4;  ///< a rotation's mass over the translations'
 }  // namespace
 
+namespace {
+/// Area (um^2) and enclosed volume (um^3) of the closed mesh at x, with their gradients (the
+/// triangle and tetrahedron formulas of core/geometry.hpp, summed face by face in a fixed order).
+void area_volume_gradients(const Topology& t, const Positions& x, double& area, double& volume,
+                           Positions& ga, Positions& gv) {
+  const int n = t.num_vertices;
+  ga = Positions::Zero(3, n);
+  gv = Positions::Zero(3, n);
+  area = 0;
+  volume = 0;
+  for (int f = 0; f < t.num_faces(); ++f) {
+    Eigen::Matrix3d g;
+    const Vec3 a = x.col(t.faces(0, f)), b = x.col(t.faces(1, f)), c = x.col(t.faces(2, f));
+    area += triangle_area(a, b, c, &g);
+    for (int k = 0; k < 3; ++k) ga.col(t.faces(k, f)) += g.col(k);
+    volume += tetra_volume(a, b, c, &g);
+    for (int k = 0; k < 3; ++k) gv.col(t.faces(k, f)) += g.col(k);
+  }
+}
+
+/// The constraints A(x) = A0 (um^2) and V(x) = V0 (um^3) of HmcAreaVolume::exact, to 1e-10 of
+/// A0 and V0. Their Hessian-vector products (for the Fixman term's gradient only) are central
+/// differences of the exact gradients with a largest displacement of 1e-6 um: accurate to about
+/// 1e-9 relative, and the transition stays exact with any deterministic force (the acceptance
+/// uses the exact Fixman term), so the cost of per-face area and volume Hessians is not paid.
+HmcConstraints area_volume_constraints(const Network& net) {
+  HmcConstraints c;
+  const Topology* topo = &net.topo;
+  const double a0 = net.area0_um2, v0 = net.volume0_um3;
+  c.evaluate = [topo, a0, v0](const Eigen::VectorXd& q, Eigen::VectorXd& value,
+                              Eigen::MatrixXd& jt) {
+    const int n = topo->num_vertices;
+    double area = 0, volume = 0;
+    Positions ga, gv;
+    area_volume_gradients(*topo, Eigen::Map<const Positions>(q.data(), 3, n), area, volume, ga, gv);
+    value.resize(2);
+    value << area - a0, volume - v0;
+    jt.resize(q.size(), 2);
+    jt.col(0) = flat(ga);
+    jt.col(1) = flat(gv);
+  };
+  c.hessian_times = [topo](const Eigen::VectorXd& q, int a, const Eigen::VectorXd& w) {
+    const int n = topo->num_vertices;
+    const double largest = w.cwiseAbs().maxCoeff();
+    if (!(largest > 0)) return Eigen::VectorXd(Eigen::VectorXd::Zero(q.size()));
+    const double eps = 1e-6 / largest;
+    double area = 0, volume = 0;
+    Positions gap, gvp, gam, gvm;
+    const Eigen::VectorXd qp = q + eps * w, qm = q - eps * w;
+    area_volume_gradients(*topo, Eigen::Map<const Positions>(qp.data(), 3, n), area, volume, gap,
+                          gvp);
+    area_volume_gradients(*topo, Eigen::Map<const Positions>(qm.data(), 3, n), area, volume, gam,
+                          gvm);
+    return Eigen::VectorXd(a == 0 ? (flat(gap) - flat(gam)) / (2 * eps)
+                                  : (flat(gvp) - flat(gvm)) / (2 * eps));
+  };
+  c.tolerance.resize(2);
+  c.tolerance << 1e-10 * a0, 1e-10 * v0;
+  c.reverse_tolerance = 1e-7;  // um
+  return c;
+}
+}  // namespace
+
 std::vector<int> rigid_rotation_axes(const LoadState& load) {
   if (load.force_pN == 0.0) return {0, 1, 2};
   return {0};
@@ -37,16 +100,9 @@ NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, 
       }()) {
   const Topology& t = net.topo;
   const int n = t.num_vertices;
-  Positions ga = Positions::Zero(3, n), gv = Positions::Zero(3, n);
+  Positions ga, gv;
   double area = 0, volume = 0;
-  for (int f = 0; f < t.num_faces(); ++f) {
-    Eigen::Matrix3d g;
-    const Vec3 a = x.col(t.faces(0, f)), b = x.col(t.faces(1, f)), c = x.col(t.faces(2, f));
-    area += triangle_area(a, b, c, &g);
-    for (int k = 0; k < 3; ++k) ga.col(t.faces(k, f)) += g.col(k);
-    volume += tetra_volume(a, b, c, &g);
-    for (int k = 0; k < 3; ++k) gv.col(t.faces(k, f)) += g.col(k);
-  }
+  area_volume_gradients(t, x, area, volume, ga, gv);
   const double s = load.stiffness_scale;
   const double ka = s * net.constraints.area_stiffness_pN_per_um3;
   const double kv = s * net.constraints.volume_stiffness_pN_per_um5;
@@ -70,22 +126,26 @@ NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, 
     throw std::runtime_error("HMC mass matrix: the projected network Hessian did not factorise");
   info_.factor_nonzeros = factor_.factor_nonzeros();
 
-  // Low-rank part: columns of U and the diagonal of C (pN/um): dA, dV, the three translations
-  // and the rotations that leave F unchanged (see rigid_rotation_axes()).
+  // Low-rank part: columns of U and the diagonal of C (pN/um): dA and dV (penalties only: exact
+  // constraints take the momentum out of those directions), the three translations and the
+  // rotations that leave F unchanged (see rigid_rotation_axes()).
   const std::vector<int> axes = rigid_rotation_axes(load);
-  const int low_rank = 5 + static_cast<int>(axes.size());
+  const int penalties = options.area_volume == HmcAreaVolume::penalty ? 2 : 0;
+  const int low_rank = penalties + 3 + static_cast<int>(axes.size());
   u_.resize(3 * n, low_rank);
   c_.resize(low_rank);
-  u_.col(0) = flat(ga);
-  u_.col(1) = flat(gv);
-  c_(0) = ka;
-  c_(1) = kv;
+  if (penalties) {
+    u_.col(0) = flat(ga);
+    u_.col(1) = flat(gv);
+    c_(0) = ka;
+    c_(1) = kv;
+  }
   const Eigen::Vector3d centre = x.rowwise().mean();
   for (int d = 0; d < 3; ++d) {
     Positions t3 = Positions::Zero(3, n);
     t3.row(d).setConstant(1.0 / std::sqrt(double(n)));
-    u_.col(2 + d) = flat(t3);
-    c_(2 + d) = info_.rigid_mass_pN_per_um;
+    u_.col(penalties + d) = flat(t3);
+    c_(penalties + d) = info_.rigid_mass_pN_per_um;
   }
   // The rotations, heavier still: the mass matrix is fixed in the laboratory frame, so a cell
   // that turns away from the reference orientation meets a mass matrix whose stiff directions
@@ -100,8 +160,8 @@ NetworkMassMatrix::NetworkMassMatrix(const Network& net, const LoadState& load, 
     const Eigen::Vector3d e = Eigen::Vector3d::Unit(axes[k]);
     for (int i = 0; i < n; ++i) r.col(i) = e.cross(Eigen::Vector3d(x.col(i) - centre));
     r /= r.norm();
-    u_.col(5 + static_cast<int>(k)) = flat(r);
-    c_(5 + static_cast<int>(k)) = kRotationMassFactor * info_.rigid_mass_pN_per_um;
+    u_.col(penalties + 3 + static_cast<int>(k)) = flat(r);
+    c_(penalties + 3 + static_cast<int>(k)) = kRotationMassFactor * info_.rigid_mass_pN_per_um;
   }
   w_ = factor_.solve(Eigen::MatrixXd(u_));
   Eigen::MatrixXd cap = u_.transpose() * w_;
@@ -150,10 +210,18 @@ HmcSampler::HmcSampler(const Network& net, const LoadState& load, const Position
   reference_ = mass_reference;
   mass_ = std::make_unique<NetworkMassMatrix>(net_, load_, reference_, beta_, opt_.hmc);
   mass_info_ = mass_->info();
+  // Exact constraints: F without the penalties and the multiplier terms, which are constant
+  // (zero) on the manifold A = A0, V = V0.
+  potential_load_ = load_;
+  if (opt_.hmc.area_volume == HmcAreaVolume::exact) {
+    potential_load_.multipliers = ConstraintMultipliers{};
+    potential_load_.stiffness_scale = 0.0;
+    constraints_ = std::make_unique<HmcConstraints>(area_volume_constraints(net_));
+  }
   potential_ = [this](const Eigen::VectorXd& q, Eigen::VectorXd& grad) {
     const Eigen::Map<const Positions> xq(q.data(), 3, net_.topo.num_vertices);
     Positions g(3, net_.topo.num_vertices);
-    const double f = network_energy(net_, Positions(xq), load_, &g);
+    const double f = network_energy(net_, Positions(xq), potential_load_, &g);
     grad = beta_ * flat(g);
     return beta_ * f;
   };
@@ -168,11 +236,24 @@ HmcSampler::HmcSampler(const Network& net, const LoadState& load, const Position
 HmcSampler::~HmcSampler() = default;
 
 void HmcSampler::set_state(const Positions& x) {
-  state_ = hmc_state(potential_, flat(x));
+  if (constraints_) {
+    // Onto A = A0, V = V0 along M^-1 J' (a state already there, as a checkpoint's, is kept).
+    Eigen::VectorXd on;
+    try {
+      on = hmc_project_onto_constraints(*constraints_, *mass_, flat(x));
+    } catch (const std::runtime_error& e) {
+      throw std::invalid_argument(std::string("Monte Carlo start: ") + e.what());
+    }
+    state_ = hmc_constrained_state(potential_, *constraints_, *mass_, on);
+    x_ = Eigen::Map<const Positions>(on.data(), 3, net_.topo.num_vertices);
+  } else {
+    static_cast<HmcState&>(state_) = hmc_state(potential_, flat(x));
+    state_.fixman = 0.0;
+    x_ = x;
+  }
   if (!std::isfinite(state_.potential))
     throw std::invalid_argument(
         "Monte Carlo start is infeasible (a link at Lmax or a collapsed face)");
-  x_ = x;
   const NetworkGeometry geo = network_geometry(x_, net_.topo);
   area_ = geo.area_um2;
   volume_ = geo.volume_um3;
@@ -183,12 +264,20 @@ int HmcSampler::mobile_vertices() const {
 }
 
 double HmcSampler::energy() const {
-  return state_.potential / beta_;
+  return (state_.potential - state_.fixman) / beta_;
 }
 
 McSweepStats HmcSampler::sweep() {
   const int steps = hmc_step_count(opt_.hmc, step_, rng_.get());
-  last_ = hmc_transition(potential_, *mass_, state_, step_, steps, rng_.get());
+  if (constraints_) {
+    const HmcConstrainedTransition c = hmc_constrained_transition(potential_, *constraints_, *mass_,
+                                                                  state_, step_, steps, rng_.get());
+    last_ = c.transition;
+    failed_solves_ += c.failed_solves;
+    failed_reverse_checks_ += c.failed_reverse_checks;
+  } else {
+    last_ = hmc_transition(potential_, *mass_, state_, step_, steps, rng_.get());
+  }
   evaluations_ += last_.evaluations;
   solves_ += last_.solves;
   if (sweep_ < opt_.adapt_sweeps)

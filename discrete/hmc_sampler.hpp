@@ -43,6 +43,15 @@
 // Cost per transition: n + 2 solves and n energy + gradient evaluations for n leapfrog steps,
 // plus one factor solve for the draw.
 //
+// Area and volume (HmcOptions::area_volume). penalty: as above, the Metropolis sampler's law.
+// exact: the constraints A = A0, V = V0 held by RATTLE (discrete/hmc_constrained.hpp), F without
+// the penalty and multiplier terms (zero on the manifold), M without the dA, dV columns; the law
+// is the limit of infinitely stiff penalties. The penalties' gradients turn with the thermal
+// shape, away from the fixed M, and cap the leapfrog step (docs/validation/monte-carlo.md,
+// "Exact area and volume"); the constraints remove that cap. The start (and a restored state)
+// is projected onto the manifold along M^-1 J' (a no-op for a state already on it). energy()
+// is F without the Fixman term.
+//
 // The area, volume and energy reported are those of the last evaluation (network_geometry's
 // fixed-order sums): bit-reproducible for any thread count, no running totals, so no drift.
 #include <Eigen/Cholesky>
@@ -51,6 +60,7 @@
 #include <vector>
 
 #include "core/sparse_cholesky.hpp"
+#include "discrete/hmc_constrained.hpp"
 #include "discrete/mc_sampler.hpp"
 
 namespace rbc {
@@ -134,6 +144,10 @@ class HmcSampler final : public McChain {
   /// Totals over all transitions of this object: energy + gradient evaluations, mass-matrix
   /// solves (the factor's: one per M^-1 application and one per momentum draw).
   long long evaluations() const { return evaluations_; }
+  /// Exact constraints: RATTLE steps whose position solve failed, or whose reverse check did not
+  /// return to the start (each ended its trajectory, rejected).
+  long long failed_solves() const { return failed_solves_; }
+  long long failed_reverse_checks() const { return failed_reverse_checks_; }
   long long solves() const { return solves_; }
   /// How the mass matrix in use was made (after a restore past the thermal rebuild: thermal as
   /// the options say, the state holding the positions it was built at).
@@ -153,8 +167,11 @@ class HmcSampler final : public McChain {
   McOptions opt_;
   double beta_ = 0;
   Positions x_, reference_;
-  Positions reference_sum_;  ///< thermal reference: sum of positions over the window so far, um
-  HmcState state_;
+  Positions reference_sum_;    ///< thermal reference: sum of positions over the window so far, um
+  HmcConstrainedState state_;  ///< fixman 0 with penalties
+  LoadState potential_load_;   ///< load_, or without penalties and multipliers (exact constraints)
+  std::unique_ptr<HmcConstraints> constraints_;  ///< A = A0, V = V0 (HmcAreaVolume::exact)
+  long long failed_solves_ = 0, failed_reverse_checks_ = 0;
   double step_ = 0;
   long long sweep_ = 0;
   double area_ = 0, volume_ = 0;

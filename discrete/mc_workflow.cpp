@@ -90,6 +90,10 @@ std::string check_mc_resume(const McCheckpoint& cp, const McResumeRequest& r,
   if (r.algorithm && *r.algorithm != cp.setup.sampler.algorithm)
     throw std::invalid_argument(ck + " was run with the " + to_string(cp.setup.sampler.algorithm) +
                                 " sampler, not " + to_string(*r.algorithm));
+  if (r.area_volume && *r.area_volume != cp.setup.sampler.hmc.area_volume)
+    throw std::invalid_argument(ck + " was run with --hmc-area-volume " +
+                                to_string(cp.setup.sampler.hmc.area_volume) + ", not " +
+                                to_string(*r.area_volume));
   if (r.chains && *r.chains != cp.setup.sampler.chains)
     throw std::invalid_argument(ck + " holds " + std::to_string(cp.setup.sampler.chains) +
                                 " chains, not --chains " + std::to_string(*r.chains));
@@ -187,11 +191,13 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
   nlohmann::json j = mc_run_keys(net, run);
   if (const auto* h = dynamic_cast<const HmcSampler*>(&run.sampler())) {
     const HmcMassInfo& m = h->mass_info();
-    long long evaluations = 0, solves = 0;
+    long long evaluations = 0, solves = 0, failed_solves = 0, failed_reverse = 0;
     for (int c = 0; c < run.chain_count(); ++c) {
       const auto& chain = dynamic_cast<const HmcSampler&>(run.chain(c));
       evaluations += chain.evaluations();
       solves += chain.solves();
+      failed_solves += chain.failed_solves();
+      failed_reverse += chain.failed_reverse_checks();
     }
     j["hmc"] = {{"trajectory_time", su.sampler.hmc.trajectory_time},
                 {"evaluations", evaluations},
@@ -199,6 +205,9 @@ nlohmann::json mc_run_json(const Network& net, const McRun& run) {
                 {"mass_matrix", m.exact ? "exact Hessian" : "projected Hessian"},
                 {"mass_shift_pN_per_um", m.shift_pN_per_um},
                 {"mass_reference", to_string(su.sampler.hmc.mass_reference)},
+                {"area_volume", to_string(su.sampler.hmc.area_volume)},
+                {"constraint_failed_solves", failed_solves},
+                {"constraint_failed_reverse_checks", failed_reverse},
                 {"mass_built_at", m.thermal ? "thermal mean" : "start"},
                 {"mass_reference_transitions", m.reference_transitions},
                 {"rigid_mass_pN_per_um", m.rigid_mass_pN_per_um},

@@ -72,8 +72,9 @@ struct McResumeRequest {
   std::optional<double> adapt_fraction;   ///< fraction of total_sweeps
   std::optional<BendingModel> bending_model;
   std::optional<McAlgorithm> algorithm;
-  std::optional<int> chains;   ///< independent chains (McOptions::chains)
-  long long total_sweeps = 0;  ///< sweeps the resumed run is to reach
+  std::optional<int> chains;                 ///< independent chains (McOptions::chains)
+  std::optional<HmcAreaVolume> area_volume;  ///< HMC's area and volume (HmcOptions)
+  long long total_sweeps = 0;                ///< sweeps the resumed run is to reach
 };
 
 /// Compatibility of a checkpoint's network with the request: throws std::invalid_argument

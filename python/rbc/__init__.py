@@ -111,9 +111,11 @@ UNITLESS_KEYS = frozenset({
     "config", "bending", "contact", "dihedral_mapping", "log_evidence_error_estimate", "reason",
     "file", "name", "sigma", "sampler", "mass_matrix", "rhat_method", "stem", "kind", "contents",
     # HMC: dimensionless trajectory time, counts; where the mass matrix was built (text) and
-    # the count of transitions its thermal mean averaged
+    # the count of transitions its thermal mean averaged; how area and volume are held (text)
+    # and the counts of constrained steps that failed
     "trajectory_time", "evaluations", "solves", "factor_nonzeros", "mass_reference",
-    "mass_built_at", "mass_reference_transitions",
+    "mass_built_at", "mass_reference_transitions", "area_volume", "constraint_failed_solves",
+    "constraint_failed_reverse_checks",
     # groups of other keys (their entries carry the units)
     "parameters", "derived", "timing", "stage_log", "stage_info", "data", "data_sets",
     "predictive_q05_q50_q95", "hmc", "per_chain",

@@ -24,7 +24,8 @@ class MonteCarlo {
   MonteCarlo(std::shared_ptr<PyNetwork> net, double force_pN, double temperature_K,
              unsigned long seed, int streams, py::object adapt_sweeps, int sample_every,
              double penalty_scale, const std::string& start, double initial_step_um,
-             double target_acceptance, double adapt_gain, const std::string& sampler, int chains)
+             double target_acceptance, double adapt_gain, const std::string& sampler, int chains,
+             const std::string& hmc_area_volume)
       : net_(std::move(net)), adapt_sweeps_(std::move(adapt_sweeps)) {
     finite("force_pN", force_pN);
     finite("sampling_temperature_K", temperature_K);
@@ -48,6 +49,7 @@ class MonteCarlo {
     setup_.sampler.target_acceptance = target_acceptance;
     setup_.sampler.adapt_gain = adapt_gain;
     setup_.sampler.algorithm = mc_algorithm_from_string(sampler);  // ValueError naming choices
+    setup_.sampler.hmc.area_volume = hmc_area_volume_from_string(hmc_area_volume);  // ValueError
     setup_.sample_every = sample_every;
     setup_.penalty_scale = penalty_scale;
     validated("MonteCarlo(force_pN=" + num(force_pN) +
@@ -168,16 +170,19 @@ void bind_mc(py::module_& m) {
       "`rbc mc`). adapt_sweeps=None: the first 20 % of the first run() adapt the step. chains "
       "independent chains (seeded from (seed, chain), run one per OpenMP thread, results "
       "independent of the threads) are pooled: summary() gives their pooled means and errors, "
-      "R-hat per quantity and per-chain statistics; positions, energy and step are chain 0's.")
+      "R-hat per quantity and per-chain statistics; positions, energy and step are chain 0's. "
+      "hmc_area_volume='exact' holds the area and volume as exact constraints in HMC "
+      "(`rbc mc --hmc-area-volume exact`).")
       .def(py::init<std::shared_ptr<PyNetwork>, double, double, unsigned long, int, py::object, int,
-                    double, const std::string&, double, double, double, const std::string&, int>(),
+                    double, const std::string&, double, double, double, const std::string&, int,
+                    const std::string&>(),
            py::arg("network"), py::kw_only(), py::arg("force_pN") = 0.0,
            py::arg("sampling_temperature_K") = 300.0, py::arg("seed") = 1, py::arg("streams") = 1,
            py::arg("adapt_sweeps") = py::none(), py::arg("sample_every") = 1,
            py::arg("penalty_scale") = McRunSetup{}.penalty_scale, py::arg("start") = "equilibrium",
            py::arg("initial_step_um") = 0.0, py::arg("target_acceptance") = 0.4,
            py::arg("adapt_gain") = 0.5, py::arg("sampler") = "metropolis",
-           py::arg("chains") = McOptions{}.chains)
+           py::arg("chains") = McOptions{}.chains, py::arg("hmc_area_volume") = "penalty")
       .def("run", &MonteCarlo::run, py::arg("sweeps"), py::arg("cancel") = py::none(),
            "Run `sweeps` more sweeps (GIL released; Ctrl-C raises KeyboardInterrupt at the end of "
            "the current sweep and leaves the chain there).")

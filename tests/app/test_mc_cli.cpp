@@ -303,6 +303,38 @@ TEST(McCli, HmcSamplerRunsResumesAndRefusesBadInput) {
 namespace rbc {
 namespace {
 
+// --hmc-area-volume exact through the front end: the JSON records it, the area and volume stay at
+// A0 and V0 to 1e-10, a checkpoint resumes on another thread count to the straight run's means bit
+// for bit, and a resume that asks for the penalties, or an unknown value, is refused in one line.
+TEST(McCli, HmcExactAreaVolumeRecordsHoldsResumesAndRefusesBadInput) {
+  using testing::fresh_output_dir;
+  using testing::run_rbc;
+  const fs::path dir = fresh_output_dir("mc_cli_hmc_exact");
+  const std::string base =
+      "mc -n 150 --force 20 --sampler hmc --hmc-area-volume exact --adapt-sweeps 4 --seed 2 "
+      "--chains 1 -q --json";
+  const CliRun whole = run_rbc(base + " --sweeps 20", 2);
+  ASSERT_EQ(whole.exit_code, 0) << whole.all();
+  const json w = json::parse(whole.out);
+  EXPECT_EQ(w.at("hmc").at("area_volume"), "exact");
+  EXPECT_LE(w.at("max_area_drift").get<double>(), 1e-10);
+  EXPECT_LE(w.at("max_volume_drift").get<double>(), 1e-10);
+  const std::string ck = quoted(dir / "chain.h5");
+  ASSERT_EQ(
+      run_rbc(base + " --sweeps 10 --checkpoint " + ck + " --checkpoint-every 10", 2).exit_code, 0);
+  const CliRun resumed = run_rbc("mc --resume " + ck + " --sweeps 20 -q --json", 1);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.all();
+  const json r = json::parse(resumed.out);
+  EXPECT_EQ(r.at("hmc").at("area_volume"), "exact");
+  EXPECT_EQ(r.at("energy_pNum").at("mean"), w.at("energy_pNum").at("mean"));
+  EXPECT_EQ(r.at("axial_um").at("mean"), w.at("axial_um").at("mean"));
+  const CliRun other = run_rbc("mc --resume " + ck + " --hmc-area-volume penalty --sweeps 30 -q");
+  EXPECT_EQ(other.exit_code, 2) << other.all();
+  EXPECT_NE(other.err.find("--hmc-area-volume exact, not penalty"), std::string::npos)
+      << other.all();
+  expect_refused_in_one_line("--sweeps 1 --sampler hmc --hmc-area-volume hard");
+}
+
 // --hmc-mass-reference thermal through the front end: the JSON records the option and where the
 // matrix in use was built; a checkpoint after the rebuild (adaptive sweeps 8, averaged over
 // 4 .. 7; the library test HmcThermalMass.ResumesAcrossTheRebuildBitForBitOnAnyThreadCount

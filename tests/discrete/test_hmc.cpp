@@ -348,6 +348,67 @@ TEST(HmcSampler, CheckpointedRunResumesBitForBit) {
     EXPECT_EQ(whole.series()[i].energy_pNum, resumed.series()[i].energy_pNum) << "sample " << i;
 }
 
+// Exact area and volume constraints: A and V stay at A0 and V0 to the Newton tolerance after
+// every transition; the reported energy is the network's without the penalties and multipliers
+// (zero on the manifold); the chain is thread-independent, and a checkpoint keeps the mode and
+// resumes bit for bit.
+TEST(HmcSampler, ExactConstraintsHoldAreaAndVolumeAndResumeBitForBit) {
+  const SmallCell c;
+  McRunSetup setup;
+  setup.force_pN = c.load.force_pN;
+  setup.multipliers = c.load.multipliers;
+  setup.sampler.algorithm = McAlgorithm::hmc;
+  setup.sampler.temperature_K = 300;
+  setup.sampler.seed = 5;
+  setup.sampler.adapt_sweeps = 6;
+  setup.sampler.hmc.area_volume = HmcAreaVolume::exact;
+  setup.sampler.chains = 1;
+  LoadState without_penalties = c.load;
+  without_penalties.multipliers = ConstraintMultipliers{};
+  without_penalties.stiffness_scale = 0.0;
+  auto run = [&](int threads, int sweeps) {
+    const int saved = omp_get_max_threads();
+    omp_set_num_threads(threads);
+    McRun r(c.net, setup, c.x);
+    r.advance(sweeps, [&](const McRun& at) {
+      const NetworkGeometry g = network_geometry(at.sampler().positions(), c.net.topo);
+      EXPECT_LE(std::abs(g.area_um2 - c.net.area0_um2), 1e-10 * c.net.area0_um2);
+      EXPECT_LE(std::abs(g.volume_um3 - c.net.volume0_um3), 1e-10 * c.net.volume0_um3);
+      return true;
+    });
+    omp_set_num_threads(saved);
+    return r.state();
+  };
+  const McChainState one = run(1, 12), two = run(2, 12);
+  EXPECT_EQ((one.x - two.x).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT((one.x - c.x).cwiseAbs().maxCoeff(), 1e-6) << "no trajectory was accepted";
+  {
+    McOptions o = setup.sampler;
+    HmcSampler h(c.net, c.load, one.x, one.mass_reference, o);
+    h.restore(one);
+    EXPECT_NEAR(h.energy(), network_energy(c.net, h.positions(), without_penalties),
+                1e-9 * std::abs(h.energy()));
+  }
+  McRun whole(c.net, setup, c.x);
+  whole.advance(12);
+  McRun first(c.net, setup, c.x);
+  const std::string file =
+      (rbc::testing::fresh_output_dir("hmc_exact_checkpoint") / "chain.h5").string();
+  first.advance(12, [&](const McRun& r) {
+    if (r.sampler().sweeps_done() < 4) return true;
+    write_mc_checkpoint(file, c.net, McCheckpoint{r.setup(), r.state(), r.series()});
+    return false;
+  });
+  const McCheckpoint cp = read_mc_checkpoint(file, c.net);
+  EXPECT_EQ(cp.setup.sampler.hmc.area_volume, HmcAreaVolume::exact);
+  McRun resumed(c.net, cp.setup, cp.chain, cp.series);
+  resumed.advance(12);
+  EXPECT_EQ((whole.state().x - resumed.state().x).cwiseAbs().maxCoeff(), 0.0);
+  ASSERT_EQ(whole.series().size(), resumed.series().size());
+  for (size_t i = 0; i < whole.series().size(); ++i)
+    EXPECT_EQ(whole.series()[i].energy_pNum, resumed.series()[i].energy_pNum) << "sample " << i;
+}
+
 TEST(HmcSampler, RefusesZeroTemperatureAndVertexSubsets) {
   const SmallCell c;
   McOptions o;

@@ -111,6 +111,23 @@ def test_hmc_monte_carlo_equals_rbc_mc_sampler_hmc():
         rbc.MonteCarlo(net, force_pN=20, sampler="gibbs")
 
 
+def test_hmc_exact_area_volume_equals_rbc_mc():
+    # Exact area and volume constraints through both front ends: the same chain, bit for bit.
+    cli = run_cli_json("mc", "--vertices", "150", "--force", "20", "--sweeps", "30", "--seed",
+                       "3", "--sampler", "hmc", "--hmc-area-volume", "exact", "--json", "-q")
+    net = rbc.Network(rbc.rest_shape(150))
+    mc = rbc.MonteCarlo(net, force_pN=20, sampling_temperature_K=300, seed=3, sampler="hmc",
+                        hmc_area_volume="exact")
+    mc.run(30)
+    py = mc.summary()
+    assert py["hmc"]["area_volume"] == cli["hmc"]["area_volume"] == "exact"
+    assert py["max_area_drift"] <= 1e-10
+    assert_same(py, cli, {"energy_pNum", "axial_um", "transverse_um", "acceptance", "step_um",
+                          "sweeps"})
+    with pytest.raises(ValueError, match="penalty or exact"):
+        rbc.MonteCarlo(net, force_pN=20, sampler="hmc", hmc_area_volume="hard")
+
+
 def test_psi_equals_rbc_psi_table(tmp_path):
     import csv
     import subprocess
