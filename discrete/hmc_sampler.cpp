@@ -19,9 +19,7 @@ namespace rbc {
 
 namespace {
 constexpr double kRotationMassFactor = 1e4;  ///< a rotation's mass over the translations'
-}  // namespace
 
-namespace {
 /// Area (um^2) and enclosed volume (um^3) of the closed mesh at x, with their gradients (the
 /// triangle and tetrahedron formulas of core/geometry.hpp, summed face by face in a fixed order).
 void area_volume_gradients(const Topology& t, const Positions& x, double& area, double& volume,
