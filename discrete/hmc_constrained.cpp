@@ -127,7 +127,6 @@ HmcConstrainedTransition hmc_constrained_transition(const HmcPotential& potentia
                                                     const MassMatrix& mass,
                                                     HmcConstrainedState& state, double step,
                                                     int steps, gsl_rng* rng) {
-  constexpr double kDivergence = 1000.0;  // as hmc_transition
   HmcConstrainedTransition r;
   HmcTransition& t = r.transition;
   ConstraintFrame f = frame_at(constraints, mass, state.x, t.solves);
@@ -189,13 +188,8 @@ HmcConstrainedTransition hmc_constrained_transition(const HmcPotential& potentia
     t.solves += mass.solves_per_inverse();
     h1 = u + 0.5 * p.dot(v);
   }
-  const double dh = h1 - h0;
-  t.diverged = !std::isfinite(dh) || std::abs(dh) > kDivergence;
-  t.energy_error = std::isfinite(dh) ? dh : std::numeric_limits<double>::quiet_NaN();
-  t.acceptance_probability = std::isfinite(dh) ? std::min(1.0, std::exp(-dh)) : 0.0;
-  const double uniform = gsl_rng_uniform(rng);  // drawn on every transition, as hmc_transition
-  if (std::isfinite(dh) && uniform < t.acceptance_probability) {
-    t.accepted = true;
+  hmc_metropolis_test(h0, h1, rng, t);
+  if (t.accepted) {
     state.x = std::move(x);
     state.potential = u;
     state.gradient = std::move(g);

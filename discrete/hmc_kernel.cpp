@@ -78,9 +78,6 @@ HmcState hmc_state(const HmcPotential& potential, const Eigen::VectorXd& x) {
 
 HmcTransition hmc_transition(const HmcPotential& potential, const MassMatrix& mass, HmcState& state,
                              double step, int steps, gsl_rng* rng) {
-  // |dH| beyond which the trajectory counts as divergent: its acceptance exp(-1000) is zero in
-  // double precision whatever follows, so integrating on only costs evaluations.
-  constexpr double kDivergence = 1000.0;
   HmcTransition t;
   Eigen::VectorXd p = mass.draw(rng);
   t.solves += mass.solves_per_draw();
@@ -110,20 +107,25 @@ HmcTransition hmc_transition(const HmcPotential& potential, const MassMatrix& ma
     t.solves += mass.solves_per_inverse();
     h1 = u + 0.5 * p.dot(v);
   }
-  const double dh = h1 - h0;
-  t.diverged = !std::isfinite(dh) || std::abs(dh) > kDivergence;
-  t.energy_error = std::isfinite(dh) ? dh : std::numeric_limits<double>::quiet_NaN();
-  t.acceptance_probability = std::isfinite(dh) ? std::min(1.0, std::exp(-dh)) : 0.0;
-  // The uniform is drawn on every transition (also divergent ones), so the stream's position
-  // never depends on the outcome.
-  const double r = gsl_rng_uniform(rng);
-  if (std::isfinite(dh) && r < t.acceptance_probability) {
-    t.accepted = true;
+  hmc_metropolis_test(h0, h1, rng, t);
+  if (t.accepted) {
     state.x = std::move(x);
     state.potential = u;
     state.gradient = std::move(g);
   }
   return t;
+}
+
+void hmc_metropolis_test(double h0, double h1, gsl_rng* rng, HmcTransition& t) {
+  // |dH| beyond which the trajectory counts as divergent: its acceptance exp(-1000) is zero in
+  // double precision.
+  constexpr double kDivergence = 1000.0;
+  const double dh = h1 - h0;
+  t.diverged = !std::isfinite(dh) || std::abs(dh) > kDivergence;
+  t.energy_error = std::isfinite(dh) ? dh : std::numeric_limits<double>::quiet_NaN();
+  t.acceptance_probability = std::isfinite(dh) ? std::min(1.0, std::exp(-dh)) : 0.0;
+  const double r = gsl_rng_uniform(rng);
+  t.accepted = std::isfinite(dh) && r < t.acceptance_probability;
 }
 
 int hmc_step_count(const HmcOptions& o, double step, gsl_rng* rng) {

@@ -145,6 +145,12 @@ HmcState hmc_state(const HmcPotential& potential, const Eigen::VectorXd& x);
 HmcTransition hmc_transition(const HmcPotential& potential, const MassMatrix& mass, HmcState& state,
                              double step, int steps, gsl_rng* rng);
 
+/// The Metropolis test of a transition from H = h0 to h1 (+infinity when the trajectory left the
+/// domain): fills t.energy_error, t.diverged (not finite, or |dH| > 1000) and
+/// t.acceptance_probability, and sets t.accepted from one uniform of rng, drawn on every
+/// transition (also divergent ones) so the stream's position never depends on the outcome.
+void hmc_metropolis_test(double h0, double h1, gsl_rng* rng, HmcTransition& t);
+
 /// The step count of a transition: round(T/h (1 + jitter (2u - 1))) clamped to [1, max_steps],
 /// u uniform from rng.
 int hmc_step_count(const HmcOptions& options, double step, gsl_rng* rng);

@@ -13,6 +13,7 @@
 #include <memory>
 #include <vector>
 
+#include "chi_square.hpp"
 #include "core/units.hpp"
 #include "discrete/hmc_kernel.hpp"
 #include "discrete/hmc_sampler.hpp"
@@ -89,19 +90,6 @@ struct LinkSystem {
   }
 };
 
-double chi_square(const std::vector<long>& count, const std::vector<double>& probability,
-                  long samples, int* dof) {
-  double chi2 = 0;
-  *dof = -1;
-  for (size_t b = 0; b < count.size(); ++b) {
-    const double e = probability[b] * double(samples);
-    if (e < 5) continue;  // (bins are chosen so that none is that small; a guard)
-    chi2 += (double(count[b]) - e) * (double(count[b]) - e) / e;
-    ++*dof;
-  }
-  return chi2;
-}
-
 // (c) A few degrees of freedom whose Boltzmann histogram is known by quadrature. A dense,
 // non-diagonal mass matrix (not the Hessian) so that a draw and a kinetic energy from different
 // matrices, a wrong sign or a missing term in the acceptance all bias the histogram.
@@ -141,14 +129,15 @@ TEST(HmcKernel, LinkLengthHistogramMatchesBoltzmannByQuadrature) {
   const double acceptance = double(accepted) / double(transitions);
   EXPECT_GT(acceptance, 0.5) << "the step is far too large for this test's power";
   int dof = 0;
-  const double chi2 = chi_square(count, sys.bin_probabilities(bins, rmax, sys.beta), samples, &dof);
+  const double chi2 =
+      testing::chi_square(count, sys.bin_probabilities(bins, rmax, sys.beta), samples, &dof);
   ASSERT_GT(dof, 8);
   // False alarm 1e-3 (multinomial counts).
   EXPECT_LT(chi2, gsl_cdf_chisq_Qinv(1e-3, dof)) << "dof " << dof;
   // Power: the same counts against a 5 % different temperature fail.
   int dof_wrong = 0;
-  const double chi2_wrong =
-      chi_square(count, sys.bin_probabilities(bins, rmax, sys.beta * 1.05), samples, &dof_wrong);
+  const double chi2_wrong = testing::chi_square(
+      count, sys.bin_probabilities(bins, rmax, sys.beta * 1.05), samples, &dof_wrong);
   EXPECT_GT(chi2_wrong, gsl_cdf_chisq_Qinv(1e-3, dof_wrong));
 }
 

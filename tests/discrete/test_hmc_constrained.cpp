@@ -15,6 +15,7 @@
 #include <numbers>
 #include <vector>
 
+#include "chi_square.hpp"
 #include "discrete/hmc_constrained.hpp"
 
 namespace rbc {
@@ -54,19 +55,6 @@ HmcConstraints sphere(bool plane) {
   };
   c.tolerance = Eigen::VectorXd::Constant(m, 1e-12);
   return c;
-}
-
-double histogram_chi_square(const std::vector<long>& count, const std::vector<double>& probability,
-                            long samples, int* dof) {
-  double chi2 = 0;
-  *dof = -1;
-  for (size_t b = 0; b < count.size(); ++b) {
-    const double e = probability[b] * double(samples);
-    if (e < 5) continue;
-    chi2 += (double(count[b]) - e) * (double(count[b]) - e) / e;
-    ++*dof;
-  }
-  return chi2;
 }
 
 /// Bin probabilities of a density on [lo, hi] by the midpoint rule (2,000 points a bin).
@@ -149,7 +137,7 @@ TEST(HmcConstrained, SphereHistogramIsTheStiffPenaltyLawWhateverTheMass) {
   int dof = 0;
   const auto law = [a](double z) { return std::exp(-a * z); };
   const double chi2 =
-      histogram_chi_square(h.count, density_bin_probabilities(law, -1, 1, bins), samples, &dof);
+      testing::chi_square(h.count, density_bin_probabilities(law, -1, 1, bins), samples, &dof);
   ASSERT_GT(dof, 10);
   EXPECT_LT(chi2, gsl_cdf_chisq_Qinv(1e-3, dof)) << "dof " << dof;
   // Power: the law without the Fixman term, exp(-a z) sqrt(n' M^-1 n) (n = x on the sphere,
@@ -168,7 +156,7 @@ TEST(HmcConstrained, SphereHistogramIsTheStiffPenaltyLawWhateverTheMass) {
     return std::exp(-a * z) * s / n;
   };
   int dof_wrong = 0;
-  const double chi2_wrong = histogram_chi_square(
+  const double chi2_wrong = testing::chi_square(
       h.count, density_bin_probabilities(without_fixman, -1, 1, bins), samples, &dof_wrong);
   EXPECT_GT(chi2_wrong, gsl_cdf_chisq_Qinv(1e-3, dof_wrong));
 }
@@ -198,13 +186,13 @@ TEST(HmcConstrained, GreatCircleHistogramIsTheStiffPenaltyLawWithTwoConstraints)
   int dof = 0;
   const auto law = [a, ez](double t) { return std::exp(-a * ez * std::cos(t)); };
   const double chi2 =
-      histogram_chi_square(h.count, density_bin_probabilities(law, -pi, pi, bins), samples, &dof);
+      testing::chi_square(h.count, density_bin_probabilities(law, -pi, pi, bins), samples, &dof);
   ASSERT_GT(dof, 10);
   EXPECT_LT(chi2, gsl_cdf_chisq_Qinv(1e-3, dof)) << "dof " << dof;
   // Power: a 10 % weaker field fails.
   int dof_wrong = 0;
   const auto weaker = [a, ez](double t) { return std::exp(-0.9 * a * ez * std::cos(t)); };
-  const double chi2_wrong = histogram_chi_square(
+  const double chi2_wrong = testing::chi_square(
       h.count, density_bin_probabilities(weaker, -pi, pi, bins), samples, &dof_wrong);
   EXPECT_GT(chi2_wrong, gsl_cdf_chisq_Qinv(1e-3, dof_wrong));
 }
