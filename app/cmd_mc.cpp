@@ -1026,14 +1026,13 @@ void add_mc_command(CLI::App& app, Action& action) {
       ->type_name("TEXT")
       ->default_str("equilibrium");
   cmd->add_option("--hmc-area-volume", o->hmc.area_volume,
-                  "hmc: the cell's area and volume held by the penalties of the Metropolis "
-                  "sampler's law (penalty, stiffened by --penalty-scale), or exactly, by "
-                  "constraints (exact: the law of infinitely stiff penalties; a step several "
-                  "times longer)")
+                  "hmc: the cell's area and volume held exactly, by constraints (exact: the "
+                  "law of infinitely stiff penalties), or by the penalties of the Metropolis "
+                  "sampler's law (penalty, stiffened by --penalty-scale; they cap the step)")
       ->transform(enum_choice<HmcAreaVolume>(
           {{"penalty", HmcAreaVolume::penalty}, {"exact", HmcAreaVolume::exact}}))
       ->type_name("TEXT")
-      ->default_str("penalty");
+      ->default_str("exact");
   cmd->add_option("--start", o->start, "equilibrium | rest")
       ->transform(
           enum_choice<McStart>({{"equilibrium", McStart::equilibrium}, {"rest", McStart::rest}}))

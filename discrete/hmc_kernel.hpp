@@ -114,7 +114,7 @@ struct HmcOptions {
   HmcMassReference mass_reference = HmcMassReference::equilibrium;
   /// Network sampler: the area and volume as penalties (the Metropolis sampler's law) or as
   /// exact constraints.
-  HmcAreaVolume area_volume = HmcAreaVolume::penalty;
+  HmcAreaVolume area_volume = HmcAreaVolume::exact;
   /// Throws rbc::InvalidParameter naming the value.
   void validate() const;
 };

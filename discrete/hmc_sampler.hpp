@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Hamiltonian Monte Carlo of the whole spectrin network (discrete/hmc_kernel.hpp applied to
-// every vertex at once): the collective sampler of `rbc mc --sampler hmc`. It samples exactly
-// the law of the Metropolis sampler (discrete/mc_sampler.hpp): pi(x) ~ exp(-beta F(x)), F the
-// network's free energy network_energy() with the area and volume multipliers held fixed and
-// the penalties times LoadState::stiffness_scale, beta = 1/(kB T) at the sampling temperature.
+// every vertex at once): the collective sampler of `rbc mc --sampler hmc`. It samples
+// pi(x) ~ exp(-beta F(x)), F the network's free energy network_energy(), beta = 1/(kB T) at the
+// sampling temperature, with the area and volume held exactly (HmcOptions::area_volume exact,
+// the default: the limit of infinitely stiff penalties) or by the penalties times
+// LoadState::stiffness_scale with the multipliers held fixed (penalty: exactly the law of the
+// Metropolis sampler, discrete/mc_sampler.hpp).
 //
 // Mass matrix (pN/um, times beta): built at the chain's reference positions (the
 // zero-temperature equilibrium, or the thermal mean, see "Reference" below), and never changed
@@ -42,6 +44,9 @@
 // a draw of N(0, M) (the sum of independent draws of N(0, beta K0) and N(0, beta U C U')).
 // Cost per transition: n + 2 solves and n energy + gradient evaluations for n leapfrog steps,
 // plus one factor solve for the draw.
+//
+// Start: a draw of N(start, M^-1), the Gaussian approximation of the target about the start
+// positions (HmcSampler::start_near says why not the start itself).
 //
 // Area and volume (HmcOptions::area_volume). penalty: as above, the Metropolis sampler's law.
 // exact: the constraints A = A0, V = V0 held by RATTLE (discrete/hmc_constrained.hpp), F without
@@ -112,7 +117,9 @@ class NetworkMassMatrix final : public MassMatrix {
 /// network must outlive it.
 class HmcSampler final : public McChain {
  public:
-  /// Starts the chain at `start` (feasible), with the mass matrix built at `start` too.
+  /// Starts the chain near `start` (feasible, typically the zero-temperature equilibrium): at a
+  /// draw of the mass matrix's Gaussian approximation of the target about it, N(start, M^-1),
+  /// so that every mode starts with a thermal amplitude. The mass matrix is built at `start`.
   /// options.algorithm must be hmc and options.temperature_K > 0 (std::invalid_argument).
   HmcSampler(const Network& net, const LoadState& load, const Positions& start,
              const McOptions& options);
@@ -156,6 +163,8 @@ class HmcSampler final : public McChain {
 
  private:
   void set_state(const Positions& x);
+  /// The chain's first state: a draw of N(centre, M^-1) (see the definition for why).
+  void start_near(const Positions& centre);
   /// First transition (0-based) of the thermal reference's averaging window.
   long long window_start() const { return opt_.adapt_sweeps / 2; }
   /// Thermal reference: adds the positions to the window's sum, and after the last adaptive

@@ -181,11 +181,9 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
       h.write_attribute("hmc_max_steps", static_cast<long long>(m.max_steps));
       h.write_attribute("hmc_projected_mass", static_cast<long long>(m.projected_mass));
       h.write_attribute("hmc_mass_shift_fraction", m.mass_shift_fraction);
-      // Written for the thermal reference only, so an equilibrium run's file is the same as
-      // before the option existed; absent means equilibrium.
-      // Written for exact constraints only; absent means penalties.
-      if (m.area_volume != HmcAreaVolume::penalty)
-        h.write_attribute("hmc_area_volume", to_string(m.area_volume));
+      // A file without hmc_area_volume holds a chain with penalties.
+      h.write_attribute("hmc_area_volume", to_string(m.area_volume));
+      // Written for the thermal reference only; absent means equilibrium.
       if (m.mass_reference != HmcMassReference::equilibrium) {
         h.write_attribute("hmc_mass_reference", to_string(m.mass_reference));
         // Per chain: 1 when its matrix is the thermal mean's, 0 while (or, after a failed
@@ -361,6 +359,7 @@ McCheckpoint read_mc_checkpoint(const std::string& path, const Network& net) {
     m.max_steps = static_cast<int>(h.read_attribute_int("hmc_max_steps"));
     m.projected_mass = h.read_attribute_int("hmc_projected_mass") != 0;
     m.mass_shift_fraction = h.read_attribute_double("hmc_mass_shift_fraction");
+    m.area_volume = HmcAreaVolume::penalty;  // a file without the attribute
     if (h.has_attribute("hmc_area_volume")) {
       try {
         m.area_volume = hmc_area_volume_from_string(h.read_attribute_string("hmc_area_volume"));

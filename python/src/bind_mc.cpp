@@ -171,8 +171,8 @@ void bind_mc(py::module_& m) {
       "independent chains (seeded from (seed, chain), run one per OpenMP thread, results "
       "independent of the threads) are pooled: summary() gives their pooled means and errors, "
       "R-hat per quantity and per-chain statistics; positions, energy and step are chain 0's. "
-      "hmc_area_volume='exact' holds the area and volume as exact constraints in HMC "
-      "(`rbc mc --hmc-area-volume exact`).")
+      "hmc_area_volume: how HMC holds the area and volume, 'exact' (constraints, the default) or "
+      "'penalty' (the Metropolis sampler's penalties), as `rbc mc --hmc-area-volume`.")
       .def(py::init<std::shared_ptr<PyNetwork>, double, double, unsigned long, int, py::object, int,
                     double, const std::string&, double, double, double, const std::string&, int,
                     const std::string&>(),
@@ -182,7 +182,8 @@ void bind_mc(py::module_& m) {
            py::arg("penalty_scale") = McRunSetup{}.penalty_scale, py::arg("start") = "equilibrium",
            py::arg("initial_step_um") = 0.0, py::arg("target_acceptance") = 0.4,
            py::arg("adapt_gain") = 0.5, py::arg("sampler") = "metropolis",
-           py::arg("chains") = McOptions{}.chains, py::arg("hmc_area_volume") = "penalty")
+           py::arg("chains") = McOptions{}.chains,
+           py::arg("hmc_area_volume") = to_string(HmcOptions{}.area_volume))
       .def("run", &MonteCarlo::run, py::arg("sweeps"), py::arg("cancel") = py::none(),
            "Run `sweeps` more sweeps (GIL released; Ctrl-C raises KeyboardInterrupt at the end of "
            "the current sweep and leaves the chain there).")

@@ -303,16 +303,16 @@ TEST(McCli, HmcSamplerRunsResumesAndRefusesBadInput) {
 namespace rbc {
 namespace {
 
-// --hmc-area-volume exact through the front end: the JSON records it, the area and volume stay at
-// A0 and V0 to 1e-10, a checkpoint resumes on another thread count to the straight run's means bit
-// for bit, and a resume that asks for the penalties, or an unknown value, is refused in one line.
-TEST(McCli, HmcExactAreaVolumeRecordsHoldsResumesAndRefusesBadInput) {
+// --hmc-area-volume through the front end: exact by default, recorded in the JSON, the area and
+// volume at A0 and V0 to 1e-10; a checkpoint resumes on another thread count to the straight
+// run's means bit for bit; a resume that asks for the other mode (either way round), or an unknown
+// value, is refused in one line.
+TEST(McCli, HmcAreaVolumeRecordsHoldsResumesAndRefusesBadInput) {
   using testing::fresh_output_dir;
   using testing::run_rbc;
   const fs::path dir = fresh_output_dir("mc_cli_hmc_exact");
   const std::string base =
-      "mc -n 150 --force 20 --sampler hmc --hmc-area-volume exact --adapt-sweeps 4 --seed 2 "
-      "--chains 1 -q --json";
+      "mc -n 150 --force 20 --sampler hmc --adapt-sweeps 4 --seed 2 --chains 1 -q --json";
   const CliRun whole = run_rbc(base + " --sweeps 20", 2);
   ASSERT_EQ(whole.exit_code, 0) << whole.all();
   const json w = json::parse(whole.out);
@@ -332,6 +332,20 @@ TEST(McCli, HmcExactAreaVolumeRecordsHoldsResumesAndRefusesBadInput) {
   EXPECT_EQ(other.exit_code, 2) << other.all();
   EXPECT_NE(other.err.find("--hmc-area-volume exact, not penalty"), std::string::npos)
       << other.all();
+  const std::string penalty_ck = quoted(dir / "penalty.h5");
+  const CliRun penalty = run_rbc(base + " --hmc-area-volume penalty --sweeps 10 --checkpoint " +
+                                     penalty_ck + " --checkpoint-every 10",
+                                 2);
+  ASSERT_EQ(penalty.exit_code, 0) << penalty.all();
+  EXPECT_EQ(json::parse(penalty.out).at("hmc").at("area_volume"), "penalty");
+  const CliRun to_exact =
+      run_rbc("mc --resume " + penalty_ck + " --hmc-area-volume exact --sweeps 30 -q");
+  EXPECT_EQ(to_exact.exit_code, 2) << to_exact.all();
+  EXPECT_NE(to_exact.err.find("--hmc-area-volume penalty, not exact"), std::string::npos)
+      << to_exact.all();
+  const CliRun penalty_on = run_rbc("mc --resume " + penalty_ck + " --sweeps 20 -q --json", 1);
+  ASSERT_EQ(penalty_on.exit_code, 0) << penalty_on.all();
+  EXPECT_EQ(json::parse(penalty_on.out).at("hmc").at("area_volume"), "penalty");
   expect_refused_in_one_line("--sweeps 1 --sampler hmc --hmc-area-volume hard");
 }
 

@@ -224,6 +224,7 @@ TEST(HmcThermalMass, SamplesTheEquilibriumReferencesLaw) {
   McRunSetup base = thermal_mass_setup(100);
   base.force_pN = 88.0;
   base.penalty_scale = 25.0;
+  base.sampler.hmc.area_volume = HmcAreaVolume::penalty;  // area and volume fluctuate
   base.sampler.hmc.trajectory_time = McOptions{}.hmc.trajectory_time;
   McZeroTemperatureStart z;
   {
