@@ -186,6 +186,7 @@ struct GivenOptions {
   bool force = false, temperature = false, seed = false, penalty_scale = false, vertices = false,
        bending = false, adapt_fraction = false, sampler = false, chains = false,
        area_volume = false;
+  std::string hmc_option;  ///< the first --hmc-* option given ("" when none)
 };
 
 /// The run's setup from the command line (multipliers and reference filled in later),
@@ -909,6 +910,10 @@ int run_mc_forces(const McCli& given_cli, const GivenOptions& given) {
 /// with the error line's text (or removed when even that write fails), so it never says
 /// "running" after the process ended.
 int run_mc_recorded(const McCli& o, const GivenOptions& given) {
+  if (o.resume.empty() && o.algorithm != McAlgorithm::hmc && !given.hmc_option.empty())
+    throw std::invalid_argument(given.hmc_option +
+                                ": an option of --sampler hmc, but the run uses --sampler " +
+                                to_string(o.algorithm));
   if (!o.forces_pN.empty()) return run_mc_forces(o, given);
   McProgress made;
   try {
@@ -1074,17 +1079,20 @@ void add_mc_command(CLI::App& app, Action& action) {
   add_verbose_flag(cmd, o->verbose);
   cmd->callback([o, cmd, force, sampling_temp, seed, penalty, vertices, adapt_fraction, sampler,
                  chains, &action] {
-    const GivenOptions given{
-        force->count() > 0,
-        sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
-        seed->count() > 0,
-        penalty->count() > 0,
-        vertices->count() > 0,
-        cmd->get_option("--bending")->count() > 0,
-        adapt_fraction->count() > 0,
-        sampler->count() > 0,
-        chains->count() > 0,
-        cmd->get_option("--hmc-area-volume")->count() > 0};
+    GivenOptions given{force->count() > 0,
+                       sampling_temp->count() > 0 || cmd->get_option("--temperature")->count() > 0,
+                       seed->count() > 0,
+                       penalty->count() > 0,
+                       vertices->count() > 0,
+                       cmd->get_option("--bending")->count() > 0,
+                       adapt_fraction->count() > 0,
+                       sampler->count() > 0,
+                       chains->count() > 0,
+                       cmd->get_option("--hmc-area-volume")->count() > 0,
+                       {}};
+    for (const CLI::Option* opt : cmd->get_options())
+      if (opt->count() > 0 && opt->get_name().rfind("--hmc-", 0) == 0 && given.hmc_option.empty())
+        given.hmc_option = opt->get_name();
     o->sampling_temperature_given = sampling_temp->count() > 0;
     action = [o, cmd, given] {
       o->record = run_record(*cmd);

@@ -305,8 +305,8 @@ namespace {
 
 // --hmc-area-volume through the front end: exact by default, recorded in the JSON, the area and
 // volume at A0 and V0 to 1e-10; a checkpoint resumes on another thread count to the straight
-// run's means bit for bit; a resume that asks for the other mode (either way round), or an unknown
-// value, is refused in one line.
+// run's means bit for bit; a resume that asks for the other mode (either way round), an unknown
+// value, or the option on a Metropolis run, is refused in one line.
 TEST(McCli, HmcAreaVolumeRecordsHoldsResumesAndRefusesBadInput) {
   using testing::fresh_output_dir;
   using testing::run_rbc;
@@ -347,6 +347,15 @@ TEST(McCli, HmcAreaVolumeRecordsHoldsResumesAndRefusesBadInput) {
   ASSERT_EQ(penalty_on.exit_code, 0) << penalty_on.all();
   EXPECT_EQ(json::parse(penalty_on.out).at("hmc").at("area_volume"), "penalty");
   expect_refused_in_one_line("--sweeps 1 --sampler hmc --hmc-area-volume hard");
+  // An HMC option on a Metropolis run is refused, not ignored.
+  for (const std::string hmc_only : {"--hmc-area-volume penalty", "--hmc-step 0.2"}) {
+    expect_refused_in_one_line("--sweeps 1 " + hmc_only);
+    const CliRun m = run_rbc("mc -n 150 -q --sweeps 1 --sampler metropolis " + hmc_only);
+    EXPECT_NE(m.err.find(hmc_only.substr(0, hmc_only.find(' ')) +
+                         ": an option of --sampler hmc, but the run uses --sampler metropolis"),
+              std::string::npos)
+        << m.all();
+  }
 }
 
 // --hmc-mass-reference thermal through the front end: the JSON records the option and where the
