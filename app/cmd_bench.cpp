@@ -519,11 +519,12 @@ void BM_McSweep(benchmark::State& state) {
   state.counters["moves_per_s"] = benchmark::Counter(double(moves), benchmark::Counter::kIsRate);
 }
 
-/// Hamiltonian Monte Carlo trajectories (discrete/hmc_sampler.hpp) at 300 K, zero force, from
-/// the rest shape (the mass matrix built there), on state.range(1) OpenMP threads (the energy
-/// and gradient's; the solves run on one BLAS thread). 20 adaptive trajectories first bring the
-/// acceptance to its target. Counters: energy + gradient evaluations and factor solves per
-/// trajectory, the mass matrix's factor entries and build time, acceptance and step.
+/// Hamiltonian Monte Carlo trajectories (discrete/hmc_sampler.hpp, with HmcOptions' defaults:
+/// area and volume as exact constraints) at 300 K, zero force, from the rest shape (the mass
+/// matrix built there), on state.range(1) OpenMP threads (the energy and gradient's; the solves
+/// run on one BLAS thread). 20 adaptive trajectories first bring the acceptance to its target.
+/// Counters: energy + gradient evaluations and factor solves per trajectory, the mass matrix's
+/// factor entries and build time, acceptance and step.
 void BM_HmcTrajectory(benchmark::State& state) {
   const Network& net = cached_network(static_cast<int>(state.range(0)));
   const int threads = static_cast<int>(state.range(1));
