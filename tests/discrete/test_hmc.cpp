@@ -163,39 +163,46 @@ TEST(HmcKernel, DenseMassDrawsHaveCovarianceMAndInverseInverts) {
 }
 
 // The network mass matrix: one factor serves the draws, N(0, M), and M^-1 (Woodbury on the
-// sparse part), so M^-1 applied to M v returns v, and the draws' covariance is M.
+// sparse part), so M^-1 applied to M v returns v, and the draws' covariance is M; with the
+// penalties' columns (area, volume, translations, axis rotation) and with exact constraints'
+// (translations, axis rotation).
 TEST(HmcNetworkMass, InverseAndDrawsUseOneMatrix) {
   const SmallCell c;
   const double beta = 1.0 / units::thermal_energy_pNum(300.0);
-  const NetworkMassMatrix mass(c.net, c.load, c.x, beta);
-  const Eigen::MatrixXd k0 = Eigen::MatrixXd(mass.sparse_part()).selfadjointView<Eigen::Lower>();
-  const Eigen::MatrixXd& u = mass.low_rank_columns();
-  const Eigen::MatrixXd m =
-      beta * (k0 + u * mass.low_rank_stiffness().asDiagonal() * u.transpose());
-  HmcRng rng(5);
-  Eigen::VectorXd v(m.rows());
-  for (Eigen::Index i = 0; i < v.size(); ++i) v(i) = gsl_rng_uniform(rng.get()) - 0.5;
-  const Eigen::VectorXd back = mass.inverse_times(m * v);
-  EXPECT_LT((back - v).norm(), 1e-8 * v.norm());
-  // Draws: the variance of w' p for unit vectors w equals w' M w (4,000 draws: relative error
-  // of a variance sqrt(2/4000) = 2.2 %; 5 directions within 12 %, > 5 sd).
-  const int n = 4000;
-  std::vector<Eigen::VectorXd> dirs;
-  for (int j = 0; j < 5; ++j) {
-    Eigen::VectorXd w(m.rows());
-    for (Eigen::Index i = 0; i < w.size(); ++i) w(i) = gsl_rng_uniform(rng.get()) - 0.5;
-    if (j == 0) w = u.col(0);  // the area direction: the low-rank draw must be there
-    if (j == 1) w = u.col(5);  // the rotation about the axis
-    dirs.push_back(w.normalized());
-  }
-  std::vector<double> var(dirs.size(), 0.0);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::VectorXd p = mass.draw(rng.get());
-    for (size_t j = 0; j < dirs.size(); ++j) var[j] += std::pow(dirs[j].dot(p), 2) / n;
-  }
-  for (size_t j = 0; j < dirs.size(); ++j) {
-    const double expected = dirs[j].dot(m * dirs[j]);
-    EXPECT_NEAR(var[j] / expected, 1.0, 0.12) << "direction " << j;
+  for (const HmcAreaVolume mode : {HmcAreaVolume::penalty, HmcAreaVolume::exact}) {
+    HmcOptions options;
+    options.area_volume = mode;
+    const NetworkMassMatrix mass(c.net, c.load, c.x, beta, options);
+    const Eigen::MatrixXd k0 = Eigen::MatrixXd(mass.sparse_part()).selfadjointView<Eigen::Lower>();
+    const Eigen::MatrixXd& u = mass.low_rank_columns();
+    ASSERT_EQ(u.cols(), mode == HmcAreaVolume::penalty ? 6 : 4) << to_string(mode);
+    const Eigen::MatrixXd m =
+        beta * (k0 + u * mass.low_rank_stiffness().asDiagonal() * u.transpose());
+    HmcRng rng(5);
+    Eigen::VectorXd v(m.rows());
+    for (Eigen::Index i = 0; i < v.size(); ++i) v(i) = gsl_rng_uniform(rng.get()) - 0.5;
+    const Eigen::VectorXd back = mass.inverse_times(m * v);
+    EXPECT_LT((back - v).norm(), 1e-8 * v.norm()) << to_string(mode);
+    // Draws: the variance of w' p for unit vectors w equals w' M w (4,000 draws: relative error
+    // of a variance sqrt(2/4000) = 2.2 %; 5 directions within 12 %, > 5 sd).
+    const int n = 4000;
+    std::vector<Eigen::VectorXd> dirs;
+    for (int j = 0; j < 5; ++j) {
+      Eigen::VectorXd w(m.rows());
+      for (Eigen::Index i = 0; i < w.size(); ++i) w(i) = gsl_rng_uniform(rng.get()) - 0.5;
+      if (j == 0) w = u.col(0);  // the area (penalties) or a translation: a low-rank draw
+      if (j == 1) w = u.col(u.cols() - 1);  // the rotation about the axis
+      dirs.push_back(w.normalized());
+    }
+    std::vector<double> var(dirs.size(), 0.0);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::VectorXd p = mass.draw(rng.get());
+      for (size_t j = 0; j < dirs.size(); ++j) var[j] += std::pow(dirs[j].dot(p), 2) / n;
+    }
+    for (size_t j = 0; j < dirs.size(); ++j) {
+      const double expected = dirs[j].dot(m * dirs[j]);
+      EXPECT_NEAR(var[j] / expected, 1.0, 0.12) << to_string(mode) << ", direction " << j;
+    }
   }
 }
 
@@ -206,7 +213,9 @@ TEST(HmcNetworkMass, InverseAndDrawsUseOneMatrix) {
 TEST(HmcKernel, HarmonicNetworkSamplesCovarianceAndEquipartition) {
   const SmallCell c;
   const double kT = units::thermal_energy_pNum(300.0), beta = 1.0 / kT;
-  const NetworkMassMatrix stiffness(c.net, c.load, c.x, beta);
+  HmcOptions penalties;  // the area and volume penalties' stiff rank-one terms in A and M
+  penalties.area_volume = HmcAreaVolume::penalty;
+  const NetworkMassMatrix stiffness(c.net, c.load, c.x, beta, penalties);
   Eigen::MatrixXd a = Eigen::MatrixXd(stiffness.sparse_part()).selfadjointView<Eigen::Lower>();
   a += stiffness.low_rank_columns() * stiffness.low_rank_stiffness().asDiagonal() *
        stiffness.low_rank_columns().transpose();
@@ -214,7 +223,7 @@ TEST(HmcKernel, HarmonicNetworkSamplesCovarianceAndEquipartition) {
   testing::perturb(x2, 0.01, 99);
   LoadState other = c.load;
   other.force_pN = 20.0;
-  const NetworkMassMatrix mass(c.net, other, x2, beta);
+  const NetworkMassMatrix mass(c.net, other, x2, beta, penalties);
   const Eigen::VectorXd x0 = flat(c.x);
   const HmcPotential u = [&](const Eigen::VectorXd& x, Eigen::VectorXd& g) {
     const Eigen::VectorXd d = x - x0;
