@@ -20,6 +20,7 @@
 #include "app/commands.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/dynamics.hpp"
+#include "continuum/loop_bending.hpp"
 #include "core/blas_threads.hpp"
 #include "core/rest_shape.hpp"
 #include "discrete/hmc_sampler.hpp"
@@ -464,6 +465,28 @@ void BM_ContinuumLagrangianHessian(benchmark::State& state) {
   state.counters["vertices"] = static_cast<double>(m.rest.cols());
 }
 
+/// Canham-Helfrich on the Loop limit surface (continuum/loop_bending.hpp) on the rest mesh of
+/// range(0) elements, interpolating control points: range(1) = 0 energy and gradient, 1 with the
+/// Hessian (3-point quadrature; the quadrature's set-up is not timed), 2 Juelicher's energy and
+/// gradient on the same vertices for comparison.
+void BM_LoopBending(benchmark::State& state) {
+  const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
+  const std::vector<LoopQuadraturePoint> q = loop_quadrature(m.topo);
+  const Positions c = loop_interpolating_control_points(m.topo, m.rest);
+  Positions g(3, c.cols());
+  Eigen::SparseMatrix<double> h;
+  for (auto _ : state) {
+    g.setZero();
+    if (state.range(1) == 2)
+      benchmark::DoNotOptimize(juelicher_bending_energy(m.rest, m.topo, m.bending, &g));
+    else
+      benchmark::DoNotOptimize(
+          loop_helfrich_energy(q, c, m.bending, &g, state.range(1) == 1 ? &h : nullptr));
+  }
+  state.counters["vertices"] = static_cast<double>(m.rest.cols());
+  state.counters["quadrature_points"] = static_cast<double>(q.size());
+}
+
 /// The mirror path's stability check at the 88 pN equilibrium (range(0) elements, range(1)
 /// symmetry argument as the sweep rows: 1 the default mesh, 2 the mirror-planes mesh): every
 /// non-trivial sector assembled and factorised (NewtonSolver::check_symmetric_state); the
@@ -684,7 +707,8 @@ void add_bench_command(CLI::App& app, Action& action) {
       "on 1 and 2 threads, N = 500, 2000, 8000, and the parallel speed-up), `rbc bench infer` "
       "(the default calibration by TMCMC and by laplace-is, side by side), `rbc bench sweep` "
       "(force sweeps and warm re-solves, each also in energy+gradient "
-      "evaluations, and the continuum recovery row); extra arguments go "
+      "evaluations, the continuum recovery row, and the Loop element's bending against "
+      "Juelicher's); extra arguments go "
       "to Google Benchmark");
   cmd->allow_extras();
   cmd->prefix_command();
@@ -780,6 +804,10 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Arg(1000)
             ->Arg(5120)
             ->Arg(9680)
+            ->Unit(benchmark::kMillisecond);
+        reg("continuum/loop_bending", BM_LoopBending)
+            ->ArgNames({"elements", "mode"})
+            ->ArgsProduct({{1000, 5120}, {0, 1, 2}})
             ->Unit(benchmark::kMillisecond);
         reg("discrete/energy_gradient", BM_DiscreteEnergyGradient)
             ->Arg(250)
