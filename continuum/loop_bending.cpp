@@ -5,6 +5,8 @@
 #include <limits>
 #include <unsupported/Eigen/AutoDiff>
 
+#include "continuum/loop_terms.hpp"
+
 namespace rbc {
 
 namespace loop_bending_internal {
@@ -95,28 +97,11 @@ double loop_helfrich_energy(const std::vector<LoopQuadraturePoint>& q, const Pos
         loop_helfrich_density(params, jet, grad != nullptr || hess != nullptr ? &g : nullptr,
                               hess != nullptr ? &h : nullptr);
     energy += p.weight * e;
-    if (!std::isfinite(e)) continue;
-    const int ns = static_cast<int>(p.basis.vertices.size());
-    // The jet is linear in the control points: jet[r] = sum_k shape(1 + r, k) x_k.
-    if (grad != nullptr)
-      for (int k = 0; k < ns; ++k)
-        for (int r = 0; r < 5; ++r)
-          grad->col(p.basis.vertices[k]) +=
-              p.weight * p.basis.shape(1 + r, k) * g.segment<3>(3 * r);
-    if (hess != nullptr) {
-      // Block (k, l) = sum_rs shape(1+r, k) shape(1+s, l) H_rs (3 x 3 blocks of the jet Hessian).
-      for (int k = 0; k < ns; ++k)
-        for (int l = 0; l < ns; ++l) {
-          Eigen::Matrix3d b = Eigen::Matrix3d::Zero();
-          for (int r = 0; r < 5; ++r)
-            for (int s = 0; s < 5; ++s)
-              b += p.basis.shape(1 + r, k) * p.basis.shape(1 + s, l) * h.block<3, 3>(3 * r, 3 * s);
-          b *= p.weight;
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-              trip.emplace_back(3 * p.basis.vertices[k] + i, 3 * p.basis.vertices[l] + j, b(i, j));
-        }
-    }
+    if (!std::isfinite(e) || (grad == nullptr && hess == nullptr)) continue;
+    const Eigen::VectorXd gl = p.weight * g;
+    const Eigen::MatrixXd hl = hess != nullptr ? Eigen::MatrixXd(p.weight * h) : Eigen::MatrixXd();
+    add_loop_point_derivatives(p.basis, 1, 5, gl, hess != nullptr ? &hl : nullptr, grad,
+                               hess != nullptr ? &trip : nullptr);
   }
   if (hess != nullptr) {
     hess->resize(x.size(), x.size());

@@ -335,6 +335,19 @@ Eigen::SparseMatrix<double> loop_limit_matrix(const Topology& topo) {
   return l;
 }
 
+Eigen::SparseMatrix<double> loop_limit_sampling_matrix(const Topology& topo, int levels) {
+  require_integer_in_range("Loop sampling levels", levels, 0, 6);
+  Topology t = topo;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> w(topo.num_vertices, topo.num_vertices);
+  w.setIdentity();
+  for (int l = 0; l < levels; ++l) {
+    loop_surface_internal::LoopStep step = loop_surface_internal::loop_step(t);
+    w = (step.s * w).pruned();
+    t = build_topology(step.faces, static_cast<int>(step.s.rows()));
+  }
+  return Eigen::SparseMatrix<double>(loop_limit_matrix(t) * w);
+}
+
 Positions loop_interpolating_control_points(const Topology& topo, const Positions& points_um) {
   if (points_um.cols() != topo.num_vertices)
     throw InvalidParameter("interpolated points", std::to_string(points_um.cols()),

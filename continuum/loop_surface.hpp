@@ -99,6 +99,11 @@ class LoopSubdivision {
 /// vertices, chi = 1 / (3 / (8 beta(n)) + n).
 Eigen::SparseMatrix<double> loop_limit_matrix(const Topology& topo);
 
+/// Sparse matrix M (rows: the vertices of `levels` levels of subdivision; columns: the control
+/// points) whose row i gives the limit point of fine vertex i: the limit surface sampled exactly,
+/// limit = (M x')'. levels in [0, 6] (rbc::InvalidParameter otherwise).
+Eigen::SparseMatrix<double> loop_limit_sampling_matrix(const Topology& topo, int levels);
+
 /// Control points whose limit surface passes through `points` (3 x N, um) at its vertices:
 /// the solution of L X = points (loop_limit_matrix; a sparse LU solve). The interpolating
 /// limit surface of vertices placed on a smooth surface.

@@ -16,6 +16,7 @@
 #include "continuum/loop_bending.hpp"
 #include "continuum/refined_mesh.hpp"
 #include "continuum/surface_grading.hpp"
+#include "core/validation.hpp"
 #include "fixtures.hpp"
 
 namespace rbc {

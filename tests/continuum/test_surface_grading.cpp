@@ -9,6 +9,7 @@
 
 #include "continuum/continuum_model.hpp"
 #include "continuum/surface_grading.hpp"
+#include "core/validation.hpp"
 
 namespace rbc {
 namespace {
