@@ -18,9 +18,11 @@
 
 #include "app/bench_infer.hpp"
 #include "app/commands.hpp"
+#include "continuum/adapted_mesh.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/dynamics.hpp"
 #include "continuum/loop_bending.hpp"
+#include "continuum/loop_stretch.hpp"
 #include "core/blas_threads.hpp"
 #include "core/rest_shape.hpp"
 #include "discrete/hmc_sampler.hpp"
@@ -466,25 +468,51 @@ void BM_ContinuumLagrangianHessian(benchmark::State& state) {
 }
 
 /// Canham-Helfrich on the Loop limit surface (continuum/loop_bending.hpp) on the rest mesh of
-/// range(0) elements, interpolating control points: range(1) = 0 energy and gradient, 1 with the
-/// Hessian (3-point quadrature; the quadrature's set-up is not timed), 2 Juelicher's energy and
-/// gradient on the same vertices for comparison.
+/// range(0) elements, interpolating control points: range(1) = 0 its energy and gradient (3-point
+/// quadrature; the quadrature's set-up is not timed), 1 Juelicher's energy and gradient on the
+/// same vertices for comparison.
 void BM_LoopBending(benchmark::State& state) {
   const ContinuumModel& m = cached_continuum(static_cast<int>(state.range(0)));
   const std::vector<LoopQuadraturePoint> q = loop_quadrature(m.topo);
   const Positions c = loop_interpolating_control_points(m.topo, m.rest);
   Positions g(3, c.cols());
-  Eigen::SparseMatrix<double> h;
   for (auto _ : state) {
     g.setZero();
-    if (state.range(1) == 2)
+    if (state.range(1) == 1)
       benchmark::DoNotOptimize(juelicher_bending_energy(m.rest, m.topo, m.bending, &g));
     else
-      benchmark::DoNotOptimize(
-          loop_helfrich_energy(q, c, m.bending, &g, state.range(1) == 1 ? &h : nullptr));
+      benchmark::DoNotOptimize(loop_helfrich_energy(q, c, m.bending, &g));
   }
   state.counters["vertices"] = static_cast<double>(m.rest.cols());
   state.counters["quadrature_points"] = static_cast<double>(q.size());
+}
+
+/// The Loop element's 13-force sweep from rest (continuum/loop_stretch.hpp; full law, uniform
+/// icosphere of range(0) elements with its vertices on the Evans-Fung surface; the model's
+/// set-up is not timed). cost_units: the sweep's time over one energy-and-gradient evaluation of
+/// the N = 1,002 network, the trade-off table's cost unit.
+void BM_LoopSweep(benchmark::State& state) {
+  const EvansFungShape shape;
+  TriMesh mesh = make_continuum_mesh(static_cast<int>(state.range(0)), shape);
+  for (int i = 0; i < mesh.x.cols(); ++i) mesh.x.col(i) = evans_fung_project(shape, mesh.x.col(i));
+  const LoopContinuumModel m = build_loop_continuum_model(
+      mesh, make_membrane_law(WlcParameters{}, StericParameters{}, WlcExpansion::full), {},
+      rest_contact_plane(shape, 0.05));
+  const double unit_s = network_eval_seconds(cached_network_p(1000, 1.0));
+  for (auto _ : state) {
+    std::vector<LoopStretchPoint> pts;
+    const double s = seconds_of([&] { pts = run_loop_stretch(m, kMillsForces); });
+    int it = 0, factorisations = 0;
+    bool ok = true;
+    for (const auto& p : pts) {
+      it += p.iterations;
+      factorisations += p.factorisations;
+      ok = ok && p.status == NewtonStatus::converged;
+    }
+    set_sweep_counters(state, s, unit_s, it, ok, static_cast<int>(m.rest.cols()));
+    state.counters["cost_units"] = s / unit_s;
+    state.counters["factorisations"] = factorisations;
+  }
 }
 
 /// The mirror path's stability check at the 88 pN equilibrium (range(0) elements, range(1)
@@ -775,6 +803,8 @@ void add_bench_command(CLI::App& app, Action& action) {
                  ->Args({1000, 2, 1}));
         // 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
         once(reg("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)->Args({1000, 1000}));
+        // The Loop element's sweep (range(0) elements).
+        once(reg("continuum/loop_sweep13_from_rest", BM_LoopSweep)->Arg(500)->Arg(1000));
         // range(1): preconditioner threshold (-1: the default; 0: always; huge: never); last
         // argument, as the continuum rows: 0 = the full problem, 1 = --symmetry mirror.
         once(reg("discrete/sweep13_from_rest", BM_DiscreteSweep)
@@ -807,7 +837,7 @@ void add_bench_command(CLI::App& app, Action& action) {
             ->Unit(benchmark::kMillisecond);
         reg("continuum/loop_bending", BM_LoopBending)
             ->ArgNames({"elements", "mode"})
-            ->ArgsProduct({{1000, 5120}, {0, 1, 2}})
+            ->ArgsProduct({{1000, 5120}, {0, 1}})
             ->Unit(benchmark::kMillisecond);
         reg("discrete/energy_gradient", BM_DiscreteEnergyGradient)
             ->Arg(250)

@@ -3,7 +3,6 @@
 
 #include <cmath>
 #include <limits>
-#include <unsupported/Eigen/AutoDiff>
 
 #include "continuum/loop_terms.hpp"
 
@@ -11,27 +10,12 @@ namespace rbc {
 
 namespace loop_bending_internal {
 
-using Ad1 = Eigen::AutoDiffScalar<Eigen::Matrix<double, 15, 1>>;
-using Ad2 = Eigen::AutoDiffScalar<Eigen::Matrix<Ad1, 15, 1>>;
+using Vector15d = Eigen::Matrix<double, 15, 1>;
+using Matrix15d = Eigen::Matrix<double, 15, 15>;
 
-// e = (kappa/2) (H - H0)^2 J over the 15 jet components z (see the header), any scalar type.
-template <class T>
-T helfrich_density(const std::array<T, 15>& z, double kappa, double h0) {
-  auto dot = [&](int i, int j) {
-    return z[3 * i] * z[3 * j] + z[3 * i + 1] * z[3 * j + 1] + z[3 * i + 2] * z[3 * j + 2];
-  };
-  // m = x_v x x_w (not normalised), J = |m|.
-  const T m0 = z[1] * z[5] - z[2] * z[4];
-  const T m1 = z[2] * z[3] - z[0] * z[5];
-  const T m2 = z[0] * z[4] - z[1] * z[3];
-  const T j2 = m0 * m0 + m1 * m1 + m2 * m2;
-  using std::sqrt;
-  const T j = sqrt(j2);
-  auto bm = [&](int i) { return z[3 * i] * m0 + z[3 * i + 1] * m1 + z[3 * i + 2] * m2; };
-  // b_ab J = x_ab . m; H = -(g_ww b_vv - 2 g_vw b_vw + g_vv b_ww) / J^2.
-  const T num = dot(1, 1) * bm(2) - 2.0 * dot(0, 1) * bm(3) + dot(0, 0) * bm(4);
-  const T hm = -num / (j2 * j) - h0;
-  return 0.5 * kappa * hm * hm * j;
+// Adds c (u v' + v u') to h.
+void add_sym_outer(Matrix15d& h, double c, const Vector15d& u, const Vector15d& v) {
+  h.noalias() += c * (u * v.transpose() + v * u.transpose());
 }
 
 }  // namespace loop_bending_internal
@@ -56,32 +40,82 @@ double loop_mean_curvature(const LoopJet& jet) {
 
 double loop_helfrich_density(const BendingParameters& params, const LoopJet& jet,
                              LoopJetGradient* grad, LoopJetHessian* hess) {
-  if (jet[0].cross(jet[1]).squaredNorm() == 0.0) return std::numeric_limits<double>::infinity();
+  namespace lbi = loop_bending_internal;
+  const Vec3 &a = jet[0], &b = jet[1];
+  const Vec3 m = a.cross(b);
+  const double j2 = m.squaredNorm();
+  if (j2 == 0.0) return std::numeric_limits<double>::infinity();
   const double kappa = params.kappa_pNum, h0 = params.h0_per_um;
-  std::array<double, 15> z{};
-  for (int i = 0; i < 15; ++i) z[i] = jet[i / 3](i % 3);
-  if (hess != nullptr) {
-    std::array<loop_bending_internal::Ad2, 15> zz;
-    for (int i = 0; i < 15; ++i) {
-      zz[i].value() = loop_bending_internal::Ad1(z[i], 15, i);
-      zz[i].derivatives().setZero();
-      zz[i].derivatives()(i) = loop_bending_internal::Ad1(1.0);
-    }
-    const loop_bending_internal::Ad2 e = loop_bending_internal::helfrich_density(zz, kappa, h0);
-    for (int i = 0; i < 15; ++i) {
-      if (grad != nullptr) (*grad)(i) = e.derivatives()(i).value();
-      for (int k = 0; k < 15; ++k) (*hess)(i, k) = e.derivatives()(i).derivatives()(k);
-    }
-    return e.value().value();
+  // Primitives: metric g11 = a.a, g12 = a.b, g22 = b.b; q_k = s_k . m for s = (x_vv, x_vw,
+  // x_ww); J2 = m.m. Then N = g22 q1 - 2 g12 q2 + g11 q3, H = -N J2^(-3/2),
+  // e = (kappa/2) (H - H0)^2 J2^(1/2).
+  const double g11 = a.dot(a), g12 = a.dot(b), g22 = b.dot(b);
+  const double q[3] = {jet[2].dot(m), jet[3].dot(m), jet[4].dot(m)};
+  const double n = g22 * q[0] - 2 * g12 * q[1] + g11 * q[2];
+  const double w = std::sqrt(j2), u = 1.0 / (j2 * w);
+  const double h = -n * u, d = h - h0;
+  const double e = 0.5 * kappa * d * d * w;
+  if (grad == nullptr && hess == nullptr) return e;
+  // Derivatives of e in (N, J2).
+  const double du = -1.5 * u / j2, d2u = 3.75 * u / (j2 * j2);
+  const double dw = 0.5 / w, d2w = -0.25 / (w * j2);
+  const double hn = -u, hj = -n * du, hnj = -du, hjj = -n * d2u;
+  const double en = kappa * d * hn * w;
+  const double ej = kappa * d * hj * w + 0.5 * kappa * d * d * dw;
+  // Gradients (15: a, b, s1, s2, s3) of the primitives.
+  using V = lbi::Vector15d;
+  V dg11 = V::Zero(), dg12 = V::Zero(), dg22 = V::Zero(), dj2 = V::Zero(), dq[3];
+  dg11.segment<3>(0) = 2 * a;
+  dg12.segment<3>(0) = b;
+  dg12.segment<3>(3) = a;
+  dg22.segment<3>(3) = 2 * b;
+  Vector6d dj2_ab;
+  Matrix6d d2j2_ab;
+  loop_cross_norm2(a, b, &dj2_ab, hess != nullptr ? &d2j2_ab : nullptr);
+  dj2.head<6>() = dj2_ab;
+  for (int k = 0; k < 3; ++k) {
+    const Vec3& sk = jet[2 + k];
+    dq[k].setZero();
+    dq[k].segment<3>(0) = b.cross(sk);
+    dq[k].segment<3>(3) = sk.cross(a);
+    dq[k].segment<3>(6 + 3 * k) = m;
   }
-  if (grad != nullptr) {
-    std::array<loop_bending_internal::Ad1, 15> zz;
-    for (int i = 0; i < 15; ++i) zz[i] = loop_bending_internal::Ad1(z[i], 15, i);
-    const loop_bending_internal::Ad1 e = loop_bending_internal::helfrich_density(zz, kappa, h0);
-    *grad = e.derivatives();
-    return e.value();
+  const V dn =
+      q[0] * dg22 + g22 * dq[0] - 2 * (q[1] * dg12 + g12 * dq[1]) + q[2] * dg11 + g11 * dq[2];
+  if (grad != nullptr) *grad = en * dn + ej * dj2;
+  if (hess == nullptr) return e;
+  const double enn = kappa * hn * hn * w;
+  const double enj = kappa * (hj * hn * w + d * hnj * w + d * hn * dw);
+  const double ejj =
+      kappa * (hj * hj * w + d * hjj * w + 2 * d * hj * dw) + 0.5 * kappa * d * d * d2w;
+  const Eigen::Matrix3d id = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d ma = -cross_matrix(b), mb = cross_matrix(a);  // dm = ma da + mb db
+  // Hessian of J2 (only the (a, b) 6 x 6 part is nonzero).
+  lbi::Matrix15d d2j2 = lbi::Matrix15d::Zero();
+  d2j2.block<6, 6>(0, 0) = d2j2_ab;
+  // Hessian of N: the primitives' Hessians times N's first partials, plus its bilinear terms.
+  lbi::Matrix15d d2n = lbi::Matrix15d::Zero();
+  d2n.block<3, 3>(3, 3) += 2 * q[0] * id;                                            // q1 d2 g22
+  d2n.block<3, 3>(0, 3) += -2 * q[1] * id, d2n.block<3, 3>(3, 0) += -2 * q[1] * id;  // -2 q2 d2 g12
+  d2n.block<3, 3>(0, 0) += 2 * q[2] * id;                                            // q3 d2 g11
+  const double coef[3] = {g22, -2 * g12, g11};
+  for (int k = 0; k < 3; ++k) {
+    // d2 q_k: (s_k, a) = ma, (s_k, b) = mb, (a, b) = -skew(s_k), and the transposes.
+    const int sk = 6 + 3 * k;
+    const Eigen::Matrix3d ab = -cross_matrix(jet[2 + k]);
+    d2n.block<3, 3>(sk, 0) += coef[k] * ma;
+    d2n.block<3, 3>(0, sk) += coef[k] * ma.transpose();
+    d2n.block<3, 3>(sk, 3) += coef[k] * mb;
+    d2n.block<3, 3>(3, sk) += coef[k] * mb.transpose();
+    d2n.block<3, 3>(0, 3) += coef[k] * ab;
+    d2n.block<3, 3>(3, 0) += coef[k] * ab.transpose();
   }
-  return loop_bending_internal::helfrich_density(z, kappa, h0);
+  lbi::add_sym_outer(d2n, 1.0, dg22, dq[0]);
+  lbi::add_sym_outer(d2n, -2.0, dg12, dq[1]);
+  lbi::add_sym_outer(d2n, 1.0, dg11, dq[2]);
+  *hess = enn * dn * dn.transpose() + ejj * dj2 * dj2.transpose() + en * d2n + ej * d2j2;
+  lbi::add_sym_outer(*hess, enj, dn, dj2);
+  return e;
 }
 
 double loop_helfrich_energy(const std::vector<LoopQuadraturePoint>& q, const Positions& x,

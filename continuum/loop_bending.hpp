@@ -36,9 +36,8 @@ double loop_mean_curvature(const LoopJet& jet);
 
 /// Bending energy density per unit parameter area, e = (kappa/2) (H - H0)^2 J (pN um), and
 /// optionally its gradient (pN) and Hessian (pN/um) in the 15 jet components (vector-major:
-/// x_v's x, y, z, then x_w's, ...). The derivatives are exact, by nested forward-mode automatic
-/// differentiation of the formula (Eigen's AutoDiffScalar). Returns +infinity (derivatives
-/// untouched) where J = 0.
+/// x_v's x, y, z, then x_w's, ...), in closed form by the chain rule through the primitives
+/// g_ab, J^2 and x_ab . (x_v x x_w). Returns +infinity (derivatives untouched) where J = 0.
 double loop_helfrich_density(const BendingParameters& params, const LoopJet& jet,
                              LoopJetGradient* grad = nullptr, LoopJetHessian* hess = nullptr);
 

@@ -164,40 +164,76 @@ ConstraintValues loop_constraints(const LoopContinuumModel& m, const Positions& 
   return c;
 }
 
-void loop_lagrangian_hessian(const LoopContinuumModel& m, const Positions& x, double area_coef,
-                             double volume_coef, std::vector<Eigen::Triplet<double>>& triplets) {
-  triplets.clear();
+namespace loop_stretch_internal {
+
+std::vector<std::vector<int>> block_columns(const LoopContinuumModel& m) {
+  std::vector<std::vector<int>> cols(m.topo.num_vertices);
+  for (const LoopQuadraturePoint& q : m.quadrature)
+    for (int a : q.basis.vertices)
+      for (int b : q.basis.vertices)
+        if (a >= b) cols[b].push_back(a);
+  return cols;
+}
+
+}  // namespace loop_stretch_internal
+
+LoopHessianAssembler::LoopHessianAssembler(const LoopContinuumModel& model)
+    : matrix_(loop_stretch_internal::block_columns(model), BlockStorage::lower) {
+  code_offsets_.reserve(model.quadrature.size() + 1);
+  code_offsets_.push_back(0);
+  for (const LoopQuadraturePoint& q : model.quadrature) {
+    for (int a : q.basis.vertices)
+      for (int b : q.basis.vertices) codes_.push_back(a >= b ? matrix_.block_code(a, b) : -1);
+    code_offsets_.push_back(static_cast<int>(codes_.size()));
+  }
+}
+
+const Eigen::SparseMatrix<double>& LoopHessianAssembler::assemble(const LoopContinuumModel& m,
+                                                                  const Positions& x,
+                                                                  double area_coef,
+                                                                  double volume_coef) {
+  matrix_.set_zero();
   Vector6d g6;
   Matrix6d hm, ha;
-  Vector9d g9;
   Eigen::Matrix<double, 9, 9> hv;
   LoopJetGradient gb;
   LoopJetHessian hb;
-  Eigen::VectorXd none;
-  Eigen::MatrixXd h9(9, 9), h15(15, 15);
+  // The point's Hessian in its jet rows 0-5 (position, tangents, second derivatives): bending
+  // on rows 1-5, membrane and area on 1-2, volume on 0-2.
+  Eigen::Matrix<double, 18, 18> h;
+  Eigen::Matrix<double, 3, 18> t;
   for (std::size_t i = 0; i < m.quadrature.size(); ++i) {
     const LoopQuadraturePoint& q = m.quadrature[i];
     const LoopJet jet = loop_jet(q.basis, x);
     Vec3 p = Vec3::Zero();
-    for (std::size_t k = 0; k < q.basis.vertices.size(); ++k)
-      p += q.basis.shape(0, static_cast<Eigen::Index>(k)) * x.col(q.basis.vertices[k]);
+    const int ns = static_cast<int>(q.basis.vertices.size());
+    for (int k = 0; k < ns; ++k) p += q.basis.shape(0, k) * x.col(q.basis.vertices[k]);
     if (!std::isfinite(loop_membrane_density(m.law, m.reference[i], jet[0], jet[1], &g6, &hm)))
       hm.setZero();
     loop_area_density(jet[0], jet[1], nullptr, &ha);
     loop_volume_density(p, jet[0], jet[1], nullptr, &hv);
     if (!std::isfinite(loop_helfrich_density(m.bending, jet, &gb, &hb))) hb.setZero();
-    // One block over rows 0-5 (position, tangents, second derivatives): bending on rows 1-5,
-    // membrane and area on 1-2, volume on 0-2.
-    h15.setZero();
-    h15.block<15, 15>(0, 0) = hb;
-    h9 = volume_coef * hv;
-    h9.block<6, 6>(3, 3) += hm + area_coef * ha;
-    Eigen::MatrixXd all = Eigen::MatrixXd::Zero(18, 18);
-    all.block(0, 0, 9, 9) = h9;
-    all.block(3, 3, 15, 15) += h15;
-    all *= q.weight;
-    add_loop_point_derivatives(q.basis, 0, 6, Eigen::VectorXd::Zero(18), &all, nullptr, &triplets);
+    h.setZero();
+    h.block<15, 15>(3, 3) = hb;
+    h.block<9, 9>(0, 0) += volume_coef * hv;
+    h.block<6, 6>(3, 3) += hm + area_coef * ha;
+    h *= q.weight;
+    // Block (k, l) = sum_rs S(r, k) S(s, l) h_rs: first t = sum_r S(r, k) h_r. (3 x 18), then
+    // the block for each l.
+    const int* codes = codes_.data() + code_offsets_[i];
+    for (int k = 0; k < ns; ++k) {
+      t.setZero();
+      for (int r = 0; r < 6; ++r) t += q.basis.shape(r, k) * h.block<3, 18>(3 * r, 0);
+      for (int l = 0; l < ns; ++l) {
+        const int code = codes[k * ns + l];
+        if (code < 0) continue;
+        Eigen::Matrix3d b = Eigen::Matrix3d::Zero();
+        for (int s = 0; s < 6; ++s) b += q.basis.shape(s, l) * t.block<3, 3>(0, 3 * s);
+        matrix_.add(code, b);
+      }
+    }
   }
+  return matrix_.matrix();
 }
 
 Diameters loop_surface_diameters(const LoopContinuumModel& model, const Positions& x) {
@@ -213,8 +249,7 @@ std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
     require_finite_in_range("force", "pN", f, 0.0, kUnbounded, Ends::closed_open);
   const Eigen::Index n = model.rest.cols();
   ShiftedNewton newton(options.newton);
-  Eigen::SparseMatrix<double> hessian;
-  std::vector<Eigen::Triplet<double>> triplets;
+  LoopHessianAssembler assembler(model);
   double force = 0;
   NewtonProblem pb;
   pb.evaluate = [&](const Eigen::VectorXd& xf, NewtonPoint& p) {
@@ -233,11 +268,8 @@ std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
   };
   pb.hessian = [&](const Eigen::VectorXd& xf,
                    const Eigen::VectorXd& lambda) -> const Eigen::SparseMatrix<double>& {
-    const Eigen::Map<const Positions> x(xf.data(), 3, n);
-    loop_lagrangian_hessian(model, x, lambda(0), lambda(1), triplets);
-    hessian.resize(3 * n, 3 * n);
-    hessian.setFromTriplets(triplets.begin(), triplets.end());
-    return hessian;
+    return assembler.assemble(model, Eigen::Map<const Positions>(xf.data(), 3, n), lambda(0),
+                              lambda(1));
   };
   pb.constraint_scale = Eigen::Vector2d(model.area0_um2, model.volume0_um3);
 
@@ -257,6 +289,7 @@ std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
       Eigen::VectorXd xt = xs, lt = ls;
       r = newton.solve(pb, xt, lt);
       pt.iterations += r.iterations;
+      pt.factorisations += r.factorisations;
       if (r.status == NewtonStatus::converged) {
         xs = xt;
         ls = lt;

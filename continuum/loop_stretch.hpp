@@ -22,6 +22,8 @@
 
 #include "continuum/continuum_model.hpp"
 #include "continuum/loop_terms.hpp"
+#include "continuum/newton_solver.hpp"
+#include "core/block_pattern.hpp"
 #include "core/shifted_newton.hpp"
 
 namespace rbc {
@@ -60,10 +62,21 @@ double loop_continuum_energy(const LoopContinuumModel& model, const Positions& x
 /// Limit-surface area (um^2) and volume (um^3) with their gradients (3 x N) when asked.
 ConstraintValues loop_constraints(const LoopContinuumModel& model, const Positions& x,
                                   bool gradients);
-/// Triplets of d2E + area_coef d2A + volume_coef d2V (pN/um), 3N x 3N vertex-major, both
-/// triangles; the pattern is the same at every x.
-void loop_lagrangian_hessian(const LoopContinuumModel& model, const Positions& x, double area_coef,
-                             double volume_coef, std::vector<Eigen::Triplet<double>>& triplets);
+/// Assembles d2E + area_coef d2A + volume_coef d2V (pN/um) of a Loop model into a fixed block
+/// pattern (core/block_pattern.hpp, lower storage: what the Newton solver factorises), each
+/// point's blocks added through codes looked up once (prepared state).
+class LoopHessianAssembler {
+ public:
+  explicit LoopHessianAssembler(const LoopContinuumModel& model);
+  /// The lower triangle of the 3N x 3N Lagrangian Hessian at x (vertex-major), overwritten.
+  const Eigen::SparseMatrix<double>& assemble(const LoopContinuumModel& model, const Positions& x,
+                                              double area_coef, double volume_coef);
+
+ private:
+  BlockMatrix matrix_;
+  std::vector<int> code_offsets_;  ///< point q's codes: codes_[code_offsets_[q] ..), ns x ns
+  std::vector<int> codes_;         ///< -1 for the pairs above the diagonal (not stored)
+};
 
 /// D_A, D_T (core/geometry.hpp measure_diameters) of the limit surface of control points x (um),
 /// measured on its exact points at the vertices of three levels of subdivision: the sampling
@@ -72,13 +85,11 @@ void loop_lagrangian_hessian(const LoopContinuumModel& model, const Positions& x
 Diameters loop_surface_diameters(const LoopContinuumModel& model, const Positions& x);
 
 struct LoopStretchOptions {
-  ShiftedNewtonOptions newton;  ///< force_tolerance (pN), max_step (um), ...
-  int max_bisections = 6;       ///< halvings of a failing force increment
-  LoopStretchOptions() {
-    newton.force_tolerance = 1e-6;
-    newton.max_step = 1.0;
-    newton.constraint_tolerance = 1e-10;
-  }
+  /// The linear element's solver settings (continuum/newton_solver.hpp NewtonOptions' defaults:
+  /// 1e-6 pN per control point, steps of at most 1 um, Krylov-corrected chord steps on kept
+  /// factorisations, also across forces).
+  ShiftedNewtonOptions newton = shifted_newton_options(NewtonOptions{});
+  int max_bisections = 6;  ///< halvings of a failing force increment
 };
 
 struct LoopStretchPoint {
@@ -86,6 +97,7 @@ struct LoopStretchPoint {
   Diameters diameters;
   NewtonStatus status = NewtonStatus::max_iterations;
   int iterations = 0;      ///< Newton iterations, sub-steps included
+  int factorisations = 0;  ///< numeric factorisations, sub-steps included
   double residual_pN = 0;  ///< largest net control-point force at the returned state
   Positions x;             ///< control points (um)
 };

@@ -3,56 +3,11 @@
 
 #include <cmath>
 #include <limits>
-#include <unsupported/Eigen/AutoDiff>
 
 #include "continuum/membrane_element.hpp"
 #include "core/validation.hpp"
 
 namespace rbc {
-
-namespace loop_terms_internal {
-
-template <int N>
-using Ad1 = Eigen::AutoDiffScalar<Eigen::Matrix<double, N, 1>>;
-template <int N>
-using Ad2 = Eigen::AutoDiffScalar<Eigen::Matrix<Ad1<N>, N, 1>>;
-
-// The N variables z as second-order active scalars.
-template <int N>
-std::array<Ad2<N>, N> active(const std::array<double, N>& z) {
-  std::array<Ad2<N>, N> a;
-  for (int i = 0; i < N; ++i) {
-    a[i].value() = Ad1<N>(z[i], N, i);
-    a[i].derivatives().setZero();
-    a[i].derivatives()(i) = Ad1<N>(1.0);
-  }
-  return a;
-}
-
-// Value, gradient and Hessian of a second-order active scalar.
-template <int N>
-double unpack(const Ad2<N>& s, Eigen::Matrix<double, N, 1>& g, Eigen::Matrix<double, N, N>& h) {
-  for (int i = 0; i < N; ++i) {
-    g(i) = s.derivatives()(i).value();
-    for (int k = 0; k < N; ++k) h(i, k) = s.derivatives()(i).derivatives()(k);
-  }
-  return s.value().value();
-}
-
-template <class T>
-T cross_norm(const std::array<T, 6>& z) {
-  const T m0 = z[1] * z[5] - z[2] * z[4];
-  const T m1 = z[2] * z[3] - z[0] * z[5];
-  const T m2 = z[0] * z[4] - z[1] * z[3];
-  using std::sqrt;
-  return sqrt(m0 * m0 + m1 * m1 + m2 * m2);
-}
-
-std::array<double, 6> pack(const Vec3& a, const Vec3& b) {
-  return {a(0), a(1), a(2), b(0), b(1), b(2)};
-}
-
-}  // namespace loop_terms_internal
 
 LoopMembraneReference make_loop_membrane_reference(const Vec3& xv, const Vec3& xw) {
   Eigen::Matrix2d g;
@@ -66,15 +21,14 @@ LoopMembraneReference make_loop_membrane_reference(const Vec3& xv, const Vec3& x
 
 double loop_membrane_density(const IsotropicMembraneLaw& law, const LoopMembraneReference& ref,
                              const Vec3& xv, const Vec3& xw, Vector6d* grad, Matrix6d* hess) {
-  namespace lti = loop_terms_internal;
   const Eigen::Matrix2d& gi = ref.metric_inverse;
   const double jbar = ref.jacobian_um2;
   const double i2 = gi(0, 0) * xv.dot(xv) + 2 * gi(0, 1) * xv.dot(xw) + gi(1, 1) * xw.dot(xw) - 2;
   Vector6d dj;
   Matrix6d d2j;
-  const double j = grad != nullptr || hess != nullptr
-                       ? lti::unpack<6>(lti::cross_norm(lti::active<6>(lti::pack(xv, xw))), dj, d2j)
-                       : xv.cross(xw).norm();
+  const bool derivatives = grad != nullptr || hess != nullptr;
+  const double j =
+      loop_area_density(xv, xw, derivatives ? &dj : nullptr, derivatives ? &d2j : nullptr);
   const double ratio = j / jbar;
   if (!(ratio >= kCollapsedElementRatio)) return std::numeric_limits<double>::infinity();
   const InvariantDerivatives d = law.evaluate(ratio - 1, i2);
@@ -98,15 +52,32 @@ double loop_membrane_density(const IsotropicMembraneLaw& law, const LoopMembrane
   return jbar * d.psi;
 }
 
+double loop_cross_norm2(const Vec3& xv, const Vec3& xw, Vector6d* grad, Matrix6d* hess) {
+  const Vec3 m = xv.cross(xw);
+  if (grad != nullptr) {
+    grad->head<3>() = 2 * xw.cross(m);
+    grad->tail<3>() = 2 * m.cross(xv);
+  }
+  if (hess != nullptr) {
+    const Eigen::Matrix3d ma = -cross_matrix(xw), mb = cross_matrix(xv);
+    hess->block<3, 3>(0, 0) = 2 * ma.transpose() * ma;
+    hess->block<3, 3>(3, 3) = 2 * mb.transpose() * mb;
+    hess->block<3, 3>(0, 3) = 2 * ma.transpose() * mb - 2 * cross_matrix(m);
+    hess->block<3, 3>(3, 0) = hess->block<3, 3>(0, 3).transpose();
+  }
+  return m.squaredNorm();
+}
+
 double loop_area_density(const Vec3& xv, const Vec3& xw, Vector6d* grad, Matrix6d* hess) {
-  namespace lti = loop_terms_internal;
-  if (grad == nullptr && hess == nullptr) return xv.cross(xw).norm();
-  Vector6d g;
-  Matrix6d h;
-  const double a = lti::unpack<6>(lti::cross_norm(lti::active<6>(lti::pack(xv, xw))), g, h);
-  if (grad != nullptr) *grad = g;
-  if (hess != nullptr) *hess = h;
-  return a;
+  // J = sqrt(J^2): dJ = dJ^2 / (2J), d2J = d2J^2 / (2J) - dJ^2 dJ^2' / (4 J^3).
+  Vector6d g2;
+  Matrix6d h2;
+  const bool derivatives = grad != nullptr || hess != nullptr;
+  const double j = std::sqrt(
+      loop_cross_norm2(xv, xw, derivatives ? &g2 : nullptr, hess != nullptr ? &h2 : nullptr));
+  if (grad != nullptr) *grad = g2 / (2 * j);
+  if (hess != nullptr) *hess = h2 / (2 * j) - g2 * g2.transpose() / (4 * j * j * j);
+  return j;
 }
 
 double loop_volume_density(const Vec3& x, const Vec3& xv, const Vec3& xw, Vector9d* grad,
@@ -120,11 +91,7 @@ double loop_volume_density(const Vec3& x, const Vec3& xv, const Vec3& xw, Vector
   }
   if (hess != nullptr) {
     // d2v / dp dq for the pairs (x, x_v), (x, x_w), (x_v, x_w): the skew matrices of the third.
-    auto skew = [](const Vec3& a) {
-      Eigen::Matrix3d s;
-      s << 0, -a(2), a(1), a(2), 0, -a(0), -a(1), a(0), 0;
-      return s;
-    };
+    const auto skew = [](const Vec3& a) { return cross_matrix(a); };
     hess->setZero();
     // d/dx_v (d v / dx) = d/dx_v (x_v x x_w)/3 = -skew(x_w)/3 (d(a x b)/da = -skew(b)).
     hess->block<3, 3>(0, 3) = -skew(xw) / 3.0;

@@ -11,8 +11,8 @@
 //    same parameters, J = |x_v x x_w|. The membrane element of continuum/membrane_element.hpp
 //    on the smooth surface instead of the flat triangle.
 //  - Area: a = J (um^2). Volume (divergence theorem): v = x . (x_v x x_w) / 3 (um^3).
-// Derivatives of J, I1, I2 and v by nested forward-mode automatic differentiation (Eigen's
-// AutoDiffScalar); the law's by its own contract (homogenise/membrane_law.hpp).
+// All derivatives in closed form (J through J^2 = |x_v x x_w|^2, loop_cross_norm2); the law's by
+// its own contract (homogenise/membrane_law.hpp).
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <vector>
@@ -43,7 +43,12 @@ double loop_membrane_density(const IsotropicMembraneLaw& law, const LoopMembrane
                              const Vec3& xv, const Vec3& xw, Vector6d* grad = nullptr,
                              Matrix6d* hess = nullptr);
 
-/// a = |x_v x x_w| (um^2) with its gradient and Hessian in (x_v, x_w).
+/// J^2 = |x_v x x_w|^2 (um^4) with its gradient and Hessian in (x_v, x_w): with m = x_v x x_w,
+/// dJ^2 = 2 (x_w x m, m x x_v), d2J^2 = 2 Dm' Dm + 2 m . d2m (Dm = (-[x_w]x, [x_v]x)).
+double loop_cross_norm2(const Vec3& xv, const Vec3& xw, Vector6d* grad = nullptr,
+                        Matrix6d* hess = nullptr);
+
+/// a = J = |x_v x x_w| (um^2) with its gradient and Hessian in (x_v, x_w).
 double loop_area_density(const Vec3& xv, const Vec3& xw, Vector6d* grad = nullptr,
                          Matrix6d* hess = nullptr);
 

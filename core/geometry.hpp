@@ -32,6 +32,13 @@ inline double triangle_area(const Vec3& a, const Vec3& b, const Vec3& c,
   return 0.5 * twice;
 }
 
+/// The cross-product matrix [v]x: [v]x w = v x w (skew-symmetric).
+inline Eigen::Matrix3d cross_matrix(const Vec3& v) {
+  Eigen::Matrix3d s;
+  s << 0, -v(2), v(1), v(2), 0, -v(0), -v(1), v(0), 0;
+  return s;
+}
+
 /// Unit normal of triangle (a, b, c), counter-clockwise = outward.
 inline Vec3 triangle_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
   return (b - a).cross(c - a).normalized();

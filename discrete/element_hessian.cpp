@@ -8,12 +8,6 @@
 namespace rbc {
 namespace {
 
-Eigen::Matrix3d cross_matrix(const Vec3& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
 /// The analytic value and gradient of q = L theta (as core/geometry.hpp dihedral_angle and
 /// bending_energy.cpp hinge_length_angle), for any scalar type so that jets differentiate it.
 template <class T>
