@@ -54,6 +54,19 @@ void check_density(
       << what;
 }
 
+// A density with fixed-size derivatives (N) as check_density's dynamic-size function.
+template <int N, class F>
+auto loop_dynamic_density(F f) {
+  return [f](const Eigen::VectorXd& z, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
+    Eigen::Matrix<double, N, 1> gn;
+    Eigen::Matrix<double, N, N> hn;
+    const double e = f(z, g != nullptr ? &gn : nullptr, h != nullptr ? &hn : nullptr);
+    if (g != nullptr) *g = gn;
+    if (h != nullptr) *h = hn;
+    return e;
+  };
+}
+
 TEST(LoopTerms, DensityDerivativesMatchFiniteDifferences) {
   const IsotropicMembraneLaw law = testing::closed_form_p2_law();
   for (unsigned seed : {1u, 2u}) {
@@ -63,39 +76,19 @@ TEST(LoopTerms, DensityDerivativesMatchFiniteDifferences) {
     Eigen::VectorXd z6(6), z9(9);
     z6 << v[1], v[2];
     z9 << v[0], v[1], v[2];
-    check_density(
-        [&](const Eigen::VectorXd& z, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
-          Vector6d g6;
-          Matrix6d h6;
-          const double e = loop_membrane_density(law, ref, z.head<3>(), z.tail<3>(),
-                                                 g ? &g6 : nullptr, h ? &h6 : nullptr);
-          if (g) *g = g6;
-          if (h) *h = h6;
-          return e;
-        },
-        z6, "membrane");
-    check_density(
-        [&](const Eigen::VectorXd& z, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
-          Vector6d g6;
-          Matrix6d h6;
-          const double e =
-              loop_area_density(z.head<3>(), z.tail<3>(), g ? &g6 : nullptr, h ? &h6 : nullptr);
-          if (g) *g = g6;
-          if (h) *h = h6;
-          return e;
-        },
-        z6, "area");
-    check_density(
-        [&](const Eigen::VectorXd& z, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
-          Vector9d g9;
-          Eigen::Matrix<double, 9, 9> h9;
-          const double e = loop_volume_density(z.segment<3>(0), z.segment<3>(3), z.segment<3>(6),
-                                               g ? &g9 : nullptr, h ? &h9 : nullptr);
-          if (g) *g = g9;
-          if (h) *h = h9;
-          return e;
-        },
-        z9, "volume");
+    check_density(loop_dynamic_density<6>([&](const Eigen::VectorXd& z, auto* g, auto* h) {
+                    return loop_membrane_density(law, ref, z.head<3>(), z.tail<3>(), g, h);
+                  }),
+                  z6, "membrane");
+    check_density(loop_dynamic_density<6>([&](const Eigen::VectorXd& z, auto* g, auto* h) {
+                    return loop_area_density(z.head<3>(), z.tail<3>(), g, h);
+                  }),
+                  z6, "area");
+    check_density(loop_dynamic_density<9>([&](const Eigen::VectorXd& z, auto* g, auto* h) {
+                    return loop_volume_density(z.segment<3>(0), z.segment<3>(3), z.segment<3>(6), g,
+                                               h);
+                  }),
+                  z9, "volume");
   }
 }
 
