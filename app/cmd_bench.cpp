@@ -489,7 +489,8 @@ void BM_LoopBending(benchmark::State& state) {
 
 /// The Loop element's 13-force sweep from rest (continuum/loop_stretch.hpp; full law, uniform
 /// icosphere of range(0) elements with its vertices on the Evans-Fung surface; the model's
-/// set-up is not timed). cost_units: the sweep's time over one energy-and-gradient evaluation of
+/// set-up is not timed), range(1) = 0 the full problem, 1 the mirror path (every symmetric
+/// equilibrium checked). cost_units: the sweep's time over one energy-and-gradient evaluation of
 /// the N = 1,002 network, the trade-off table's cost unit.
 void BM_LoopSweep(benchmark::State& state) {
   const EvansFungShape shape;
@@ -501,17 +502,21 @@ void BM_LoopSweep(benchmark::State& state) {
   const double unit_s = network_eval_seconds(cached_network_p(1000, 1.0));
   for (auto _ : state) {
     std::vector<LoopStretchPoint> pts;
-    const double s = seconds_of([&] { pts = run_loop_stretch(m, kMillsForces); });
-    int it = 0, factorisations = 0;
+    LoopStretchOptions lo;
+    lo.symmetry = state.range(1) == 1 ? Symmetry::mirror : Symmetry::none;
+    const double s = seconds_of([&] { pts = run_loop_stretch(m, kMillsForces, lo); });
+    int it = 0, factorisations = 0, checks = 0;
     bool ok = true;
     for (const auto& p : pts) {
       it += p.iterations;
       factorisations += p.factorisations;
+      checks += p.stability_factorisations;
       ok = ok && p.status == NewtonStatus::converged;
     }
     set_sweep_counters(state, s, unit_s, it, ok, static_cast<int>(m.rest.cols()));
     state.counters["cost_units"] = s / unit_s;
     state.counters["factorisations"] = factorisations;
+    state.counters["sector_factorisations"] = checks;
   }
 }
 
@@ -804,7 +809,11 @@ void add_bench_command(CLI::App& app, Action& action) {
         // 1 s of recovery at dt = 1 ms, continuum 1 % (target < 10 s on 2 cores).
         once(reg("continuum/recovery_1s_dt1ms", BM_ContinuumRecovery)->Args({1000, 1000}));
         // The Loop element's sweep (range(0) elements).
-        once(reg("continuum/loop_sweep13_from_rest", BM_LoopSweep)->Arg(500)->Arg(1000));
+        once(reg("continuum/loop_sweep13_from_rest", BM_LoopSweep)
+                 ->Args({500, 0})
+                 ->Args({1000, 0})
+                 ->Args({1000, 1})
+                 ->Args({2000, 1}));
         // range(1): preconditioner threshold (-1: the default; 0: always; huge: never); last
         // argument, as the continuum rows: 0 = the full problem, 1 = --symmetry mirror.
         once(reg("discrete/sweep13_from_rest", BM_DiscreteSweep)

@@ -19,6 +19,7 @@
 #include "continuum/adapted_mesh.hpp"
 #include "continuum/continuum_stretch.hpp"
 #include "continuum/error_indicator.hpp"
+#include "continuum/loop_stretch.hpp"
 #include "continuum/refined_mesh.hpp"
 #include "core/geometry.hpp"
 #include "core/io.hpp"
@@ -40,6 +41,9 @@ enum class StretchModel { discrete, continuum };
 /// scene (continuum/adapted_mesh.hpp), or the icosphere refined by red-green refinement towards
 /// the same scene, keeping its mirrors (continuum/refined_mesh.hpp).
 enum class ContinuumMesh { uniform, adapted, refined };
+/// Which continuum element (--element): linear triangles with Juelicher bending, or the C1 Loop
+/// subdivision element with every term on its smooth limit surface (continuum/loop_stretch.hpp).
+enum class ContinuumElement { linear, loop };
 /// --mesh-volume: the refined mesh with its vertices on the Evans-Fung surface, or scaled to
 /// enclose its volume (RefinedMeshOptions::match_volume).
 enum class MeshVolume { surface, scale };
@@ -59,6 +63,7 @@ struct StretchCli {
   int max_iterations = 50000;
   WlcExpansion order = WlcExpansion::order2;
   int elements = 4000;
+  ContinuumElement element = ContinuumElement::linear;
   ContinuumMesh mesh = ContinuumMesh::uniform;
   /// --mesh-size-ratio (--mesh adapted or refined): coarse / fine edge length
   double mesh_size_ratio = AdaptedMeshOptions{}.size_ratio;
@@ -437,8 +442,89 @@ int run_discrete(const StretchCli& o) {
   });
 }
 
+// Continuum branch on the Loop element: the uniform icosphere with its vertices on the Evans-Fung
+// surface as the control mesh, the load on the caps of the rest limit surface, the diameters
+// measured on the limit surface (continuum/loop_stretch.hpp). The shape files hold the limit
+// surface at the mesh's vertices.
+int run_loop_continuum(const StretchCli& o) {
+  const std::vector<double> forces = parse_force_list(o.forces);
+  for (double f : forces) validate_continuum_force(f);
+  const NetworkParameters params = to_network_parameters(o);  // WLC, steric, bending, tweezers
+  to_stretch_options(o);  // the same --tolerance and --max-iterations checks as the network's
+  LoopStretchOptions lo;
+  lo.newton.max_iterations = std::min(o.max_iterations, lo.newton.max_iterations);
+  if (o.tolerance_given) lo.newton.force_tolerance = o.tolerance_pN;
+  lo.symmetry = o.symmetry;
+  lo.newton.validate();
+  const bool created_out = prepare_stretch_output(o, forces);
+  (void)created_out;  // nothing to refuse after this point (no --warm-start on this element)
+  const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
+  MeshQualityReport mesh_report;
+  const EvansFungShape shape;
+  TriMesh mesh = make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
+  for (int i = 0; i < mesh.x.cols(); ++i) mesh.x.col(i) = evans_fung_project(shape, mesh.x.col(i));
+  const LoopContinuumModel model = build_loop_continuum_model(
+      mesh, make_membrane_law(params.wlc, params.steric, o.order), params.bending,
+      rest_contact_plane(shape, params.tweezers.contact_fraction));
+  report(progress, "Loop element: " + std::to_string(model.topo.num_vertices) +
+                       " control points, " + std::to_string(model.topo.num_faces()) +
+                       " triangles, " + std::to_string(model.quadrature.size()) +
+                       " quadrature points, law " + model.law.name);
+  lo.newton.cancel = interrupt_check();
+  StretchManifest manifest(o.out, o.record,
+                           {{"model", "continuum"},
+                            {"element", "loop"},
+                            {"order", to_string(o.order)},
+                            {"mesh", mesh_report_json(mesh_report)},
+                            {"mesh_kind", "uniform"},
+                            {"mesh_orientation", to_string(o.orientation)},
+                            {"symmetry", to_string(o.symmetry)},
+                            {"contact_load", "limit-surface-caps"},
+                            {"measure", "limit-surface"}},
+                           forces);
+  return with_manifest(manifest, [&] {
+    const std::vector<LoopStretchPoint> pts = run_loop_stretch(model, forces, lo, progress);
+    if (!o.out.empty()) {
+      const Eigen::SparseMatrix<double> at_vertices = loop_limit_sampling_matrix(model.topo, 0);
+      const Positions rest = (at_vertices * model.rest.transpose()).transpose();
+      for (const LoopStretchPoint& p : pts)
+        write_force_shape(o, manifest, p.force_pN, (at_vertices * p.x.transpose()).transpose(),
+                          rest, model.topo.faces, p.multipliers, {});
+    }
+    std::vector<StretchRow> rows;
+    for (const LoopStretchPoint& p : pts) {
+      StretchRow r;
+      r.force_pN = p.force_pN;
+      r.axial_um = p.diameters.axial_um;
+      r.transverse_um = p.diameters.transverse_um;
+      r.energy_pNum = p.energy_pNum;
+      r.iterations = p.iterations;
+      r.converged = p.status == NewtonStatus::converged;
+      r.wall_s = p.wall_s;
+      r.vertices = model.topo.num_vertices;
+      r.elements = model.topo.num_faces();
+      r.residual_pN = p.residual_pN;
+      r.area_drift = p.area_drift;
+      r.volume_drift = p.volume_drift;
+      r.status = to_string(p.status);
+      r.symmetry_order = p.symmetry_order;
+      r.symmetry_broken = p.symmetry_broken;
+      rows.push_back(r);
+    }
+    return emit_stretch(
+        o, rows,
+        {"rbc stretch --model continuum --element loop: optical-tweezers stretch, C1 Loop "
+         "subdivision element, Newton",
+         "units: force pN, diameters um, energy pN*um, wall time s",
+         "order " + to_string(o.order) + ", elements " + std::to_string(model.topo.num_faces()) +
+             ", control points " + std::to_string(model.topo.num_vertices)},
+        manifest);
+  });
+}
+
 // Continuum branch: surface FEM with the homogenised law of the given order.
 int run_continuum(const StretchCli& o) {
+  if (o.element == ContinuumElement::loop) return run_loop_continuum(o);
   const std::vector<double> forces = parse_force_list(o.forces);
   for (double f : forces) validate_continuum_force(f);
   const NetworkParameters params = to_network_parameters(o);  // WLC, steric, bending, tweezers
@@ -587,8 +673,9 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bo
                                 e.what());
   }
   if (load_or_measure_given)
-    std::erase_if(table.entries,
-                  [](const AccuracyEntry& e) { return e.method.adapted || e.method.refined; });
+    std::erase_if(table.entries, [](const AccuracyEntry& e) {
+      return e.method.adapted || e.method.refined || e.method.loop;
+    });
   const AccuracyChoice ch = choose_by_accuracy(
       table, forces, percent, symmetry_given ? std::optional<Symmetry>(o.symmetry) : std::nullopt);
   const Method& m = ch.chosen.method;
@@ -598,6 +685,7 @@ void choose_stretch_method(StretchCli& o, const std::string& explicit_choice, bo
     o.vertices = m.resolution;
   else
     o.elements = m.resolution, o.order = m.order;
+  if (m.loop) o.element = ContinuumElement::loop;
   if (m.adapted || m.refined) {
     o.mesh = m.adapted ? ContinuumMesh::adapted : ContinuumMesh::refined;
     o.mesh_size_ratio = m.size_ratio;
@@ -708,6 +796,16 @@ void add_stretch_command(CLI::App& app, Action& action) {
   cmd->add_option("--elements", o->elements, "continuum: triangles (200 to 79,996)")
       ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
       ->capture_default_str();
+  cmd->add_option("--element", o->element,
+                  "continuum: linear (flat triangles, Juelicher bending; every --mesh, "
+                  "--contact-load and --measure) | loop (the C1 Loop subdivision element on the "
+                  "uniform mesh: every term on the smooth limit surface, the bead load on the "
+                  "caps of its rest surface, D_A and D_T measured on it; no --mesh, "
+                  "--contact-load, --measure, --symmetry-check or --warm-start)")
+      ->transform(enum_choice<ContinuumElement>(
+          {{"linear", ContinuumElement::linear}, {"loop", ContinuumElement::loop}}))
+      ->type_name("TEXT")
+      ->default_str("linear");
   cmd->add_option("--mesh", o->mesh,
                   "continuum: uniform (Phi-minimised icosphere) | adapted (CGAL surface mesher "
                   "with a size field: fine at the bead-contact rims and the pulled tips, "
@@ -764,14 +862,14 @@ void add_stretch_command(CLI::App& app, Action& action) {
       "meets this percentage (e.g. 1%), from data/tradeoff/accuracy_by_force.csv "
       "and the adapted- and refined-mesh rows beside it (accuracy_by_force_adapted.csv, "
       "accuracy_by_force_refined.csv; left out when --contact-load or --measure is "
-      "given); excludes --model, --vertices, "
-      "--elements, --order, --mesh, --mesh-size-ratio; also chooses --symmetry "
-      "unless it is given");
+      "given), and the Loop element's rows (accuracy_by_force_loop.csv; left out likewise); "
+      "excludes --model, --vertices, --elements, --order, --element, --mesh, "
+      "--mesh-size-ratio; also chooses --symmetry unless it is given");
   cmd->callback([o, &action, tolerance, cmd] {
     o->tolerance_given = tolerance->count() > 0;
     std::string explicit_choice;  // the first method option given with --accuracy
-    for (const char* name :
-         {"--model", "--vertices", "--elements", "--order", "--mesh", "--mesh-size-ratio"})
+    for (const char* name : {"--model", "--vertices", "--elements", "--order", "--element",
+                             "--mesh", "--mesh-size-ratio"})
       if (explicit_choice.empty() && cmd->get_option(name)->count() > 0) explicit_choice = name;
     const bool accuracy_given = cmd->get_option("--accuracy")->count() > 0;
     const bool symmetry_given = cmd->get_option("--symmetry")->count() > 0;
@@ -807,10 +905,20 @@ void add_stretch_command(CLI::App& app, Action& action) {
       // what it is meshed with: refused for the network, whose vertices are the junction
       // complexes (rather than ignored).
       for (const char* name : {"--contact-load", "--measure", "--mesh", "--mesh-size-ratio",
-                               "--mesh-seed", "--mesh-volume"})
+                               "--mesh-seed", "--mesh-volume", "--element"})
         if (cmd->get_option(name)->count() > 0 && o->model != StretchModel::continuum)
           throw std::invalid_argument(std::string(name) +
                                       " applies to --model continuum, got --model discrete");
+      // The Loop element carries its own load and measure on the limit surface, on the uniform
+      // mesh, and checks every symmetric equilibrium: the options that choose otherwise are
+      // refused with it (rather than ignored).
+      if (o->element == ContinuumElement::loop)
+        for (const char* name :
+             {"--contact-load", "--measure", "--mesh", "--mesh-size-ratio", "--mesh-seed",
+              "--mesh-volume", "--symmetry-check", "--warm-start"})
+          if (cmd->get_option(name)->count() > 0)
+            throw std::invalid_argument(std::string(name) +
+                                        " applies to --element linear, got --element loop");
       if (cmd->get_option("--mesh-size-ratio")->count() > 0 && o->mesh == ContinuumMesh::uniform)
         throw std::invalid_argument(
             "--mesh-size-ratio applies to --mesh adapted or refined, got --mesh uniform");

@@ -92,6 +92,9 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
     std::vector<int> refined_elements = {500, 1000, 1500, 2000, 2900, 4000, 4500, 6500, 8000};
     std::vector<double> refined_ratios = {1.0, 2.0, 3.0};
     bool no_refined = false;
+    // The Loop element's rows of the table (accuracy_cost_loop.csv).
+    std::vector<int> loop_elements = {500, 980, 2000};
+    bool no_loop = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("tradeoff", "Accuracy against wall time, with the Pareto front");
@@ -199,6 +202,14 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
       ->check(size_ratio_validator())
       ->delimiter(',');
   cmd->add_flag("--no-refined", o->no_refined, "--accuracy-table: no refined-mesh rows");
+  cmd->add_option("--loop-elements", o->loop_elements,
+                  "--accuracy-table: element counts of the continuum rows on the C1 Loop "
+                  "element (full law, load and diameters on the limit surface, both solver "
+                  "paths, the rotations of --spread-seeds; written to accuracy_cost_loop.csv), "
+                  "200 to 79,996 (default 500,980,2000)")
+      ->check(integer_in(kMinContinuumElements, kMaxContinuumElements))
+      ->delimiter(',');
+  cmd->add_flag("--no-loop", o->no_loop, "--accuracy-table: no Loop-element rows");
   cmd->add_flag("--runs-only", o->runs_only,
                 "--accuracy-table: only run (and cache) the sweeps, write no table");
   auto physics = std::make_shared<ModelCli>();
@@ -232,6 +243,8 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
         ao.refined_elements = o->refined_elements;
         ao.refined_size_ratios = o->refined_ratios;
         if (o->no_continuum || o->no_refined) ao.refined_elements.clear();
+        ao.loop_elements = o->loop_elements;
+        if (o->no_continuum || o->no_loop) ao.loop_elements.clear();
         ao.reference_seeds = o->reference_seeds;
         ao.spread_seeds = o->spread_seeds;
         ao.spread_max_resolution = o->spread_max;
@@ -273,6 +286,10 @@ void add_tradeoff_command(CLI::App& app, Action& action) {
                           ? ""
                           : ", accuracy_cost_refined.csv, accuracy_by_force_refined.csv, "
                             "convergence_refined.csv, orders_refined.csv")
+                  << (ao.loop_elements.empty()
+                          ? ""
+                          : ", accuracy_cost_loop.csv, accuracy_by_force_loop.csv, "
+                            "convergence_loop.csv, orders_loop.csv")
                   << "\n";
         return 0;
       }

@@ -38,6 +38,7 @@ std::string cost_text(double cost) {
 
 std::string method_spec(const Method& m) {
   if (m.kind == MethodKind::discrete) return "discrete:" + std::to_string(m.resolution);
+  if (m.loop) return "continuum-loop:" + to_string(m.order) + ":" + std::to_string(m.resolution);
   if (m.adapted || m.refined) {
     std::ostringstream ratio;
     ratio << m.size_ratio;
@@ -57,13 +58,14 @@ std::string default_accuracy_table_path() {
 
 namespace {
 
-/// Which mesh a file's continuum rows were run on.
-enum class RowMesh { uniform, adapted, refined };
+/// Which mesh (or element) a file's continuum rows were run on.
+enum class RowMesh { uniform, adapted, refined, loop };
 
-/// Reads the rows of accuracy_by_force.csv (RowMesh::uniform), accuracy_by_force_adapted.csv or
-/// accuracy_by_force_refined.csv (the columns symmetry and size_ratio required) into `table`.
+/// Reads the rows of accuracy_by_force.csv (RowMesh::uniform), accuracy_by_force_adapted.csv,
+/// accuracy_by_force_refined.csv or accuracy_by_force_loop.csv (the columns symmetry and
+/// size_ratio required; the Loop element's size ratio is 1, its mesh uniform) into `table`.
 void read_accuracy_rows(const std::string& path, RowMesh mesh, AccuracyTable& table) {
-  const bool adapted = mesh != RowMesh::uniform;  // a graded mesh: size_ratio column
+  const bool adapted = mesh != RowMesh::uniform;  // beside the table: size_ratio column
   const CsvTable t = read_csv(path);
   // The symmetry column came with the mirror rows; a table without it is all Symmetry::none.
   std::vector<std::string> expected = {"kind",    "order",    "resolution", "converged",
@@ -103,6 +105,7 @@ void read_accuracy_rows(const std::string& path, RowMesh mesh, AccuracyTable& ta
                                  "[1, 10]");
       m.adapted = mesh == RowMesh::adapted;
       m.refined = mesh == RowMesh::refined;
+      m.loop = mesh == RowMesh::loop;
       m.size_ratio = r[9];
     }
     table.reference_relative_se = std::max(table.reference_relative_se, r[7]);
@@ -110,7 +113,7 @@ void read_accuracy_rows(const std::string& path, RowMesh mesh, AccuracyTable& ta
       return e.method.kind == m.kind && e.method.order == m.order &&
              e.method.resolution == m.resolution && e.symmetry == symmetry &&
              e.method.adapted == m.adapted && e.method.refined == m.refined &&
-             e.method.size_ratio == m.size_ratio;
+             e.method.loop == m.loop && e.method.size_ratio == m.size_ratio;
     };
     if (table.entries.size() == first || !is_this(table.entries.back())) {
       for (size_t j = first; j < table.entries.size(); ++j)
@@ -142,7 +145,8 @@ AccuracyTable load_accuracy_table_with_adapted(const std::string& path) {
   AccuracyTable table = load_accuracy_table(path);
   const double se = table.reference_relative_se;
   for (const auto& [name, mesh] : {std::pair{"accuracy_by_force_adapted.csv", RowMesh::adapted},
-                                   std::pair{"accuracy_by_force_refined.csv", RowMesh::refined}}) {
+                                   std::pair{"accuracy_by_force_refined.csv", RowMesh::refined},
+                                   std::pair{"accuracy_by_force_loop.csv", RowMesh::loop}}) {
     const std::string file = (std::filesystem::path(path).parent_path() / name).string();
     if (!std::filesystem::exists(file)) continue;
     table.reference_relative_se = 0;
@@ -240,7 +244,8 @@ AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<
   auto same_method = [&](const Candidate& c) {
     const Method &a = c.entry->method, &b = ok[0].entry->method;
     return a.kind == b.kind && a.order == b.order && a.resolution == b.resolution &&
-           a.adapted == b.adapted && a.refined == b.refined && a.size_ratio == b.size_ratio;
+           a.adapted == b.adapted && a.refined == b.refined && a.loop == b.loop &&
+           a.size_ratio == b.size_ratio;
   };
   size_t runner = 0;
   for (size_t k = 1; k < ok.size() && !runner; ++k)

@@ -34,11 +34,12 @@ struct AccuracyTable {
 /// missing, malformed, or its rows are not grouped by method with increasing forces.
 AccuracyTable load_accuracy_table(const std::string& path);
 
-/// load_accuracy_table and, when accuracy_by_force_adapted.csv or accuracy_by_force_refined.csv
-/// lie beside `path` (the rows of the continuum model on the adapted or the refined mesh,
-/// AccuracyStudyOptions::adapted_elements and refined_elements: the same columns and
-/// size_ratio), their entries too (Method::adapted, Method::refined). Throws std::runtime_error
-/// as load_accuracy_table, or if a file's reference_se differs from the table's.
+/// load_accuracy_table and, when accuracy_by_force_adapted.csv, accuracy_by_force_refined.csv or
+/// accuracy_by_force_loop.csv lie beside `path` (the rows of the continuum model on the adapted
+/// or the refined mesh, AccuracyStudyOptions::adapted_elements and refined_elements: the same
+/// columns and size_ratio; the Loop element's, AccuracyStudyOptions::loop_elements: the same,
+/// size_ratio 1), their entries too (Method::adapted, Method::refined, Method::loop). Throws
+/// std::runtime_error as load_accuracy_table, or if a file's reference_se differs from the table's.
 AccuracyTable load_accuracy_table_with_adapted(const std::string& path);
 
 /// Default table: <data directory>/tradeoff/accuracy_by_force.csv.
@@ -80,8 +81,8 @@ struct AccuracyChoice {
 AccuracyChoice choose_by_accuracy(const AccuracyTable& table, const std::vector<double>& forces_pN,
                                   double percent, std::optional<Symmetry> only = std::nullopt);
 
-/// "discrete:N", "continuum:ORDER:ELEMENTS" or "continuum-adapted:ORDER:ELEMENTS:RATIO" (the
-/// text parse_method reads).
+/// "discrete:N", "continuum:ORDER:ELEMENTS", "continuum-adapted:ORDER:ELEMENTS:RATIO" or
+/// "continuum-loop:ORDER:ELEMENTS" (the text parse_method reads).
 std::string method_spec(const Method& method);
 /// method_spec with " mirror" appended for Symmetry::mirror (messages and verdicts).
 std::string method_spec(const Method& method, Symmetry symmetry);

@@ -90,6 +90,13 @@ void AccuracyStudyOptions::validate() const {
         throw std::invalid_argument(m.str());
       }
   }
+  for (int e : loop_elements)
+    if (e < kMinContinuumElements || e > kMaxContinuumElements)
+      throw std::invalid_argument(
+          "Loop-element elements must be in [" + std::to_string(kMinContinuumElements) + ", " +
+          std::to_string(kMaxContinuumElements) + "], got " + std::to_string(e));
+  if (!loop_elements.empty() && loop_orders.empty())
+    throw std::invalid_argument("accuracy study: Loop-element rows need a law");
   if (cost_unit_vertices < 100 || cost_unit_vertices > 40000)
     throw std::invalid_argument("cost-unit vertices must be in [100, 40000], got " +
                                 std::to_string(cost_unit_vertices));
@@ -169,7 +176,7 @@ bool same_family(const Method& a, const Method& b) {
   return a.kind == b.kind && a.resolution == b.resolution &&
          (a.kind == MethodKind::discrete ||
           (a.order == b.order && a.adapted == b.adapted && a.refined == b.refined &&
-           (!(a.adapted || a.refined) || a.size_ratio == b.size_ratio)));
+           a.loop == b.loop && (!(a.adapted || a.refined) || a.size_ratio == b.size_ratio)));
 }
 
 /// One sweep of the study: a discretisation and the solver path it is run with.
@@ -337,6 +344,18 @@ std::vector<Sweep> study_methods(const AccuracyStudyOptions& o) {
         }
       }
     }
+  // The Loop element: as the uniform meshes (its default orientation keeps their mirrors).
+  for (WlcExpansion order : o.loop_orders)
+    for (int e : o.loop_elements) {
+      Method m{MethodKind::continuum, e, order, 0};
+      m.loop = true;
+      m.size_ratio = 1.0;  // a uniform mesh
+      for (Symmetry sym : o.symmetries) add_one(m, sym);
+      for (unsigned s : o.spread_seeds) {
+        m.rotation_seed = s;
+        add_one(m, Symmetry::none);
+      }
+    }
   // The reference size is also a table entry (default mesh, default tolerance), then the
   // reference sweeps at their own tolerance.
   add(MethodKind::discrete, o.reference_vertices, WlcExpansion::full, 0);
@@ -445,6 +464,7 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     if (a.method.kind != b.method.kind) return a.method.kind < b.method.kind;
     if (a.method.adapted != b.method.adapted) return b.method.adapted;
     if (a.method.refined != b.method.refined) return b.method.refined;
+    if (a.method.loop != b.method.loop) return b.method.loop;
     if (a.method.size_ratio != b.method.size_ratio)
       return a.method.size_ratio < b.method.size_ratio;
     if (a.method.order != b.method.order)
@@ -457,9 +477,9 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& o, std::vector
     auto find = [&](int e) -> const MethodRun* {
       for (const auto& s : st.runs)
         if (s.run.method.kind == MethodKind::continuum && !s.run.method.adapted &&
-            !s.run.method.refined && s.run.method.order == order && s.run.method.resolution == e &&
-            s.run.method.rotation_seed == 0 && s.run.symmetry == Symmetry::none &&
-            s.run.points.size() == nf && s.run.all_converged())
+            !s.run.method.refined && !s.run.method.loop && s.run.method.order == order &&
+            s.run.method.resolution == e && s.run.method.rotation_seed == 0 &&
+            s.run.symmetry == Symmetry::none && s.run.points.size() == nf && s.run.all_converged())
           return &s.run;
       return nullptr;
     };
@@ -558,6 +578,7 @@ std::string series_name(const Method& m, Symmetry symmetry) {
   const std::string law =
       m.order == WlcExpansion::full ? "continuum_full" : "continuum_p" + to_string(m.order);
   if (m.refined) return law + "_refined" + format_number(m.size_ratio) + mirror;
+  if (m.loop) return law + "_loop" + mirror;
   return law + mirror;
 }
 
@@ -570,6 +591,9 @@ std::string series_title(const Method& m, Symmetry symmetry) {
   if (m.refined)  // "continuum" left out: the legend's columns must fit the figure's width
     return (m.size_ratio == 1.0 ? "on-surface icosphere"
                                 : "refined mesh " + format_number(m.size_ratio)) +
+           (m.order == WlcExpansion::full ? ", full law" : ", p = " + to_string(m.order)) + mirror;
+  if (m.loop)
+    return std::string("Loop element") +
            (m.order == WlcExpansion::full ? ", full law" : ", p = " + to_string(m.order)) + mirror;
   return law + mirror;
 }
@@ -611,25 +635,38 @@ std::vector<double> accuracy_cost_row(const AccuracyStudy& st, const AccuracyRow
 /// same mesh), no Richardson chains (its sizes are not nested).
 void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>& rows,
                         const std::vector<const StudyRun*>& runs, const std::string& dir,
-                        const std::string& refline, bool refined = false) {
+                        const std::string& refline, CostRows rows_kind = CostRows::adapted) {
   const auto& o = st.options;
-  const std::string kind = refined ? "refined" : "adapted";
+  // The refined mesh and the Loop element are swept as the uniform meshes (rotations, both
+  // solver paths); the adapted mesh over its seeds.
+  const bool refined = rows_kind != CostRows::adapted;
+  const std::string kind = rows_kind == CostRows::loop      ? "loop"
+                           : rows_kind == CostRows::refined ? "refined"
+                                                            : "adapted";
+  const std::string what = rows_kind == CostRows::loop ? "Loop-element" : kind + "-mesh";
   const std::string mesh_line =
-      refined ? "continuum model on the refined mesh (rbc stretch --mesh refined --contact-load "
-                "exact-contact --measure quadric-fit; continuum/refined_mesh.hpp): resolution "
-                "= requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = "
-                "the default orientation and the turned coarse icospheres (--mesh-seed), as the "
-                "table's; symmetry 0 full problem, 1 --symmetry mirror"
-              : "continuum model on the adapted mesh (rbc stretch --mesh adapted --contact-load "
-                "exact-contact --measure quadric-fit; continuum/adapted_mesh.hpp): resolution = "
-                "requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = "
-                "mesh seeds 0 .. rotations-1 (--mesh-seed: another triangulation of the same "
-                "size field, the analogue of the icosphere's rotations); full problem only "
-                "(symmetry 0)";
+      rows_kind == CostRows::loop
+          ? "continuum model on the C1 Loop element (rbc stretch --element loop; "
+            "continuum/loop_stretch.hpp): the uniform icosphere of resolution = requested "
+            "elements (--elements) with its vertices on the Evans-Fung surface, load and "
+            "diameters on the limit surface; size_ratio 1 (a uniform mesh); rotations = the "
+            "default orientation and the turned icospheres, as the table's; symmetry 0 full "
+            "problem, 1 --symmetry mirror"
+      : refined ? "continuum model on the refined mesh (rbc stretch --mesh refined --contact-load "
+                  "exact-contact --measure quadric-fit; continuum/refined_mesh.hpp): resolution "
+                  "= requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = "
+                  "the default orientation and the turned coarse icospheres (--mesh-seed), as the "
+                  "table's; symmetry 0 full problem, 1 --symmetry mirror"
+                : "continuum model on the adapted mesh (rbc stretch --mesh adapted --contact-load "
+                  "exact-contact --measure quadric-fit; continuum/adapted_mesh.hpp): resolution = "
+                  "requested elements (--elements), size_ratio = --mesh-size-ratio; rotations = "
+                  "mesh seeds 0 .. rotations-1 (--mesh-seed: another triangulation of the same "
+                  "size field, the analogue of the icosphere's rotations); full problem only "
+                  "(symmetry 0)";
   CsvTable t;
   t.comments = {
-      "accuracy against cost over the forces of the study (pN), " + kind +
-          "-mesh rows; the columns of accuracy_cost.csv and size_ratio",
+      "accuracy against cost over the forces of the study (pN), " + what +
+          " rows; the columns of accuracy_cost.csv and size_ratio",
       mesh_line, refline,
       "error = largest relative error of D_A and D_T against the reference (fraction, not %), "
       "worst over the " +
@@ -657,7 +694,7 @@ void write_adapted_rows(const AccuracyStudy& st, const std::vector<AccuracyRow>&
   write_csv(dir + "/accuracy_cost_" + kind + ".csv", t);
   write_csv(dir + "/accuracy_by_force_" + kind + ".csv", bf);
   CsvTable cv;
-  cv.comments = {"every " + kind + "-mesh sweep" + (refined ? " on the full path" : "") +
+  cv.comments = {"every " + what + " sweep" + (refined ? " on the full path" : "") +
                      ": diameters (um) per force, rest surface area (um^2)",
                  mesh_line,
                  "order: 0 full law, 2, 3, 4; seed: --mesh-seed; setup_s: mesh generation and "
@@ -733,13 +770,19 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   // The table's own files hold the uniform meshes' rows and sweeps; the adapted ones go to
   // the *_adapted files (write_adapted_rows).
   // The refined ones to the *_refined files.
-  std::vector<AccuracyRow> table_rows, adapted_rows, refined_rows;
+  // The Loop element's to the *_loop files.
+  std::vector<AccuracyRow> table_rows, adapted_rows, refined_rows, loop_rows;
   for (const auto& r : st.rows)
-    (r.method.adapted ? adapted_rows : r.method.refined ? refined_rows : table_rows).push_back(r);
-  std::vector<const StudyRun*> table_runs, adapted_runs, refined_runs;
+    (r.method.adapted   ? adapted_rows
+     : r.method.refined ? refined_rows
+     : r.method.loop    ? loop_rows
+                        : table_rows)
+        .push_back(r);
+  std::vector<const StudyRun*> table_runs, adapted_runs, refined_runs, loop_runs;
   for (const auto& s : st.runs)
     (s.run.method.adapted   ? adapted_runs
      : s.run.method.refined ? refined_runs
+     : s.run.method.loop    ? loop_runs
                             : table_runs)
         .push_back(&s);
   std::ostringstream refline;
@@ -882,6 +925,9 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   for (const auto& r : refined_rows)
     if (r.converged && r.method.size_ratio == 1.0)
       series[series_name(r.method, r.symmetry)].push_back(&r);
+  // The Loop element's rows: the C1 element on the uniform meshes.
+  for (const auto& r : loop_rows)
+    if (r.converged) series[series_name(r.method, r.symmetry)].push_back(&r);
   for (const bool by_cost : {true, false}) {
     PlotSpec spec;
     spec.title = by_cost ? "Accuracy against cost, 13 forces of 0-193 pN"
@@ -913,6 +959,7 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
                            : model == "continuum_p2"      ? "#2ca02c"
                            : model == "discrete"          ? "#ff7f0e"
                            : rows.front()->method.refined ? "#d62728"
+                           : rows.front()->method.loop    ? "#8c564b"
                                                           : "#9467bd";
       const std::string title = series_title(rows.front()->method, rows.front()->symmetry);
       CsvTable s;
@@ -940,7 +987,9 @@ void write_accuracy_study(const AccuracyStudy& st, const std::string& dir) {
   }
   if (!adapted_rows.empty()) write_adapted_rows(st, adapted_rows, adapted_runs, dir, refline.str());
   if (!refined_rows.empty())
-    write_adapted_rows(st, refined_rows, refined_runs, dir, refline.str(), true);
+    write_adapted_rows(st, refined_rows, refined_runs, dir, refline.str(), CostRows::refined);
+  if (!loop_rows.empty())
+    write_adapted_rows(st, loop_rows, loop_runs, dir, refline.str(), CostRows::loop);
 }
 
 AccuracyCostTable load_accuracy_cost(const std::string& path, CostRows kind) {
@@ -957,6 +1006,7 @@ AccuracyCostTable load_accuracy_cost(const std::string& path, CostRows kind) {
     throw std::runtime_error(path + ": not an accuracy_cost" +
                              (kind == CostRows::adapted   ? "_adapted"
                               : kind == CostRows::refined ? "_refined"
+                              : kind == CostRows::loop    ? "_loop"
                                                           : "") +
                              ".csv (header differs)");
   const size_t columns = t.header.size();
@@ -994,6 +1044,7 @@ AccuracyCostTable load_accuracy_cost(const std::string& path, CostRows kind) {
                                  std::to_string(q[0]) + ", size ratio " + std::to_string(q[20]));
       r.method.adapted = kind == CostRows::adapted;
       r.method.refined = kind == CostRows::refined;
+      r.method.loop = kind == CostRows::loop;
       r.method.size_ratio = q[20];
     }
     out.rows.push_back(r);

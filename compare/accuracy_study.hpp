@@ -47,6 +47,15 @@ struct AccuracyStudyOptions {
   std::vector<int> refined_elements;
   std::vector<WlcExpansion> refined_orders = {WlcExpansion::full};
   std::vector<double> refined_size_ratios = {2.0, 3.0};
+  /// Continuum rows on the Loop element (Method::loop: the C1 subdivision element on the uniform
+  /// icosphere with its vertices on the Evans-Fung surface; the load and the diameters on the
+  /// limit surface): requested element counts (empty = none), each run with every law of
+  /// loop_orders. Swept as the uniform meshes are: the default orientation once per solver path
+  /// of `symmetries`, the rotations spread_seeds in full; a row's errors are the worst over
+  /// them. Their rows are written beside the table's (accuracy_cost_loop.csv, size ratio 1),
+  /// not into it.
+  std::vector<int> loop_elements;
+  std::vector<WlcExpansion> loop_orders = {WlcExpansion::full};
   /// The reference: the discrete model at the full spectrin level (N ~ 27,500, i.e. the
   /// icosphere with 27,042 vertices) on each of these triangulation rotations
   /// (RestShapeOptions::rotation_seed; 0 = the default orientation).
@@ -194,7 +203,8 @@ AccuracyStudy assemble_accuracy_study(const AccuracyStudyOptions& options,
 /// files and size_ratio), convergence_adapted.csv, orders_adapted.csv and
 /// richardson_adapted.csv. Rows and sweeps of the refined mesh likewise go to
 /// accuracy_cost_refined.csv, accuracy_by_force_refined.csv, convergence_refined.csv (the full
-/// sweeps) and orders_refined.csv (the full path's rows).
+/// sweeps) and orders_refined.csv (the full path's rows); the Loop element's to the *_loop files
+/// in the same way.
 void write_accuracy_study(const AccuracyStudy& study, const std::string& dir);
 
 /// Cost ratios below this count as a tie in the verdicts: CPU-time costs of the same sweep
@@ -208,10 +218,11 @@ struct AccuracyCostTable {
   double reference_relative_sd = 0;
   int cost_unit_vertices = 0;
 };
-/// Which rows a cost file holds: the table's (accuracy_cost.csv) or those of a graded mesh
-/// beside it (accuracy_cost_adapted.csv, accuracy_cost_refined.csv: the same columns and
-/// size_ratio; their methods get Method::adapted or Method::refined and the size ratio).
-enum class CostRows { table, adapted, refined };
+/// Which rows a cost file holds: the table's (accuracy_cost.csv) or those beside it
+/// (accuracy_cost_adapted.csv, accuracy_cost_refined.csv, accuracy_cost_loop.csv: the same
+/// columns and size_ratio; their methods get Method::adapted, refined or loop and the size
+/// ratio).
+enum class CostRows { table, adapted, refined, loop };
 AccuracyCostTable load_accuracy_cost(const std::string& path, CostRows rows = CostRows::table);
 
 /// The plain-language answer to "is the continuum model cheaper at equal accuracy?" per

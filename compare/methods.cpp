@@ -13,6 +13,7 @@
 
 #include "continuum/adapted_mesh.hpp"
 #include "continuum/continuum_stretch.hpp"
+#include "continuum/loop_stretch.hpp"
 #include "continuum/refined_mesh.hpp"
 #include "core/geometry.hpp"
 #include "core/rest_shape.hpp"
@@ -31,6 +32,8 @@ std::string Method::name() const {
     return std::string(adapted ? "continuum_adapted" : "continuum_refined") + ratio + "_p" +
            to_string(order) + "_E" + std::to_string(resolution) + rotated;
   }
+  if (loop)
+    return "continuum_loop_p" + to_string(order) + "_E" + std::to_string(resolution) + rotated;
   return "continuum_p" + to_string(order) + "_E" + std::to_string(resolution) + rotated;
 }
 
@@ -43,6 +46,9 @@ std::string Method::label() const {
     return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) + " elements, " +
            (adapted ? "adapted" : "refined") + " mesh, ratio " + ratio.str() + ")";
   }
+  if (loop)
+    return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) +
+           " Loop elements)";
   return "continuum p = " + to_string(order) + " (" + std::to_string(resolution) + " elements)";
 }
 
@@ -68,11 +74,13 @@ Method parse_method(const std::string& text) {
     m.resolution = number(parts[2]);
     return m;
   }
-  if ((parts.size() == 3 || parts.size() == 4) &&
-      (parts[0] == "continuum-adapted" || parts[0] == "continuum-refined")) {
+  if (((parts.size() == 3 || parts.size() == 4) &&
+       (parts[0] == "continuum-adapted" || parts[0] == "continuum-refined")) ||
+      (parts.size() == 3 && parts[0] == "continuum-loop")) {
     m.kind = MethodKind::continuum;
     m.adapted = parts[0] == "continuum-adapted";
-    m.refined = !m.adapted;
+    m.refined = parts[0] == "continuum-refined";
+    m.loop = parts[0] == "continuum-loop";
     try {
       m.order = wlc_expansion_from_string(parts[1]);
     } catch (const std::invalid_argument& e) {
@@ -94,8 +102,9 @@ Method parse_method(const std::string& text) {
   }
   throw std::invalid_argument("method '" + text +
                               "' is not of the form discrete:N, continuum:ORDER:ELEMENTS, "
-                              "continuum-adapted:ORDER:ELEMENTS[:RATIO] or "
-                              "continuum-refined:ORDER:ELEMENTS[:RATIO]");
+                              "continuum-adapted:ORDER:ELEMENTS[:RATIO], "
+                              "continuum-refined:ORDER:ELEMENTS[:RATIO] or "
+                              "continuum-loop:ORDER:ELEMENTS");
 }
 
 bool MethodRun::all_converged() const {
@@ -185,8 +194,47 @@ MethodRun run_discrete(const Method& m, const std::vector<double>& forces,
   return run;
 }
 
+MethodRun run_loop(const Method& m, const std::vector<double>& forces, const ProgressSink& progress,
+                   const RunMethodOptions& ro) {
+  const auto t0 = std::chrono::steady_clock::now();
+  MethodRun run;
+  run.method = m;
+  run.symmetry = ro.symmetry;
+  const NetworkParameters& p = ro.parameters;
+  const EvansFungShape shape;
+  TriMesh mesh = make_continuum_mesh(m.resolution, m.rotation_seed);
+  for (int i = 0; i < mesh.x.cols(); ++i) mesh.x.col(i) = evans_fung_project(shape, mesh.x.col(i));
+  const LoopContinuumModel model =
+      build_loop_continuum_model(mesh, make_membrane_law(p.wlc, p.steric, m.order), p.bending,
+                                 rest_contact_plane(shape, p.tweezers.contact_fraction));
+  run.vertices = model.topo.num_vertices;
+  run.elements = model.topo.num_faces();
+  run.patch_plus_um2 = model.cap_right_um2;
+  run.patch_minus_um2 = model.cap_left_um2;
+  run.surface_um2 = model.area0_um2;
+  if (ro.measure_evaluation) {
+    Positions g;
+    run.eval_cpu_s =
+        evaluation_cpu_seconds([&] { loop_continuum_energy(model, model.rest, 88.0, &g); });
+  }
+  run.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu0 = process_cpu_seconds();
+  LoopStretchOptions lo;
+  lo.symmetry = ro.symmetry;
+  const auto pts = run_loop_stretch(model, forces, lo, [&](const std::string& msg) {
+    if (msg.rfind("F = ", 0) == 0) report(progress, m.name() + ": " + msg);
+  });
+  run.cpu_s = process_cpu_seconds() - cpu0;
+  for (const LoopStretchPoint& pt : pts)
+    run.points.push_back({pt.force_pN, pt.diameters.axial_um, pt.diameters.transverse_um, pt.wall_s,
+                          pt.residual_pN, pt.iterations, pt.status == NewtonStatus::converged});
+  run.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return run;
+}
+
 MethodRun run_continuum(const Method& m, const std::vector<double>& forces,
                         const ProgressSink& progress, const RunMethodOptions& ro) {
+  if (m.loop) return run_loop(m, forces, progress, ro);
   const auto t0 = std::chrono::steady_clock::now();
   MethodRun run;
   run.method = m;

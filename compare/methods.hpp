@@ -36,12 +36,18 @@ struct Method {
   /// diameters, as `rbc stretch --mesh refined --contact-load exact-contact --measure
   /// quadric-fit`. It keeps the icosphere's mirrors (seed 0).
   bool refined = false;
+  /// Continuum only: the C1 Loop element (continuum/loop_stretch.hpp) on the uniform icosphere
+  /// of `resolution` triangles (rotation_seed turns it) with its vertices on the Evans-Fung
+  /// surface: every term on the smooth limit surface, the bead load on the caps of the rest
+  /// limit surface, the diameters measured on the limit surface, as
+  /// `rbc stretch --element loop`. It keeps the icosphere's mirrors (seed 0).
+  bool loop = false;
   /// adapted or refined only: AdaptedMeshOptions::size_ratio or RefinedMeshOptions::size_ratio,
   /// in [1, 10]
   double size_ratio = 2.0;
   /// Short stable name, e.g. "discrete_N2000", "continuum_p2_E4000",
-  /// "continuum_adapted2_pfull_E2000" or "continuum_refined3_pfull_E1700" (+ "_r3" if rotated
-  /// or seeded 3).
+  /// "continuum_adapted2_pfull_E2000", "continuum_refined3_pfull_E1700" or
+  /// "continuum_loop_pfull_E980" (+ "_r3" if rotated or seeded 3).
   std::string name() const;
   /// Legend label, e.g. "microscopic model (N = 2000)".
   std::string label() const;
@@ -49,7 +55,8 @@ struct Method {
 
 /// Parses "discrete:N", "continuum:ORDER:ELEMENTS" (ORDER 2, 3, 4 or full) or
 /// "continuum-adapted:ORDER:ELEMENTS[:RATIO]" (the adapted mesh, size ratio RATIO in [1, 10],
-/// default 2) or "continuum-refined:ORDER:ELEMENTS[:RATIO]" (the refined mesh, the same).
+/// default 2), "continuum-refined:ORDER:ELEMENTS[:RATIO]" (the refined mesh, the same) or
+/// "continuum-loop:ORDER:ELEMENTS" (the Loop element).
 /// Throws std::invalid_argument naming the text.
 Method parse_method(const std::string& text);
 

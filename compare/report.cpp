@@ -235,12 +235,14 @@ void run_report(const ReportOptions& o, const std::string& dir, const ProgressSi
                                              : o.calibration_cache);
   // The committed accuracy-cost table (read first too; absent = section says so).
   const std::string accuracy_dir = default_data_directory() + "/tradeoff";
-  // The graded-mesh rows beside it (adapted and refined meshes) join it: each method at its best.
+  // The rows beside it (adapted and refined meshes, the Loop element) join it: each method at its
+  // best.
   std::optional<AccuracyCostTable> accuracy;
   if (std::filesystem::exists(accuracy_dir + "/accuracy_cost.csv")) {
     accuracy = load_accuracy_cost(accuracy_dir + "/accuracy_cost.csv");
     for (const auto& [file, kind] : {std::pair{"/accuracy_cost_adapted.csv", CostRows::adapted},
-                                     std::pair{"/accuracy_cost_refined.csv", CostRows::refined}})
+                                     std::pair{"/accuracy_cost_refined.csv", CostRows::refined},
+                                     std::pair{"/accuracy_cost_loop.csv", CostRows::loop}})
       if (std::filesystem::exists(accuracy_dir + file)) {
         const AccuracyCostTable beside = load_accuracy_cost(accuracy_dir + file, kind);
         accuracy->rows.insert(accuracy->rows.end(), beside.rows.begin(), beside.rows.end());

@@ -1,17 +1,29 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "continuum/loop_stretch.hpp"
 
+#include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
 #include "continuum/loop_bending.hpp"
+#include "core/reduced_problem.hpp"
+#include "core/symmetry_stability.hpp"
 #include "core/validation.hpp"
 
 namespace rbc {
 
 namespace loop_stretch_internal {
+
+// The bead load's x entries are cap fractions of order 1/(the cap's control points), normalised
+// by their largest here: differences below this are round-off.
+constexpr double kLoadShareTolerance = 1e-12;
 
 // Rest limit-surface position and tangents at a basis.
 Vec3 rest_point(const LoopBasis& b, const Positions& x, int row) {
@@ -99,6 +111,8 @@ LoopContinuumModel build_loop_continuum_model(const TriMesh& rest_on_surface,
   if (!(right_area > 0 && left_area > 0))
     throw InvalidParameter("contact plane", format_number(contact_plane_um),
                            "a plane that cuts a cap off each end of the rest surface", "um");
+  m.cap_right_um2 = right_area;
+  m.cap_left_um2 = left_area;
   m.load_right = right / right_area;
   m.load_left = left / left_area;
   m.load = m.load_right - m.load_left;
@@ -106,84 +120,185 @@ LoopContinuumModel build_loop_continuum_model(const TriMesh& rest_on_surface,
   return m;
 }
 
-double loop_continuum_energy(const LoopContinuumModel& m, const Positions& x, double force_pN,
-                             Positions* grad) {
+LoopPointSet loop_all_points(const LoopContinuumModel& m) {
+  LoopPointSet s;
+  s.points.resize(m.quadrature.size());
+  for (std::size_t i = 0; i < s.points.size(); ++i) s.points[i] = static_cast<int>(i);
+  s.multiplicity.assign(s.points.size(), 1.0);
+  return s;
+}
+
+LoopPointSet loop_orbit_points(const LoopContinuumModel& m, const MeshSymmetry& symmetry) {
+  const int faces = m.topo.num_faces();
+  if (m.quadrature.size() != static_cast<std::size_t>(3 * faces))
+    throw std::invalid_argument("loop_orbit_points: not loop_quadrature's three points a face");
+  // A point's corner: the face vertex it lies nearest (the rule's points are (2/3, 1/6, 1/6)
+  // and its permutations in barycentric coordinates).
+  auto corner = [&](int i) {
+    const LoopQuadraturePoint& q = m.quadrature[static_cast<std::size_t>(i)];
+    if (q.face != i / 3)
+      throw std::invalid_argument("loop_orbit_points: the quadrature is not face-major");
+    return q.v > 0.5 ? 1 : q.w > 0.5 ? 2 : 0;
+  };
+  std::map<std::array<int, 3>, int> face_of;
+  for (int f = 0; f < faces; ++f) {
+    std::array<int, 3> key{m.topo.faces(0, f), m.topo.faces(1, f), m.topo.faces(2, f)};
+    std::sort(key.begin(), key.end());
+    face_of[key] = f;
+  }
+  const int n = static_cast<int>(m.quadrature.size());
+  std::vector<int> rep(static_cast<std::size_t>(n), -1);
+  LoopPointSet s;
+  for (int i = 0; i < n; ++i) {
+    if (rep[static_cast<std::size_t>(i)] >= 0) continue;
+    const int f = i / 3, v = m.topo.faces(corner(i), f);
+    std::vector<int> orbit;
+    for (int g = 0; g < symmetry.order(); ++g) {
+      const auto& image = symmetry.image[static_cast<std::size_t>(g)];
+      if (image.size() != static_cast<std::size_t>(m.topo.num_vertices))
+        throw std::invalid_argument("loop_orbit_points: a symmetry of another mesh");
+      std::array<int, 3> key{};
+      for (int k = 0; k < 3; ++k) key[k] = image[static_cast<std::size_t>(m.topo.faces(k, f))];
+      std::sort(key.begin(), key.end());
+      const auto it = face_of.find(key);
+      if (it == face_of.end())
+        throw std::invalid_argument("loop_orbit_points: a face's mirror image is not a face");
+      const int gv = image[static_cast<std::size_t>(v)];
+      int j = -1;
+      for (int k = 0; k < 3; ++k)
+        if (m.topo.faces(corner(3 * it->second + k), it->second) == gv) j = 3 * it->second + k;
+      if (j < 0) throw std::invalid_argument("loop_orbit_points: no image point");
+      if (std::find(orbit.begin(), orbit.end(), j) == orbit.end()) orbit.push_back(j);
+    }
+    for (int j : orbit) rep[static_cast<std::size_t>(j)] = i;
+    s.points.push_back(i);
+    s.multiplicity.push_back(static_cast<double>(orbit.size()));
+  }
+  return s;
+}
+
+namespace loop_stretch_internal {
+
+// One pass over the points: the energy's terms (with_energy; their gradient into grad) and the
+// constraints (c; their gradients when grad is given), the position and jet formed once a point.
+double evaluate_pass(const LoopContinuumModel& m, const LoopPointSet& set, const Positions& x,
+                     double force_pN, bool with_energy, Positions* grad, ConstraintValues* c) {
   double energy = 0;
-  Vector6d gm;
-  Eigen::VectorXd g6(6), g15(15);
+  Vector6d gm, ga;
+  Vector9d gv;
   LoopJetGradient gb;
-  if (grad != nullptr) grad->setZero(3, x.cols());
-  for (std::size_t i = 0; i < m.quadrature.size(); ++i) {
-    const LoopQuadraturePoint& q = m.quadrature[i];
-    const LoopJet jet = loop_jet(q.basis, x);
-    const double em = loop_membrane_density(m.law, m.reference[i], jet[0], jet[1],
-                                            grad != nullptr ? &gm : nullptr);
-    if (!std::isfinite(em)) return std::numeric_limits<double>::infinity();
-    const double eb = loop_helfrich_density(m.bending, jet, grad != nullptr ? &gb : nullptr);
-    if (!std::isfinite(eb)) return std::numeric_limits<double>::infinity();
-    energy += q.weight * (em + eb);
-    if (grad != nullptr) {
-      g6 = q.weight * gm;
-      g15 = q.weight * gb;
-      add_loop_point_derivatives(q.basis, 1, 2, g6, nullptr, grad, nullptr);
-      add_loop_point_derivatives(q.basis, 1, 5, g15, nullptr, grad, nullptr);
+  Eigen::Matrix<double, 18, 1> ge;
+  const bool gradients = grad != nullptr;
+  bool infinite = !with_energy;  // no energy wanted: as past an infinite term
+  if (gradients) grad->setZero(3, x.cols());
+  if (c != nullptr) {
+    *c = ConstraintValues{};
+    if (gradients) {
+      c->grad_area.setZero(3, x.cols());
+      c->grad_volume.setZero(3, x.cols());
     }
   }
+  for (std::size_t e = 0; e < set.points.size(); ++e) {
+    const std::size_t i = static_cast<std::size_t>(set.points[e]);
+    const LoopQuadraturePoint& q = m.quadrature[i];
+    const LoopBasis& b = q.basis;
+    const int ns = static_cast<int>(b.vertices.size());
+    // The point's position and jet in one pass over its support.
+    Vec3 d[6];
+    for (Vec3& r : d) r.setZero();
+    for (int k = 0; k < ns; ++k) {
+      const Vec3 xk = x.col(b.vertices[static_cast<std::size_t>(k)]);
+      for (int r = 0; r < 6; ++r) d[r] += b.shape(r, k) * xk;
+    }
+    const LoopJet jet{d[1], d[2], d[3], d[4], d[5]};
+    const double w = q.weight * set.multiplicity[e];
+    if (!infinite) {
+      const double em =
+          loop_membrane_density(m.law, m.reference[i], d[1], d[2], gradients ? &gm : nullptr);
+      const double eb =
+          std::isfinite(em) ? loop_helfrich_density(m.bending, jet, gradients ? &gb : nullptr) : em;
+      infinite = !std::isfinite(eb);
+      // Past an infinite term only the constraints are still wanted.
+      if (infinite && c == nullptr) break;
+      energy += w * (em + eb);
+    }
+    if (c != nullptr) {
+      c->area_um2 += w * loop_area_density(d[1], d[2], gradients ? &ga : nullptr);
+      c->volume_um3 += w * loop_volume_density(d[0], d[1], d[2], gradients ? &gv : nullptr);
+    }
+    if (!gradients) continue;
+    if (!infinite) {
+      ge.setZero();
+      ge.segment<15>(3) = gb;
+      ge.segment<6>(3) += gm;
+      ge *= w;
+    }
+    for (int k = 0; k < ns; ++k) {
+      auto gk = grad->col(b.vertices[static_cast<std::size_t>(k)]);
+      if (!infinite)
+        for (int r = 1; r < 6; ++r) gk += b.shape(r, k) * ge.segment<3>(3 * r);
+      if (c == nullptr) continue;
+      auto ak = c->grad_area.col(b.vertices[static_cast<std::size_t>(k)]);
+      auto vk = c->grad_volume.col(b.vertices[static_cast<std::size_t>(k)]);
+      for (int r = 0; r < 3; ++r) {
+        if (r > 0) ak += (w * b.shape(r, k)) * ga.segment<3>(3 * (r - 1));
+        vk += (w * b.shape(r, k)) * gv.segment<3>(3 * r);
+      }
+    }
+  }
+  if (!with_energy) return 0.0;
+  if (infinite) return std::numeric_limits<double>::infinity();
   const Eigen::Map<const Eigen::VectorXd> xf(x.data(), x.size()), rf(m.rest.data(), m.rest.size());
   energy -= force_pN * m.load.dot(xf - rf);
-  if (grad != nullptr) flat(*grad) -= force_pN * m.load;
+  if (gradients) flat(*grad) -= force_pN * m.load;
   return energy;
+}
+
+}  // namespace loop_stretch_internal
+
+double loop_evaluate(const LoopContinuumModel& m, const LoopPointSet& set, const Positions& x,
+                     double force_pN, Positions* grad, ConstraintValues* c) {
+  return loop_stretch_internal::evaluate_pass(m, set, x, force_pN, true, grad, c);
+}
+
+double loop_continuum_energy(const LoopContinuumModel& m, const Positions& x, double force_pN,
+                             Positions* grad) {
+  return loop_evaluate(m, loop_all_points(m), x, force_pN, grad, nullptr);
 }
 
 ConstraintValues loop_constraints(const LoopContinuumModel& m, const Positions& x, bool gradients) {
   ConstraintValues c;
-  if (gradients) {
-    c.grad_area.setZero(3, x.cols());
-    c.grad_volume.setZero(3, x.cols());
-  }
-  Vector6d ga;
-  Vector9d gv;
-  Eigen::VectorXd g6(6), g9(9);
-  for (const LoopQuadraturePoint& q : m.quadrature) {
-    Vec3 p = Vec3::Zero(), xv = Vec3::Zero(), xw = Vec3::Zero();
-    for (std::size_t k = 0; k < q.basis.vertices.size(); ++k) {
-      const Vec3 xk = x.col(q.basis.vertices[k]);
-      p += q.basis.shape(0, static_cast<Eigen::Index>(k)) * xk;
-      xv += q.basis.shape(1, static_cast<Eigen::Index>(k)) * xk;
-      xw += q.basis.shape(2, static_cast<Eigen::Index>(k)) * xk;
-    }
-    c.area_um2 += q.weight * loop_area_density(xv, xw, gradients ? &ga : nullptr);
-    c.volume_um3 += q.weight * loop_volume_density(p, xv, xw, gradients ? &gv : nullptr);
-    if (gradients) {
-      g6 = q.weight * ga;
-      g9 = q.weight * gv;
-      add_loop_point_derivatives(q.basis, 1, 2, g6, nullptr, &c.grad_area, nullptr);
-      add_loop_point_derivatives(q.basis, 0, 3, g9, nullptr, &c.grad_volume, nullptr);
-    }
-  }
+  Positions g;
+  loop_stretch_internal::evaluate_pass(m, loop_all_points(m), x, 0.0, false,
+                                       gradients ? &g : nullptr, &c);
   return c;
 }
 
 namespace loop_stretch_internal {
 
-std::vector<std::vector<int>> block_columns(const LoopContinuumModel& m) {
-  std::vector<std::vector<int>> cols(m.topo.num_vertices);
-  for (const LoopQuadraturePoint& q : m.quadrature)
-    for (int a : q.basis.vertices)
-      for (int b : q.basis.vertices)
-        if (a >= b) cols[b].push_back(a);
+std::vector<std::vector<int>> block_columns(const LoopContinuumModel& m, const LoopPointSet& set) {
+  std::vector<std::vector<int>> cols(static_cast<std::size_t>(m.topo.num_vertices));
+  for (int i : set.points)
+    for (int a : m.quadrature[static_cast<std::size_t>(i)].basis.vertices)
+      for (int b : m.quadrature[static_cast<std::size_t>(i)].basis.vertices)
+        if (a >= b) cols[static_cast<std::size_t>(b)].push_back(a);
   return cols;
 }
 
 }  // namespace loop_stretch_internal
 
 LoopHessianAssembler::LoopHessianAssembler(const LoopContinuumModel& model)
-    : matrix_(loop_stretch_internal::block_columns(model), BlockStorage::lower) {
-  code_offsets_.reserve(model.quadrature.size() + 1);
+    : LoopHessianAssembler(model, loop_all_points(model)) {}
+
+LoopHessianAssembler::LoopHessianAssembler(const LoopContinuumModel& model, LoopPointSet set)
+    : set_(std::move(set)),
+      matrix_(loop_stretch_internal::block_columns(model, set_), BlockStorage::lower) {
+  code_offsets_.reserve(set_.points.size() + 1);
   code_offsets_.push_back(0);
-  for (const LoopQuadraturePoint& q : model.quadrature) {
-    for (int a : q.basis.vertices)
-      for (int b : q.basis.vertices) codes_.push_back(a >= b ? matrix_.block_code(a, b) : -1);
+  for (int i : set_.points) {
+    const LoopBasis& b = model.quadrature[static_cast<std::size_t>(i)].basis;
+    for (int a : b.vertices)
+      for (int c : b.vertices) codes_.push_back(a >= c ? matrix_.block_code(a, c) : -1);
     code_offsets_.push_back(static_cast<int>(codes_.size()));
   }
 }
@@ -202,34 +317,40 @@ const Eigen::SparseMatrix<double>& LoopHessianAssembler::assemble(const LoopCont
   // on rows 1-5, membrane and area on 1-2, volume on 0-2.
   Eigen::Matrix<double, 18, 18> h;
   Eigen::Matrix<double, 3, 18> t;
-  for (std::size_t i = 0; i < m.quadrature.size(); ++i) {
+  for (std::size_t e = 0; e < set_.points.size(); ++e) {
+    const std::size_t i = static_cast<std::size_t>(set_.points[e]);
     const LoopQuadraturePoint& q = m.quadrature[i];
-    const LoopJet jet = loop_jet(q.basis, x);
-    Vec3 p = Vec3::Zero();
-    const int ns = static_cast<int>(q.basis.vertices.size());
-    for (int k = 0; k < ns; ++k) p += q.basis.shape(0, k) * x.col(q.basis.vertices[k]);
-    if (!std::isfinite(loop_membrane_density(m.law, m.reference[i], jet[0], jet[1], &g6, &hm)))
+    const LoopBasis& b = q.basis;
+    const int ns = static_cast<int>(b.vertices.size());
+    Vec3 d[6];
+    for (Vec3& r : d) r.setZero();
+    for (int k = 0; k < ns; ++k) {
+      const Vec3 xk = x.col(b.vertices[static_cast<std::size_t>(k)]);
+      for (int r = 0; r < 6; ++r) d[r] += b.shape(r, k) * xk;
+    }
+    const LoopJet jet{d[1], d[2], d[3], d[4], d[5]};
+    if (!std::isfinite(loop_membrane_density(m.law, m.reference[i], d[1], d[2], &g6, &hm)))
       hm.setZero();
-    loop_area_density(jet[0], jet[1], nullptr, &ha);
-    loop_volume_density(p, jet[0], jet[1], nullptr, &hv);
+    loop_area_density(d[1], d[2], nullptr, &ha);
+    loop_volume_density(d[0], d[1], d[2], nullptr, &hv);
     if (!std::isfinite(loop_helfrich_density(m.bending, jet, &gb, &hb))) hb.setZero();
     h.setZero();
     h.block<15, 15>(3, 3) = hb;
     h.block<9, 9>(0, 0) += volume_coef * hv;
     h.block<6, 6>(3, 3) += hm + area_coef * ha;
-    h *= q.weight;
+    h *= q.weight * set_.multiplicity[e];
     // Block (k, l) = sum_rs S(r, k) S(s, l) h_rs: first t = sum_r S(r, k) h_r. (3 x 18), then
     // the block for each l.
-    const int* codes = codes_.data() + code_offsets_[i];
+    const int* codes = codes_.data() + code_offsets_[e];
     for (int k = 0; k < ns; ++k) {
       t.setZero();
-      for (int r = 0; r < 6; ++r) t += q.basis.shape(r, k) * h.block<3, 18>(3 * r, 0);
+      for (int r = 0; r < 6; ++r) t += b.shape(r, k) * h.block<3, 18>(3 * r, 0);
       for (int l = 0; l < ns; ++l) {
         const int code = codes[k * ns + l];
         if (code < 0) continue;
-        Eigen::Matrix3d b = Eigen::Matrix3d::Zero();
-        for (int s = 0; s < 6; ++s) b += q.basis.shape(s, l) * t.block<3, 3>(0, 3 * s);
-        matrix_.add(code, b);
+        Eigen::Matrix3d blk = Eigen::Matrix3d::Zero();
+        for (int s = 0; s < 6; ++s) blk += b.shape(s, l) * t.block<3, 3>(0, 3 * s);
+        matrix_.add(code, blk);
       }
     }
   }
@@ -240,54 +361,125 @@ Diameters loop_surface_diameters(const LoopContinuumModel& model, const Position
   return measure_diameters((model.measure_sampling * x.transpose()).transpose());
 }
 
+namespace loop_stretch_internal {
+
+// Largest coordinate distance (um) of x from its symmetric part under a reduction.
+double asymmetry_um(const SymmetryReduction& r, const Eigen::VectorXd& x) {
+  return (expand(r, symmetric_part(r, x)) - x).cwiseAbs().maxCoeff();
+}
+
+// The mirrors of the rest control mesh that the bead load keeps: its x entries change sign with
+// x (the x -> -x mirror swaps the beads), as the tweezers' shares do.
+MeshSymmetry loop_scene_symmetry(const LoopContinuumModel& m) {
+  std::vector<int> vertices;
+  std::vector<double> share;
+  const double largest = m.load.cwiseAbs().maxCoeff();
+  for (int i = 0; i < m.topo.num_vertices; ++i)
+    if (m.load(3 * i) != 0.0) {
+      vertices.push_back(i);
+      share.push_back(m.load(3 * i) / largest);
+    }
+  return keep_invariant(find_mirror_symmetry(m.rest, m.topo), vertices, share, 0,
+                        kLoadShareTolerance);
+}
+
+}  // namespace loop_stretch_internal
+
 std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
                                                const std::vector<double>& forces_pN,
-                                               const LoopStretchOptions& options) {
+                                               const LoopStretchOptions& options,
+                                               const ProgressSink& progress) {
+  namespace lsi = loop_stretch_internal;
   options.newton.validate();
   require_integer_in_range("force bisections", options.max_bisections, 0, 30);
   for (double f : forces_pN)
     require_finite_in_range("force", "pN", f, 0.0, kUnbounded, Ends::closed_open);
   const Eigen::Index n = model.rest.cols();
-  ShiftedNewton newton(options.newton);
-  LoopHessianAssembler assembler(model);
   double force = 0;
-  NewtonProblem pb;
-  pb.evaluate = [&](const Eigen::VectorXd& xf, NewtonPoint& p) {
-    const Eigen::Map<const Positions> x(xf.data(), 3, n);
-    Positions g;
-    p.value = loop_continuum_energy(model, x, force, &g);
-    if (!std::isfinite(p.value)) return false;
-    p.grad = flat(g);
-    const ConstraintValues c = loop_constraints(model, x, true);
-    p.c.resize(2);
-    p.c << c.area_um2 - model.area0_um2, c.volume_um3 - model.volume0_um3;
-    p.c_grad.resize(3 * n, 2);
-    p.c_grad.col(0) = flat(c.grad_area);
-    p.c_grad.col(1) = flat(c.grad_volume);
-    return true;
+
+  // The full problem: every point, one pass for the energy and the constraints.
+  const LoopPointSet all = loop_all_points(model);
+  LoopHessianAssembler assembler(model);
+  auto evaluate_with = [&model, n, &force](const LoopPointSet& set) {
+    return [&model, &set, n, &force](const Eigen::VectorXd& xf, NewtonPoint& p) {
+      const Eigen::Map<const Positions> x(xf.data(), 3, n);
+      Positions g;
+      ConstraintValues c;
+      p.value = loop_evaluate(model, set, x, force, &g, &c);
+      if (!std::isfinite(p.value)) return false;
+      p.grad = flat(g);
+      p.c.resize(2);
+      p.c << c.area_um2 - model.area0_um2, c.volume_um3 - model.volume0_um3;
+      p.c_grad.resize(3 * n, 2);
+      p.c_grad.col(0) = flat(c.grad_area);
+      p.c_grad.col(1) = flat(c.grad_volume);
+      return true;
+    };
   };
-  pb.hessian = [&](const Eigen::VectorXd& xf,
-                   const Eigen::VectorXd& lambda) -> const Eigen::SparseMatrix<double>& {
+  NewtonProblem full;
+  full.evaluate = evaluate_with(all);
+  full.hessian = [&](const Eigen::VectorXd& xf,
+                     const Eigen::VectorXd& lambda) -> const Eigen::SparseMatrix<double>& {
     return assembler.assemble(model, Eigen::Map<const Positions>(xf.data(), 3, n), lambda(0),
                               lambda(1));
   };
-  pb.constraint_scale = Eigen::Vector2d(model.area0_um2, model.volume0_um3);
+  full.constraint_scale = Eigen::Vector2d(model.area0_um2, model.volume0_um3);
+  ShiftedNewton full_newton(options.newton);
+
+  // The symmetric problem (Symmetry::mirror and a group larger than the identity): one point
+  // per orbit; its Hessian over those points reduces to P' H P and to every sector's matrix.
+  MeshSymmetry group;
+  std::shared_ptr<const SymmetryReduction> reduction;
+  LoopPointSet orbits;
+  std::unique_ptr<LoopHessianAssembler> orbit_assembler;
+  std::unique_ptr<ReducedMatrix> reduce_map;
+  std::unique_ptr<SymmetryStabilityCheck> stability;
+  NewtonProblem reduced;
+  ShiftedNewton reduced_newton(options.newton);
+  if (options.symmetry == Symmetry::mirror) group = lsi::loop_scene_symmetry(model);
+  if (group.order() > 1) {
+    reduction = std::make_shared<const SymmetryReduction>(make_symmetry_reduction(group));
+    orbits = loop_orbit_points(model, group);
+    orbit_assembler = std::make_unique<LoopHessianAssembler>(model, orbits);
+    ReducedHessian h = [&](const Eigen::VectorXd& xf,
+                           const Eigen::VectorXd& lambda) -> const Eigen::SparseMatrix<double>& {
+      const Eigen::SparseMatrix<double>& hf = orbit_assembler->assemble(
+          model, Eigen::Map<const Positions>(xf.data(), 3, n), lambda(0), lambda(1));
+      if (!reduce_map) reduce_map = std::make_unique<ReducedMatrix>(*reduction, hf);
+      return reduce_map->reduce(hf);
+    };
+    reduced = reduce_newton_problem(full, reduction, nullptr, h, evaluate_with(orbits));
+    // The verdict is taken in double, whatever the steps' precision (as the linear element's).
+    SparseCholeskyOptions check = options.newton.cholesky;
+    check.solve_precision = SolvePrecision::double_precision;
+    stability = std::make_unique<SymmetryStabilityCheck>(group, check);
+  }
 
   std::vector<LoopStretchPoint> out;
   Eigen::VectorXd x = flat(model.rest), lambda = Eigen::VectorXd::Zero(2);
   double done = 0;
+  bool symmetric = static_cast<bool>(reduction);
   for (double target : forces_pN) {
+    const auto t0 = std::chrono::steady_clock::now();
     LoopStretchPoint pt;
     pt.force_pN = target;
+    pt.symmetry_order = symmetric ? group.order() : 1;
     Eigen::VectorXd xs = x, ls = lambda;
     double from = done;
     double step = target - from;
     int halvings = 0;
     ShiftedNewtonResult r;
+    auto solve = [&](Eigen::VectorXd& xt, Eigen::VectorXd& lt) {
+      if (!symmetric) return full_newton.solve(full, xt, lt);
+      Eigen::VectorXd q = symmetric_part(*reduction, xt);
+      ShiftedNewtonResult rr = reduced_newton.solve(reduced, q, lt);
+      xt = expand(*reduction, q);
+      return rr;
+    };
     while (true) {
       force = from + step;
       Eigen::VectorXd xt = xs, lt = ls;
-      r = newton.solve(pb, xt, lt);
+      r = solve(xt, lt);
       pt.iterations += r.iterations;
       pt.factorisations += r.factorisations;
       if (r.status == NewtonStatus::converged) {
@@ -301,8 +493,58 @@ std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
       if (++halvings > options.max_bisections) break;
       step *= 0.5;
     }
+    if (symmetric && r.status == NewtonStatus::converged) {
+      // Is the symmetric equilibrium a minimum in every other sector? The force tolerance's
+      // residual fakes a negative curvature along the free rigid turns: allowed for twice over.
+      // At a symmetric state the full residual is symmetric, so it is P (P'P)^-1 of the reduced
+      // one (P'P: each entry's orbit size), with no full evaluation.
+      Eigen::VectorXd rq = r.point.grad + r.point.c_grad * ls;
+      for (Eigen::Index i = 0; i < rq.size(); ++i)
+        rq(i) /= reduction->orbit_size[static_cast<std::size_t>(
+            reduction->orbit_of_entry[static_cast<std::size_t>(i)])];
+      const Eigen::VectorXd res = expand(*reduction, rq);
+      const double allowance =
+          2.0 * rigid_turn_residual_curvature(Eigen::Map<const Positions>(xs.data(), 3, n),
+                                              Eigen::Map<const Positions>(res.data(), 3, n));
+      const SectorStability st =
+          stability->check(orbit_assembler->assemble(
+                               model, Eigen::Map<const Positions>(xs.data(), 3, n), ls(0), ls(1)),
+                           kSectorShift, allowance);
+      pt.stability_factorisations = st.factorisations;
+      if (!st.stable) {
+        // A saddle: pushed off along its unstable sector and solved in full, from here on.
+        symmetric = false;
+        pt.symmetry_broken = true;
+        pt.symmetry_order = 1;
+        Eigen::VectorXd push = stability->sector_direction(st.unstable_character, 1);
+        push /= push.cwiseAbs().maxCoeff();
+        const Eigen::VectorXd saddle = xs, saddle_lambda = ls;
+        double push_um = kSymmetryPushUm;
+        for (int attempt = 1; attempt <= kSymmetryPushAttempts;
+             ++attempt, push_um *= kSymmetryPushGrowth) {
+          Eigen::VectorXd xa = saddle + push_um * push, la = saddle_lambda;
+          ShiftedNewtonResult ra = full_newton.solve(full, xa, la);
+          pt.iterations += ra.iterations;
+          pt.factorisations += ra.factorisations;
+          const bool left = ra.status == NewtonStatus::converged &&
+                            lsi::asymmetry_um(*reduction, xa) > kSymmetricStartUm;
+          if (attempt == 1 || left) {
+            r = std::move(ra);
+            xs = std::move(xa);
+            ls = std::move(la);
+          }
+          if (left || r.status == NewtonStatus::infeasible_start) break;
+        }
+      }
+    }
     pt.status = r.status;
     pt.residual_pN = r.residual;
+    if (r.point.c.size() == 2) {
+      pt.energy_pNum = r.point.value;
+      pt.area_drift = r.point.c(0) / model.area0_um2;
+      pt.volume_drift = r.point.c(1) / model.volume0_um3;
+    }
+    pt.multipliers = {ls(0), ls(1)};
     if (r.status == NewtonStatus::converged) {
       x = xs;
       lambda = ls;
@@ -310,6 +552,16 @@ std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
     }
     pt.x = Eigen::Map<const Positions>(xs.data(), 3, n);
     pt.diameters = loop_surface_diameters(model, pt.x);
+    pt.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (progress) {
+      std::ostringstream msg;
+      msg << "F = " << target << " pN: D_A = " << pt.diameters.axial_um
+          << " um, D_T = " << pt.diameters.transverse_um << " um, " << pt.iterations
+          << " iterations, " << to_string(pt.status) << ", residual " << pt.residual_pN << " pN, "
+          << pt.wall_s << " s"
+          << (pt.symmetry_broken ? " (symmetric state a saddle: solved in full)" : "");
+      report(progress, msg.str());
+    }
     out.push_back(std::move(pt));
   }
   return out;

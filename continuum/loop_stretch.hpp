@@ -16,6 +16,9 @@
 //    cap carries exactly F (l is the sum of their basis functions times +-e_x).
 //  - Measure: D_A and D_T (core/geometry.hpp measure_diameters) of the limit surface, sampled
 //    exactly at the vertices of three levels of subdivision (their limit points).
+//  - Symmetry: on a mesh with mirrors (the default icosphere keeps four of the scene's eight),
+//    the solve can run on the symmetric states from one quadrature point per orbit, with the
+//    linear element's stability check (LoopStretchOptions::symmetry).
 // The element's bending is validated in docs/validation/loop-element.md; this stretch is a
 // library path for measurement (`rbc stretch` runs the linear element).
 #include <vector>
@@ -24,6 +27,8 @@
 #include "continuum/loop_terms.hpp"
 #include "continuum/newton_solver.hpp"
 #include "core/block_pattern.hpp"
+#include "core/mirror_symmetry.hpp"
+#include "core/progress.hpp"
 #include "core/shifted_newton.hpp"
 
 namespace rbc {
@@ -39,8 +44,9 @@ struct LoopContinuumModel {
   /// 3N: each cap's generalised force per pN of bead force (dimensionless): the x entries of
   /// load_right sum to 1, load_left's likewise, and l = load_right - load_left.
   Eigen::VectorXd load_right, load_left, load;
-  double area0_um2 = 0, volume0_um3 = 0;
-  int load_points = 0;  ///< quadrature points of the load (both caps)
+  double area0_um2 = 0, volume0_um3 = 0;       ///< of the rest limit surface
+  double cap_right_um2 = 0, cap_left_um2 = 0;  ///< the caps' areas on the rest limit surface
+  int load_points = 0;                         ///< quadrature points of the load (both caps)
   /// The limit surface's exact points at the vertices of three levels of subdivision
   /// (loop_limit_sampling_matrix), where D_A and D_T are measured.
   Eigen::SparseMatrix<double> measure_sampling;
@@ -55,6 +61,33 @@ LoopContinuumModel build_loop_continuum_model(const TriMesh& rest_on_surface,
                                               const BendingParameters& bending,
                                               double contact_plane_um);
 
+/// The quadrature points an evaluation visits, each standing for `multiplicity` points: every
+/// point once (the full problem), or one point per orbit of a mirror group weighted by the
+/// orbit's size (loop_orbit_points). On a state symmetric under the group both sets give the
+/// same energy and constraints, and the same reduced gradients and Hessian P' g, P' H P
+/// (core/mirror_symmetry.hpp): the density of an image point at the mirrored state is the
+/// point's own, and P' maps a mirrored gradient to the same vector.
+struct LoopPointSet {
+  std::vector<int> points;           ///< indices into LoopContinuumModel::quadrature
+  std::vector<double> multiplicity;  ///< per entry of points
+};
+/// Every quadrature point of the model, multiplicity 1.
+LoopPointSet loop_all_points(const LoopContinuumModel& model);
+/// One quadrature point per orbit of `symmetry` (reflections mapping the control mesh onto
+/// itself, find_mirror_symmetry on model.rest), the smallest index of each, with the orbit's
+/// size. Throws std::invalid_argument when the symmetry is not one of this mesh's (a face's
+/// image is not a face) or the quadrature is not loop_quadrature's.
+LoopPointSet loop_orbit_points(const LoopContinuumModel& model, const MeshSymmetry& symmetry);
+
+/// One pass over the points: E(x) at bead force F (pN um, returned; +infinity where an in-plane
+/// term is infinite: an element collapsed, the law infinite) with its gradient (3 x N, pN;
+/// overwritten) when grad is given, and the area (um^2) and volume (um^3) with their gradients
+/// (3 x N) when constraints is given (gradients only with grad; they are complete even where
+/// the energy is infinite, the energy's gradient then is not). The bead load's term is the full
+/// model's whatever the set.
+double loop_evaluate(const LoopContinuumModel& model, const LoopPointSet& set, const Positions& x,
+                     double force_pN, Positions* grad, ConstraintValues* constraints);
+
 /// E(x) at bead force F (pN um), gradient (3 x N, pN; overwritten) when asked; +infinity where
 /// an in-plane term is infinite (an element collapsed, the law infinite).
 double loop_continuum_energy(const LoopContinuumModel& model, const Positions& x, double force_pN,
@@ -62,19 +95,22 @@ double loop_continuum_energy(const LoopContinuumModel& model, const Positions& x
 /// Limit-surface area (um^2) and volume (um^3) with their gradients (3 x N) when asked.
 ConstraintValues loop_constraints(const LoopContinuumModel& model, const Positions& x,
                                   bool gradients);
-/// Assembles d2E + area_coef d2A + volume_coef d2V (pN/um) of a Loop model into a fixed block
-/// pattern (core/block_pattern.hpp, lower storage: what the Newton solver factorises), each
-/// point's blocks added through codes looked up once (prepared state).
+/// Assembles d2E + area_coef d2A + volume_coef d2V (pN/um) of a Loop model over a point set
+/// (every point by default) into a fixed block pattern (core/block_pattern.hpp, lower storage:
+/// what the Newton solver factorises), each point's blocks added through codes looked up once
+/// (prepared state).
 class LoopHessianAssembler {
  public:
   explicit LoopHessianAssembler(const LoopContinuumModel& model);
+  LoopHessianAssembler(const LoopContinuumModel& model, LoopPointSet set);
   /// The lower triangle of the 3N x 3N Lagrangian Hessian at x (vertex-major), overwritten.
   const Eigen::SparseMatrix<double>& assemble(const LoopContinuumModel& model, const Positions& x,
                                               double area_coef, double volume_coef);
 
  private:
+  LoopPointSet set_;
   BlockMatrix matrix_;
-  std::vector<int> code_offsets_;  ///< point q's codes: codes_[code_offsets_[q] ..), ns x ns
+  std::vector<int> code_offsets_;  ///< entry e's codes: codes_[code_offsets_[e] ..), ns x ns
   std::vector<int> codes_;         ///< -1 for the pairs above the diagonal (not stored)
 };
 
@@ -90,23 +126,37 @@ struct LoopStretchOptions {
   /// factorisations, also across forces).
   ShiftedNewtonOptions newton = shifted_newton_options(NewtonOptions{});
   int max_bisections = 6;  ///< halvings of a failing force increment
+  /// Symmetry::mirror: solve on the states symmetric under the mirrors the mesh and the load
+  /// share (core/mirror_symmetry.hpp; none shared: the full problem), from one quadrature point
+  /// per orbit (loop_orbit_points). Each converged symmetric state is checked in every other
+  /// sector of the group (core/symmetry_stability.hpp); a saddle is pushed off along its
+  /// unstable sector and solved in full, as are all later forces.
+  Symmetry symmetry = Symmetry::none;
 };
 
 struct LoopStretchPoint {
   double force_pN = 0;
   Diameters diameters;
   NewtonStatus status = NewtonStatus::max_iterations;
+  double wall_s = 0;       ///< wall time of this force's solve and check (s)
   int iterations = 0;      ///< Newton iterations, sub-steps included
   int factorisations = 0;  ///< numeric factorisations, sub-steps included
   double residual_pN = 0;  ///< largest net control-point force at the returned state
-  Positions x;             ///< control points (um)
+  double energy_pNum = 0;  ///< E at the returned state (pN um)
+  double area_drift = 0, volume_drift = 0;  ///< (A - A0) / A0, (V - V0) / V0 there
+  ConstraintMultipliers multipliers;        ///< lambda_A (pN/um), lambda_V (pN/um^2) there
+  int symmetry_order = 1;  ///< order of the mirror group the solve was reduced by (1: full)
+  int stability_factorisations = 0;  ///< sector factorisations of the symmetry check
+  bool symmetry_broken = false;      ///< the symmetric state was a saddle: solved in full
+  Positions x;                       ///< control points (um)
 };
 
 /// Equilibria at each force (pN, finite, >= 0), by continuation from the rest state: each from
 /// the previous one, a failing increment halved up to max_bisections times. Non-convergence is
-/// the point's status, not an exception.
+/// the point's status, not an exception. progress: one line per force ("F = ... pN: D_A = ...").
 std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
                                                const std::vector<double>& forces_pN,
-                                               const LoopStretchOptions& options = {});
+                                               const LoopStretchOptions& options = {},
+                                               const ProgressSink& progress = {});
 
 }  // namespace rbc

@@ -174,17 +174,6 @@ void NewtonSolver::update_reduction() {
 
 namespace {
 
-/// Relative shift of the symmetry check's sector factorisations: the rigid rotations (zero
-/// modes) stay definite, as with the Newton method's smallest shift.
-constexpr double kSectorShift = 1e-8;
-/// Largest vertex displacement (um) of the push off an unstable symmetric state.
-constexpr double kSymmetryPushUm = 1e-3;
-/// Pushes tried (1e-3, 1e-2, 1e-1 um), each kSymmetryPushGrowth times the one before, while the
-/// full solve ends unconverged or back on the saddle.
-constexpr int kSymmetryPushAttempts = 3;
-constexpr double kSymmetryPushGrowth = 10.0;
-/// A start farther than this (um, any coordinate) from its symmetric part is not symmetric.
-constexpr double kSymmetricStartUm = 1e-6;
 /// A rest mesh within this (um, any coordinate) of its symmetric part is symmetric to rounding:
 /// the symmetric evaluation's energy, constraints and per-vertex forces are then the full
 /// problem's to rounding (the forces differ by about the asymmetry times the stiffness: below

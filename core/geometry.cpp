@@ -57,8 +57,33 @@ Diameters measure_diameters(const Positions& x) {
   // largest distance between two projected points p = (y, z): the diameter of their convex
   // hull (Andrew's monotone chain), found over pairs of hull vertices. Exact, where a scan of
   // directions is not; O(N log N).
-  std::vector<std::pair<double, double>> p(static_cast<size_t>(x.cols()));
-  for (Eigen::Index i = 0; i < x.cols(); ++i) p[static_cast<size_t>(i)] = {x(1, i), x(2, i)};
+  // Akl-Toussaint: the points extreme along y, y + z, z, z - y and their opposites span a convex
+  // octagon inside the hull, so a point strictly inside it is no hull vertex and is dropped
+  // before the sort (the hull, and so the result, are the same).
+  const Eigen::Index n = x.cols();
+  Eigen::Index ext[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  auto along = [&](int k, Eigen::Index i) {  // direction k * 45 degrees from +y
+    static constexpr double c[8] = {1, 1, 0, -1, -1, -1, 0, 1}, d[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+    return c[k] * x(1, i) + d[k] * x(2, i);
+  };
+  for (Eigen::Index i = 1; i < n; ++i)
+    for (int k = 0; k < 8; ++k)
+      if (along(k, i) > along(k, ext[k])) ext[k] = i;
+  std::vector<std::pair<double, double>> p;
+  p.reserve(static_cast<size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    bool inside = true;
+    int edges = 0;
+    for (int k = 0; k < 8 && inside; ++k) {
+      const Eigen::Index a = ext[k], b = ext[(k + 1) % 8];
+      if (x(1, a) == x(1, b) && x(2, a) == x(2, b)) continue;  // a degenerate edge
+      ++edges;
+      inside =
+          (x(1, b) - x(1, a)) * (x(2, i) - x(2, a)) - (x(2, b) - x(2, a)) * (x(1, i) - x(1, a)) >
+          0.0;
+    }
+    if (!inside || edges < 3) p.emplace_back(x(1, i), x(2, i));
+  }
   std::sort(p.begin(), p.end());
   p.erase(std::unique(p.begin(), p.end()), p.end());
   auto cross = [](const std::pair<double, double>& o, const std::pair<double, double>& a,

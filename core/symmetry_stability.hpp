@@ -20,6 +20,21 @@
 
 namespace rbc {
 
+/// Relative shift of the symmetry check's sector factorisations (SymmetryStabilityCheck::
+/// check): the rigid modes of the non-trivial sectors (translations along x, y, z, the turns
+/// about x and z), which cost no energy, stay definite, as with the Newton method's smallest
+/// shift.
+inline constexpr double kSectorShift = 1e-8;
+/// Largest coordinate displacement (um) of the first push off an unstable symmetric state.
+inline constexpr double kSymmetryPushUm = 1e-3;
+/// Pushes tried (1e-3, 1e-2, 1e-1 um), each kSymmetryPushGrowth times the one before, while the
+/// full solve ends unconverged or back on the saddle.
+inline constexpr int kSymmetryPushAttempts = 3;
+inline constexpr double kSymmetryPushGrowth = 10.0;
+/// A state farther than this (um, any coordinate) from its symmetric part is not symmetric
+/// (the default rest meshes are symmetric to 4e-10 um).
+inline constexpr double kSymmetricStartUm = 1e-6;
+
 struct SectorStability {
   bool stable = true;
   int unstable_character = 0;  ///< the first sector found indefinite (0: none)

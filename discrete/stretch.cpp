@@ -93,13 +93,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-/// Relative shift of the symmetry check's sector factorisations (SymmetryStabilityCheck::
-/// check): the rigid modes of the non-trivial sectors (translations along x, y, z, the turns
-/// about x and z), which cost no energy, stay definite. The continuum's NewtonSolver uses the
-/// same value.
-constexpr double kSectorShift = 1e-8;
-/// Largest coordinate displacement (um) of the push off an unstable symmetric state.
-constexpr double kSymmetryPushUm = 1e-3;
 /// A state farther than this (um, any coordinate) from its symmetric part is not symmetric
 /// (the default rest meshes are symmetric to 4e-10 um).
 constexpr double kSymmetricUm = 1e-6;

@@ -9,7 +9,7 @@ set ylabel 'largest relative error of D_{A}, D_{T} (%)'
 set key below center horizontal
 set grid
 set key maxcols 4
-set bmargin 7.2
+set bmargin 8.8
 set logscale x
 set rmargin 6
 set logscale y
@@ -17,6 +17,8 @@ set yrange [1e-2:10]
 set arrow from graph 0, first 0.107994 to graph 1, first 0.107994 nohead dt 2 lc rgb '#777777'
 set label 'reference spread (sd over rotations)' at graph 0.02, first 0.124193 tc rgb '#777777'
 plot 'cost_continuum_full.csv' skip 1 using 1:($2*100) with linespoints title 'continuum full law' lc rgb '#1f77b4' pt 7 lw 2 dt 1, \
+     'cost_continuum_full_loop.csv' skip 1 using 1:($2*100) with linespoints title 'Loop element, full law' lc rgb '#8c564b' pt 7 lw 2 dt 1, \
+     'cost_continuum_full_loop_mirror.csv' skip 1 using 1:($2*100) with linespoints title 'Loop element, full law, mirror' lc rgb '#8c564b' pt 6 lw 2 dt 2, \
      'cost_continuum_full_mirror.csv' skip 1 using 1:($2*100) with linespoints title 'continuum full law, mirror' lc rgb '#1f77b4' pt 6 lw 2 dt 2, \
      'cost_continuum_full_refined1.csv' skip 1 using 1:($2*100) with linespoints title 'on-surface icosphere, full law' lc rgb '#d62728' pt 7 lw 2 dt 1, \
      'cost_continuum_full_refined1_mirror.csv' skip 1 using 1:($2*100) with linespoints title 'on-surface icosphere, full law, mirror' lc rgb '#d62728' pt 6 lw 2 dt 2, \

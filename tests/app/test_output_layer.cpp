@@ -15,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
@@ -424,21 +425,40 @@ TEST(OutputLayer, TheLockFileIsHiddenAndDoesNotMakeTheDirectoryNonEmpty) {
   EXPECT_TRUE(fs::exists(out / "rest_shape.h5"));
 }
 
+// The PID of a process that has ended: a child that exited and was reaped. A literal PID can
+// belong to a running process on the machine that runs the test (low PIDs do in a container just
+// started); the kernel hands PIDs out in increasing order, so this one is not reused within the
+// test.
+pid_t ended_pid() {
+  const pid_t child = fork();
+  if (child == 0) _exit(0);
+  int status = 0;
+  waitpid(child, &status, 0);
+  return child;
+}
+
 TEST(OutputLayer, TemporariesAKilledRunLeftAreRemovedByTheNextRunOnTheDirectory) {
   const fs::path out = fresh_output_dir("output_layer_stale_temporaries") / "o";
   fs::create_directories(out);
-  // What SIGKILL leaves behind mid-write: temporaries of a process that no longer runs.
-  std::ofstream(out / ".shape_16.0pN.h5.partial-99999") << "half";
-  std::ofstream(out / ".run.json.partial-12") << "{";
+  // What SIGKILL leaves behind mid-write: temporaries of processes that no longer run.
+  const std::string dead_a = std::to_string(ended_pid()), dead_b = std::to_string(ended_pid());
+  std::ofstream(out / (".shape_16.0pN.h5.partial-" + dead_a)) << "half";
+  std::ofstream(out / (".run.json.partial-" + dead_b)) << "{";
   std::ofstream(out / "notes.partial-1") << "not a temporary: kept";  // no leading dot
+  // A temporary of a process that still runs (this test) is being written: kept.
+  const fs::path live = out / (".other.h5.partial-" + std::to_string(getpid()));
+  std::ofstream(live) << "in progress";
   const CliRun r = run_rbc("mesh --vertices 300 --force-overwrite --out " + quoted(out));
   EXPECT_EQ(r.exit_code, 0) << r.all();
-  EXPECT_EQ(temporaries_under(out), std::vector<std::string>{(out / "notes.partial-1").string()})
-      << r.all();
+  std::vector<std::string> kept{live.string(), (out / "notes.partial-1").string()};
+  std::sort(kept.begin(), kept.end());
+  std::vector<std::string> found = temporaries_under(out);
+  std::sort(found.begin(), found.end());
+  EXPECT_EQ(found, kept) << r.all();
   // A directory holding only stale temporaries counts as empty.
   const fs::path second = fresh_output_dir("output_layer_stale_only") / "o";
   fs::create_directories(second);
-  std::ofstream(second / ".mesh_quality.json.partial-4242") << "{";
+  std::ofstream(second / (".mesh_quality.json.partial-" + std::to_string(ended_pid()))) << "{";
   EXPECT_EQ(run_rbc("mesh --vertices 300 --out " + quoted(second)).exit_code, 0);
 }
 

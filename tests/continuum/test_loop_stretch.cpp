@@ -17,6 +17,8 @@
 #include "continuum/hessian_check.hpp"
 #include "continuum/loop_stretch.hpp"
 #include "continuum/p2_law.hpp"
+#include "core/mirror_symmetry.hpp"
+#include "core/reduced_problem.hpp"
 #include "fixtures.hpp"
 #include "homogenise/invariant_laws.hpp"
 
@@ -186,6 +188,121 @@ TEST(LoopStretch, EnergyGradientAndLagrangianHessianMatchFiniteDifferences) {
   };
   testing::expect_hessian_ok(testing::check_hessian_direction(grad, x0, hv, 1.0, 3),
                              "Loop Lagrangian");
+}
+
+// On a state with the scene's mirrors, one quadrature point per orbit weighted by the orbit's
+// size gives the full energy and constraints and the same reduced gradients P' g and reduced
+// Hessian P' H P; off the symmetric states it does not (so the comparison can fail).
+TEST(LoopStretch, OrbitPointsGiveTheFullProblemOnSymmetricStates) {
+  const LoopContinuumModel m = loop_test_model(500);
+  const MeshSymmetry group = find_mirror_symmetry(m.rest, m.topo);
+  ASSERT_EQ(group.order(), 4);  // the default icosphere's mirrors
+  const LoopPointSet all = loop_all_points(m), orbits = loop_orbit_points(m, group);
+  double represented = 0;
+  for (double k : orbits.multiplicity) represented += k;
+  EXPECT_EQ(represented, static_cast<double>(m.quadrature.size()));
+  EXPECT_LT(orbits.points.size(), m.quadrature.size() / 3);
+  const SymmetryReduction r = make_symmetry_reduction(group);
+  Positions x = m.rest;
+  testing::perturb(x, 0.03, 5);
+  const Eigen::Index n = x.cols();
+  const Eigen::VectorXd xs = expand(r, symmetric_part(r, flat(x)));
+  const Eigen::Map<const Positions> sym(xs.data(), 3, n);
+  Positions gf, go;
+  ConstraintValues cf, co;
+  const double ef = loop_evaluate(m, all, sym, 60.0, &gf, &cf);
+  const double eo = loop_evaluate(m, orbits, sym, 60.0, &go, &co);
+  EXPECT_NEAR(eo, ef, 1e-12 * std::abs(ef));
+  EXPECT_NEAR(co.area_um2, cf.area_um2, 1e-12 * cf.area_um2);
+  EXPECT_NEAR(co.volume_um3, cf.volume_um3, 1e-12 * cf.volume_um3);
+  auto reduced_gap = [&](const Positions& a, const Positions& b) {
+    const Eigen::VectorXd ra = reduce(r, Eigen::VectorXd(flat(a))),
+                          rb = reduce(r, Eigen::VectorXd(flat(b)));
+    return (ra - rb).cwiseAbs().maxCoeff() / rb.cwiseAbs().maxCoeff();
+  };
+  EXPECT_LT(reduced_gap(go, gf), 1e-11);
+  EXPECT_LT(reduced_gap(co.grad_area, cf.grad_area), 1e-11);
+  EXPECT_LT(reduced_gap(co.grad_volume, cf.grad_volume), 1e-11);
+  LoopHessianAssembler full_h(m), orbit_h(m, orbits);
+  const Eigen::SparseMatrix<double>& hf = full_h.assemble(m, sym, 3.0, -2.0);
+  const Eigen::SparseMatrix<double>& ho = orbit_h.assemble(m, sym, 3.0, -2.0);
+  EXPECT_LT(ho.nonZeros(), hf.nonZeros());
+  ReducedMatrix map_f(r, hf), map_o(r, ho);
+  const Eigen::MatrixXd rf = Eigen::MatrixXd(map_f.reduce(hf)),
+                        ro = Eigen::MatrixXd(map_o.reduce(ho));
+  EXPECT_LT((ro - rf).cwiseAbs().maxCoeff(), 1e-11 * rf.cwiseAbs().maxCoeff());
+  // Off the symmetric states the orbit points do not stand for the rest.
+  const double ea = loop_evaluate(m, orbits, x, 60.0, nullptr, nullptr);
+  EXPECT_GT(std::abs(ea - loop_evaluate(m, all, x, 60.0, nullptr, nullptr)), 1e-6 * std::abs(ef));
+}
+
+// The mirror path (4 mirrors on the default icosphere, shared by the load) reaches the full
+// path's equilibria, each checked stable in the other 3 sectors. (At 0 pN the turns about y and z
+// are free as well as the turn about x, and the two paths end up to 3e-4 um apart in D_A along
+// them: the loaded states are compared.)
+TEST(LoopStretch, MirrorPathReachesTheFullPathsEquilibria) {
+  const LoopContinuumModel m = loop_test_model(500);
+  const std::vector<double> forces{30.6, 88.0, 193.0};
+  LoopStretchOptions mirror;
+  mirror.symmetry = Symmetry::mirror;
+  const auto full = run_loop_stretch(m, forces);
+  const auto sym = run_loop_stretch(m, forces, mirror);
+  for (std::size_t k = 0; k < forces.size(); ++k) {
+    ASSERT_EQ(full[k].status, NewtonStatus::converged) << forces[k];
+    ASSERT_EQ(sym[k].status, NewtonStatus::converged) << forces[k];
+    EXPECT_EQ(full[k].symmetry_order, 1);
+    EXPECT_EQ(sym[k].symmetry_order, 4) << forces[k];
+    EXPECT_EQ(sym[k].stability_factorisations, 3) << forces[k];
+    EXPECT_FALSE(sym[k].symmetry_broken) << forces[k];
+    EXPECT_LT(sym[k].residual_pN, 1e-5) << forces[k];
+    EXPECT_NEAR(sym[k].diameters.axial_um / full[k].diameters.axial_um, 1.0, 1e-7) << forces[k];
+    EXPECT_NEAR(sym[k].diameters.transverse_um / full[k].diameters.transverse_um, 1.0, 1e-7)
+        << forces[k];
+  }
+  EXPECT_GT(sym[2].diameters.axial_um, sym[0].diameters.axial_um + 2.0);
+}
+
+// The soft corner of the calibration's prior (p 25 nm, Lmax 364 nm; the linear element's
+// ContinuumSymmetry.BucklingSoftCellIsCaughtAndSolvedInFull, which buckles between 38 and
+// 67.6 pN): on the Loop element the stretched cell is still symmetric at 67.6 pN and buckled at
+// 151 pN, where the symmetric state is a saddle. The check finds it, and the full solve from the
+// pushed state reaches the buckled branch the full path follows.
+TEST(LoopStretch, BucklingSoftCellIsCaughtAndSolvedInFull) {
+  const EvansFungShape shape;
+  WlcParameters soft;
+  soft.persistence_um = 0.025;
+  soft.lmax_um = 0.364;
+  TriMesh mesh = make_continuum_mesh(500, shape);
+  for (int i = 0; i < mesh.x.cols(); ++i) mesh.x.col(i) = evans_fung_project(shape, mesh.x.col(i));
+  const LoopContinuumModel m = build_loop_continuum_model(
+      mesh, make_membrane_law(soft, StericParameters{}, WlcExpansion::full), {},
+      rest_contact_plane(shape, 0.05));
+  const std::vector<double> forces{0.0, 38.0, 67.6, 151.0};
+  LoopStretchOptions mirror;
+  mirror.symmetry = Symmetry::mirror;
+  const auto full = run_loop_stretch(m, forces);
+  const auto sym = run_loop_stretch(m, forces, mirror);
+  const SymmetryReduction r = make_symmetry_reduction(find_mirror_symmetry(m.rest, m.topo));
+  auto asymmetry = [&](const Positions& x) {
+    const Eigen::VectorXd xf = flat(x);
+    return (expand(r, symmetric_part(r, xf)) - xf).cwiseAbs().maxCoeff();
+  };
+  for (std::size_t k = 0; k < forces.size(); ++k) {
+    ASSERT_EQ(full[k].status, NewtonStatus::converged) << forces[k];
+    ASSERT_EQ(sym[k].status, NewtonStatus::converged) << forces[k];
+  }
+  for (std::size_t k : {std::size_t{1}, std::size_t{2}}) {
+    EXPECT_FALSE(sym[k].symmetry_broken) << forces[k];
+    EXPECT_EQ(sym[k].symmetry_order, 4) << forces[k];
+    EXPECT_NEAR(sym[k].diameters.axial_um / full[k].diameters.axial_um, 1.0, 1e-6) << forces[k];
+  }
+  EXPECT_TRUE(sym[3].symmetry_broken);
+  EXPECT_EQ(sym[3].symmetry_order, 1);
+  EXPECT_GT(asymmetry(full[3].x), 1e-2);
+  EXPECT_GT(asymmetry(sym[3].x), 1e-2);
+  // Several buckled minima exist past a bifurcation: agreement to 0.5 %.
+  EXPECT_NEAR(sym[3].diameters.axial_um / full[3].diameters.axial_um, 1.0, 5e-3);
+  EXPECT_NEAR(sym[3].diameters.transverse_um / full[3].diameters.transverse_um, 1.0, 5e-3);
 }
 
 // The Loop stretch at 88 pN on 1,000 elements against the linear element on 9,680 (full law,

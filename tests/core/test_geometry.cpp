@@ -158,6 +158,26 @@ TEST(Diameters, TransverseIsTheLargestProjectedDistance) {
     EXPECT_GT(scan, d.transverse_um * (1 - 1e-6));
     EXPECT_DOUBLE_EQ(d.axial_um, x.row(0).maxCoeff() - x.row(0).minCoeff());
   }
+  // Clouds whose extreme points tie (a square lattice: the points dropped as inside the octagon of
+  // extremes must leave the hull as it is) and a ring around a dense interior.
+  auto brute = [](const Positions& x) {
+    double pair = 0.0;
+    for (Eigen::Index i = 0; i < x.cols(); ++i)
+      for (Eigen::Index j = 0; j < x.cols(); ++j)
+        pair = std::max(pair, (x.block<2, 1>(1, i) - x.block<2, 1>(1, j)).norm());
+    return pair;
+  };
+  Positions lattice(3, 121);
+  for (int i = 0; i < 11; ++i)
+    for (int j = 0; j < 11; ++j) lattice.col(11 * i + j) = Eigen::Vector3d(0.0, i - 5.0, j * 0.5);
+  EXPECT_DOUBLE_EQ(measure_diameters(lattice).transverse_um, brute(lattice));
+  Positions ring(3, 400);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 400; ++i) {
+    const double phi = 2 * 3.14159265358979323846 * u(rng), r = i < 40 ? 3.0 : 2.9 * u(rng);
+    ring.col(i) = Eigen::Vector3d(u(rng), r * std::cos(phi), 0.4 * r * std::sin(phi));
+  }
+  EXPECT_DOUBLE_EQ(measure_diameters(ring).transverse_um, brute(ring));
   // Collinear and repeated points (degenerate hulls).
   Positions line(3, 4);
   line << 0, 1, 2, 3, 0, 1, 1, 3, 0, 2, 2, 6;
