@@ -304,6 +304,10 @@ int run_mc(const McCli& o, const GivenOptions& given, McProgress& progress_made)
     // The network comes from the checkpoint unless given; a different one given is an error
     // (caught by the fingerprint for the mesh, named here for the bending model).
     const McCheckpointNetwork cn = peek_mc_checkpoint_network(o.resume);
+    if (cn.algorithm != McAlgorithm::hmc && !given.hmc_option.empty())
+      throw std::invalid_argument(given.hmc_option +
+                                  ": an option of --sampler hmc, but the checkpoint '" + o.resume +
+                                  "' holds a chain of --sampler " + to_string(cn.algorithm));
     if (!given.vertices) ro.target_vertices = cn.vertices;
     check_mc_resume_network(cn, request, o.resume);
     params.bending_model = cn.bending_model;

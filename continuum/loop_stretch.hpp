@@ -19,8 +19,8 @@
 //  - Symmetry: on a mesh with mirrors (the default icosphere keeps four of the scene's eight),
 //    the solve can run on the symmetric states from one quadrature point per orbit, with the
 //    linear element's stability check (LoopStretchOptions::symmetry).
-// The element's bending is validated in docs/validation/loop-element.md; this stretch is a
-// library path for measurement (`rbc stretch` runs the linear element).
+// The element is validated in docs/validation/loop-element.md; `rbc stretch --element loop` and
+// the trade-off table's Loop rows (compare/methods.hpp Method::loop) run this stretch.
 #include <vector>
 
 #include "continuum/continuum_model.hpp"

@@ -206,6 +206,7 @@ McCheckpointNetwork peek_mc_checkpoint_network(const std::string& path) {
   n.vertices = static_cast<int>(h.read_attribute_int("vertices"));
   try {
     n.bending_model = bending_model_from_string(h.read_attribute_string("bending_model"));
+    n.algorithm = mc_algorithm_from_string(h.read_attribute_string("sampler"));
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("checkpoint '" + path + "' is corrupt: " + e.what());
   }

@@ -83,6 +83,7 @@ void write_mc_checkpoint(const std::string& path, const Network& net, const McCh
 struct McCheckpointNetwork {
   int vertices = 0;  ///< actual vertex count (a valid rest-shape target: it reproduces the mesh)
   BendingModel bending_model = BendingModel::juelicher;
+  McAlgorithm algorithm = McAlgorithm::metropolis;  ///< the chain's sampler
 };
 /// Reads those attributes; throws std::runtime_error naming the file when it is missing or
 /// corrupt.

@@ -25,7 +25,7 @@ class MonteCarlo {
              unsigned long seed, int streams, py::object adapt_sweeps, int sample_every,
              double penalty_scale, const std::string& start, double initial_step_um,
              double target_acceptance, double adapt_gain, const std::string& sampler, int chains,
-             const std::string& hmc_area_volume)
+             const py::object& hmc_area_volume)
       : net_(std::move(net)), adapt_sweeps_(std::move(adapt_sweeps)) {
     finite("force_pN", force_pN);
     finite("sampling_temperature_K", temperature_K);
@@ -49,7 +49,13 @@ class MonteCarlo {
     setup_.sampler.target_acceptance = target_acceptance;
     setup_.sampler.adapt_gain = adapt_gain;
     setup_.sampler.algorithm = mc_algorithm_from_string(sampler);  // ValueError naming choices
-    setup_.sampler.hmc.area_volume = hmc_area_volume_from_string(hmc_area_volume);  // ValueError
+    // An option of the HMC sampler only: refused with another (rather than ignored).
+    if (!hmc_area_volume.is_none() && setup_.sampler.algorithm != McAlgorithm::hmc)
+      throw py::value_error("hmc_area_volume applies to sampler='hmc', got sampler='" + sampler +
+                            "'");
+    if (!hmc_area_volume.is_none())  // ValueError naming the choices
+      setup_.sampler.hmc.area_volume =
+          hmc_area_volume_from_string(hmc_area_volume.cast<std::string>());
     setup_.sample_every = sample_every;
     setup_.penalty_scale = penalty_scale;
     validated("MonteCarlo(force_pN=" + num(force_pN) +
@@ -171,19 +177,19 @@ void bind_mc(py::module_& m) {
       "independent chains (seeded from (seed, chain), run one per OpenMP thread, results "
       "independent of the threads) are pooled: summary() gives their pooled means and errors, "
       "R-hat per quantity and per-chain statistics; positions, energy and step are chain 0's. "
-      "hmc_area_volume: how HMC holds the area and volume, 'exact' (constraints, the default) or "
-      "'penalty' (the Metropolis sampler's penalties), as `rbc mc --hmc-area-volume`.")
+      "hmc_area_volume (sampler='hmc' only): how HMC holds the area and volume, 'exact' "
+      "(constraints, the default when None) or 'penalty' (the Metropolis sampler's penalties), as "
+      "`rbc mc --hmc-area-volume`.")
       .def(py::init<std::shared_ptr<PyNetwork>, double, double, unsigned long, int, py::object, int,
                     double, const std::string&, double, double, double, const std::string&, int,
-                    const std::string&>(),
+                    const py::object&>(),
            py::arg("network"), py::kw_only(), py::arg("force_pN") = 0.0,
            py::arg("sampling_temperature_K") = 300.0, py::arg("seed") = 1, py::arg("streams") = 1,
            py::arg("adapt_sweeps") = py::none(), py::arg("sample_every") = 1,
            py::arg("penalty_scale") = McRunSetup{}.penalty_scale, py::arg("start") = "equilibrium",
            py::arg("initial_step_um") = 0.0, py::arg("target_acceptance") = 0.4,
            py::arg("adapt_gain") = 0.5, py::arg("sampler") = "metropolis",
-           py::arg("chains") = McOptions{}.chains,
-           py::arg("hmc_area_volume") = to_string(HmcOptions{}.area_volume))
+           py::arg("chains") = McOptions{}.chains, py::arg("hmc_area_volume") = py::none())
       .def("run", &MonteCarlo::run, py::arg("sweeps"), py::arg("cancel") = py::none(),
            "Run `sweeps` more sweeps (GIL released; Ctrl-C raises KeyboardInterrupt at the end of "
            "the current sweep and leaves the chain there).")

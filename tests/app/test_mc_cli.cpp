@@ -356,6 +356,18 @@ TEST(McCli, HmcAreaVolumeRecordsHoldsResumesAndRefusesBadInput) {
               std::string::npos)
         << m.all();
   }
+  // So is one given to resume a Metropolis chain: the checkpoint fixes the sampler.
+  const fs::path m_dir = fresh_output_dir("mc_cli_resume_metropolis_hmc_option");
+  const std::string metropolis_ck = quoted(m_dir / "m.h5");
+  ASSERT_EQ(run_rbc("mc -n 150 -q --sweeps 10 --checkpoint " + metropolis_ck).exit_code, 0);
+  const CliRun hmc_option =
+      run_rbc("mc --resume " + metropolis_ck + " --sweeps 20 -q --hmc-step 0.2");
+  EXPECT_EQ(hmc_option.exit_code, 2) << hmc_option.all();
+  EXPECT_NE(hmc_option.err.find("--hmc-step: an option of --sampler hmc, but the checkpoint"),
+            std::string::npos)
+      << hmc_option.all();
+  EXPECT_NE(hmc_option.err.find("holds a chain of --sampler metropolis"), std::string::npos)
+      << hmc_option.all();
 }
 
 // --hmc-mass-reference thermal through the front end: the JSON records the option and where the

@@ -126,6 +126,9 @@ def test_hmc_exact_area_volume_equals_rbc_mc():
                           "sweeps"})
     with pytest.raises(ValueError, match="penalty or exact"):
         rbc.MonteCarlo(net, force_pN=20, sampler="hmc", hmc_area_volume="hard")
+    # An option of the HMC sampler is refused with the Metropolis one, as `rbc mc` refuses it.
+    with pytest.raises(ValueError, match="hmc_area_volume applies to sampler='hmc'"):
+        rbc.MonteCarlo(net, force_pN=20, sampler="metropolis", hmc_area_volume="exact")
 
 
 def test_psi_equals_rbc_psi_table(tmp_path):
