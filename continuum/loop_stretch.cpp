@@ -179,6 +179,17 @@ LoopPointSet loop_orbit_points(const LoopContinuumModel& m, const MeshSymmetry& 
 
 namespace loop_stretch_internal {
 
+// A point's limit position and derivatives d[0..5] (rows 0-5 of its basis: position, tangents,
+// second derivatives; um) in one pass over its support, and its jet (d[1..5]).
+LoopJet position_and_jet(const LoopBasis& b, const Positions& x, Vec3 (&d)[6]) {
+  for (Vec3& r : d) r.setZero();
+  for (std::size_t k = 0; k < b.vertices.size(); ++k) {
+    const Vec3 xk = x.col(b.vertices[k]);
+    for (int r = 0; r < 6; ++r) d[r] += b.shape(r, static_cast<Eigen::Index>(k)) * xk;
+  }
+  return {d[1], d[2], d[3], d[4], d[5]};
+}
+
 // One pass over the points: the energy's terms (with_energy; their gradient into grad) and the
 // constraints (c; their gradients when grad is given), the position and jet formed once a point.
 double evaluate_pass(const LoopContinuumModel& m, const LoopPointSet& set, const Positions& x,
@@ -203,14 +214,8 @@ double evaluate_pass(const LoopContinuumModel& m, const LoopPointSet& set, const
     const LoopQuadraturePoint& q = m.quadrature[i];
     const LoopBasis& b = q.basis;
     const int ns = static_cast<int>(b.vertices.size());
-    // The point's position and jet in one pass over its support.
     Vec3 d[6];
-    for (Vec3& r : d) r.setZero();
-    for (int k = 0; k < ns; ++k) {
-      const Vec3 xk = x.col(b.vertices[static_cast<std::size_t>(k)]);
-      for (int r = 0; r < 6; ++r) d[r] += b.shape(r, k) * xk;
-    }
-    const LoopJet jet{d[1], d[2], d[3], d[4], d[5]};
+    const LoopJet jet = position_and_jet(b, x, d);
     const double w = q.weight * set.multiplicity[e];
     if (!infinite) {
       const double em =
@@ -323,12 +328,7 @@ const Eigen::SparseMatrix<double>& LoopHessianAssembler::assemble(const LoopCont
     const LoopBasis& b = q.basis;
     const int ns = static_cast<int>(b.vertices.size());
     Vec3 d[6];
-    for (Vec3& r : d) r.setZero();
-    for (int k = 0; k < ns; ++k) {
-      const Vec3 xk = x.col(b.vertices[static_cast<std::size_t>(k)]);
-      for (int r = 0; r < 6; ++r) d[r] += b.shape(r, k) * xk;
-    }
-    const LoopJet jet{d[1], d[2], d[3], d[4], d[5]};
+    const LoopJet jet = loop_stretch_internal::position_and_jet(b, x, d);
     if (!std::isfinite(loop_membrane_density(m.law, m.reference[i], d[1], d[2], &g6, &hm)))
       hm.setZero();
     loop_area_density(d[1], d[2], nullptr, &ha);

@@ -18,6 +18,7 @@
 #include "core/io.hpp"
 #include "homogenise/invariant_laws.hpp"
 #include "test_output.hpp"
+#include "tiny_study.hpp"
 
 namespace rbc {
 namespace method_loop_test {
@@ -74,36 +75,14 @@ TEST(MethodLoop, RunsTheLibrarysSweepOnBothPaths) {
 
 TEST(MethodLoop, StudyRowsBesideTheTableAreWhatTheChoiceReads) {
   const std::filesystem::path dir = rbc::testing::fresh_output_dir("MethodLoop_StudyRows");
-  AccuracyStudyOptions o;
-  o.forces_pN = {0, 80};
-  o.discrete_vertices = {};
-  o.continuum_elements = {};
+  AccuracyStudyOptions o = testing::tiny_study_options();
   o.loop_elements = {500};
-  o.reference_vertices = 300;
-  o.reference_seeds = {0, 1};
-  o.spread_seeds = {1};
-  o.cost_unit_vertices = 150;
   const AccuracyStudy st = run_accuracy_study(o, {});
   // The Loop sweeps: the default orientation on both paths, the rotation in full.
-  std::vector<const MethodRun*> sweeps;
-  int mirror_sweeps = 0;
-  for (const StudyRun& s : st.runs)
-    if (s.run.method.loop) {
-      if (s.run.symmetry == Symmetry::mirror)
-        ++mirror_sweeps;
-      else
-        sweeps.push_back(&s.run);
-    }
-  ASSERT_EQ(sweeps.size(), 2u);
-  EXPECT_EQ(mirror_sweeps, 1);
-  std::vector<double> worst(o.forces_pN.size(), 0.0);
-  for (const MethodRun* r : sweeps)
-    for (size_t k = 0; k < o.forces_pN.size(); ++k)
-      worst[k] = std::max(
-          {worst[k],
-           std::abs(r->points[k].axial_um - st.reference[k].axial_um) / st.reference[k].axial_um,
-           std::abs(r->points[k].transverse_um - st.reference[k].transverse_um) /
-               st.reference[k].transverse_um});
+  const testing::KindSweeps k = testing::kind_sweeps(st, [](const Method& m) { return m.loop; });
+  ASSERT_EQ(k.full.size(), 2u);
+  EXPECT_EQ(k.mirror, 1);
+  const std::vector<double>& worst = k.worst;
   write_accuracy_study(st, dir.string());
   for (const char* f : {"accuracy_cost_loop.csv", "accuracy_by_force_loop.csv",
                         "convergence_loop.csv", "orders_loop.csv"})
@@ -125,7 +104,7 @@ TEST(MethodLoop, StudyRowsBesideTheTableAreWhatTheChoiceReads) {
       ++loop_entries;
       EXPECT_EQ(method_spec(e.method), "continuum-loop:full:500");
       ASSERT_EQ(e.error.size(), worst.size());
-      for (size_t k = 0; k < worst.size(); ++k) EXPECT_NEAR(e.error[k], worst[k], 1e-9);
+      for (size_t f = 0; f < worst.size(); ++f) EXPECT_NEAR(e.error[f], worst[f], 1e-9);
     }
   EXPECT_EQ(loop_entries, 2);
 }

@@ -19,6 +19,7 @@
 #include "continuum/refined_mesh.hpp"
 #include "core/io.hpp"
 #include "test_output.hpp"
+#include "tiny_study.hpp"
 
 namespace rbc {
 namespace method_refined_test {
@@ -72,37 +73,15 @@ TEST(MethodRefined, RunsOnTheRefinedMeshOnBothSolverPaths) {
 
 TEST(MethodRefined, StudyRowsBesideTheTableFollowFromTheirSweeps) {
   const std::filesystem::path dir = rbc::testing::fresh_output_dir("MethodRefined_StudyRows");
-  AccuracyStudyOptions o;
-  o.forces_pN = {0, 80};
-  o.discrete_vertices = {};
-  o.continuum_elements = {};
+  AccuracyStudyOptions o = testing::tiny_study_options();
   o.refined_elements = {1700};
   o.refined_size_ratios = {3.0};
-  o.reference_vertices = 300;
-  o.reference_seeds = {0, 1};
-  o.spread_seeds = {1};
-  o.cost_unit_vertices = 150;
   const AccuracyStudy st = run_accuracy_study(o, {});
   // The refined sweeps: the default orientation on both paths, the rotation in full.
-  std::vector<const MethodRun*> sweeps;
-  int mirror_sweeps = 0;
-  for (const StudyRun& s : st.runs)
-    if (s.run.method.refined) {
-      if (s.run.symmetry == Symmetry::mirror)
-        ++mirror_sweeps;
-      else
-        sweeps.push_back(&s.run);
-    }
-  ASSERT_EQ(sweeps.size(), 2u);
-  EXPECT_EQ(mirror_sweeps, 1);
-  double worst = 0;
-  for (const MethodRun* r : sweeps)
-    for (size_t k = 0; k < o.forces_pN.size(); ++k)
-      worst = std::max(
-          {worst,
-           std::abs(r->points[k].axial_um - st.reference[k].axial_um) / st.reference[k].axial_um,
-           std::abs(r->points[k].transverse_um - st.reference[k].transverse_um) /
-               st.reference[k].transverse_um});
+  const testing::KindSweeps k = testing::kind_sweeps(st, [](const Method& m) { return m.refined; });
+  ASSERT_EQ(k.full.size(), 2u);
+  EXPECT_EQ(k.mirror, 1);
+  const double worst = *std::max_element(k.worst.begin(), k.worst.end());
   write_accuracy_study(st, dir.string());
   ASSERT_TRUE(std::filesystem::exists(dir / "accuracy_cost_refined.csv"));
   ASSERT_TRUE(std::filesystem::exists(dir / "accuracy_by_force_refined.csv"));
