@@ -457,15 +457,22 @@ int run_loop_continuum(const StretchCli& o) {
   lo.symmetry = o.symmetry;
   lo.newton.validate();
   const bool created_out = prepare_stretch_output(o, forces);
-  (void)created_out;  // nothing to refuse after this point (no --warm-start on this element)
   const ProgressSink progress = stderr_progress(o.quiet, o.verbose);
   MeshQualityReport mesh_report;
   const EvansFungShape shape;
   TriMesh mesh = make_continuum_mesh(o.elements, 0, o.orientation, &mesh_report);
   for (int i = 0; i < mesh.x.cols(); ++i) mesh.x.col(i) = evans_fung_project(shape, mesh.x.col(i));
-  const LoopContinuumModel model = build_loop_continuum_model(
-      mesh, make_membrane_law(params.wlc, params.steric, o.order), params.bending,
-      rest_contact_plane(shape, params.tweezers.contact_fraction));
+  // A model refused (its caps empty, say) leaves no --out directory this run created.
+  const LoopContinuumModel model = [&] {
+    try {
+      return build_loop_continuum_model(
+          mesh, make_membrane_law(params.wlc, params.steric, o.order), params.bending,
+          rest_contact_plane(shape, params.tweezers.contact_fraction));
+    } catch (...) {
+      if (created_out) discard_empty_output_directory(o.out);
+      throw;
+    }
+  }();
   report(progress, "Loop element: " + std::to_string(model.topo.num_vertices) +
                        " control points, " + std::to_string(model.topo.num_faces()) +
                        " triangles, " + std::to_string(model.quadrature.size()) +

@@ -397,9 +397,10 @@ std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
   const Eigen::Index n = model.rest.cols();
   double force = 0;
 
-  // The full problem: every point, one pass for the energy and the constraints.
+  // The full problem: every point, one pass for the energy and the constraints. Its Hessian
+  // pattern is built at its first assembly (the mirror path may never need it).
   const LoopPointSet all = loop_all_points(model);
-  LoopHessianAssembler assembler(model);
+  std::unique_ptr<LoopHessianAssembler> assembler;
   auto evaluate_with = [&model, n, &force](const LoopPointSet& set) {
     return [&model, &set, n, &force](const Eigen::VectorXd& xf, NewtonPoint& p) {
       const Eigen::Map<const Positions> x(xf.data(), 3, n);
@@ -420,8 +421,9 @@ std::vector<LoopStretchPoint> run_loop_stretch(const LoopContinuumModel& model,
   full.evaluate = evaluate_with(all);
   full.hessian = [&](const Eigen::VectorXd& xf,
                      const Eigen::VectorXd& lambda) -> const Eigen::SparseMatrix<double>& {
-    return assembler.assemble(model, Eigen::Map<const Positions>(xf.data(), 3, n), lambda(0),
-                              lambda(1));
+    if (!assembler) assembler = std::make_unique<LoopHessianAssembler>(model, all);
+    return assembler->assemble(model, Eigen::Map<const Positions>(xf.data(), 3, n), lambda(0),
+                               lambda(1));
   };
   full.constraint_scale = Eigen::Vector2d(model.area0_um2, model.volume0_um3);
   ShiftedNewton full_newton(options.newton);
