@@ -117,6 +117,7 @@ LoopContinuumModel build_loop_continuum_model(const TriMesh& rest_on_surface,
   m.load_left = left / left_area;
   m.load = m.load_right - m.load_left;
   m.measure_sampling = loop_limit_sampling_matrix(m.topo, 3);
+  m.vertex_sampling = loop_limit_sampling_matrix(m.topo, 0);
   return m;
 }
 
@@ -358,7 +359,54 @@ const Eigen::SparseMatrix<double>& LoopHessianAssembler::assemble(const LoopCont
 }
 
 Diameters loop_surface_diameters(const LoopContinuumModel& model, const Positions& x) {
-  return measure_diameters((model.measure_sampling * x.transpose()).transpose());
+  // Candidates: the limit points at the mesh's vertices, their extremes in x and their octagon
+  // of extremes in (y, z) (directions k * 45 degrees from +y, counter-clockwise).
+  const Positions at_vertices = (model.vertex_sampling * x.transpose()).transpose();
+  const Eigen::Index nv = at_vertices.cols();
+  const double x_max = at_vertices.row(0).maxCoeff(), x_min = at_vertices.row(0).minCoeff();
+  static constexpr double cy[8] = {1, 1, 0, -1, -1, -1, 0, 1}, cz[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+  Eigen::Vector2d octagon[8];
+  for (int k = 0; k < 8; ++k) {
+    Eigen::Index best = 0;
+    for (Eigen::Index i = 1; i < nv; ++i)
+      if (cy[k] * at_vertices(1, i) + cz[k] * at_vertices(2, i) >
+          cy[k] * at_vertices(1, best) + cz[k] * at_vertices(2, best))
+        best = i;
+    octagon[k] = at_vertices.block<2, 1>(1, best);
+  }
+  auto strictly_inside = [&](const Vec3& p) {
+    int edges = 0;
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector2d a = octagon[k], b = octagon[(k + 1) % 8];
+      if (a == b) continue;
+      ++edges;
+      if ((b(0) - a(0)) * (p(2) - a(1)) - (b(1) - a(1)) * (p(1) - a(0)) <= 0.0) return false;
+    }
+    return edges >= 3;
+  };
+  // A control point that could carry a sample point to an extreme.
+  std::vector<char> reaches(static_cast<std::size_t>(x.cols()));
+  for (Eigen::Index j = 0; j < x.cols(); ++j) {
+    const Vec3 p = x.col(j);
+    reaches[static_cast<std::size_t>(j)] = p.x() >= x_max || p.x() <= x_min || !strictly_inside(p);
+  }
+  const auto& m = model.measure_sampling;
+  std::vector<Vec3> kept;
+  for (Eigen::Index r = 0; r < m.outerSize(); ++r) {
+    bool needed = false;
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(m, r); it && !needed; ++it)
+      needed = reaches[static_cast<std::size_t>(it.col())] != 0;
+    if (!needed) continue;
+    Vec3 p = Vec3::Zero();
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(m, r); it; ++it)
+      p += it.value() * x.col(it.col());
+    kept.push_back(p);
+  }
+  Positions points(3, nv + static_cast<Eigen::Index>(kept.size()));
+  points.leftCols(nv) = at_vertices;
+  for (std::size_t i = 0; i < kept.size(); ++i)
+    points.col(nv + static_cast<Eigen::Index>(i)) = kept[i];
+  return measure_diameters(points);
 }
 
 namespace loop_stretch_internal {

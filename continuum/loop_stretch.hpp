@@ -48,8 +48,9 @@ struct LoopContinuumModel {
   double cap_right_um2 = 0, cap_left_um2 = 0;  ///< the caps' areas on the rest limit surface
   int load_points = 0;                         ///< quadrature points of the load (both caps)
   /// The limit surface's exact points at the vertices of three levels of subdivision
-  /// (loop_limit_sampling_matrix), where D_A and D_T are measured.
-  Eigen::SparseMatrix<double> measure_sampling;
+  /// (loop_limit_sampling_matrix), where D_A and D_T are measured, and at the control mesh's
+  /// own vertices (no subdivision). Their weights are >= 0 and sum to 1 in each row.
+  Eigen::SparseMatrix<double, Eigen::RowMajor> measure_sampling, vertex_sampling;
 };
 
 /// Builds the model on a closed triangulation whose vertices lie on the rest surface
@@ -118,6 +119,12 @@ class LoopHessianAssembler {
 /// measured on its exact points at the vertices of three levels of subdivision: the sampling
 /// spacing is an eighth of the mesh's edge, so the extent of a surface with radius of curvature
 /// r at its extreme point is missed by at most about (h/8)^2 / (8 r).
+/// Only the sample points that can be extreme are formed: each is a convex combination of its
+/// support's control points (the masks are positive), so a point whose control points all lie
+/// short of the extremes of the limit points at the mesh's vertices in x, and strictly inside
+/// their octagon of extremes in (y, z), is neither an extreme in x nor a vertex of the hull in
+/// (y, z). The result is measure_diameters of all the sample points (to rounding: the limit
+/// points at the mesh's vertices are formed by their own mask).
 Diameters loop_surface_diameters(const LoopContinuumModel& model, const Positions& x);
 
 struct LoopStretchOptions {

@@ -305,6 +305,35 @@ TEST(LoopStretch, BucklingSoftCellIsCaughtAndSolvedInFull) {
   EXPECT_NEAR(sym[3].diameters.transverse_um / full[3].diameters.transverse_um, 1.0, 5e-3);
 }
 
+// The diameters formed from the sample points that can be extreme equal those of all the sample
+// points, at rest, stretched, perturbed and turned (the extremes anywhere); the pruning rests on
+// the sampling weights being >= 0 and summing to 1 in each row, checked too.
+TEST(LoopStretch, DiametersFromTheSamplesThatCanBeExtremeEqualAllSamples) {
+  const LoopContinuumModel m = loop_test_model(500);
+  const auto& s = m.measure_sampling;
+  for (Eigen::Index r = 0; r < s.outerSize(); ++r) {
+    double sum = 0, smallest = 1;
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(s, r); it; ++it)
+      sum += it.value(), smallest = std::min(smallest, it.value());
+    ASSERT_NEAR(sum, 1.0, 1e-12) << r;
+    ASSERT_GE(smallest, 0.0) << r;
+  }
+  std::vector<Positions> states{m.rest};
+  states.push_back(run_loop_stretch(m, {120.0})[0].x);
+  Positions perturbed = m.rest;
+  testing::perturb(perturbed, 0.05, 4);
+  states.push_back(perturbed);
+  const Eigen::Matrix3d turn =
+      (Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized())).toRotationMatrix();
+  states.push_back(turn * states[1]);
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    const Diameters all = measure_diameters((s * states[k].transpose()).transpose());
+    const Diameters pruned = loop_surface_diameters(m, states[k]);
+    EXPECT_NEAR(pruned.axial_um, all.axial_um, 1e-12 * all.axial_um) << k;
+    EXPECT_NEAR(pruned.transverse_um, all.transverse_um, 1e-12 * all.transverse_um) << k;
+  }
+}
+
 // The Loop stretch at 88 pN on 1,000 elements against the linear element on 9,680 (full law,
 // exact contact load, quadric-fit diameters): the two discretisations of one model agree.
 TEST(LoopStretch, AgreesWithTheLinearElementOnAFineMesh) {
