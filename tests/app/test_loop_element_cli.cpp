@@ -2,8 +2,9 @@
 // `rbc stretch --element loop` (continuum/loop_stretch.hpp): the run is the library's sweep,
 // --symmetry mirror reduces it by the icosphere's four mirrors and finds the full solve's
 // diameters (under load: at 0 pN the turns about y and z are free too and the two paths end up a
-// turn of 1e-4 rad apart, at the same energy), --out writes the limit surface's shapes with the run's record, and the options that
-// choose another load, measure or mesh are refused with it (exit 2, before any work).
+// turn of 1e-4 rad apart, at the same energy), --out writes the limit surface's shapes with the
+// run's record, and the options that choose another load, measure or mesh are refused with it (exit
+// 2, before any work).
 #include <gtest/gtest.h>
 
 #include <algorithm>
